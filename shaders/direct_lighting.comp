@@ -1,0 +1,37 @@
+#version 460
+// Deferred direct lighting T Le: every light, shadowed by its shadow map.
+#include "common.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D direct;
+layout(set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
+layout(set = 0, binding = 5) readonly buffer ShadowViews { ShadowView shadow_views[]; };
+layout(set = 0, binding = 6) uniform sampler2DArray shadow_maps;
+
+layout(push_constant) uniform Push {
+    uvec2 size;
+    uint light_count;
+} pc;
+
+#include "shadow.glsl"
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
+    vec4 position = imageLoad(g_position, pixel);
+    if (position.w == 0.0) {
+        imageStore(direct, pixel, vec4(0.0));
+        return;
+    }
+    vec3 n = imageLoad(g_normal, pixel).xyz;
+    vec3 albedo = imageLoad(g_albedo, pixel).rgb;
+    vec3 radiance = vec3(0.0);
+    for (uint i = 0u; i < pc.light_count; i++) {
+        radiance += direct_radiance(lights[i], position.xyz, n, albedo);
+    }
+    imageStore(direct, pixel, vec4(radiance, 1.0));
+}

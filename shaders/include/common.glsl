@@ -1,0 +1,33 @@
+// Shared GPU structs. Each has a #[repr(C)] twin in src/gpu_types.rs; the test
+// `gpu_types_match_glsl` checks the sizes and field order stay in step.
+
+#ifndef SSBC_COMMON_GLSL
+#define SSBC_COMMON_GLSL
+
+const float PI = 3.14159265358979;
+
+const uint LIGHT_POINT = 0u;
+const uint LIGHT_SPOT = 1u;
+const uint LIGHT_DIRECTIONAL = 2u;
+
+// A punctual light in radiometric units (W/sr, or W/m^2 for directional).
+struct GpuLight {
+    vec4 position_kind;       // xyz position, w kind (LIGHT_*)
+    vec4 direction_cos_outer; // xyz unit direction light travels, w cos(outer cone)
+    vec4 intensity_cos_inner; // rgb intensity, w cos(inner cone)
+    ivec4 shadow;             // x first shadow-map layer, y layer count
+};
+
+// One shadow-map layer: its projection and how to linearise its depth.
+struct ShadowView {
+    mat4 view_proj;
+    vec4 params;              // x near, y far, z 1 = orthographic, w texel size at unit distance (or absolute, ortho)
+};
+
+// Lambertian material.
+struct GpuMaterial {
+    vec4 base_color;          // linear albedo factor
+    ivec4 texture;            // x texture-array layer or -1
+};
+
+#endif

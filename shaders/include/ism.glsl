@@ -1,0 +1,39 @@
+// Imperfect shadow maps (Ritschel et al. 2008): one paraboloid depth tile per
+// VPL, oriented along the VPL normal, in one atlas.
+#ifndef SSBC_ISM_GLSL
+#define SSBC_ISM_GLSL
+
+// A VPL (mirrors GpuVpl in src/gpu_types.rs).
+struct GpuVpl {
+    vec4 position;   // xyz position
+    vec4 normal;     // xyz unit normal (hemisphere it emits into)
+    vec4 albedo;     // rgb linear albedo at the VPL
+    vec4 flux;       // rgb flux Phi [W]
+};
+
+// Orthonormal basis around n (Duff et al. 2017); matches cpu::sampling::basis.
+void ism_basis(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// Paraboloid coordinates in [0,1]^2 of unit direction w leaving a VPL with
+// normal n; w must lie in the upper hemisphere.
+vec2 ism_paraboloid(vec3 w, vec3 n) {
+    vec3 t, b;
+    ism_basis(n, t, b);
+    vec3 l = vec3(dot(w, t), dot(w, b), dot(w, n));
+    return l.xy / (1.0 + l.z) * 0.5 + 0.5;
+}
+
+// Texel of the atlas for VPL `vpl` at paraboloid coordinate uv.
+ivec2 ism_texel(uint vpl, vec2 uv, uint tile, uint tiles_per_row) {
+    ivec2 origin = ivec2(vpl % tiles_per_row, vpl / tiles_per_row) * int(tile);
+    ivec2 local = clamp(ivec2(uv * float(tile)), ivec2(0), ivec2(int(tile) - 1));
+    return origin + local;
+}
+
+#endif

@@ -1,0 +1,8 @@
+//! CPU-side light transport, no Vulkan: ray casting against a BVH, VPL
+//! distribution by light tracing, scene point sampling for imperfect shadow
+//! maps, and low-discrepancy sampling.
+
+pub mod bvh;
+pub mod points;
+pub mod sampling;
+pub mod vpl;

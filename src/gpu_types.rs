@@ -1,0 +1,157 @@
+//! Rust twins of the structs in `shaders/include/common.glsl` (std430).
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec4};
+
+use crate::scene::{Light, LightKind, Material};
+
+/// `GpuLight` in common.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuLight {
+    /// xyz position, w kind (0 point, 1 spot, 2 directional).
+    pub position_kind: [f32; 4],
+    /// xyz unit direction the light travels, w cos(outer cone).
+    pub direction_cos_outer: [f32; 4],
+    /// rgb intensity, w cos(inner cone).
+    pub intensity_cos_inner: [f32; 4],
+    /// x first shadow-map layer, y layer count.
+    pub shadow: [i32; 4],
+}
+
+impl GpuLight {
+    /// Packs a scene light whose shadow maps start at `first_layer`.
+    pub fn new(light: &Light, first_layer: u32, layers: u32) -> Self {
+        let (kind, cos_inner, cos_outer) = match light.kind {
+            LightKind::Point => (0.0, -1.0, -1.0),
+            LightKind::Spot { inner_cone, outer_cone } => (1.0, inner_cone.cos(), outer_cone.cos()),
+            LightKind::Directional => (2.0, 1.0, 1.0),
+        };
+        Self {
+            position_kind: light.position.extend(kind).into(),
+            direction_cos_outer: light.direction.extend(cos_outer).into(),
+            intensity_cos_inner: light.intensity.extend(cos_inner).into(),
+            shadow: [first_layer as i32, layers as i32, 0, 0],
+        }
+    }
+}
+
+/// `ShadowView` in common.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ShadowView {
+    /// World to clip.
+    pub view_proj: [[f32; 4]; 4],
+    /// x near, y far, z 1 = orthographic, w texel size (per unit distance when perspective).
+    pub params: [f32; 4],
+}
+
+impl ShadowView {
+    /// Packs a projection and its depth parameters.
+    pub fn new(view_proj: Mat4, params: Vec4) -> Self {
+        Self { view_proj: view_proj.to_cols_array_2d(), params: params.into() }
+    }
+}
+
+/// `GpuMaterial` in common.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// Linear albedo factor.
+    pub base_color: [f32; 4],
+    /// x texture-array layer or -1.
+    pub texture: [i32; 4],
+}
+
+impl GpuMaterial {
+    /// Packs a scene material.
+    pub fn new(m: &Material) -> Self {
+        Self {
+            base_color: m.base_color.into(),
+            texture: [m.texture.map(|t| t as i32).unwrap_or(-1), 0, 0, 0],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// The GLSL struct definitions and the Rust ones have the same fields in
+    /// the same order with the same sizes (all vec4/ivec4/mat4 so std430 has
+    /// no padding surprises).
+    #[test]
+    fn gpu_types_match_glsl() {
+        let glsl = include_str!("../shaders/include/common.glsl");
+        let fields = |name: &str| -> Vec<(String, usize)> {
+            let start = glsl.find(&format!("struct {name} {{")).expect("struct in common.glsl");
+            let body = &glsl[start..start + glsl[start..].find("};").unwrap()];
+            body.lines()
+                .skip(1)
+                .filter_map(|l| {
+                    let l = l.split("//").next().unwrap().trim();
+                    let (ty, rest) = l.split_once(' ')?;
+                    let size = match ty {
+                        "vec4" | "ivec4" | "uvec4" => 16,
+                        "mat4" => 64,
+                        other => panic!("unexpected GLSL type {other}"),
+                    };
+                    Some((rest.trim_end_matches(';').to_string(), size))
+                })
+                .collect()
+        };
+        let check = |name: &str, rust: &[&str], size: usize| {
+            let f = fields(name);
+            let names: Vec<&str> = f.iter().map(|(n, _)| n.as_str()).collect();
+            assert_eq!(names, rust, "{name} field order");
+            assert_eq!(f.iter().map(|(_, s)| s).sum::<usize>(), size, "{name} size");
+        };
+        check(
+            "GpuLight",
+            &["position_kind", "direction_cos_outer", "intensity_cos_inner", "shadow"],
+            std::mem::size_of::<super::GpuLight>(),
+        );
+        check("ShadowView", &["view_proj", "params"], std::mem::size_of::<super::ShadowView>());
+        check("GpuMaterial", &["base_color", "texture"], std::mem::size_of::<super::GpuMaterial>());
+    }
+}
+
+/// `GpuVpl` in ism.glsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuVpl {
+    /// xyz position.
+    pub position: [f32; 4],
+    /// xyz unit normal.
+    pub normal: [f32; 4],
+    /// rgb albedo.
+    pub albedo: [f32; 4],
+    /// rgb flux [W].
+    pub flux: [f32; 4],
+}
+
+impl GpuVpl {
+    /// Packs a CPU VPL.
+    pub fn new(v: &crate::cpu::vpl::Vpl) -> Self {
+        Self {
+            position: v.position.extend(1.0).into(),
+            normal: v.normal.extend(0.0).into(),
+            albedo: v.albedo.extend(1.0).into(),
+            flux: v.flux.extend(0.0).into(),
+        }
+    }
+}
+
+#[cfg(test)]
+#[test]
+fn gpu_vpl_matches_glsl() {
+    let glsl = include_str!("../shaders/include/ism.glsl");
+    let start = glsl.find("struct GpuVpl {").unwrap();
+    let body = &glsl[start..start + glsl[start..].find("};").unwrap()];
+    let names: Vec<&str> = body
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split("//").next().unwrap().trim().strip_prefix("vec4 "))
+        .map(|n| n.trim_end_matches(';'))
+        .collect();
+    assert_eq!(names, ["position", "normal", "albedo", "flux"]);
+    assert_eq!(std::mem::size_of::<GpuVpl>(), 64);
+}

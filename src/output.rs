@@ -1,0 +1,103 @@
+//! Writing frames: EXR (32-bit float linear RGB, optionally with named
+//! layers as `layer.R/G/B` channels), PNG (tonemapped sRGB) and the timings
+//! JSON.
+
+use std::path::Path;
+
+use exr::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::renderer::{Frame, Layer};
+
+fn output_err(path: &Path, message: impl ToString) -> Error {
+    Error::Output { path: path.display().to_string(), message: message.to_string() }
+}
+
+/// Writes `frame` to `path`: `.exr` (with the component layers when
+/// `with_layers`) or `.png` (exposure-scaled, clamped, sRGB-encoded).
+pub fn write_image(frame: &Frame, path: &Path, with_layers: bool, exposure: f32) -> Result<()> {
+    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+        Some("exr") => {
+            let extra: &[Layer] = if with_layers { &frame.layers } else { &[] };
+            write_exr(path, frame.width, frame.height, &frame.image, extra)
+        }
+        Some("png") => write_png(path, frame.width, frame.height, &frame.image.rgba, exposure),
+        _ => Err(output_err(path, "output must end in .exr or .png")),
+    }
+}
+
+/// Writes `image` as the default R,G,B channels and each of `layers` as
+/// `name.R`, `name.G`, `name.B`, all 32-bit float.
+pub fn write_exr(path: &Path, width: u32, height: u32, image: &Layer, layers: &[Layer]) -> Result<()> {
+    let channel = |name: String, layer: &Layer, c: usize| {
+        let samples: Vec<f32> = layer.rgba.chunks_exact(4).map(|p| p[c]).collect();
+        AnyChannel::new(name.as_str(), FlatSamples::F32(samples))
+    };
+    let mut channels = Vec::new();
+    for (c, n) in ["R", "G", "B"].iter().enumerate() {
+        channels.push(channel(n.to_string(), image, c));
+        for l in layers {
+            channels.push(channel(format!("{}.{n}", l.name), l, c));
+        }
+    }
+    let layer = exr::image::Layer::new(
+        (width as usize, height as usize),
+        LayerAttributes::named("ssbc"),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| output_err(path, e))
+}
+
+/// Linear to sRGB transfer function.
+pub fn srgb_encode(x: f32) -> f32 {
+    if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// Writes linear RGBA radiance as an 8-bit sRGB PNG (scaled by `exposure`, clamped).
+pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[f32], exposure: f32) -> Result<()> {
+    let bytes: Vec<u8> = rgba
+        .chunks_exact(4)
+        .flat_map(|p| {
+            let q = |v: f32| (srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
+            [q(p[0]), q(p[1]), q(p[2])]
+        })
+        .collect();
+    image::save_buffer(path, &bytes, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| output_err(path, e))
+}
+
+/// Writes the timings JSON.
+pub fn write_timings(frame: &Frame, path: &Path) -> Result<()> {
+    let json = serde_json::to_string_pretty(&frame.timings).map_err(|e| output_err(path, e))?;
+    std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))
+}
+
+/// The timings as a printable table.
+pub fn timings_table(frame: &Frame) -> String {
+    let t = &frame.timings;
+    let mut s = format!("GPU timings on {} at {}x{}\n", t.device, t.width, t.height);
+    for p in &t.passes {
+        s += &format!("  {:<24} {:>10.3} ms\n", p.name, p.gpu_ms);
+    }
+    s += &format!("  {:<24} {:>10.3} ms\n", "frame", t.frame_gpu_ms);
+    s
+}
+
+/// Reads an EXR's R, G, B channels into RGBA (alpha 1) with its size.
+pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| (res.width(), vec![0f32; res.width() * res.height() * 4]),
+        |(w, buf), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let i = (pos.y() * *w + pos.x()) * 4;
+            buf[i..i + 4].copy_from_slice(&[r, g, b, 1.0]);
+        },
+    )
+    .map_err(|e| Error::Scene { path: path.display().to_string(), message: format!("cannot read EXR: {e}") })?;
+    let size = image.layer_data.size;
+    Ok((size.width() as u32, size.height() as u32, image.layer_data.channel_data.pixels.1))
+}

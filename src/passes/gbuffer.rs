@@ -1,0 +1,151 @@
+//! G-buffer: world position, camera-facing normal and linear albedo per pixel,
+//! rasterized at pixel centres.
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::{Mat4, Vec3};
+
+use crate::error::Result;
+use crate::gpu_scene::GpuScene;
+use crate::shaders;
+use crate::vk::{
+    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, GraphicsDesc, Image, ImageDesc,
+    Pipeline, Recorder,
+};
+
+/// Format of every G-buffer colour target (storage-image compatible).
+pub const GBUFFER_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// The G-buffer images of one frame.
+pub struct GBuffer {
+    /// xyz world position [m], w = 1 where there is geometry, 0 for background.
+    pub position: Image,
+    /// xyz unit normal facing the camera; w free for later passes.
+    pub normal: Image,
+    /// rgb linear albedo.
+    pub albedo: Image,
+    /// Depth buffer.
+    pub depth: Image,
+}
+
+impl GBuffer {
+    /// Allocates the images for `extent`.
+    pub fn new(device: &Arc<Device>, extent: (u32, u32)) -> Result<Self> {
+        let color = |name| {
+            super::storage_image(device, name, GBUFFER_FORMAT, extent, vk::ImageUsageFlags::COLOR_ATTACHMENT)
+        };
+        Ok(Self {
+            position: color("gbuffer_position")?,
+            normal: color("gbuffer_normal")?,
+            albedo: color("gbuffer_albedo")?,
+            depth: Image::new(
+                device,
+                "gbuffer_depth",
+                ImageDesc::new_2d(vk::Format::D32_SFLOAT, extent.0, extent.1, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT),
+            )?,
+        })
+    }
+
+    /// Width and height.
+    pub fn extent(&self) -> (u32, u32) {
+        (self.position.desc.width, self.position.desc.height)
+    }
+}
+
+/// Push constants of the G-buffer shaders.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    view_proj: [f32; 16],
+    camera_position: [f32; 4],
+}
+
+/// The G-buffer pipeline and its descriptor layout.
+pub struct GBufferPass {
+    layout: DescriptorSetLayout,
+    pipeline: Pipeline,
+}
+
+impl GBufferPass {
+    /// Creates the pipeline.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        let layout = DescriptorSetLayout::new(
+            device,
+            &[vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorType::COMBINED_IMAGE_SAMPLER],
+            vk::ShaderStageFlags::FRAGMENT,
+        )?;
+        let pipeline = Pipeline::graphics(
+            device,
+            &GraphicsDesc {
+                vertex: shaders::GBUFFER_VERT,
+                fragment: Some(shaders::GBUFFER_FRAG),
+                vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+                attributes: &[
+                    (0, vk::Format::R32G32B32_SFLOAT, 0),
+                    (1, vk::Format::R32G32B32_SFLOAT, 12),
+                    (2, vk::Format::R32G32_SFLOAT, 24),
+                    (3, vk::Format::R32_UINT, 32),
+                ],
+                color_formats: &[GBUFFER_FORMAT; 3],
+                depth_format: vk::Format::D32_SFLOAT,
+                depth_bias: (0.0, 0.0),
+            },
+            &[&layout],
+            std::mem::size_of::<Push>() as u32,
+        )?;
+        Ok(Self { layout, pipeline })
+    }
+
+    /// Rasterizes the scene into `gbuffer` with the camera `view_proj` at `eye`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        profiler: &mut GpuProfiler,
+        pool: &DescriptorPool,
+        scene: &GpuScene,
+        gbuffer: &GBuffer,
+        view_proj: Mat4,
+        eye: Vec3,
+    ) -> Result<()> {
+        let set = pool.allocate(
+            &self.layout,
+            &[Binding::StorageBuffer(&scene.materials), Binding::sampled(&scene.textures, &scene.texture_sampler)],
+        )?;
+        let scope = profiler.begin(rec.cmd, "gbuffer");
+        for target in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
+            rec.use_image(target, Access::ColorAttachmentWrite);
+        }
+        rec.use_image(&gbuffer.depth, Access::DepthAttachmentWrite);
+        rec.use_image(&scene.textures, Access::FragmentSampled);
+        rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
+        rec.use_buffer(&scene.vertices, Access::VertexInput);
+        rec.use_buffer(&scene.indices, Access::VertexInput);
+        rec.flush_barriers();
+        super::begin_rendering(
+            rec.device,
+            rec.cmd,
+            gbuffer.extent(),
+            &[gbuffer.position.view, gbuffer.normal.view, gbuffer.albedo.view],
+            gbuffer.depth.view,
+        );
+        let push = Push { view_proj: view_proj.to_cols_array(), camera_position: eye.extend(1.0).into() };
+        self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+        // SAFETY: recording inside the rendering scope with the pipeline bound.
+        unsafe {
+            let d = &rec.device.raw;
+            d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
+            d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
+            d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
+            d.cmd_end_rendering(rec.cmd);
+        }
+        profiler.end(rec.cmd, scope);
+        Ok(())
+    }
+
+    /// The descriptor layout (for sizing pools).
+    pub fn set_layout(&self) -> &DescriptorSetLayout {
+        &self.layout
+    }
+}

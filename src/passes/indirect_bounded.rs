@@ -1,0 +1,102 @@
+//! Bounded VPL lighting `T_b L^` (clamped geometry term, ISM visibility), and
+//! `S0 = T Le + T_b L^`, the term the SSBC steps start from.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::gbuffer::GBuffer;
+use super::ism::Ism;
+use crate::error::Result;
+use crate::shaders;
+use crate::vk::{Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline, Recorder};
+
+/// Relative depth tolerance of the ISM visibility test.
+pub const ISM_BIAS: f32 = 0.05;
+
+/// The bounded-indirect compute pipeline.
+pub struct IndirectBoundedPass {
+    layout: DescriptorSetLayout,
+    pipeline: Pipeline,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    size: [u32; 2],
+    vpl_count: u32,
+    tile: u32,
+    tiles_per_row: u32,
+    far: f32,
+    bound: f32,
+    ism_bias: f32,
+}
+
+impl IndirectBoundedPass {
+    /// Creates the pipeline.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        use vk::DescriptorType as T;
+        let mut types = vec![T::STORAGE_IMAGE; 6];
+        types.push(T::STORAGE_BUFFER);
+        types.push(T::STORAGE_IMAGE);
+        let layout = DescriptorSetLayout::new(device, &types, vk::ShaderStageFlags::COMPUTE)?;
+        let pipeline = Pipeline::compute(device, shaders::INDIRECT_BOUNDED_COMP, &[&layout], std::mem::size_of::<Push>() as u32)?;
+        Ok(Self { layout, pipeline })
+    }
+
+    /// The descriptor layout (for sizing pools).
+    pub fn set_layout(&self) -> &DescriptorSetLayout {
+        &self.layout
+    }
+
+    /// Writes `indirect_bounded` and `s0 = direct + indirect_bounded`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        profiler: &mut GpuProfiler,
+        pool: &DescriptorPool,
+        gbuffer: &GBuffer,
+        direct: &Image,
+        ism: &Ism,
+        bound: f32,
+        indirect_bounded: &Image,
+        s0: &Image,
+    ) -> Result<()> {
+        let set = pool.allocate(
+            &self.layout,
+            &[
+                Binding::storage(&gbuffer.position),
+                Binding::storage(&gbuffer.normal),
+                Binding::storage(&gbuffer.albedo),
+                Binding::storage(direct),
+                Binding::storage(indirect_bounded),
+                Binding::storage(s0),
+                Binding::StorageBuffer(&ism.vpls),
+                Binding::StorageImage(ism.pyramid.mip_views[0]),
+            ],
+        )?;
+        let scope = profiler.begin(rec.cmd, "indirect_bounded");
+        for input in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo, direct, &ism.pyramid] {
+            rec.use_image(input, Access::ComputeRead);
+        }
+        rec.use_buffer(&ism.vpls, Access::ComputeRead);
+        rec.use_image(indirect_bounded, Access::ComputeWrite);
+        rec.use_image(s0, Access::ComputeWrite);
+        rec.flush_barriers();
+        let (w, h) = gbuffer.extent();
+        let push = Push {
+            size: [w, h],
+            vpl_count: ism.vpl_count,
+            tile: ism.tile,
+            tiles_per_row: ism.tiles_per_row,
+            far: ism.far,
+            bound,
+            ism_bias: ISM_BIAS,
+        };
+        self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+        self.pipeline.dispatch_2d(rec.cmd, w, h, 1);
+        profiler.end(rec.cmd, scope);
+        Ok(())
+    }
+}

@@ -1,0 +1,170 @@
+//! Shadow maps for direct light: six 90° perspective faces for a point light,
+//! one perspective map for a spot light, one orthographic map fitted to the
+//! scene for a directional light. All layers live in one depth array image.
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::{Mat4, Vec3, Vec4};
+
+use crate::error::Result;
+use crate::gpu_scene::GpuScene;
+use crate::gpu_types::{GpuLight, ShadowView};
+use crate::scene::{Bounds, Light, LightKind};
+use crate::shaders;
+use crate::vk::{Access, Buffer, Device, GpuProfiler, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder};
+
+/// The depth-only pipeline (created once).
+pub struct ShadowMapPass {
+    pipeline: Pipeline,
+}
+
+/// One frame's shadow maps and the light table that points into them.
+pub struct ShadowMaps {
+    /// Depth array: one layer per view.
+    pub depth: Image,
+    /// `ShadowView` per layer.
+    pub views: Buffer,
+    /// `GpuLight` per light (with its layer range).
+    pub lights: Buffer,
+    /// Number of lights.
+    pub light_count: u32,
+    view_proj: Vec<Mat4>,
+}
+
+/// A unit vector orthogonal to `d`, for look-at matrices.
+fn any_up(d: Vec3) -> Vec3 {
+    if d.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y }
+}
+
+use glam::camera::rh::view::look_to_mat4;
+use glam::camera::rh::proj::vulkan;
+
+fn vulkan_perspective(fov: f32, near: f32, far: f32) -> Mat4 {
+    vulkan::perspective(fov, 1.0, near, far)
+}
+
+/// The shadow views of one light: (view-projection, params) per layer.
+pub fn light_views(light: &Light, bounds: &Bounds, resolution: u32) -> Vec<(Mat4, Vec4)> {
+    let radius = bounds.radius().max(1e-3);
+    let res = resolution as f32;
+    match light.kind {
+        LightKind::Point | LightKind::Spot { .. } => {
+            let far = (light.position - bounds.center()).length() + radius * 1.01;
+            let near = (far * 1e-4).max(1e-4);
+            if let LightKind::Spot { outer_cone, .. } = light.kind {
+                let fov = (2.0 * outer_cone + 0.05).min(170f32.to_radians());
+                let view = look_to_mat4(light.position, light.direction, any_up(light.direction));
+                let params = Vec4::new(near, far, 0.0, 2.0 * (fov * 0.5).tan() / res);
+                return vec![(vulkan_perspective(fov, near, far) * view, params)];
+            }
+            let faces = [
+                (Vec3::X, -Vec3::Y),
+                (-Vec3::X, -Vec3::Y),
+                (Vec3::Y, Vec3::Z),
+                (-Vec3::Y, -Vec3::Z),
+                (Vec3::Z, -Vec3::Y),
+                (-Vec3::Z, -Vec3::Y),
+            ];
+            let proj = vulkan_perspective(std::f32::consts::FRAC_PI_2, near, far);
+            let params = Vec4::new(near, far, 0.0, 2.0 / res);
+            faces
+                .iter()
+                .map(|&(dir, up)| (proj * look_to_mat4(light.position, dir, up), params))
+                .collect()
+        }
+        LightKind::Directional => {
+            let eye = bounds.center() - light.direction * (2.0 * radius);
+            let view = look_to_mat4(eye, light.direction, any_up(light.direction));
+            let (near, far) = (0.9 * radius, 3.1 * radius);
+            let proj = vulkan::orthographic(-radius, radius, -radius, radius, near, far);
+            vec![(proj * view, Vec4::new(near, far, 1.0, 2.0 * radius / res))]
+        }
+    }
+}
+
+impl ShadowMapPass {
+    /// Creates the depth-only pipeline.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        let pipeline = Pipeline::graphics(
+            device,
+            &GraphicsDesc {
+                vertex: shaders::SHADOW_MAP_VERT,
+                fragment: None,
+                vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+                attributes: &[(0, vk::Format::R32G32B32_SFLOAT, 0)],
+                color_formats: &[],
+                depth_format: vk::Format::D32_SFLOAT,
+                depth_bias: (0.0, 0.0),
+            },
+            &[],
+            64,
+        )?;
+        Ok(Self { pipeline })
+    }
+
+    /// Allocates the shadow maps of `lights` at `resolution` texels per side.
+    pub fn prepare(
+        &self,
+        device: &Arc<Device>,
+        lights: &[Light],
+        bounds: &Bounds,
+        resolution: u32,
+    ) -> Result<ShadowMaps> {
+        let mut gpu_lights = Vec::new();
+        let mut views = Vec::new();
+        for light in lights {
+            let lv = light_views(light, bounds, resolution);
+            gpu_lights.push(GpuLight::new(light, views.len() as u32, lv.len() as u32));
+            views.extend(lv);
+        }
+        let layers = views.len().max(1) as u32;
+        let depth = Image::new(
+            device,
+            "shadow_maps",
+            ImageDesc {
+                format: vk::Format::D32_SFLOAT,
+                width: resolution,
+                height: resolution,
+                layers,
+                mip_levels: 1,
+                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+                array: true,
+            },
+        )?;
+        let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
+        let packed = if packed.is_empty() { vec![ShadowView::default()] } else { packed };
+        let gpu_lights_buf = if gpu_lights.is_empty() { vec![GpuLight::default()] } else { gpu_lights.clone() };
+        Ok(ShadowMaps {
+            depth,
+            views: Buffer::with_data(device, "shadow_views", &packed, vk::BufferUsageFlags::STORAGE_BUFFER)?,
+            lights: Buffer::with_data(device, "lights", &gpu_lights_buf, vk::BufferUsageFlags::STORAGE_BUFFER)?,
+            light_count: lights.len() as u32,
+            view_proj: views.iter().map(|v| v.0).collect(),
+        })
+    }
+
+    /// Renders every layer.
+    pub fn record(&self, rec: &mut Recorder<'_>, profiler: &mut GpuProfiler, scene: &GpuScene, maps: &ShadowMaps) {
+        let scope = profiler.begin(rec.cmd, "shadow_maps");
+        rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
+        rec.use_buffer(&scene.vertices, Access::VertexInput);
+        rec.use_buffer(&scene.indices, Access::VertexInput);
+        rec.flush_barriers();
+        let size = maps.depth.desc.width;
+        for (layer, view_proj) in maps.view_proj.iter().enumerate() {
+            super::begin_rendering(rec.device, rec.cmd, (size, size), &[], maps.depth.layer_views[layer]);
+            // SAFETY: recording inside the rendering scope begun above.
+            unsafe {
+                let d = &rec.device.raw;
+                d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
+                self.pipeline.push(rec.cmd, bytemuck::bytes_of(&view_proj.to_cols_array()));
+                d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
+                d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
+                d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
+                d.cmd_end_rendering(rec.cmd);
+            }
+        }
+        profiler.end(rec.cmd, scope);
+    }
+}

@@ -1,0 +1,149 @@
+//! Built-in scenes, generated in code so no files are needed:
+//! `cornell` (the default) and `tori` (as in the slides).
+
+use std::f32::consts::PI;
+
+use glam::{Mat4, Quat, Vec3};
+
+use super::{Camera, Light, LightKind, Scene};
+
+/// Names of the built-in scenes.
+pub const NAMES: [&str; 2] = ["cornell", "tori"];
+
+/// The built-in scene called `name`, if any.
+pub fn by_name(name: &str) -> Option<Scene> {
+    match name {
+        "cornell" => Some(cornell()),
+        "tori" => Some(tori()),
+        _ => None,
+    }
+}
+
+/// An axis-aligned quad (two triangles) from a corner and two edges.
+fn quad(scene: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32) {
+    let n = u.cross(v).normalize();
+    let p = [corner, corner + u, corner + u + v, corner + v];
+    scene
+        .add_mesh(&p, &[n; 4], &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, material)
+        .expect("built-in quad is valid");
+}
+
+/// A closed box of the given size, centred on the floor at `base`, turned
+/// by `angle` around Y; outward normals.
+fn block(scene: &mut Scene, base: Vec3, size: Vec3, angle: f32, material: u32) {
+    let t = Mat4::from_rotation_translation(Quat::from_rotation_y(angle), base);
+    let h = size * 0.5;
+    let c = |x: f32, y: f32, z: f32| Vec3::new(x * h.x, y * size.y, z * h.z);
+    // Each face: corner, edge u, edge v with u x v pointing outward.
+    let faces = [
+        (c(-1.0, 0.0, 1.0), Vec3::X * size.x, Vec3::Y * size.y),   // +z
+        (c(1.0, 0.0, -1.0), -Vec3::X * size.x, Vec3::Y * size.y),  // -z
+        (c(1.0, 0.0, 1.0), -Vec3::Z * size.z, Vec3::Y * size.y),   // +x
+        (c(-1.0, 0.0, -1.0), Vec3::Z * size.z, Vec3::Y * size.y),  // -x
+        (c(-1.0, 1.0, 1.0), Vec3::X * size.x, -Vec3::Z * size.z),  // +y
+        (c(-1.0, 0.0, -1.0), Vec3::X * size.x, Vec3::Z * size.z),  // -y
+    ];
+    for (corner, u, v) in faces {
+        let n = u.cross(v).normalize();
+        let p = [corner, corner + u, corner + u + v, corner + v];
+        scene
+            .add_mesh(&p, &[n; 4], &[], &[0, 1, 2, 0, 2, 3], t, material)
+            .expect("built-in block is valid");
+    }
+}
+
+/// The Cornell box: 2 m cube open towards the camera (+Z), red left wall,
+/// green right wall, two white blocks, and a 10 W/sr point light 10 cm under
+/// the ceiling.
+pub fn cornell() -> Scene {
+    let mut s = Scene::new("cornell");
+    let white = s.add_material(Vec3::new(0.73, 0.73, 0.73), None);
+    let red = s.add_material(Vec3::new(0.63, 0.065, 0.05), None);
+    let green = s.add_material(Vec3::new(0.14, 0.45, 0.091), None);
+    let (x0, x1, y0, y1, z0, z1) = (-1.0, 1.0, 0.0, 2.0, -1.0, 1.0);
+    // Inward-facing walls.
+    quad(&mut s, Vec3::new(x0, y0, z1), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -2.0), white); // floor
+    quad(&mut s, Vec3::new(x0, y1, z0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), white); // ceiling
+    quad(&mut s, Vec3::new(x0, y0, z0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0), white); // back
+    quad(&mut s, Vec3::new(x0, y0, z1), Vec3::new(0.0, 0.0, -2.0), Vec3::new(0.0, 2.0, 0.0), red); // left
+    quad(&mut s, Vec3::new(x1, y0, z0), Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.0, 2.0, 0.0), green); // right
+    let _ = (x1, z1);
+    block(&mut s, Vec3::new(0.33, 0.0, 0.37), Vec3::new(0.6, 0.6, 0.6), -0.29, white);
+    block(&mut s, Vec3::new(-0.35, 0.0, -0.3), Vec3::new(0.6, 1.2, 0.6), 0.29, white);
+    s.lights.push(Light {
+        kind: LightKind::Point,
+        position: Vec3::new(0.0, 1.9, 0.0),
+        direction: -Vec3::Y,
+        intensity: Vec3::splat(10.0),
+    });
+    s.cameras.push(Camera::look_at(Vec3::new(0.0, 1.0, 3.9), Vec3::new(0.0, 1.0, 0.0), 40f32.to_radians()));
+    s
+}
+
+/// A torus around the Y axis with `major` and `minor` radii.
+fn torus(scene: &mut Scene, major: f32, minor: f32, transform: Mat4, material: u32) {
+    let (nu, nv) = (48u32, 24u32);
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for i in 0..nu {
+        let u = i as f32 / nu as f32 * 2.0 * PI;
+        for j in 0..nv {
+            let v = j as f32 / nv as f32 * 2.0 * PI;
+            let ring = Vec3::new(u.cos(), 0.0, u.sin());
+            let n = ring * v.cos() + Vec3::Y * v.sin();
+            positions.push(ring * major + n * minor);
+            normals.push(n);
+        }
+    }
+    let mut indices = Vec::new();
+    for i in 0..nu {
+        for j in 0..nv {
+            let a = i * nv + j;
+            let b = ((i + 1) % nu) * nv + j;
+            let c = ((i + 1) % nu) * nv + (j + 1) % nv;
+            let d = i * nv + (j + 1) % nv;
+            indices.extend([a, d, c, a, c, b]);
+        }
+    }
+    scene
+        .add_mesh(&positions, &normals, &[], &indices, transform, material)
+        .expect("built-in torus is valid");
+}
+
+/// Several coloured tori on a grey floor in front of a back wall, lit by a
+/// spot light from above, as in the slides' "Tori" scene.
+pub fn tori() -> Scene {
+    let mut s = Scene::new("tori");
+    let floor = s.add_material(Vec3::splat(0.6), None);
+    let colors = [
+        Vec3::new(0.75, 0.2, 0.15),
+        Vec3::new(0.2, 0.6, 0.25),
+        Vec3::new(0.2, 0.3, 0.75),
+        Vec3::new(0.8, 0.7, 0.2),
+        Vec3::new(0.7, 0.7, 0.7),
+    ];
+    let mats: Vec<u32> = colors.iter().map(|&c| s.add_material(c, None)).collect();
+    quad(&mut s, Vec3::new(-4.0, 0.0, 4.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -8.0), floor);
+    quad(&mut s, Vec3::new(-4.0, 0.0, -2.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0), floor);
+    let (major, minor) = (0.45, 0.15);
+    // Lying tori rest on the floor; standing tori touch it with their rim.
+    let lying = |x: f32, z: f32| Mat4::from_translation(Vec3::new(x, minor, z));
+    let standing = |x: f32, z: f32, yaw: f32| {
+        Mat4::from_translation(Vec3::new(x, major + minor, z))
+            * Mat4::from_rotation_y(yaw)
+            * Mat4::from_rotation_x(PI / 2.0)
+    };
+    torus(&mut s, major, minor, lying(-1.2, 0.6), mats[0]);
+    torus(&mut s, major, minor, standing(-0.2, -0.3, 0.4), mats[1]);
+    torus(&mut s, major, minor, lying(0.9, 0.5), mats[2]);
+    torus(&mut s, major, minor, standing(1.4, -0.9, -0.6), mats[3]);
+    torus(&mut s, major, minor, standing(-1.6, -1.1, 1.1), mats[4]);
+    s.lights.push(Light {
+        kind: LightKind::Spot { inner_cone: 0.6, outer_cone: 0.8 },
+        position: Vec3::new(0.5, 3.5, 2.0),
+        direction: (Vec3::new(0.0, 0.0, -0.3) - Vec3::new(0.5, 3.5, 2.0)).normalize(),
+        intensity: Vec3::splat(40.0),
+    });
+    s.cameras.push(Camera::look_at(Vec3::new(0.0, 2.0, 4.8), Vec3::new(0.0, 0.4, -0.2), 45f32.to_radians()));
+    s
+}

@@ -1,0 +1,553 @@
+//! glTF 2.0 loading (`.gltf` with external or embedded buffers, `.glb`),
+//! written for untrusted files.
+//!
+//! The `gltf` crate is used only to parse JSON and GLB containers; accessors,
+//! buffers and images are resolved here with bounds checks, so an index or a
+//! byte range out of range is an error, not a panic. Buffer and image URIs are
+//! resolved relative to the scene's folder and may not leave it (no absolute
+//! paths, no `..` escapes, no symlinks out, no `file:` URIs).
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use glam::{Mat4, Quat, Vec3, Vec4};
+use gltf::json::{self, accessor::ComponentType, accessor::Type, validation::Checked};
+
+use super::{Camera, Light, LightKind, Scene, Texture, MAX_TRIANGLES};
+use crate::error::{Error, Result};
+
+/// Largest file, buffer or image accepted, in bytes.
+const MAX_BYTES: u64 = 1 << 30;
+/// Deepest node hierarchy accepted.
+const MAX_DEPTH: usize = 256;
+/// Largest texture side after decoding.
+const MAX_TEXTURE_SIDE: u32 = 8192;
+
+/// Loads a glTF or GLB file. `camera` is unused here (cameras are all kept).
+pub fn load(path: &Path) -> Result<Scene> {
+    let name = path.display().to_string();
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !meta.is_file() {
+        return Err(Error::scene(&name, "not a file"));
+    }
+    if meta.len() > MAX_BYTES {
+        return Err(Error::scene(&name, format!("file is larger than {MAX_BYTES} bytes")));
+    }
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let dir = path
+        .parent()
+        .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+        .unwrap_or(Path::new("."));
+    let base = dir.canonicalize().map_err(|e| Error::io(dir, e))?;
+    // Last line of defence: a panic in a dependency becomes an error.
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(&name, &bytes, &base))) {
+        Ok(result) => result,
+        Err(_) => Err(Error::scene(&name, "the glTF parser failed on malformed input")),
+    }
+}
+
+/// Parses glTF/GLB `bytes`; external files are looked up below `base`.
+pub fn load_bytes(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
+    let err = |m: String| Error::scene(name, m);
+    if bytes.starts_with(b"glTF") {
+        check_glb_header(bytes).map_err(err)?;
+    } else if !bytes.iter().find(|b| !b.is_ascii_whitespace()).is_some_and(|&b| b == b'{') {
+        return Err(err("not a glTF file (neither JSON nor GLB)".into()));
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| err(format!("not valid glTF: {e}")))?;
+    let blob = gltf.blob.clone();
+    let root = gltf.document.into_json();
+    Loader { name, root: &root, base, blob, buffers: Vec::new() }.load()
+}
+
+/// GLB header and chunk lengths must fit the file (the parser trusts them).
+fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
+    let u32_at = |o: usize| bytes.get(o..o + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap()));
+    let length = u32_at(8).ok_or("truncated GLB header")? as usize;
+    if length > bytes.len() {
+        return Err(format!("truncated GLB: header says {length} bytes, file has {}", bytes.len()));
+    }
+    let mut offset = 12;
+    while offset < length {
+        let chunk_len = u32_at(offset).ok_or("truncated GLB chunk header")? as usize;
+        let end = offset
+            .checked_add(8)
+            .and_then(|o| o.checked_add(chunk_len))
+            .ok_or("GLB chunk length overflows")?;
+        if end > length {
+            return Err("truncated GLB: a chunk runs past the end of the file".into());
+        }
+        offset = end;
+    }
+    Ok(())
+}
+
+struct Loader<'a> {
+    name: &'a str,
+    root: &'a json::Root,
+    base: &'a Path,
+    blob: Option<Vec<u8>>,
+    buffers: Vec<Option<Vec<u8>>>,
+}
+
+fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
+    match c {
+        Checked::Valid(v) => Some(*v),
+        Checked::Invalid => None,
+    }
+}
+
+impl Loader<'_> {
+    fn err(&self, m: impl Into<String>) -> Error {
+        Error::scene(self.name, m)
+    }
+
+    fn load(mut self) -> Result<Scene> {
+        self.buffers = vec![None; self.root.buffers.len()];
+        let mut scene = Scene::new(
+            Path::new(self.name)
+                .file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_else(|| self.name.to_string()),
+        );
+        // Textures are decoded on demand, once each.
+        let mut texture_slots: Vec<Option<usize>> = vec![None; self.root.images.len()];
+        let mut material_map = Vec::new();
+        for m in &self.root.materials {
+            let pbr = &m.pbr_metallic_roughness;
+            let texture = match &pbr.base_color_texture {
+                Some(info) => Some(self.texture(info.index.value(), &mut scene, &mut texture_slots)?),
+                None => None,
+            };
+            let f = pbr.base_color_factor.0;
+            scene.materials.push(super::Material { base_color: Vec4::from(f), texture });
+            material_map.push((scene.materials.len() - 1) as u32);
+        }
+        let default_material = scene.add_material(Vec3::splat(0.8), None);
+
+        let roots: Vec<usize> = match (self.root.scene, self.root.scenes.first()) {
+            (Some(i), _) => self
+                .root
+                .scenes
+                .get(i.value())
+                .ok_or_else(|| self.err(format!("scene index {} out of range", i.value())))?
+                .nodes
+                .iter()
+                .map(|n| n.value())
+                .collect(),
+            (None, Some(s)) => s.nodes.iter().map(|n| n.value()).collect(),
+            // No scenes: every node that is nobody's child is a root.
+            (None, None) => {
+                let children: HashSet<usize> = self
+                    .root
+                    .nodes
+                    .iter()
+                    .flat_map(|n| n.children.iter().flatten().map(|c| c.value()))
+                    .collect();
+                (0..self.root.nodes.len()).filter(|i| !children.contains(i)).collect()
+            }
+        };
+        let mut on_path = HashSet::new();
+        for r in roots {
+            self.node(r, Mat4::IDENTITY, 0, &mut on_path, &mut scene, &material_map, default_material)?;
+        }
+        if scene.indices.is_empty() {
+            return Err(self.err("the scene has no triangles"));
+        }
+        Ok(scene)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn node(
+        &mut self,
+        index: usize,
+        parent: Mat4,
+        depth: usize,
+        on_path: &mut HashSet<usize>,
+        scene: &mut Scene,
+        materials: &[u32],
+        default_material: u32,
+    ) -> Result<()> {
+        let root = self.root;
+        let node = root
+            .nodes
+            .get(index)
+            .ok_or_else(|| self.err(format!("node index {index} out of range")))?;
+        if depth > MAX_DEPTH {
+            return Err(self.err(format!("node hierarchy deeper than {MAX_DEPTH}")));
+        }
+        if !on_path.insert(index) {
+            return Err(self.err(format!("node {index} is its own ancestor (cycle)")));
+        }
+        let local = match node.matrix {
+            Some(m) => Mat4::from_cols_array(&m),
+            None => Mat4::from_scale_rotation_translation(
+                node.scale.map(Vec3::from).unwrap_or(Vec3::ONE),
+                node.rotation.map(|q| Quat::from_array(q.0).normalize()).unwrap_or(Quat::IDENTITY),
+                node.translation.map(Vec3::from).unwrap_or(Vec3::ZERO),
+            ),
+        };
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(self.err(format!("node {index} has a non-finite transform")));
+        }
+        if let Some(mesh) = node.mesh {
+            self.mesh(mesh.value(), world, scene, materials, default_material)?;
+        }
+        if let Some(cam) = node.camera {
+            let c = root
+                .cameras
+                .get(cam.value())
+                .ok_or_else(|| self.err(format!("camera index {} out of range", cam.value())))?;
+            match &c.perspective {
+                Some(p) if p.yfov > 0.0 && p.yfov < std::f32::consts::PI => {
+                    let (_, rot, pos) = world.to_scale_rotation_translation();
+                    scene.cameras.push(Camera {
+                        position: pos,
+                        forward: (rot * -Vec3::Z).normalize(),
+                        up: (rot * Vec3::Y).normalize(),
+                        yfov: p.yfov,
+                    });
+                }
+                _ => log::warn!("{}: camera {} is not a valid perspective camera; skipped", self.name, cam.value()),
+            }
+        }
+        if let Some(l) = node.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
+            scene.lights.push(self.light(l.light.value(), world)?);
+        }
+        for child in node.children.iter().flatten() {
+            self.node(child.value(), world, depth + 1, on_path, scene, materials, default_material)?;
+        }
+        on_path.remove(&index);
+        Ok(())
+    }
+
+    fn light(&self, index: usize, world: Mat4) -> Result<Light> {
+        use json::extensions::scene::khr_lights_punctual::Type as T;
+        let lights = self
+            .root
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+            .map(|k| &k.lights[..])
+            .unwrap_or(&[]);
+        let l = lights
+            .get(index)
+            .ok_or_else(|| self.err(format!("light index {index} out of range")))?;
+        let intensity = Vec3::from(l.color) * l.intensity;
+        if !intensity.is_finite() || intensity.min_element() < 0.0 {
+            return Err(self.err(format!("light {index} has a negative or non-finite intensity")));
+        }
+        let position = world.transform_point3(Vec3::ZERO);
+        let direction = world.transform_vector3(-Vec3::Z).normalize_or_zero();
+        if direction == Vec3::ZERO {
+            return Err(self.err(format!("light {index} has a degenerate orientation")));
+        }
+        let kind = match checked(&l.type_) {
+            Some(T::Point) => LightKind::Point,
+            Some(T::Directional) => LightKind::Directional,
+            Some(T::Spot) => {
+                let s = l.spot.as_ref().ok_or_else(|| self.err(format!("spot light {index} has no cone")))?;
+                let (inner, outer) = (s.inner_cone_angle, s.outer_cone_angle);
+                if !(0.0..std::f32::consts::FRAC_PI_2).contains(&outer) || !(0.0..=outer).contains(&inner) {
+                    return Err(self.err(format!("spot light {index} has invalid cone angles")));
+                }
+                LightKind::Spot { inner_cone: inner, outer_cone: outer }
+            }
+            None => return Err(self.err(format!("light {index} has an unknown type"))),
+        };
+        Ok(Light { kind, position, direction, intensity })
+    }
+
+    fn mesh(
+        &mut self,
+        index: usize,
+        world: Mat4,
+        scene: &mut Scene,
+        materials: &[u32],
+        default_material: u32,
+    ) -> Result<()> {
+        use json::mesh::{Mode, Semantic};
+        let root = self.root;
+        let mesh = root
+            .meshes
+            .get(index)
+            .ok_or_else(|| self.err(format!("mesh index {index} out of range")))?;
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            let mode = checked(&prim.mode).ok_or_else(|| self.err("invalid primitive mode"))?;
+            if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+                log::warn!("{}: mesh {index} primitive {pi} is not triangles; skipped", self.name);
+                continue;
+            }
+            let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
+            let pos_acc = attr(Semantic::Positions)
+                .ok_or_else(|| self.err(format!("mesh {index} primitive {pi} has no POSITION")))?;
+            let positions: Vec<Vec3> = self.read_floats(pos_acc, 3)?.chunks_exact(3).map(Vec3::from_slice).collect();
+            let normals: Vec<Vec3> = match attr(Semantic::Normals) {
+                Some(a) => self.read_floats(a, 3)?.chunks_exact(3).map(Vec3::from_slice).collect(),
+                None => Vec::new(),
+            };
+            let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(0)) {
+                Some(a) => self.read_floats(a, 2)?.chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
+                None => Vec::new(),
+            };
+            if !normals.is_empty() && normals.len() != positions.len()
+                || !uvs.is_empty() && uvs.len() != positions.len()
+            {
+                return Err(self.err(format!("mesh {index} primitive {pi}: attribute counts differ")));
+            }
+            let raw_indices = match prim.indices {
+                Some(a) => self.read_indices(a.value())?,
+                None => (0..positions.len() as u32).collect(),
+            };
+            if let Some(&bad) = raw_indices.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(self.err(format!(
+                    "mesh {index} primitive {pi}: index {bad} out of range ({} vertices)",
+                    positions.len()
+                )));
+            }
+            let indices = triangulate(mode, &raw_indices);
+            let material = match prim.material {
+                Some(m) => *materials
+                    .get(m.value())
+                    .ok_or_else(|| self.err(format!("material index {} out of range", m.value())))?,
+                None => default_material,
+            };
+            if scene.triangle_count() + indices.len() / 3 > MAX_TRIANGLES {
+                return Err(self.err(format!("more than {MAX_TRIANGLES} triangles")));
+            }
+            scene.add_mesh(&positions, &normals, &uvs, &indices, world, material)?;
+        }
+        Ok(())
+    }
+
+    /// The bytes of buffer `index` (GLB blob, data URI, or file in the scene folder).
+    fn buffer(&mut self, index: usize) -> Result<&[u8]> {
+        if self.buffers.get(index).is_none() {
+            return Err(self.err(format!("buffer index {index} out of range")));
+        }
+        if self.buffers[index].is_none() {
+            let b = &self.root.buffers[index];
+            let data = match &b.uri {
+                None => self
+                    .blob
+                    .clone()
+                    .ok_or_else(|| self.err(format!("buffer {index} has no URI and there is no GLB binary chunk")))?,
+                Some(uri) => self.read_uri(uri)?,
+            };
+            if (data.len() as u64) < b.byte_length.0 {
+                return Err(self.err(format!(
+                    "buffer {index} is {} bytes, shorter than its byteLength {}",
+                    data.len(),
+                    b.byte_length.0
+                )));
+            }
+            self.buffers[index] = Some(data);
+        }
+        Ok(self.buffers[index].as_deref().unwrap())
+    }
+
+    /// Reads a data URI, or a relative file path inside the scene's folder.
+    fn read_uri(&self, uri: &str) -> Result<Vec<u8>> {
+        if let Some(rest) = uri.strip_prefix("data:") {
+            let (_, payload) = rest
+                .split_once(";base64,")
+                .ok_or_else(|| self.err("only base64 data URIs are supported"))?;
+            if payload.len() as u64 > MAX_BYTES * 4 / 3 {
+                return Err(self.err("data URI too large"));
+            }
+            return base64::engine::general_purpose::STANDARD
+                .decode(payload)
+                .map_err(|e| self.err(format!("bad base64 data URI: {e}")));
+        }
+        if uri.contains(':') {
+            return Err(self.err(format!("refusing URI '{uri}': only relative paths and data URIs are read")));
+        }
+        let decoded = percent_encoding::percent_decode_str(uri)
+            .decode_utf8()
+            .map_err(|_| self.err(format!("URI '{uri}' is not valid percent-encoded UTF-8")))?;
+        let relative = PathBuf::from(decoded.as_ref());
+        if relative.is_absolute() || relative.has_root() {
+            return Err(self.err(format!("refusing absolute path '{uri}' (outside the scene's folder)")));
+        }
+        let path = self.base.join(&relative);
+        let resolved = path
+            .canonicalize()
+            .map_err(|e| self.err(format!("cannot open '{uri}': {e}")))?;
+        if !resolved.starts_with(self.base) {
+            return Err(self.err(format!("refusing '{uri}': it points outside the scene's folder")));
+        }
+        let len = std::fs::metadata(&resolved).map_err(|e| Error::io(&resolved, e))?.len();
+        if len > MAX_BYTES {
+            return Err(self.err(format!("'{uri}' is larger than {MAX_BYTES} bytes")));
+        }
+        std::fs::read(&resolved).map_err(|e| Error::io(&resolved, e))
+    }
+
+    /// The byte range of buffer view `index` (checked), and its stride.
+    fn view(&mut self, index: usize) -> Result<(Vec<u8>, Option<usize>)> {
+        let v = self
+            .root
+            .buffer_views
+            .get(index)
+            .ok_or_else(|| self.err(format!("bufferView index {index} out of range")))?;
+        let (offset, length) = (v.byte_offset.map(|o| o.0).unwrap_or(0), v.byte_length.0);
+        let stride = v.byte_stride.map(|s| s.0);
+        let buffer_index = v.buffer.value();
+        let name = self.name;
+        let data = self.buffer(buffer_index)?;
+        let end = offset.checked_add(length).filter(|&e| e <= data.len() as u64).ok_or_else(|| {
+            Error::scene(name, format!("bufferView {index} runs past the end of buffer {buffer_index}"))
+        })?;
+        Ok((data[offset as usize..end as usize].to_vec(), stride))
+    }
+
+    /// Reads accessor `index` as elements of `components` numbers each, with
+    /// its component type and the raw element bytes.
+    fn accessor_elements(&mut self, index: usize, components: usize) -> Result<(ComponentType, Vec<Vec<u8>>)> {
+        let a = self
+            .root
+            .accessors
+            .get(index)
+            .ok_or_else(|| self.err(format!("accessor index {index} out of range")))?;
+        if a.sparse.is_some() {
+            return Err(self.err(format!("accessor {index} is sparse (not supported)")));
+        }
+        let ty = checked(&a.type_).ok_or_else(|| self.err(format!("accessor {index} has an invalid type")))?;
+        let expected = match ty {
+            Type::Scalar => 1,
+            Type::Vec2 => 2,
+            Type::Vec3 => 3,
+            Type::Vec4 => 4,
+            _ => 0,
+        };
+        if expected != components {
+            return Err(self.err(format!("accessor {index} has type {ty:?}, expected {components} components")));
+        }
+        let ct = checked(&a.component_type)
+            .ok_or_else(|| self.err(format!("accessor {index} has an invalid component type")))?
+            .0;
+        let count = a.count.0 as usize;
+        if count == 0 || count > 3 * MAX_TRIANGLES {
+            return Err(self.err(format!("accessor {index} has an unreasonable count {count}")));
+        }
+        let offset = a.byte_offset.map(|o| o.0 as usize).unwrap_or(0);
+        let view = a.buffer_view.ok_or_else(|| self.err(format!("accessor {index} has no bufferView")))?;
+        let (bytes, stride) = self.view(view.value())?;
+        let elem = ct.size() * components;
+        let stride = stride.unwrap_or(elem);
+        if stride < elem {
+            return Err(self.err(format!("accessor {index}: byteStride {stride} smaller than an element")));
+        }
+        let needed = offset
+            .checked_add(stride.checked_mul(count - 1).ok_or_else(|| self.err("accessor size overflows"))?)
+            .and_then(|n| n.checked_add(elem));
+        if needed.is_none_or(|n| n > bytes.len()) {
+            return Err(self.err(format!("accessor {index} runs past the end of its bufferView")));
+        }
+        let elements = (0..count)
+            .map(|i| bytes[offset + i * stride..offset + i * stride + elem].to_vec())
+            .collect();
+        Ok((ct, elements))
+    }
+
+    /// Float (or normalized integer) attribute data, flattened.
+    fn read_floats(&mut self, index: usize, components: usize) -> Result<Vec<f32>> {
+        let normalized = self.root.accessors.get(index).map(|a| a.normalized).unwrap_or(false);
+        let (ct, elements) = self.accessor_elements(index, components)?;
+        let mut out = Vec::with_capacity(elements.len() * components);
+        for e in &elements {
+            for c in 0..components {
+                let v = match ct {
+                    ComponentType::F32 => f32::from_le_bytes(e[c * 4..c * 4 + 4].try_into().unwrap()),
+                    ComponentType::U8 if normalized => e[c] as f32 / 255.0,
+                    ComponentType::U16 if normalized => {
+                        u16::from_le_bytes(e[c * 2..c * 2 + 2].try_into().unwrap()) as f32 / 65535.0
+                    }
+                    _ => return Err(self.err(format!("accessor {index}: component type {ct:?} not supported here"))),
+                };
+                if !v.is_finite() {
+                    return Err(self.err(format!("accessor {index} holds a non-finite number")));
+                }
+                out.push(v);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Index data (u8, u16 or u32).
+    fn read_indices(&mut self, index: usize) -> Result<Vec<u32>> {
+        let (ct, elements) = self.accessor_elements(index, 1)?;
+        elements
+            .iter()
+            .map(|e| match ct {
+                ComponentType::U8 => Ok(e[0] as u32),
+                ComponentType::U16 => Ok(u16::from_le_bytes([e[0], e[1]]) as u32),
+                ComponentType::U32 => Ok(u32::from_le_bytes([e[0], e[1], e[2], e[3]])),
+                _ => Err(self.err(format!("accessor {index}: indices must be unsigned integers"))),
+            })
+            .collect()
+    }
+
+    /// Decodes texture `index` into the scene (once) and returns its slot.
+    fn texture(&mut self, index: usize, scene: &mut Scene, slots: &mut [Option<usize>]) -> Result<usize> {
+        let t = self
+            .root
+            .textures
+            .get(index)
+            .ok_or_else(|| self.err(format!("texture index {index} out of range")))?;
+        let image_index = t.source.value();
+        let image = self
+            .root
+            .images
+            .get(image_index)
+            .ok_or_else(|| self.err(format!("image index {image_index} out of range")))?;
+        if let Some(slot) = slots[image_index] {
+            return Ok(slot);
+        }
+        let bytes = match (&image.uri, image.buffer_view) {
+            (Some(uri), _) => self.read_uri(uri)?,
+            (None, Some(v)) => self.view(v.value())?.0,
+            (None, None) => return Err(self.err(format!("image {image_index} has neither uri nor bufferView"))),
+        };
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("image {image_index}: {e}")))?;
+        let mut limits = image::Limits::default();
+        limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+        limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+        reader.limits(limits);
+        let decoded = reader
+            .decode()
+            .map_err(|e| self.err(format!("image {image_index} cannot be decoded: {e}")))?
+            .into_rgba8();
+        scene.textures.push(Texture {
+            width: decoded.width(),
+            height: decoded.height(),
+            rgba8: decoded.into_raw(),
+        });
+        let slot = scene.textures.len() - 1;
+        slots[image_index] = Some(slot);
+        Ok(slot)
+    }
+}
+
+/// Triangle list indices for a triangle list, strip or fan.
+fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
+    use json::mesh::Mode;
+    match mode {
+        Mode::TriangleStrip => (2..idx.len())
+            .flat_map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len()).flat_map(|i| [idx[0], idx[i - 1], idx[i]]).collect(),
+        _ => idx[..idx.len() / 3 * 3].to_vec(),
+    }
+}

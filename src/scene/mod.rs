@@ -1,0 +1,354 @@
+//! The renderer's scene: world-space triangles, Lambertian materials,
+//! punctual lights in radiometric units, and cameras. No Vulkan here.
+//!
+//! Scenes come from glTF ([`gltf_loader`]), from the built-in generators
+//! ([`builtin`]), or from a host engine's own data through [`Scene::add_mesh`]
+//! and the public fields.
+
+pub mod builtin;
+pub mod gltf_loader;
+
+use glam::{Mat3, Mat4, Vec3, Vec4};
+
+use crate::error::{Error, Result};
+
+/// One vertex in world space, as uploaded to the GPU (36 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Vertex {
+    /// World-space position [m].
+    pub position: [f32; 3],
+    /// World-space unit normal.
+    pub normal: [f32; 3],
+    /// Texture coordinate of the base-colour texture.
+    pub uv: [f32; 2],
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+/// A Lambertian material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Linear base colour (albedo) factor; alpha is ignored.
+    pub base_color: Vec4,
+    /// Index into [`Scene::textures`] of an sRGB base-colour texture.
+    pub texture: Option<usize>,
+}
+
+/// An 8-bit sRGB RGBA texture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Texels, row by row, 4 bytes each (sRGB-encoded colour, linear alpha).
+    pub rgba8: Vec<u8>,
+}
+
+/// The kind of a punctual light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightKind {
+    /// Radiates `intensity` W/sr in every direction.
+    Point,
+    /// A point light restricted to a cone, with the glTF smooth falloff
+    /// between `inner_cone` and `outer_cone` (half-angles in radians).
+    Spot {
+        /// Half-angle of full intensity.
+        inner_cone: f32,
+        /// Half-angle beyond which there is no light.
+        outer_cone: f32,
+    },
+    /// Parallel light of irradiance `intensity` W/m² on a perpendicular surface.
+    Directional,
+}
+
+/// A punctual light. Units are radiometric: `intensity` is W/sr for point and
+/// spot lights and W/m² for directional lights, per RGB channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Light {
+    /// The kind.
+    pub kind: LightKind,
+    /// World-space position (ignored for directional lights).
+    pub position: Vec3,
+    /// Unit direction the light travels (spot axis; directional light direction).
+    pub direction: Vec3,
+    /// Radiant intensity [W/sr] or irradiance [W/m²] per channel.
+    pub intensity: Vec3,
+}
+
+impl Light {
+    /// Spot falloff factor for a unit direction `dir` from the light, as in
+    /// glTF's KHR_lights_punctual: smooth-step of the cosine between the cones.
+    pub fn spot_factor(&self, dir: Vec3) -> f32 {
+        match self.kind {
+            LightKind::Spot { inner_cone, outer_cone } => {
+                let cos_outer = outer_cone.cos();
+                let cos_inner = inner_cone.cos();
+                let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+                let t = ((dir.dot(self.direction) - cos_outer) * scale).clamp(0.0, 1.0);
+                t * t
+            }
+            _ => 1.0,
+        }
+    }
+}
+
+/// A perspective camera (looks along `forward`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub position: Vec3,
+    /// Unit viewing direction.
+    pub forward: Vec3,
+    /// Unit up vector (orthogonal to forward).
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`.
+    pub fn look_at(eye: Vec3, target: Vec3, yfov: f32) -> Self {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(Vec3::Y).try_normalize().unwrap_or(Vec3::X);
+        let up = right.cross(forward).normalize();
+        Self { position: eye, forward, up, yfov }
+    }
+
+    /// World-to-view matrix (right-handed, looking down -Z).
+    pub fn view(&self) -> Mat4 {
+        glam::camera::rh::view::look_to_mat4(self.position, self.forward, self.up)
+    }
+
+    /// Vulkan projection (depth 0..1, +Y down in NDC) for `aspect` = w/h.
+    pub fn projection(&self, aspect: f32, near: f32, far: f32) -> Mat4 {
+        glam::camera::rh::proj::vulkan::perspective(self.yfov, aspect, near, far)
+    }
+
+    /// Unit world-space direction through the centre of pixel (`x`, `y`) of a
+    /// `width` x `height` image: the same pixel grid the rasterizer samples.
+    pub fn pixel_ray(&self, x: f32, y: f32, width: u32, height: u32) -> Vec3 {
+        let aspect = width as f32 / height as f32;
+        let t = (self.yfov * 0.5).tan();
+        let ndc_x = 2.0 * (x + 0.5) / width as f32 - 1.0;
+        let ndc_y = 2.0 * (y + 0.5) / height as f32 - 1.0;
+        let right = self.forward.cross(self.up).normalize();
+        (self.forward + right * (ndc_x * t * aspect) - self.up * (ndc_y * t)).normalize()
+    }
+}
+
+/// Axis-aligned bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    /// Minimum corner.
+    pub min: Vec3,
+    /// Maximum corner.
+    pub max: Vec3,
+}
+
+impl Bounds {
+    /// Centre.
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+    /// Radius of the bounding sphere around the centre.
+    pub fn radius(&self) -> f32 {
+        (self.max - self.min).length() * 0.5
+    }
+}
+
+/// A scene ready to render: all geometry flattened to world space.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Name for logs (file name or built-in name).
+    pub name: String,
+    /// World-space vertices.
+    pub vertices: Vec<Vertex>,
+    /// Triangle list indices into `vertices`.
+    pub indices: Vec<u32>,
+    /// Materials; `Vertex::material` indexes this.
+    pub materials: Vec<Material>,
+    /// Base-colour textures.
+    pub textures: Vec<Texture>,
+    /// Punctual lights.
+    pub lights: Vec<Light>,
+    /// Cameras in document order (the first is used unless asked otherwise).
+    pub cameras: Vec<Camera>,
+}
+
+/// Maximum number of triangles a scene may hold (keeps hostile files bounded).
+pub const MAX_TRIANGLES: usize = 1 << 24;
+
+impl Scene {
+    /// An empty scene.
+    pub fn new(name: impl Into<String>) -> Self {
+        Self { name: name.into(), ..Default::default() }
+    }
+
+    /// Adds a material and returns its index.
+    pub fn add_material(&mut self, base_color: Vec3, texture: Option<usize>) -> u32 {
+        self.materials.push(Material { base_color: base_color.extend(1.0), texture });
+        (self.materials.len() - 1) as u32
+    }
+
+    /// Adds a triangle mesh given in object space, transformed by `transform`.
+    /// `normals` may be empty (flat normals are computed), `uvs` may be empty.
+    pub fn add_mesh(
+        &mut self,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        uvs: &[[f32; 2]],
+        indices: &[u32],
+        transform: Mat4,
+        material: u32,
+    ) -> Result<()> {
+        let bad = |m: &str| Err(Error::scene(&self.name, m));
+        if indices.len() % 3 != 0 {
+            return bad("index count is not a multiple of 3");
+        }
+        if !normals.is_empty() && normals.len() != positions.len()
+            || !uvs.is_empty() && uvs.len() != positions.len()
+        {
+            return bad("attribute counts differ from the position count");
+        }
+        if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+            return bad(&format!("index {i} out of range ({} vertices)", positions.len()));
+        }
+        if material as usize >= self.materials.len() {
+            return bad(&format!("material {material} does not exist"));
+        }
+        if self.indices.len() / 3 + indices.len() / 3 > MAX_TRIANGLES {
+            return bad(&format!("more than {MAX_TRIANGLES} triangles"));
+        }
+        let normal_matrix = Mat3::from_mat4(transform).inverse().transpose();
+        let world = |p: Vec3| transform.transform_point3(p);
+        if normals.is_empty() {
+            // Flat normals: unshare vertices, one normal per triangle.
+            for tri in indices.chunks_exact(3) {
+                let p: Vec<Vec3> = tri.iter().map(|&i| world(positions[i as usize])).collect();
+                let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                let base = self.vertices.len() as u32;
+                for (k, &i) in tri.iter().enumerate() {
+                    let uv = uvs.get(i as usize).copied().unwrap_or([0.0; 2]);
+                    self.vertices.push(Vertex {
+                        position: p[k].into(),
+                        normal: n.into(),
+                        uv,
+                        material,
+                    });
+                }
+                self.indices.extend([base, base + 1, base + 2]);
+            }
+        } else {
+            let base = self.vertices.len() as u32;
+            for (i, p) in positions.iter().enumerate() {
+                let n = (normal_matrix * normals[i]).normalize_or_zero();
+                self.vertices.push(Vertex {
+                    position: world(*p).into(),
+                    normal: n.into(),
+                    uv: uvs.get(i).copied().unwrap_or([0.0; 2]),
+                    material,
+                });
+            }
+            self.indices.extend(indices.iter().map(|i| i + base));
+        }
+        Ok(())
+    }
+
+    /// Bounds of all vertices (a unit box around the origin when empty).
+    pub fn bounds(&self) -> Bounds {
+        if self.vertices.is_empty() {
+            return Bounds { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) };
+        }
+        let mut b = Bounds { min: Vec3::splat(f32::MAX), max: Vec3::splat(f32::MIN) };
+        for v in &self.vertices {
+            let p = Vec3::from(v.position);
+            b.min = b.min.min(p);
+            b.max = b.max.max(p);
+        }
+        b
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Camera `index`, or one framing the scene's bounds when there is none.
+    pub fn camera(&self, index: Option<usize>) -> Result<Camera> {
+        match index {
+            Some(i) => self.cameras.get(i).cloned().ok_or_else(|| {
+                Error::InvalidParameter(format!(
+                    "--camera {i}: the scene has {} camera(s)",
+                    self.cameras.len()
+                ))
+            }),
+            None => Ok(self.cameras.first().cloned().unwrap_or_else(|| {
+                let b = self.bounds();
+                let yfov = 45f32.to_radians();
+                let distance = b.radius() / (yfov * 0.5).sin();
+                Camera::look_at(b.center() + Vec3::new(0.0, 0.0, distance), b.center(), yfov)
+            })),
+        }
+    }
+
+    /// Adds the documented default light if the scene has none: a white point
+    /// light at 90% of the bounds' height above their centre, with an
+    /// intensity giving 1 W/m² irradiance at the centre.
+    pub fn ensure_light(&mut self) {
+        if !self.lights.is_empty() {
+            return;
+        }
+        let b = self.bounds();
+        let c = b.center();
+        let position = Vec3::new(c.x, b.min.y + 0.9 * (b.max.y - b.min.y), c.z);
+        let d2 = (position - c).length_squared().max(1e-6);
+        log::info!(
+            "scene '{}' has no lights: adding a default point light at {position} of {d2:.3} W/sr",
+            self.name
+        );
+        self.lights.push(Light {
+            kind: LightKind::Point,
+            position,
+            direction: -Vec3::Y,
+            intensity: Vec3::splat(d2),
+        });
+    }
+
+    /// Checks the scene is renderable.
+    pub fn validate(&self) -> Result<()> {
+        if self.indices.is_empty() {
+            return Err(Error::scene(&self.name, "the scene has no triangles"));
+        }
+        for v in &self.vertices {
+            if !Vec3::from(v.position).is_finite() {
+                return Err(Error::scene(&self.name, "a vertex position is not finite"));
+            }
+        }
+        for l in &self.lights {
+            if !l.intensity.is_finite() || l.intensity.min_element() < 0.0 {
+                return Err(Error::scene(&self.name, "a light has a negative or non-finite intensity"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Loads a scene: a built-in name ([`builtin::NAMES`]) or a `.gltf`/`.glb` path.
+pub fn load(name_or_path: &str) -> Result<Scene> {
+    if let Some(scene) = builtin::by_name(name_or_path) {
+        return Ok(scene);
+    }
+    let path = std::path::Path::new(name_or_path);
+    if !path.exists() {
+        return Err(Error::scene(
+            name_or_path,
+            format!(
+                "no such file, and not a built-in scene ({})",
+                builtin::NAMES.join(", ")
+            ),
+        ));
+    }
+    gltf_loader::load(path)
+}

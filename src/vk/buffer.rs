@@ -1,0 +1,132 @@
+//! GPU buffers with `Drop`-based lifetimes and tracked last access.
+
+use std::cell::Cell;
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::barrier::ResourceState;
+use super::device::{Device, Garbage};
+use crate::error::{Error, Result, VkResultExt};
+
+/// A buffer and its memory. Host-visible buffers are persistently mapped.
+pub struct Buffer {
+    device: Arc<Device>,
+    /// The raw handle.
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    /// Size in bytes.
+    pub size: u64,
+    pub(crate) state: Cell<ResourceState>,
+}
+
+impl Buffer {
+    /// Creates a buffer of `size` bytes (at least 4) in `location`.
+    pub fn new(
+        device: &Arc<Device>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Self> {
+        let size = size.max(4);
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { device.raw.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        // SAFETY: `raw` was just created from this device.
+        let requirements = unsafe { device.raw.get_buffer_memory_requirements(raw) };
+        let allocation = device.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location,
+            linear: true,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: never used or bound.
+                unsafe { device.raw.destroy_buffer(raw, None) };
+                return Err(e.into());
+            }
+        };
+        // SAFETY: memory comes from the allocator for these requirements.
+        let bound = unsafe {
+            device
+                .raw
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        };
+        let buffer = Self {
+            device: device.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+            state: Cell::new(ResourceState::default()),
+        };
+        bound.vk("vkBindBufferMemory")?;
+        Ok(buffer)
+    }
+
+    /// A host-visible buffer filled with `data`.
+    pub fn with_data<T: bytemuck::Pod>(
+        device: &Arc<Device>,
+        name: &str,
+        data: &[T],
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Self> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buffer = Self::new(device, name, bytes.len() as u64, usage, MemoryLocation::CpuToGpu)?;
+        buffer.write(0, bytes)?;
+        Ok(buffer)
+    }
+
+    fn mapped(&self) -> Result<(*mut u8, usize)> {
+        let allocation = self.allocation.as_ref().expect("allocation lives until drop");
+        let ptr = allocation.mapped_ptr().ok_or_else(|| Error::Vulkan {
+            call: "map (buffer is not host visible)",
+            result: vk::Result::ERROR_MEMORY_MAP_FAILED,
+        })?;
+        Ok((ptr.as_ptr() as *mut u8, allocation.size() as usize))
+    }
+
+    /// Copies `bytes` into a host-visible buffer at `offset`. The caller makes
+    /// sure the GPU is not using the range (submission orders host writes).
+    pub fn write(&self, offset: usize, bytes: &[u8]) -> Result<()> {
+        let (ptr, len) = self.mapped()?;
+        assert!(offset + bytes.len() <= len, "buffer write out of range");
+        // SAFETY: range checked above; the mapping is valid while `self` lives.
+        unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr.add(offset), bytes.len()) };
+        Ok(())
+    }
+
+    /// Reads the whole host-visible buffer as `T`s (after the GPU finished).
+    pub fn read<T: bytemuck::Pod>(&self) -> Result<Vec<T>> {
+        let (ptr, _) = self.mapped()?;
+        let count = self.size as usize / std::mem::size_of::<T>();
+        let mut out = vec![T::zeroed(); count];
+        // SAFETY: `count * size_of::<T>()` bytes are inside the mapping; the
+        // destination is a separate Vec, and memory is host coherent or the
+        // allocator chose a coherent type for GpuToCpu.
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                ptr,
+                out.as_mut_ptr() as *mut u8,
+                count * std::mem::size_of::<T>(),
+            )
+        };
+        Ok(out)
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        if let Some(allocation) = self.allocation.take() {
+            self.device.defer_destroy(Garbage::Buffer(self.raw, allocation));
+        }
+    }
+}

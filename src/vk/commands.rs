@@ -1,0 +1,208 @@
+//! Command recording: a pool, a command buffer, and barriers batched from the
+//! tracked state of the resources a pass declares it uses.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::barrier::{transition, Access};
+use super::buffer::Buffer;
+use super::device::{Device, Garbage};
+use super::image::Image;
+use crate::error::{Result, VkResultExt};
+
+/// A command pool with one primary command buffer, reset for every recording.
+pub struct CommandPool {
+    device: Arc<Device>,
+    raw: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+}
+
+impl CommandPool {
+    /// Creates the pool on the device's queue family.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(device.queue_family)
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT);
+        // SAFETY: valid create info.
+        let raw = unsafe { device.raw.create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(raw)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: pool just created.
+        let cmd = match unsafe { device.raw.allocate_command_buffers(&alloc) } {
+            Ok(c) => c[0],
+            Err(result) => {
+                // SAFETY: nothing allocated from it.
+                unsafe { device.raw.destroy_command_pool(raw, None) };
+                return Err(crate::Error::Vulkan { call: "vkAllocateCommandBuffers", result });
+            }
+        };
+        Ok(Self { device: device.clone(), raw, cmd })
+    }
+
+    /// Resets the pool and starts recording. The previous recording must have
+    /// finished on the GPU (the caller waited for its submission).
+    pub fn begin(&mut self) -> Result<Recorder<'_>> {
+        // SAFETY: the caller guarantees the last submission of this pool is done.
+        unsafe {
+            self.device
+                .raw
+                .reset_command_pool(self.raw, vk::CommandPoolResetFlags::empty())
+                .vk("vkResetCommandPool")?;
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            self.device
+                .raw
+                .begin_command_buffer(self.cmd, &begin)
+                .vk("vkBeginCommandBuffer")?;
+        }
+        Ok(Recorder {
+            device: &self.device,
+            cmd: self.cmd,
+            image_barriers: Vec::new(),
+            buffer_barriers: Vec::new(),
+        })
+    }
+}
+
+impl Drop for CommandPool {
+    fn drop(&mut self) {
+        self.device.defer_destroy(Garbage::CommandPool(self.raw));
+    }
+}
+
+/// Records one command buffer. Passes call [`Recorder::use_image`] and
+/// [`Recorder::use_buffer`] for everything they touch, then
+/// [`Recorder::flush_barriers`] emits one `vkCmdPipelineBarrier2`.
+pub struct Recorder<'a> {
+    /// The device.
+    pub device: &'a Arc<Device>,
+    /// The raw command buffer being recorded.
+    pub cmd: vk::CommandBuffer,
+    image_barriers: Vec<vk::ImageMemoryBarrier2<'static>>,
+    buffer_barriers: Vec<vk::BufferMemoryBarrier2<'static>>,
+}
+
+impl Recorder<'_> {
+    /// Declares the next use of `image`; a barrier is queued if needed.
+    pub fn use_image(&mut self, image: &Image, access: Access) {
+        let (barrier, after) = transition(image.state.get(), access, true);
+        image.state.set(after);
+        if let Some(b) = barrier {
+            self.image_barriers.push(
+                vk::ImageMemoryBarrier2::default()
+                    .src_stage_mask(b.src_stage)
+                    .src_access_mask(b.src_access)
+                    .dst_stage_mask(b.dst_stage)
+                    .dst_access_mask(b.dst_access)
+                    .old_layout(b.old_layout)
+                    .new_layout(b.new_layout)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .image(image.raw)
+                    .subresource_range(image.full_range()),
+            );
+        }
+    }
+
+    /// Declares the next use of `buffer`; a barrier is queued if needed.
+    pub fn use_buffer(&mut self, buffer: &Buffer, access: Access) {
+        let (barrier, after) = transition(buffer.state.get(), access, false);
+        buffer.state.set(after);
+        if let Some(b) = barrier {
+            self.buffer_barriers.push(
+                vk::BufferMemoryBarrier2::default()
+                    .src_stage_mask(b.src_stage)
+                    .src_access_mask(b.src_access)
+                    .dst_stage_mask(b.dst_stage)
+                    .dst_access_mask(b.dst_access)
+                    .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                    .buffer(buffer.raw)
+                    .offset(0)
+                    .size(vk::WHOLE_SIZE),
+            );
+        }
+    }
+
+    /// Emits every queued barrier in one call.
+    pub fn flush_barriers(&mut self) {
+        if self.image_barriers.is_empty() && self.buffer_barriers.is_empty() {
+            return;
+        }
+        let info = vk::DependencyInfo::default()
+            .image_memory_barriers(&self.image_barriers)
+            .buffer_memory_barriers(&self.buffer_barriers);
+        // SAFETY: recording; barriers reference live resources.
+        unsafe { self.device.raw.cmd_pipeline_barrier2(self.cmd, &info) };
+        self.image_barriers.clear();
+        self.buffer_barriers.clear();
+    }
+
+    /// Copies mip 0 / layer 0 of a colour image into a buffer (tightly packed).
+    pub fn copy_image_to_buffer(&mut self, image: &Image, buffer: &Buffer) {
+        self.use_image(image, Access::TransferRead);
+        self.use_buffer(buffer, Access::TransferWrite);
+        self.flush_barriers();
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
+        // SAFETY: layouts set by the barrier above; buffer sized by the caller.
+        unsafe {
+            self.device.raw.cmd_copy_image_to_buffer(
+                self.cmd,
+                image.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.raw,
+                &[region],
+            )
+        };
+    }
+
+    /// Uploads tightly packed texels from `buffer` into every layer of mip 0.
+    pub fn copy_buffer_to_image(&mut self, buffer: &Buffer, image: &Image) {
+        self.use_buffer(buffer, Access::TransferRead);
+        self.use_image(image, Access::TransferWrite);
+        self.flush_barriers();
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: image.desc.layers,
+            })
+            .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
+        // SAFETY: layouts set by the barrier above; buffer holds every layer.
+        unsafe {
+            self.device.raw.cmd_copy_buffer_to_image(
+                self.cmd,
+                buffer.raw,
+                image.raw,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+    }
+
+    /// Fills a buffer with a 32-bit value.
+    pub fn fill_buffer(&mut self, buffer: &Buffer, value: u32) {
+        self.use_buffer(buffer, Access::TransferWrite);
+        self.flush_barriers();
+        // SAFETY: whole buffer, size is a multiple of 4 (Buffer::new rounds).
+        unsafe { self.device.raw.cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value) };
+    }
+
+    /// Ends recording, submits, and returns the timeline value to wait on.
+    pub fn submit(self) -> Result<u64> {
+        // SAFETY: recording was begun in CommandPool::begin.
+        unsafe { self.device.raw.end_command_buffer(self.cmd) }.vk("vkEndCommandBuffer")?;
+        self.device.submit(&[self.cmd])
+    }
+}

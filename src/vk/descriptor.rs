@@ -1,0 +1,173 @@
+//! Descriptor set layouts, pools and writes, by hand.
+//!
+//! Each pass owns one [`DescriptorSetLayout`]. A frame creates one
+//! [`DescriptorPool`] sized exactly for the sets its passes allocate; the pool
+//! (and with it the sets) is dropped with the frame.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::buffer::Buffer;
+use super::device::{Device, Garbage};
+use super::image::{Image, Sampler};
+use crate::error::{Result, VkResultExt};
+
+/// A descriptor set layout, binding i having type `types[i]`, visible to `stages`.
+pub struct DescriptorSetLayout {
+    device: Arc<Device>,
+    /// The raw handle.
+    pub raw: vk::DescriptorSetLayout,
+    /// Binding types, by binding number.
+    pub types: Vec<vk::DescriptorType>,
+}
+
+impl DescriptorSetLayout {
+    /// One binding per entry of `types`, numbered from 0.
+    pub fn new(
+        device: &Arc<Device>,
+        types: &[vk::DescriptorType],
+        stages: vk::ShaderStageFlags,
+    ) -> Result<Self> {
+        let bindings: Vec<_> = types
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(t)
+                    .descriptor_count(1)
+                    .stage_flags(stages)
+            })
+            .collect();
+        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: valid create info.
+        let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }
+            .vk("vkCreateDescriptorSetLayout")?;
+        Ok(Self { device: device.clone(), raw, types: types.to_vec() })
+    }
+}
+
+impl Drop for DescriptorSetLayout {
+    fn drop(&mut self) {
+        self.device.defer_destroy(Garbage::DescriptorSetLayout(self.raw));
+    }
+}
+
+/// A pool for the descriptor sets of one frame.
+pub struct DescriptorPool {
+    device: Arc<Device>,
+    raw: vk::DescriptorPool,
+}
+
+impl DescriptorPool {
+    /// A pool with room for one set of each of `layouts` (list a layout
+    /// twice for two sets).
+    pub fn new(device: &Arc<Device>, layouts: &[&DescriptorSetLayout]) -> Result<Self> {
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for &t in layouts.iter().flat_map(|l| l.types.iter()) {
+            match sizes.iter_mut().find(|s| s.ty == t) {
+                Some(s) => s.descriptor_count += 1,
+                None => sizes.push(vk::DescriptorPoolSize { ty: t, descriptor_count: 1 }),
+            }
+        }
+        let info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(layouts.len().max(1) as u32)
+            .pool_sizes(&sizes);
+        // SAFETY: valid create info.
+        let raw = unsafe { device.raw.create_descriptor_pool(&info, None) }
+            .vk("vkCreateDescriptorPool")?;
+        Ok(Self { device: device.clone(), raw })
+    }
+
+    /// Allocates one set of `layout` and writes `bindings` (in binding order).
+    pub fn allocate(
+        &self,
+        layout: &DescriptorSetLayout,
+        bindings: &[Binding<'_>],
+    ) -> Result<vk::DescriptorSet> {
+        assert_eq!(bindings.len(), layout.types.len(), "one resource per binding");
+        let layouts = [layout.raw];
+        let info = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(self.raw)
+            .set_layouts(&layouts);
+        // SAFETY: the pool was sized for this layout.
+        let set = unsafe { self.device.raw.allocate_descriptor_sets(&info) }
+            .vk("vkAllocateDescriptorSets")?[0];
+
+        // Infos first (the writes point into these vectors).
+        let image_infos: Vec<vk::DescriptorImageInfo> = bindings
+            .iter()
+            .map(|b| match *b {
+                Binding::StorageImage(view) => vk::DescriptorImageInfo::default()
+                    .image_view(view)
+                    .image_layout(vk::ImageLayout::GENERAL),
+                Binding::SampledImage(view, sampler) => vk::DescriptorImageInfo::default()
+                    .image_view(view)
+                    .sampler(sampler.raw)
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
+                _ => vk::DescriptorImageInfo::default(),
+            })
+            .collect();
+        let buffer_infos: Vec<vk::DescriptorBufferInfo> = bindings
+            .iter()
+            .map(|b| match *b {
+                Binding::StorageBuffer(buf) | Binding::UniformBuffer(buf) => {
+                    vk::DescriptorBufferInfo::default().buffer(buf.raw).offset(0).range(vk::WHOLE_SIZE)
+                }
+                _ => vk::DescriptorBufferInfo::default(),
+            })
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let w = vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(layout.types[i]);
+                match b {
+                    Binding::StorageImage(_) | Binding::SampledImage(..) => {
+                        w.image_info(std::slice::from_ref(&image_infos[i]))
+                    }
+                    Binding::StorageBuffer(_) | Binding::UniformBuffer(_) => {
+                        w.buffer_info(std::slice::from_ref(&buffer_infos[i]))
+                    }
+                }
+            })
+            .collect();
+        // SAFETY: the set is not in use by any command buffer yet.
+        unsafe { self.device.raw.update_descriptor_sets(&writes, &[]) };
+        Ok(set)
+    }
+}
+
+impl Drop for DescriptorPool {
+    fn drop(&mut self) {
+        self.device.defer_destroy(Garbage::DescriptorPool(self.raw));
+    }
+}
+
+/// The resource for one binding.
+#[derive(Clone, Copy)]
+pub enum Binding<'a> {
+    /// A storage image view (GENERAL layout).
+    StorageImage(vk::ImageView),
+    /// A sampled image view with its sampler (SHADER_READ_ONLY layout).
+    SampledImage(vk::ImageView, &'a Sampler),
+    /// A whole storage buffer.
+    StorageBuffer(&'a Buffer),
+    /// A whole uniform buffer.
+    UniformBuffer(&'a Buffer),
+}
+
+impl<'a> Binding<'a> {
+    /// The full view of `image` as storage.
+    pub fn storage(image: &'a Image) -> Self {
+        Binding::StorageImage(image.view)
+    }
+    /// The full view of `image`, sampled with `sampler`.
+    pub fn sampled(image: &'a Image, sampler: &'a Sampler) -> Self {
+        Binding::SampledImage(image.view, sampler)
+    }
+}

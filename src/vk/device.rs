@@ -1,0 +1,372 @@
+//! Physical-device choice, the logical device, its queue, memory allocator,
+//! submission tracking (a timeline semaphore) and deferred destruction.
+//!
+//! Resources never destroy their Vulkan handles directly: `Drop` hands them to
+//! [`Device::defer_destroy`], tagged with the last submission that may still
+//! use them. They are destroyed once the timeline semaphore has passed that
+//! submission (or when the device is dropped, after `vkDeviceWaitIdle`).
+
+use std::ffi::CStr;
+use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, Allocator, AllocatorCreateDesc};
+
+use super::instance::Instance;
+use crate::error::{Error, Result, VkResultExt};
+
+/// A Vulkan object waiting for the GPU to finish with it.
+pub(crate) enum Garbage {
+    Buffer(vk::Buffer, Allocation),
+    Image(vk::Image, Allocation),
+    ImageView(vk::ImageView),
+    Sampler(vk::Sampler),
+    Pipeline(vk::Pipeline),
+    PipelineLayout(vk::PipelineLayout),
+    DescriptorSetLayout(vk::DescriptorSetLayout),
+    DescriptorPool(vk::DescriptorPool),
+    QueryPool(vk::QueryPool),
+    CommandPool(vk::CommandPool),
+}
+
+/// Which physical device to use.
+#[derive(Clone, Debug, Default)]
+pub struct DeviceSelector {
+    /// Case-insensitive substring of the device name; None: best available
+    /// (discrete, then integrated, then virtual, then CPU).
+    pub name_contains: Option<String>,
+}
+
+/// The logical device and everything that is per-device.
+pub struct Device {
+    /// The instance this device came from (kept alive by this Arc).
+    pub instance: Arc<Instance>,
+    /// The physical device.
+    pub physical: vk::PhysicalDevice,
+    /// The raw device.
+    pub raw: ash::Device,
+    /// The one graphics+compute queue used for everything.
+    pub queue: vk::Queue,
+    /// Its family index.
+    pub queue_family: u32,
+    /// Physical-device properties (limits, timestamp period).
+    pub properties: vk::PhysicalDeviceProperties,
+    name: String,
+    allocator: ManuallyDrop<Mutex<Allocator>>,
+    /// Timeline semaphore counting finished submissions.
+    timeline: vk::Semaphore,
+    /// Value the next submission will signal.
+    next_submission: AtomicU64,
+    garbage: Mutex<Vec<(u64, Garbage)>>,
+    owns_device: bool,
+}
+
+fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+/// Why a physical device cannot run ssbc, or None when it can.
+fn unsuitable_reason(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option<String> {
+    // SAFETY: `pd` was enumerated from this instance.
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    if props.api_version < vk::API_VERSION_1_3 {
+        return Some("needs Vulkan 1.3".into());
+    }
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12).push_next(&mut f13);
+    // SAFETY: valid physical device and a correctly chained query struct.
+    unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+    let missing: Vec<&str> = [
+        (f13.synchronization2, "synchronization2"),
+        (f13.dynamic_rendering, "dynamicRendering"),
+        (f12.timeline_semaphore, "timelineSemaphore"),
+        (f12.host_query_reset, "hostQueryReset"),
+    ]
+    .iter()
+    .filter(|(have, _)| *have == vk::FALSE)
+    .map(|(_, name)| *name)
+    .collect();
+    if !missing.is_empty() {
+        return Some(format!("missing features {}", missing.join(", ")));
+    }
+    if queue_family_index(instance, pd).is_none() {
+        return Some("no graphics+compute queue with timestamps".into());
+    }
+    None
+}
+
+fn queue_family_index(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option<u32> {
+    // SAFETY: valid physical device.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    families
+        .iter()
+        .position(|f| {
+            f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+                && f.timestamp_valid_bits > 0
+        })
+        .map(|i| i as u32)
+}
+
+fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
+    props
+        .device_name_as_c_str()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|_| "(unnamed)".into())
+}
+
+impl Device {
+    /// Picks a physical device and creates the logical device with the
+    /// features ssbc needs, plus `extra_extensions` (e.g. the swapchain).
+    pub fn new(
+        instance: Arc<Instance>,
+        selector: &DeviceSelector,
+        extra_extensions: &[&CStr],
+    ) -> Result<Arc<Self>> {
+        // SAFETY: enumeration on a live instance.
+        let physicals = unsafe { instance.raw.enumerate_physical_devices() }
+            .map_err(|e| Error::NoDevice(format!("vkEnumeratePhysicalDevices returned {e}")))?;
+        if physicals.is_empty() {
+            return Err(Error::NoDevice("the Vulkan loader found no device".into()));
+        }
+        let mut candidates = Vec::new();
+        let mut rejected = Vec::new();
+        for &pd in &physicals {
+            // SAFETY: enumerated above.
+            let props = unsafe { instance.raw.get_physical_device_properties(pd) };
+            let name = device_name(&props);
+            if let Some(filter) = &selector.name_contains {
+                if !name.to_lowercase().contains(&filter.to_lowercase()) {
+                    rejected.push(format!("{name} (name does not match '{filter}')"));
+                    continue;
+                }
+            }
+            match unsuitable_reason(&instance.raw, pd) {
+                Some(why) => rejected.push(format!("{name} ({why})")),
+                None => candidates.push((device_type_rank(props.device_type), pd, props)),
+            }
+        }
+        candidates.sort_by_key(|c| c.0);
+        let Some(&(_, physical, properties)) = candidates.first() else {
+            return Err(Error::NoDevice(format!(
+                "no suitable device among: {}",
+                rejected.join("; ")
+            )));
+        };
+        let queue_family = queue_family_index(&instance.raw, physical).expect("checked suitable");
+
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let ext_ptrs: Vec<*const i8> = extra_extensions.iter().map(|e| e.as_ptr()).collect();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
+            .timeline_semaphore(true)
+            .host_query_reset(true);
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
+            .synchronization2(true)
+            .dynamic_rendering(true);
+        let base = vk::PhysicalDeviceFeatures::default();
+        let create_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&ext_ptrs)
+            .enabled_features(&base)
+            .push_next(&mut f12)
+            .push_next(&mut f13);
+        // SAFETY: the physical device supports every feature requested (checked).
+        let raw = unsafe { instance.raw.create_device(physical, &create_info, None) }
+            .vk("vkCreateDevice")?;
+        let name = device_name(&properties);
+        log::info!("using Vulkan device '{name}'");
+        Self::from_parts(instance, physical, raw, queue_family, properties, name, true)
+    }
+
+    fn from_parts(
+        instance: Arc<Instance>,
+        physical: vk::PhysicalDevice,
+        raw: ash::Device,
+        queue_family: u32,
+        properties: vk::PhysicalDeviceProperties,
+        name: String,
+        owns_device: bool,
+    ) -> Result<Arc<Self>> {
+        // SAFETY: the family was created with one queue.
+        let queue = unsafe { raw.get_device_queue(queue_family, 0) };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.raw.clone(),
+            device: raw.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })?;
+        let mut type_info = vk::SemaphoreTypeCreateInfo::default()
+            .semaphore_type(vk::SemaphoreType::TIMELINE)
+            .initial_value(0);
+        let sem_info = vk::SemaphoreCreateInfo::default().push_next(&mut type_info);
+        // SAFETY: timeline semaphores were enabled on this device.
+        let timeline = unsafe { raw.create_semaphore(&sem_info, None) }.vk("vkCreateSemaphore")?;
+        Ok(Arc::new(Self {
+            instance,
+            physical,
+            raw,
+            queue,
+            queue_family,
+            properties,
+            name,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            timeline,
+            next_submission: AtomicU64::new(1),
+            garbage: Mutex::new(Vec::new()),
+            owns_device,
+        }))
+    }
+
+    /// Device name as the driver reports it.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Device limits.
+    pub fn limits(&self) -> &vk::PhysicalDeviceLimits {
+        &self.properties.limits
+    }
+
+    /// The memory allocator.
+    pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
+        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Submits command buffers on the queue and returns the timeline value
+    /// that signals their completion.
+    pub fn submit(&self, command_buffers: &[vk::CommandBuffer]) -> Result<u64> {
+        let value = self.next_submission.fetch_add(1, Ordering::SeqCst);
+        let cmd_infos: Vec<_> = command_buffers
+            .iter()
+            .map(|&c| vk::CommandBufferSubmitInfo::default().command_buffer(c))
+            .collect();
+        let signal = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(self.timeline)
+            .value(value)
+            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let submit = vk::SubmitInfo2::default()
+            .command_buffer_infos(&cmd_infos)
+            .signal_semaphore_infos(&signal);
+        // SAFETY: the command buffers are recorded and ended by the caller; the
+        // queue is only used from the thread that owns the renderer.
+        unsafe { self.raw.queue_submit2(self.queue, &[submit], vk::Fence::null()) }
+            .vk("vkQueueSubmit2")?;
+        Ok(value)
+    }
+
+    /// Blocks until the submission with timeline `value` has finished, then
+    /// destroys garbage that is no longer in use.
+    pub fn wait(&self, value: u64) -> Result<()> {
+        let semaphores = [self.timeline];
+        let values = [value];
+        let info = vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values);
+        // SAFETY: valid timeline semaphore; the value was or will be signalled.
+        unsafe { self.raw.wait_semaphores(&info, u64::MAX) }.vk("vkWaitSemaphores")?;
+        self.collect_garbage();
+        Ok(())
+    }
+
+    /// Timeline value of the last finished submission.
+    pub fn completed_submission(&self) -> u64 {
+        // SAFETY: valid timeline semaphore.
+        unsafe { self.raw.get_semaphore_counter_value(self.timeline) }.unwrap_or(0)
+    }
+
+    /// Queues a handle for destruction once every submission made so far is done.
+    pub(crate) fn defer_destroy(&self, garbage: Garbage) {
+        let last_submitted = self.next_submission.load(Ordering::SeqCst) - 1;
+        self.garbage
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .push((last_submitted, garbage));
+    }
+
+    /// Destroys the queued objects whose submissions have finished.
+    pub fn collect_garbage(&self) {
+        let done = self.completed_submission();
+        let mut queue = self.garbage.lock().unwrap_or_else(|p| p.into_inner());
+        let (ready, waiting): (Vec<_>, Vec<_>) = queue.drain(..).partition(|(s, _)| *s <= done);
+        *queue = waiting;
+        drop(queue);
+        for (_, g) in ready {
+            self.destroy_now(g);
+        }
+    }
+
+    fn destroy_now(&self, garbage: Garbage) {
+        // SAFETY (all arms): the timeline says no submission still uses the
+        // handle, and each handle was created from this device and queued once.
+        unsafe {
+            match garbage {
+                Garbage::Buffer(b, a) => {
+                    self.raw.destroy_buffer(b, None);
+                    self.free_allocation(a);
+                }
+                Garbage::Image(i, a) => {
+                    self.raw.destroy_image(i, None);
+                    self.free_allocation(a);
+                }
+                Garbage::ImageView(v) => self.raw.destroy_image_view(v, None),
+                Garbage::Sampler(s) => self.raw.destroy_sampler(s, None),
+                Garbage::Pipeline(p) => self.raw.destroy_pipeline(p, None),
+                Garbage::PipelineLayout(l) => self.raw.destroy_pipeline_layout(l, None),
+                Garbage::DescriptorSetLayout(l) => self.raw.destroy_descriptor_set_layout(l, None),
+                Garbage::DescriptorPool(p) => self.raw.destroy_descriptor_pool(p, None),
+                Garbage::QueryPool(p) => self.raw.destroy_query_pool(p, None),
+                Garbage::CommandPool(p) => self.raw.destroy_command_pool(p, None),
+            }
+        }
+    }
+
+    fn free_allocation(&self, allocation: Allocation) {
+        if let Err(e) = self.allocator().free(allocation) {
+            log::error!("freeing GPU memory failed: {e}");
+        }
+    }
+
+    /// Waits until the queue is idle.
+    pub fn wait_idle(&self) -> Result<()> {
+        // SAFETY: valid device.
+        unsafe { self.raw.device_wait_idle() }.vk("vkDeviceWaitIdle")
+    }
+}
+
+impl Drop for Device {
+    fn drop(&mut self) {
+        // SAFETY: nothing else holds the device (this is the last Arc); after
+        // wait-idle no submission uses any queued object.
+        unsafe {
+            let _ = self.raw.device_wait_idle();
+        }
+        let queued: Vec<_> = self
+            .garbage
+            .get_mut()
+            .unwrap_or_else(|p| p.into_inner())
+            .drain(..)
+            .collect();
+        for (_, g) in queued {
+            self.destroy_now(g);
+        }
+        // SAFETY: the allocator's memory blocks must be freed before the device.
+        unsafe {
+            ManuallyDrop::drop(&mut self.allocator);
+            self.raw.destroy_semaphore(self.timeline, None);
+            if self.owns_device {
+                self.raw.destroy_device(None);
+            }
+        }
+    }
+}

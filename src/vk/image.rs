@@ -1,0 +1,236 @@
+//! GPU images with their views, `Drop`-based lifetimes and tracked last access.
+
+use std::cell::Cell;
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::barrier::ResourceState;
+use super::device::{Device, Garbage};
+use crate::error::{Error, Result, VkResultExt};
+
+/// What to create.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageDesc {
+    /// Texel format.
+    pub format: vk::Format,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Array layers (1 for a plain 2D image).
+    pub layers: u32,
+    /// Mip levels.
+    pub mip_levels: u32,
+    /// How the image is used.
+    pub usage: vk::ImageUsageFlags,
+    /// View it as a 2D array even with one layer (for `sampler2DArray`).
+    pub array: bool,
+}
+
+impl ImageDesc {
+    /// A single-layer, single-mip 2D image.
+    pub fn new_2d(format: vk::Format, width: u32, height: u32, usage: vk::ImageUsageFlags) -> Self {
+        Self { format, width, height, layers: 1, mip_levels: 1, usage, array: false }
+    }
+}
+
+/// A 2D (array) image, a view of all of it, and one view per mip level and
+/// per array layer (used as attachments and storage targets).
+pub struct Image {
+    device: Arc<Device>,
+    /// The raw handle.
+    pub raw: vk::Image,
+    allocation: Option<Allocation>,
+    /// How it was created.
+    pub desc: ImageDesc,
+    /// A view of all layers and mips (2D, or 2D array when `layers > 1`).
+    pub view: vk::ImageView,
+    /// One 2D view per mip level (all layers), for storage writes per level.
+    pub mip_views: Vec<vk::ImageView>,
+    /// One 2D view per array layer (mip 0), for rendering into a layer.
+    pub layer_views: Vec<vk::ImageView>,
+    pub(crate) state: Cell<ResourceState>,
+}
+
+fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
+    match format {
+        vk::Format::D32_SFLOAT | vk::Format::D16_UNORM => vk::ImageAspectFlags::DEPTH,
+        _ => vk::ImageAspectFlags::COLOR,
+    }
+}
+
+impl Image {
+    /// Creates the image in device memory, with its views.
+    pub fn new(device: &Arc<Device>, name: &str, desc: ImageDesc) -> Result<Self> {
+        let limits = device.limits();
+        if desc.width == 0 || desc.height == 0 {
+            return Err(Error::InvalidParameter(format!("image '{name}' has a zero size")));
+        }
+        if desc.width > limits.max_image_dimension2_d || desc.height > limits.max_image_dimension2_d {
+            return Err(Error::InvalidParameter(format!(
+                "image '{name}' of {}x{} exceeds the device limit of {} texels per side",
+                desc.width, desc.height, limits.max_image_dimension2_d
+            )));
+        }
+        if desc.layers > limits.max_image_array_layers {
+            return Err(Error::InvalidParameter(format!(
+                "image '{name}' needs {} layers, the device allows {}",
+                desc.layers, limits.max_image_array_layers
+            )));
+        }
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(desc.format)
+            .extent(vk::Extent3D { width: desc.width, height: desc.height, depth: 1 })
+            .mip_levels(desc.mip_levels)
+            .array_layers(desc.layers)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid create info; sizes checked against the limits.
+        let raw = unsafe { device.raw.create_image(&info, None) }.map_err(|result| match result {
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                Error::InvalidParameter(format!(
+                    "image '{name}' ({}x{}x{}) does not fit in memory",
+                    desc.width, desc.height, desc.layers
+                ))
+            }
+            result => Error::Vulkan { call: "vkCreateImage", result },
+        })?;
+        // SAFETY: created above from this device.
+        let requirements = unsafe { device.raw.get_image_memory_requirements(raw) };
+        let allocation = match device.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        }) {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: never bound or used.
+                unsafe { device.raw.destroy_image(raw, None) };
+                return Err(e.into());
+            }
+        };
+        let mut image = Self {
+            device: device.clone(),
+            raw,
+            allocation: None,
+            desc,
+            view: vk::ImageView::null(),
+            mip_views: Vec::new(),
+            layer_views: Vec::new(),
+            state: Cell::new(ResourceState::default()),
+        };
+        // SAFETY: memory allocated for this image's requirements.
+        let bound =
+            unsafe { device.raw.bind_image_memory(raw, allocation.memory(), allocation.offset()) };
+        image.allocation = Some(allocation);
+        bound.vk("vkBindImageMemory")?;
+
+        let array = desc.layers > 1 || desc.array;
+        image.view = image.create_view(0, desc.mip_levels, 0, desc.layers, array)?;
+        if desc.mip_levels > 1 {
+            for level in 0..desc.mip_levels {
+                let v = image.create_view(level, 1, 0, desc.layers, array)?;
+                image.mip_views.push(v);
+            }
+        }
+        if array {
+            for layer in 0..desc.layers {
+                let v = image.create_view(0, 1, layer, 1, false)?;
+                image.layer_views.push(v);
+            }
+        }
+        Ok(image)
+    }
+
+    fn create_view(
+        &self,
+        base_mip: u32,
+        mips: u32,
+        base_layer: u32,
+        layers: u32,
+        array: bool,
+    ) -> Result<vk::ImageView> {
+        let info = vk::ImageViewCreateInfo::default()
+            .image(self.raw)
+            .view_type(if array { vk::ImageViewType::TYPE_2D_ARRAY } else { vk::ImageViewType::TYPE_2D })
+            .format(self.desc.format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: aspect_of(self.desc.format),
+                base_mip_level: base_mip,
+                level_count: mips,
+                base_array_layer: base_layer,
+                layer_count: layers,
+            });
+        // SAFETY: the range lies inside the image.
+        unsafe { self.device.raw.create_image_view(&info, None) }.vk("vkCreateImageView")
+    }
+
+    /// The range covering every mip and layer.
+    pub fn full_range(&self) -> vk::ImageSubresourceRange {
+        vk::ImageSubresourceRange {
+            aspect_mask: aspect_of(self.desc.format),
+            base_mip_level: 0,
+            level_count: self.desc.mip_levels,
+            base_array_layer: 0,
+            layer_count: self.desc.layers,
+        }
+    }
+
+    /// Extent of mip `level`.
+    pub fn mip_extent(&self, level: u32) -> (u32, u32) {
+        ((self.desc.width >> level).max(1), (self.desc.height >> level).max(1))
+    }
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        let views = std::iter::once(self.view)
+            .chain(self.mip_views.drain(..))
+            .chain(self.layer_views.drain(..));
+        for v in views.filter(|v| *v != vk::ImageView::null()) {
+            self.device.defer_destroy(Garbage::ImageView(v));
+        }
+        if let Some(allocation) = self.allocation.take() {
+            self.device.defer_destroy(Garbage::Image(self.raw, allocation));
+        }
+    }
+}
+
+/// A sampler, destroyed with deferral.
+pub struct Sampler {
+    device: Arc<Device>,
+    /// The raw handle.
+    pub raw: vk::Sampler,
+}
+
+impl Sampler {
+    /// Creates a sampler with the given filter and addressing.
+    pub fn new(device: &Arc<Device>, filter: vk::Filter, address: vk::SamplerAddressMode) -> Result<Self> {
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(filter)
+            .min_filter(filter)
+            .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+            .address_mode_u(address)
+            .address_mode_v(address)
+            .address_mode_w(address)
+            .max_lod(vk::LOD_CLAMP_NONE);
+        // SAFETY: valid create info.
+        let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
+        Ok(Self { device: device.clone(), raw })
+    }
+}
+
+impl Drop for Sampler {
+    fn drop(&mut self) {
+        self.device.defer_destroy(Garbage::Sampler(self.raw));
+    }
+}

@@ -1,0 +1,193 @@
+//! The Vulkan instance, the validation layer and its debug messenger.
+//!
+//! With validation on, `VK_LAYER_KHRONOS_validation` runs with synchronization
+//! validation, and every message it sends is printed and counted in a
+//! [`ValidationLog`] that outlives the instance, so a caller can check for
+//! messages sent while the device and instance were destroyed (leaks).
+
+use std::ffi::{c_void, CStr};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::error::{Error, Result, VkResultExt};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// Counts the warnings and errors the validation layer reported.
+#[derive(Debug, Default)]
+pub struct ValidationLog {
+    warnings: AtomicU32,
+    errors: AtomicU32,
+}
+
+impl ValidationLog {
+    /// Number of validation warnings so far.
+    pub fn warnings(&self) -> u32 {
+        self.warnings.load(Ordering::SeqCst)
+    }
+    /// Number of validation errors so far.
+    pub fn errors(&self) -> u32 {
+        self.errors.load(Ordering::SeqCst)
+    }
+    /// Warnings plus errors.
+    pub fn total(&self) -> u32 {
+        self.warnings() + self.errors()
+    }
+}
+
+/// Called by the validation layer on its own threads; only touches atomics
+/// and stderr.
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the layer passes a valid callback-data struct for the duration of
+    // the call; `user_data` is the `ValidationLog` that the Instance keeps alive
+    // until after the messenger and the instance are destroyed.
+    let (message, log) = unsafe {
+        let message = if data.is_null() || (*data).p_message.is_null() {
+            std::borrow::Cow::Borrowed("(no message)")
+        } else {
+            CStr::from_ptr((*data).p_message).to_string_lossy()
+        };
+        (message, &*(user_data as *const ValidationLog))
+    };
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        log.errors.fetch_add(1, Ordering::SeqCst);
+        eprintln!("[vulkan validation error] {kind:?}: {message}");
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        log.warnings.fetch_add(1, Ordering::SeqCst);
+        eprintln!("[vulkan validation warning] {kind:?}: {message}");
+    } else {
+        log::debug!("[vulkan] {message}");
+    }
+    vk::FALSE
+}
+
+/// An `ash` instance with its optional debug messenger.
+pub struct Instance {
+    /// The loaded Vulkan library.
+    pub entry: ash::Entry,
+    /// The raw instance.
+    pub raw: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    validation_log: Arc<ValidationLog>,
+}
+
+impl Instance {
+    /// Loads Vulkan and creates an instance for API 1.3. With `validation`,
+    /// enables the Khronos layer with synchronization validation. Extra
+    /// instance extensions (e.g. for surfaces) can be requested.
+    pub fn new(validation: bool, extra_extensions: &[&CStr]) -> Result<Arc<Self>> {
+        // SAFETY: loading the system Vulkan loader runs its initialisers; we
+        // trust the installed loader like any Vulkan application must.
+        let entry = unsafe { ash::Entry::load() }
+            .map_err(|e| Error::NoDevice(format!("cannot load the Vulkan loader ({e})")))?;
+
+        let validation_log = Arc::new(ValidationLog::default());
+        let mut layers = Vec::new();
+        let mut extensions: Vec<*const i8> = extra_extensions.iter().map(|e| e.as_ptr()).collect();
+        if validation {
+            // SAFETY: plain enumeration on a loaded entry.
+            let available = unsafe { entry.enumerate_instance_layer_properties() }
+                .vk("vkEnumerateInstanceLayerProperties")?;
+            let present = available
+                .iter()
+                .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
+            if !present {
+                return Err(Error::NoValidationLayer);
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+            extensions.push(ash::ext::validation_features::NAME.as_ptr());
+        }
+
+        let app_info = vk::ApplicationInfo::default()
+            .application_name(c"ssbc")
+            .engine_name(c"ssbc")
+            .api_version(vk::API_VERSION_1_3);
+        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut validation_features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let user_data = Arc::as_ptr(&validation_log) as *mut c_void;
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(debug_callback))
+            .user_data(user_data);
+        let mut create_info = vk::InstanceCreateInfo::default()
+            .application_info(&app_info)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        if validation {
+            // Chained messenger: also reports during vkCreate/DestroyInstance.
+            create_info = create_info
+                .push_next(&mut validation_features)
+                .push_next(&mut messenger_info);
+        }
+        // SAFETY: every pointer in create_info refers to locals alive here.
+        let raw = unsafe { entry.create_instance(&create_info, None) }.map_err(|e| match e {
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER | vk::Result::ERROR_INITIALIZATION_FAILED => {
+                Error::NoDevice(format!("vkCreateInstance returned {e}"))
+            }
+            vk::Result::ERROR_EXTENSION_NOT_PRESENT => Error::NoDevice(
+                "an instance extension ssbc needs is missing (debug utils, validation features or surface)".into(),
+            ),
+            result => Error::Vulkan { call: "vkCreateInstance", result },
+        })?;
+
+        let debug = if validation {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &raw);
+            // SAFETY: valid instance; messenger_info's user data outlives the
+            // messenger (destroyed in Drop before validation_log).
+            let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info, None) };
+            match messenger {
+                Ok(m) => Some((loader, m)),
+                Err(result) => {
+                    // SAFETY: nothing was created from this instance yet.
+                    unsafe { raw.destroy_instance(None) };
+                    return Err(Error::Vulkan { call: "vkCreateDebugUtilsMessengerEXT", result });
+                }
+            }
+        } else {
+            None
+        };
+        Ok(Arc::new(Self { entry, raw, debug, validation_log }))
+    }
+
+    /// Whether validation is on.
+    pub fn validation_enabled(&self) -> bool {
+        self.debug.is_some()
+    }
+
+    /// The counter of validation messages; stays valid after the instance is
+    /// gone, so leaks reported at destruction are visible too.
+    pub fn validation_log(&self) -> Arc<ValidationLog> {
+        self.validation_log.clone()
+    }
+}
+
+impl Drop for Instance {
+    fn drop(&mut self) {
+        // SAFETY: every device of this instance holds an Arc to it and has
+        // been destroyed before this runs.
+        unsafe {
+            if let Some((loader, messenger)) = self.debug.take() {
+                loader.destroy_debug_utils_messenger(messenger, None);
+            }
+            self.raw.destroy_instance(None);
+        }
+    }
+}

@@ -1,0 +1,274 @@
+//! Shader modules, pipeline layouts, compute and graphics pipelines.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::descriptor::DescriptorSetLayout;
+use super::device::{Device, Garbage};
+use crate::error::{Error, Result, VkResultExt};
+
+fn shader_module(device: &Device, spirv: &[u8]) -> Result<vk::ShaderModule> {
+    // Embedded SPIR-V comes from build.rs; a failure here is a build bug.
+    let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|_| Error::Vulkan {
+        call: "read_spv (embedded SPIR-V is malformed)",
+        result: vk::Result::ERROR_INITIALIZATION_FAILED,
+    })?;
+    let info = vk::ShaderModuleCreateInfo::default().code(&code);
+    // SAFETY: SPIR-V produced by build.rs from our own shaders.
+    unsafe { device.raw.create_shader_module(&info, None) }.vk("vkCreateShaderModule")
+}
+
+/// A pipeline and its layout (one descriptor set, optional push constants).
+pub struct Pipeline {
+    device: Arc<Device>,
+    /// The raw pipeline.
+    pub raw: vk::Pipeline,
+    /// Its layout.
+    pub layout: vk::PipelineLayout,
+    /// Bind point (compute or graphics).
+    pub bind_point: vk::PipelineBindPoint,
+    push_stages: vk::ShaderStageFlags,
+}
+
+fn pipeline_layout(
+    device: &Device,
+    set_layouts: &[&DescriptorSetLayout],
+    push_size: u32,
+    stages: vk::ShaderStageFlags,
+) -> Result<vk::PipelineLayout> {
+    let raw_layouts: Vec<_> = set_layouts.iter().map(|l| l.raw).collect();
+    let ranges = [vk::PushConstantRange { stage_flags: stages, offset: 0, size: push_size }];
+    let info = vk::PipelineLayoutCreateInfo::default()
+        .set_layouts(&raw_layouts)
+        .push_constant_ranges(if push_size > 0 { &ranges[..] } else { &[] });
+    // SAFETY: valid create info.
+    unsafe { device.raw.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")
+}
+
+/// Fixed-function state of a graphics pipeline (dynamic rendering).
+pub struct GraphicsDesc<'a> {
+    /// Vertex shader SPIR-V.
+    pub vertex: &'a [u8],
+    /// Fragment shader SPIR-V (None: depth-only).
+    pub fragment: Option<&'a [u8]>,
+    /// Vertex stride in bytes.
+    pub vertex_stride: u32,
+    /// Vertex attributes (location, format, offset).
+    pub attributes: &'a [(u32, vk::Format, u32)],
+    /// Colour attachment formats.
+    pub color_formats: &'a [vk::Format],
+    /// Depth attachment format.
+    pub depth_format: vk::Format,
+    /// Constant depth bias and slope factor (0, 0 for none).
+    pub depth_bias: (f32, f32),
+}
+
+impl Pipeline {
+    /// A compute pipeline from SPIR-V with entry `main`.
+    pub fn compute(
+        device: &Arc<Device>,
+        spirv: &[u8],
+        set_layouts: &[&DescriptorSetLayout],
+        push_size: u32,
+    ) -> Result<Self> {
+        let stages = vk::ShaderStageFlags::COMPUTE;
+        let layout = pipeline_layout(device, set_layouts, push_size, stages)?;
+        let module = match shader_module(device, spirv) {
+            Ok(m) => m,
+            Err(e) => {
+                device.defer_destroy(Garbage::PipelineLayout(layout));
+                return Err(e);
+            }
+        };
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+        // SAFETY: module and layout are valid; the module may be destroyed
+        // right after pipeline creation.
+        let result = unsafe {
+            let r = device
+                .raw
+                .create_compute_pipelines(vk::PipelineCache::null(), &[info], None);
+            device.raw.destroy_shader_module(module, None);
+            r
+        };
+        let raw = match result {
+            Ok(p) => p[0],
+            Err((_, result)) => {
+                device.defer_destroy(Garbage::PipelineLayout(layout));
+                return Err(Error::Vulkan { call: "vkCreateComputePipelines", result });
+            }
+        };
+        Ok(Self {
+            device: device.clone(),
+            raw,
+            layout,
+            bind_point: vk::PipelineBindPoint::COMPUTE,
+            push_stages: stages,
+        })
+    }
+
+    /// A triangle-list graphics pipeline for dynamic rendering, no culling,
+    /// depth test LESS with writes, dynamic viewport and scissor.
+    pub fn graphics(
+        device: &Arc<Device>,
+        desc: &GraphicsDesc<'_>,
+        set_layouts: &[&DescriptorSetLayout],
+        push_size: u32,
+    ) -> Result<Self> {
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let layout = pipeline_layout(device, set_layouts, push_size, stages)?;
+        let vert = shader_module(device, desc.vertex)?;
+        let frag = match desc.fragment.map(|f| shader_module(device, f)).transpose() {
+            Ok(f) => f,
+            Err(e) => {
+                // SAFETY: unused module and layout.
+                unsafe { device.raw.destroy_shader_module(vert, None) };
+                device.defer_destroy(Garbage::PipelineLayout(layout));
+                return Err(e);
+            }
+        };
+        let mut shader_stages = vec![vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::VERTEX)
+            .module(vert)
+            .name(c"main")];
+        if let Some(f) = frag {
+            shader_stages.push(
+                vk::PipelineShaderStageCreateInfo::default()
+                    .stage(vk::ShaderStageFlags::FRAGMENT)
+                    .module(f)
+                    .name(c"main"),
+            );
+        }
+        let vb = [vk::VertexInputBindingDescription {
+            binding: 0,
+            stride: desc.vertex_stride,
+            input_rate: vk::VertexInputRate::VERTEX,
+        }];
+        let attrs: Vec<_> = desc
+            .attributes
+            .iter()
+            .map(|&(location, format, offset)| vk::VertexInputAttributeDescription {
+                location,
+                binding: 0,
+                format,
+                offset,
+            })
+            .collect();
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+            .vertex_binding_descriptions(&vb)
+            .vertex_attribute_descriptions(&attrs);
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+            .depth_bias_enable(desc.depth_bias != (0.0, 0.0))
+            .depth_bias_constant_factor(desc.depth_bias.0)
+            .depth_bias_slope_factor(desc.depth_bias.1)
+            .line_width(1.0);
+        let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+            .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true)
+            .depth_compare_op(vk::CompareOp::LESS);
+        let blend_attachments: Vec<_> = desc
+            .color_formats
+            .iter()
+            .map(|_| {
+                vk::PipelineColorBlendAttachmentState::default()
+                    .color_write_mask(vk::ColorComponentFlags::RGBA)
+            })
+            .collect();
+        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .color_attachment_formats(desc.color_formats)
+            .depth_attachment_format(desc.depth_format);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&shader_stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(layout)
+            .push_next(&mut rendering);
+        // SAFETY: every referenced state struct lives until the call returns;
+        // modules are destroyed after creation.
+        let result = unsafe {
+            let r = device
+                .raw
+                .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None);
+            device.raw.destroy_shader_module(vert, None);
+            if let Some(f) = frag {
+                device.raw.destroy_shader_module(f, None);
+            }
+            r
+        };
+        let raw = match result {
+            Ok(p) => p[0],
+            Err((_, result)) => {
+                device.defer_destroy(Garbage::PipelineLayout(layout));
+                return Err(Error::Vulkan { call: "vkCreateGraphicsPipelines", result });
+            }
+        };
+        Ok(Self {
+            device: device.clone(),
+            raw,
+            layout,
+            bind_point: vk::PipelineBindPoint::GRAPHICS,
+            push_stages: stages,
+        })
+    }
+
+    /// Binds the pipeline and its descriptor set, and pushes `push` constants.
+    pub fn bind(&self, cmd: vk::CommandBuffer, set: vk::DescriptorSet, push: &[u8]) {
+        // SAFETY: recording; the set matches the layout this pipeline was made with.
+        unsafe {
+            self.device.raw.cmd_bind_pipeline(cmd, self.bind_point, self.raw);
+            self.device
+                .raw
+                .cmd_bind_descriptor_sets(cmd, self.bind_point, self.layout, 0, &[set], &[]);
+        }
+        self.push(cmd, push);
+    }
+
+    /// Pushes constants (no-op for an empty slice).
+    pub fn push(&self, cmd: vk::CommandBuffer, push: &[u8]) {
+        if push.is_empty() {
+            return;
+        }
+        // SAFETY: recording; the range was declared at layout creation.
+        unsafe {
+            self.device
+                .raw
+                .cmd_push_constants(cmd, self.layout, self.push_stages, 0, push)
+        };
+    }
+
+    /// Dispatches enough 8x8 groups to cover `width` x `height` x `depth`.
+    pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, width: u32, height: u32, depth: u32) {
+        // SAFETY: recording with this compute pipeline bound.
+        unsafe { self.device.raw.cmd_dispatch(cmd, width.div_ceil(8), height.div_ceil(8), depth) };
+    }
+}
+
+impl Drop for Pipeline {
+    fn drop(&mut self) {
+        self.device.defer_destroy(Garbage::Pipeline(self.raw));
+        self.device.defer_destroy(Garbage::PipelineLayout(self.layout));
+    }
+}

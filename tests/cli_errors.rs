@@ -1,0 +1,136 @@
+//! Bad input gets a clear one-line error and a non-zero exit, never a panic.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `ssbc render ARGS` (validation on) and returns (success, stderr).
+fn run(args: &[&str], env: &[(&str, &str)]) -> (bool, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_ssbc"));
+    cmd.arg("render").args(args).arg("--validate").env("RUST_LOG", "warn");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().expect("run ssbc");
+    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// Asserts a clean failure whose error line contains `needle`.
+fn fails_with(args: &[&str], env: &[(&str, &str)], needle: &str) {
+    let (ok, stderr) = run(args, env);
+    assert!(!ok, "expected failure for {args:?}, stderr:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "panic for {args:?}:\n{stderr}");
+    let error_lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(error_lines.len(), 1, "one error line for {args:?}, got:\n{stderr}");
+    assert!(
+        error_lines[0].to_lowercase().contains(&needle.to_lowercase()),
+        "error for {args:?} should mention '{needle}': {}",
+        error_lines[0]
+    );
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn missing_file() {
+    fails_with(&["/nonexistent/scene.gltf", "-o", "/tmp/x.exr"], &[], "no such file");
+}
+
+#[test]
+fn not_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "x.gltf", b"this is not json at all");
+    fails_with(&[&p], &[], "not a glTF file");
+    let p = write(dir.path(), "y.gltf", b"{\"hello\": 1}");
+    fails_with(&[&p], &[], "not valid glTF");
+}
+
+#[test]
+fn truncated_glb() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = common::quad_buffer(2);
+    let full = common::glb(&common::quad_gltf(None, bin.len(), 5123, None, ""), &bin);
+    let p = write(dir.path(), "t.glb", &full[..full.len() - 40]);
+    fails_with(&[&p], &[], "truncated");
+}
+
+#[test]
+fn accessor_out_of_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = common::quad_buffer(2);
+    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, "")
+        .replace(r#""POSITION":0"#, r#""POSITION":42"#);
+    let p = write(dir.path(), "a.gltf", json.as_bytes());
+    fails_with(&[&p], &[], "accessor index 42 out of range");
+    // An accessor whose data runs past its buffer view.
+    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, "")
+        .replace(r#""componentType":5126,"count":4,"type":"VEC3","min""#, r#""componentType":5126,"count":400,"type":"VEC3","min""#);
+    let p = write(dir.path(), "b.gltf", json.as_bytes());
+    fails_with(&[&p], &[], "runs past the end");
+}
+
+#[test]
+fn index_out_of_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut bin, offset) = common::quad_buffer(2);
+    bin[offset + 2..offset + 4].copy_from_slice(&999u16.to_le_bytes());
+    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, "");
+    let p = write(dir.path(), "i.gltf", json.as_bytes());
+    fails_with(&[&p], &[], "index 999 out of range");
+}
+
+#[test]
+fn buffer_uri_outside_the_scene_folder_is_refused() {
+    let outer = tempfile::tempdir().unwrap();
+    let (bin, _) = common::quad_buffer(2);
+    std::fs::write(outer.path().join("secret.bin"), &bin).unwrap();
+    let inner = outer.path().join("scene");
+    std::fs::create_dir(&inner).unwrap();
+    for uri in ["../secret.bin", "sub/../../secret.bin"] {
+        let json = common::quad_gltf(Some(uri), bin.len(), 5123, None, "");
+        let p = write(&inner, "escape.gltf", json.as_bytes());
+        fails_with(&[&p], &[], "outside the scene's folder");
+    }
+    let abs = outer.path().join("secret.bin").display().to_string();
+    for uri in [abs.as_str(), "file:///etc/passwd"] {
+        let json = common::quad_gltf(Some(uri), bin.len(), 5123, None, "");
+        let p = write(&inner, "escape.gltf", json.as_bytes());
+        let (ok, stderr) = run(&[&p], &[]);
+        assert!(!ok && !stderr.contains("panicked"), "{uri}: {stderr}");
+        assert!(stderr.contains("refusing"), "{uri} should be refused: {stderr}");
+    }
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(outer.path().join("secret.bin"), inner.join("link.bin")).unwrap();
+        let json = common::quad_gltf(Some("link.bin"), bin.len(), 5123, None, "");
+        let p = write(&inner, "escape.gltf", json.as_bytes());
+        fails_with(&[&p], &[], "outside the scene's folder");
+    }
+}
+
+#[test]
+fn empty_size() {
+    let (ok, stderr) = run(&["--size", "0x0"], &[]);
+    assert!(!ok && !stderr.contains("panicked"));
+    assert!(stderr.contains("empty"), "{stderr}");
+}
+
+#[test]
+fn size_above_device_limit() {
+    fails_with(&["--size", "40000x8", "-o", "/tmp/never.exr"], &[], "exceeds the device limit");
+}
+
+#[test]
+fn no_vulkan_device() {
+    // Point the loader at a driver manifest that does not exist.
+    fails_with(
+        &["--size", "8x8"],
+        &[("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")],
+        "lavapipe",
+    );
+}

@@ -1,0 +1,158 @@
+//! Shared test helpers: a validated renderer that fails the test on any
+//! validation message (including leaks reported at device destruction), and
+//! small scenes with known analytic answers.
+#![allow(dead_code)]
+
+use glam::{Mat4, Vec3};
+use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::scene::{Camera, Light, LightKind, Scene};
+
+/// Renders `scene` with validation + synchronization validation on, drops the
+/// renderer, and panics if the layer reported anything.
+pub fn render_validated(scene: &Scene, settings: &RenderSettings) -> Frame {
+    let mut renderer = Renderer::new(&RendererConfig { validation: true, ..Default::default() })
+        .expect("renderer (is lavapipe + the validation layer installed? run scripts/setup.sh)");
+    let log = renderer.validation_log();
+    let frame = renderer.render(scene, settings).expect("render");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation reported {} warning(s)/error(s)", log.total());
+    frame
+}
+
+/// Settings for a small test image.
+pub fn small(width: u32, height: u32) -> RenderSettings {
+    RenderSettings { width, height, ..Default::default() }
+}
+
+/// RGB of pixel (x, y) of a layer.
+pub fn pixel(frame: &Frame, layer: &str, x: u32, y: u32) -> Vec3 {
+    let l = frame.layer(layer).unwrap_or_else(|| panic!("no layer {layer}"));
+    let i = ((y * frame.width + x) * 4) as usize;
+    Vec3::new(l.rgba[i], l.rgba[i + 1], l.rgba[i + 2])
+}
+
+/// A horizontal square plane of side `size` at y = 0 with albedo `albedo`.
+pub fn plane_scene(albedo: f32, size: f32) -> Scene {
+    let mut s = Scene::new("plane");
+    let m = s.add_material(Vec3::splat(albedo), None);
+    let h = size * 0.5;
+    let p = [Vec3::new(-h, 0.0, h), Vec3::new(h, 0.0, h), Vec3::new(h, 0.0, -h), Vec3::new(-h, 0.0, -h)];
+    s.add_mesh(&p, &[Vec3::Y; 4], &[], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, m).unwrap();
+    s.cameras.push(Camera::look_at(Vec3::new(0.0, 2.5, 2.0), Vec3::ZERO, 50f32.to_radians()));
+    s
+}
+
+/// A point light.
+pub fn point_light(position: Vec3, intensity: f32) -> Light {
+    Light { kind: LightKind::Point, position, direction: -Vec3::Y, intensity: Vec3::splat(intensity) }
+}
+
+/// Where the camera ray of pixel (x, y) hits the plane y = 0, if it does
+/// within `half` of the origin (and not within `margin` of its edge).
+pub fn hit_plane(camera: &Camera, x: u32, y: u32, w: u32, h: u32, half: f32, margin: f32) -> Option<Vec3> {
+    let d = camera.pixel_ray(x as f32, y as f32, w, h);
+    if d.y >= -1e-4 {
+        return None;
+    }
+    let t = -camera.position.y / d.y;
+    let p = camera.position + d * t;
+    (p.x.abs() < half - margin && p.z.abs() < half - margin).then_some(p)
+}
+
+/// A quad in the XZ plane (size 2 around the origin, normal +Y) as glTF
+/// buffer bytes: positions (4 x vec3), normals, uvs, then indices of the
+/// given width (2 or 4 bytes; 0 for none). Returns (bytes, index_offset).
+pub fn quad_buffer(index_width: usize) -> (Vec<u8>, usize) {
+    let mut b = Vec::new();
+    let positions = [[-1.0f32, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]];
+    for p in positions {
+        for c in p {
+            b.extend(c.to_le_bytes());
+        }
+    }
+    for _ in 0..4 {
+        for c in [0.0f32, 1.0, 0.0] {
+            b.extend(c.to_le_bytes());
+        }
+    }
+    for uv in [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]] {
+        for c in uv {
+            b.extend(c.to_le_bytes());
+        }
+    }
+    let index_offset = b.len();
+    for i in [0u32, 1, 2, 0, 2, 3] {
+        match index_width {
+            2 => b.extend((i as u16).to_le_bytes()),
+            4 => b.extend(i.to_le_bytes()),
+            _ => {}
+        }
+    }
+    while b.len() % 4 != 0 {
+        b.push(0);
+    }
+    (b, index_offset)
+}
+
+/// glTF JSON for one quad mesh in a two-level node hierarchy, with the given
+/// buffer URI (None: GLB blob), index component type (5123 u16, 5125 u32, 0
+/// none), and extra top-level JSON members (materials, textures, ...).
+pub fn quad_gltf(uri: Option<&str>, byte_length: usize, index_type: u32, material: Option<u32>, extra: &str) -> String {
+    let index_count = 6;
+    let index_width = match index_type {
+        5123 => 2,
+        5125 => 4,
+        _ => 0,
+    };
+    let indices_view = if index_width > 0 {
+        format!(r#",{{"buffer":0,"byteOffset":128,"byteLength":{}}}"#, index_count * index_width)
+    } else {
+        String::new()
+    };
+    let indices_acc = if index_width > 0 {
+        format!(r#",{{"bufferView":3,"componentType":{index_type},"count":{index_count},"type":"SCALAR"}}"#)
+    } else {
+        String::new()
+    };
+    let prim_indices = if index_width > 0 { r#","indices":3"# } else { "" };
+    let prim_material = material.map(|m| format!(r#","material":{m}"#)).unwrap_or_default();
+    let uri = uri.map(|u| format!(r#","uri":"{u}""#)).unwrap_or_default();
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"translation":[0,1,0],"scale":[2,2,2],"children":[1]}},{{"mesh":0,"rotation":[0,0.7071068,0,0.7071068],"translation":[1,0,0]}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2}}{prim_indices}{prim_material}}}]}}],
+"buffers":[{{"byteLength":{byte_length}{uri}}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":48}},{{"buffer":0,"byteOffset":96,"byteLength":32}}{indices_view}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},{{"bufferView":1,"componentType":5126,"count":4,"type":"VEC3"}},{{"bufferView":2,"componentType":5126,"count":4,"type":"VEC2"}}{indices_acc}]{extra}}}"#
+    )
+}
+
+/// A GLB container around `json` and `bin`.
+pub fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
+    let mut j = json.as_bytes().to_vec();
+    while j.len() % 4 != 0 {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while b.len() % 4 != 0 {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(j);
+    out.extend((b.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(b);
+    out
+}
+
+/// Base64 data URI of `bytes`.
+pub fn data_uri(bytes: &[u8]) -> String {
+    use base64::Engine as _;
+    format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+}

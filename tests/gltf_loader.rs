@@ -1,0 +1,159 @@
+//! The glTF loader: hierarchy transforms, index types, GLB, embedded buffers,
+//! textures (checked in a render), lights and cameras.
+
+mod common;
+
+use common::*;
+use glam::{Quat, Vec3};
+use ssbc::scene::{gltf_loader, LightKind};
+use std::f32::consts::PI;
+
+/// The quad's corners after the two-node hierarchy in `quad_gltf`.
+fn expected_corners() -> Vec<Vec3> {
+    let r = Quat::from_rotation_y(PI / 2.0);
+    [Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, -1.0)]
+        .iter()
+        .map(|&p| (r * p + Vec3::X) * 2.0 + Vec3::Y)
+        .collect()
+}
+
+fn check_quad(scene: &ssbc::Scene) {
+    assert_eq!(scene.triangle_count(), 2);
+    let positions: Vec<Vec3> = scene.indices.iter().map(|&i| Vec3::from(scene.vertices[i as usize].position)).collect();
+    let expected = expected_corners();
+    for (k, &i) in [0usize, 1, 2, 0, 2, 3].iter().enumerate() {
+        assert!((positions[k] - expected[i]).length() < 1e-5, "corner {k}: {} vs {}", positions[k], expected[i]);
+    }
+    for v in &scene.vertices {
+        assert!((Vec3::from(v.normal) - Vec3::Y).length() < 1e-5, "normal stays +Y under rotation about Y");
+    }
+}
+
+fn load_str(dir: &std::path::Path, name: &str, content: &[u8]) -> ssbc::Result<ssbc::Scene> {
+    let path = dir.join(name);
+    std::fs::write(&path, content).unwrap();
+    gltf_loader::load(&path)
+}
+
+#[test]
+fn hierarchy_with_u16_indices_and_embedded_buffer() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = quad_buffer(2);
+    let json = quad_gltf(Some(&data_uri(&bin)), bin.len(), 5123, None, "");
+    check_quad(&load_str(dir.path(), "q.gltf", json.as_bytes()).unwrap());
+}
+
+#[test]
+fn u32_indices_and_external_buffer() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = quad_buffer(4);
+    std::fs::write(dir.path().join("quad data.bin"), &bin).unwrap();
+    let json = quad_gltf(Some("quad%20data.bin"), bin.len(), 5125, None, "");
+    check_quad(&load_str(dir.path(), "q.gltf", json.as_bytes()).unwrap());
+}
+
+#[test]
+fn no_indices_means_sequential_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = quad_buffer(0);
+    let json = quad_gltf(Some(&data_uri(&bin)), bin.len(), 0, None, "");
+    let s = load_str(dir.path(), "q.gltf", json.as_bytes()).unwrap();
+    // 4 vertices without indices: one triangle (the 4th vertex is left over).
+    assert_eq!(s.triangle_count(), 1);
+}
+
+#[test]
+fn glb_with_binary_chunk() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = quad_buffer(2);
+    let json = quad_gltf(None, bin.len(), 5123, None, "");
+    check_quad(&load_str(dir.path(), "q.glb", &glb(&json, &bin)).unwrap());
+}
+
+#[test]
+fn lights_and_cameras_are_read_radiometrically() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = quad_buffer(2);
+    let mut json = quad_gltf(Some(&data_uri(&bin)), bin.len(), 5123, None,
+        r#","cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.1}}],
+"extensionsUsed":["KHR_lights_punctual"],
+"extensions":{"KHR_lights_punctual":{"lights":[{"type":"spot","intensity":7,"color":[1,0.5,0.25],"spot":{"innerConeAngle":0.2,"outerConeAngle":0.5}},{"type":"directional","intensity":3}]}}"#);
+    // Add a camera node and two light nodes as extra roots.
+    json = json.replace(
+        r#""scenes":[{"nodes":[0]}]"#,
+        r#""scenes":[{"nodes":[0,2,3,4]}]"#,
+    );
+    json = json.replace(
+        r#"{"mesh":0,"rotation":[0,0.7071068,0,0.7071068],"translation":[1,0,0]}]"#,
+        r#"{"mesh":0,"rotation":[0,0.7071068,0,0.7071068],"translation":[1,0,0]},
+{"camera":0,"translation":[0,1,5]},
+{"translation":[0,3,0],"rotation":[-0.7071068,0,0,0.7071068],"extensions":{"KHR_lights_punctual":{"light":0}}},
+{"extensions":{"KHR_lights_punctual":{"light":1}}}]"#,
+    );
+    let s = load_str(dir.path(), "q.gltf", json.as_bytes()).unwrap();
+    assert_eq!(s.cameras.len(), 1);
+    assert!((s.cameras[0].position - Vec3::new(0.0, 1.0, 5.0)).length() < 1e-6);
+    assert!((s.cameras[0].forward - -Vec3::Z).length() < 1e-6);
+    assert_eq!(s.lights.len(), 2);
+    let spot = &s.lights[0];
+    assert!(matches!(spot.kind, LightKind::Spot { .. }));
+    assert!((spot.intensity - Vec3::new(7.0, 3.5, 1.75)).length() < 1e-6, "W/sr = intensity x color, no 683 lm/W");
+    assert!((spot.direction - -Vec3::Y).length() < 1e-5, "rotated -90 deg about X points down");
+    assert!((spot.position - Vec3::new(0.0, 3.0, 0.0)).length() < 1e-6);
+    assert!(matches!(s.lights[1].kind, LightKind::Directional));
+    assert!((s.lights[1].direction - -Vec3::Z).length() < 1e-6);
+}
+
+#[test]
+fn base_color_texture_is_sampled_in_the_render() {
+    // A 64x64 texture: left half sRGB (200, 40, 40), right half (30, 60, 220).
+    let dir = tempfile::tempdir().unwrap();
+    let (left, right) = ([200u8, 40, 40], [30u8, 60, 220]);
+    let tex = image::RgbaImage::from_fn(64, 64, |x, _| {
+        let c = if x < 32 { left } else { right };
+        image::Rgba([c[0], c[1], c[2], 255])
+    });
+    tex.save(dir.path().join("tex.png")).unwrap();
+    let (bin, _) = quad_buffer(2);
+    let json = quad_gltf(
+        Some(&data_uri(&bin)),
+        bin.len(),
+        5123,
+        Some(0),
+        r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"baseColorTexture":{"index":0}}}],
+"textures":[{"source":0}],"images":[{"uri":"tex.png"}]"#,
+    );
+    let mut scene = load_str(dir.path(), "t.gltf", json.as_bytes()).unwrap();
+    // The quad spans x 2..6, z -2..2 after the hierarchy, with u = (1 - z/2) / 2.
+    // Looking straight down (image up = -Z), the top of the image sees u > 1/2
+    // (right half of the texture) and the bottom u < 1/2. A perpendicular
+    // directional light of 1 W/m^2 makes the radiance albedo / pi.
+    let center = Vec3::new(4.0, 1.0, 0.0);
+    scene.cameras.push(ssbc::scene::Camera {
+        position: center + Vec3::Y * 3.0,
+        forward: -Vec3::Y,
+        up: -Vec3::Z,
+        yfov: 60f32.to_radians(),
+    });
+    scene.lights.push(ssbc::scene::Light {
+        kind: LightKind::Directional,
+        position: Vec3::ZERO,
+        direction: -Vec3::Y,
+        intensity: Vec3::ONE,
+    });
+    let frame = render_validated(&scene, &small(64, 64));
+    let linear = |c: [u8; 3]| {
+        Vec3::from(c.map(|v| {
+            let s = v as f32 / 255.0;
+            if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
+        }))
+    };
+    for (x, y, texel) in [(32, 12, right), (10, 8, right), (32, 52, left), (50, 56, left)] {
+        let got = pixel(&frame, "direct", x, y);
+        let want = linear(texel) / PI;
+        assert!(
+            (got - want).abs().max_element() < 0.01 * want.max_element(),
+            "pixel ({x},{y}): got {got}, expected {want}"
+        );
+    }
+}
