@@ -124,11 +124,11 @@ fn base_color_texture_is_sampled_in_the_render() {
 "textures":[{"source":0}],"images":[{"uri":"tex.png"}]"#,
     );
     let mut scene = load_str(dir.path(), "t.gltf", json.as_bytes()).unwrap();
-    // The quad spans x 2..6, z -2..2 after the hierarchy, with u = (1 - z/2) / 2.
+    // The quad spans x 0..4, z -2..2 after the hierarchy, with u = (1 - z/2) / 2.
     // Looking straight down (image up = -Z), the top of the image sees u > 1/2
     // (right half of the texture) and the bottom u < 1/2. A perpendicular
     // directional light of 1 W/m^2 makes the radiance albedo / pi.
-    let center = Vec3::new(4.0, 1.0, 0.0);
+    let center = Vec3::new(2.0, 1.0, 0.0);
     scene.cameras.push(ssbc::scene::Camera {
         position: center + Vec3::Y * 3.0,
         forward: -Vec3::Y,

@@ -62,7 +62,7 @@ impl SceneBvh {
 
     /// Closest hit along `origin + t * dir` for t in (tmin, tmax).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+        let ray = Ray::new(origin.into(), robust_direction(dir), tmin, tmax);
         let mut hit = RayHit::none();
         let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
             self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
@@ -71,10 +71,9 @@ impl SceneBvh {
             return None;
         }
         let triangle = self.bvh.primitive_indices[hit.primitive_id as usize];
-        let mut r = ray;
-        r.tmax = hit.t * 1.0001 + 1e-6;
-        let barycentric = self.triangles[triangle as usize].compute_barycentric(&r);
-        Some(Hit { t: hit.t, triangle, barycentric })
+        let tri = &self.triangles[triangle as usize];
+        let p = Vec3::from(ray.origin + ray.direction * hit.t);
+        Some(Hit { t: hit.t, triangle, barycentric: barycentric(tri, p) })
     }
 
     /// Whether anything blocks the segment between `a` and `b` (endpoints excluded
@@ -87,7 +86,7 @@ impl SceneBvh {
         }
         let dir = d / len;
         let eps = RAY_EPSILON * (1.0 + len);
-        let ray = Ray::new(a.into(), dir.into(), eps, len - eps);
+        let ray = Ray::new(a.into(), robust_direction(dir), eps, len - eps);
         !self.bvh.ray_traverse_miss(ray, |r, id| {
             self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
         })
@@ -119,6 +118,28 @@ impl SceneBvh {
         }
         Surface { position, normal, geometric_normal, albedo }
     }
+}
+
+/// Replaces exact zeros in a direction by a tiny value: the wide BVH's slab
+/// test computes 0 x inf = NaN for axis-parallel rays on flat boxes.
+fn robust_direction(d: Vec3) -> Vec3A {
+    let fix = |c: f32| if c == 0.0 { 1e-20 } else { c };
+    Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
+}
+
+/// Barycentric coordinates (of v1, v2) of point `p` in the triangle's plane.
+fn barycentric(t: &Triangle, p: Vec3) -> Vec2 {
+    let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+    let (e1, e2, ep) = (b - a, c - a, p - a);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (dp1, dp2) = (ep.dot(e1), ep.dot(e2));
+    let denom = d11 * d22 - d12 * d12;
+    if denom.abs() < 1e-30 {
+        return Vec2::ZERO;
+    }
+    let v = (d22 * dp1 - d12 * dp2) / denom;
+    let w = (d11 * dp2 - d12 * dp1) / denom;
+    Vec2::new(v, w)
 }
 
 /// sRGB-decoded, bilinearly filtered, repeating texture lookup (as the GPU's
@@ -154,6 +175,8 @@ mod tests {
         let bvh = SceneBvh::new(&scene);
         let hit = bvh.intersect(Vec3::new(0.9, 1.0, 0.9), -Vec3::Y, 0.0, 10.0).expect("floor");
         assert!((hit.t - 1.0).abs() < 1e-4);
+        let b = hit.barycentric;
+        assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0, "barycentrics {b}");
         let s = bvh.surface(&scene, &hit, Vec3::Y);
         assert!((s.normal - Vec3::Y).length() < 1e-5);
         assert!((s.albedo - Vec3::splat(0.73)).length() < 1e-5);

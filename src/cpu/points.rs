@@ -60,7 +60,7 @@ mod tests {
         assert_eq!(pts.positions.len(), 4 * 4096);
         // Floor share of all points matches its share of the area.
         let floor = pts.positions.iter().filter(|p| p[1].abs() < 1e-5).count() as f32 / pts.positions.len() as f32;
-        let floor_area = 4.0 - 0.36 - 0.36; // minus the two blocks' footprints
+        let floor_area = 4.0 + 0.36 + 0.36; // floor plus the two blocks' bottoms
         let expected = floor_area / pts.total_area;
         assert!((floor - expected).abs() < 0.01, "floor share {floor} vs {expected}");
     }

@@ -53,7 +53,7 @@ impl Halton {
     /// hash so paths never run out).
     pub fn sample(&self, index: u64, dim: usize) -> f32 {
         let d = dim % DIMENSIONS;
-        let mut v = radical_inverse(index + 1, PRIMES[d]) + self.offsets[d];
+        let mut v = radical_inverse(index, PRIMES[d]) + self.offsets[d];
         if dim >= DIMENSIONS {
             v += (hash64(index ^ ((dim as u64) << 40)) >> 11) as f64 / (1u64 << 53) as f64;
         }

@@ -372,6 +372,19 @@ impl Loader<'_> {
         if relative.is_absolute() || relative.has_root() {
             return Err(self.err(format!("refusing absolute path '{uri}' (outside the scene's folder)")));
         }
+        // Lexical check first (the file need not exist to be refused), then
+        // the canonical path (catches symlinks out of the folder).
+        let mut depth = 0i32;
+        for c in relative.components() {
+            match c {
+                std::path::Component::ParentDir => depth -= 1,
+                std::path::Component::Normal(_) => depth += 1,
+                _ => {}
+            }
+            if depth < 0 {
+                return Err(self.err(format!("refusing '{uri}': it points outside the scene's folder")));
+            }
+        }
         let path = self.base.join(&relative);
         let resolved = path
             .canonicalize()

@@ -114,7 +114,8 @@ impl Instance {
         let mut validation_features =
             vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
         let user_data = Arc::as_ptr(&validation_log) as *mut c_void;
-        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+        let messenger_info = || {
+            vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
                 vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
                     | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
@@ -126,16 +127,19 @@ impl Instance {
                     | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
             )
             .pfn_user_callback(Some(debug_callback))
-            .user_data(user_data);
+            .user_data(user_data)
+        };
+        // Chained into the instance create info: also reports during
+        // vkCreateInstance/vkDestroyInstance.
+        let mut chained_messenger = messenger_info();
         let mut create_info = vk::InstanceCreateInfo::default()
             .application_info(&app_info)
             .enabled_layer_names(&layers)
             .enabled_extension_names(&extensions);
         if validation {
-            // Chained messenger: also reports during vkCreate/DestroyInstance.
             create_info = create_info
                 .push_next(&mut validation_features)
-                .push_next(&mut messenger_info);
+                .push_next(&mut chained_messenger);
         }
         // SAFETY: every pointer in create_info refers to locals alive here.
         let raw = unsafe { entry.create_instance(&create_info, None) }.map_err(|e| match e {
@@ -152,7 +156,7 @@ impl Instance {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &raw);
             // SAFETY: valid instance; messenger_info's user data outlives the
             // messenger (destroyed in Drop before validation_log).
-            let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info, None) };
+            let messenger = unsafe { loader.create_debug_utils_messenger(&messenger_info(), None) };
             match messenger {
                 Ok(m) => Some((loader, m)),
                 Err(result) => {
