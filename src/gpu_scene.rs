@@ -35,13 +35,31 @@ pub struct GpuScene {
 impl GpuScene {
     /// Uploads `scene` (waits for the texture copy to finish).
     pub fn upload(device: &Arc<Device>, pool: &mut CommandPool, scene: &Scene) -> Result<Self> {
-        let vertices = Buffer::with_data(device, "vertices", &scene.vertices, vk::BufferUsageFlags::VERTEX_BUFFER)?;
-        let indices = Buffer::with_data(device, "indices", &scene.indices, vk::BufferUsageFlags::INDEX_BUFFER)?;
+        let vertices = Buffer::with_data(
+            device,
+            "vertices",
+            &scene.vertices,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+        )?;
+        let indices = Buffer::with_data(
+            device,
+            "indices",
+            &scene.indices,
+            vk::BufferUsageFlags::INDEX_BUFFER,
+        )?;
         let mats: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::new).collect();
-        let materials = Buffer::with_data(device, "materials", &mats, vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        let materials = Buffer::with_data(
+            device,
+            "materials",
+            &mats,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
 
         // One array layer per texture, all resized to the largest size.
-        let (w, h) = scene.textures.iter().fold((1, 1), |(w, h), t| (w.max(t.width), h.max(t.height)));
+        let (w, h) = scene
+            .textures
+            .iter()
+            .fold((1, 1), |(w, h), t| (w.max(t.width), h.max(t.height)));
         let (w, h) = (w.min(MAX_TEXTURE_SIDE), h.min(MAX_TEXTURE_SIDE));
         let layers = scene.textures.len().max(1) as u32;
         let mut texels = Vec::with_capacity((w * h * 4 * layers) as usize);
@@ -54,7 +72,8 @@ impl GpuScene {
             } else {
                 let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone())
                     .expect("texture size matches its data");
-                let resized = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
+                let resized =
+                    image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
                 texels.extend_from_slice(resized.as_raw());
             }
         }
@@ -84,7 +103,8 @@ impl GpuScene {
         let done = rec.submit()?;
         device.wait(done)?;
 
-        let texture_sampler = Sampler::new(device, vk::Filter::LINEAR, vk::SamplerAddressMode::REPEAT)?;
+        let texture_sampler =
+            Sampler::new(device, vk::Filter::LINEAR, vk::SamplerAddressMode::REPEAT)?;
         Ok(Self {
             vertices,
             indices,

@@ -24,7 +24,10 @@ impl GpuLight {
     pub fn new(light: &Light, first_layer: u32, layers: u32) -> Self {
         let (kind, cos_inner, cos_outer) = match light.kind {
             LightKind::Point => (0.0, -1.0, -1.0),
-            LightKind::Spot { inner_cone, outer_cone } => (1.0, inner_cone.cos(), outer_cone.cos()),
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => (1.0, inner_cone.cos(), outer_cone.cos()),
             LightKind::Directional => (2.0, 1.0, 1.0),
         };
         Self {
@@ -49,7 +52,10 @@ pub struct ShadowView {
 impl ShadowView {
     /// Packs a projection and its depth parameters.
     pub fn new(view_proj: Mat4, params: Vec4) -> Self {
-        Self { view_proj: view_proj.to_cols_array_2d(), params: params.into() }
+        Self {
+            view_proj: view_proj.to_cols_array_2d(),
+            params: params.into(),
+        }
     }
 }
 
@@ -82,7 +88,9 @@ mod tests {
     fn gpu_types_match_glsl() {
         let glsl = include_str!("../shaders/include/common.glsl");
         let fields = |name: &str| -> Vec<(String, usize)> {
-            let start = glsl.find(&format!("struct {name} {{")).expect("struct in common.glsl");
+            let start = glsl
+                .find(&format!("struct {name} {{"))
+                .expect("struct in common.glsl");
             let body = &glsl[start..start + glsl[start..].find("};").unwrap()];
             body.lines()
                 .skip(1)
@@ -106,11 +114,24 @@ mod tests {
         };
         check(
             "GpuLight",
-            &["position_kind", "direction_cos_outer", "intensity_cos_inner", "shadow"],
+            &[
+                "position_kind",
+                "direction_cos_outer",
+                "intensity_cos_inner",
+                "shadow",
+            ],
             std::mem::size_of::<super::GpuLight>(),
         );
-        check("ShadowView", &["view_proj", "params"], std::mem::size_of::<super::ShadowView>());
-        check("GpuMaterial", &["base_color", "texture"], std::mem::size_of::<super::GpuMaterial>());
+        check(
+            "ShadowView",
+            &["view_proj", "params"],
+            std::mem::size_of::<super::ShadowView>(),
+        );
+        check(
+            "GpuMaterial",
+            &["base_color", "texture"],
+            std::mem::size_of::<super::GpuMaterial>(),
+        );
     }
 }
 

@@ -5,11 +5,17 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-use ssbc::renderer::{RenderSettings, Renderer, RendererConfig};
+use ssbc::cpu::vpl::VplSettings;
+use ssbc::passes::ssbc::{Integration, SsbcSettings};
+use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 use ssbc::vk::DeviceSelector;
 
 #[derive(Parser)]
-#[command(name = "ssbc", version, about = "Screen-Space Bias Compensation for VPL global illumination, on Vulkan")]
+#[command(
+    name = "ssbc",
+    version,
+    about = "Screen-Space Bias Compensation for VPL global illumination, on Vulkan"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -23,13 +29,36 @@ enum Command {
 
 /// Parses `WxH`.
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("'{s}' is not WxH"))?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("bad width in '{s}'"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("bad height in '{s}'"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not WxH"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in '{s}'"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in '{s}'"))?;
     if w == 0 || h == 0 {
         return Err(format!("size {w}x{h} is empty"));
     }
     Ok((w, h))
+}
+
+/// Parses the clamping bound: `auto`, `inf`, or a positive number [1/m^2].
+fn parse_bound(s: &str) -> Result<Bound, String> {
+    match s {
+        "auto" => Ok(Bound::Auto),
+        "inf" | "infinity" => Ok(Bound::Value(f32::INFINITY)),
+        _ => {
+            let b: f32 = s.parse().map_err(|_| format!("'{s}' is not a number, 'inf' or 'auto'"))?;
+            if b.is_nan() || b <= 0.0 {
+                return Err(format!("the bound must be positive, got {s}"));
+            }
+            Ok(Bound::Value(b))
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -46,6 +75,10 @@ struct RenderArgs {
     /// Also write the component layers into the EXR as named channels.
     #[arg(long)]
     layers: bool,
+    /// Write this layer as the output image instead of the final image
+    /// (direct, indirect_bounded, residual_1, ...).
+    #[arg(long, value_name = "LAYER")]
+    output_layer: Option<String>,
     /// Write per-pass GPU timings as JSON.
     #[arg(long, value_name = "FILE.json")]
     timings: Option<PathBuf>,
@@ -55,6 +88,35 @@ struct RenderArgs {
     /// Shadow-map resolution (texels per side).
     #[arg(long, default_value_t = 1024)]
     shadow_map_size: u32,
+    /// Number of VPLs wanted (0 switches indirect light off).
+    #[arg(long, default_value_t = 256)]
+    vpls: usize,
+    /// Maximum diffuse bounces of a light path (VPLs per path), at least 1.
+    #[arg(long, default_value_t = 4)]
+    bounces: u32,
+    /// Seed of the low-discrepancy light-path sequence.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// ISM tile side per VPL in texels (power of two).
+    #[arg(long = "ism-res", default_value_t = 64)]
+    ism_res: u32,
+    /// Scene points each VPL splats into its ISM.
+    #[arg(long, default_value_t = 1024)]
+    points_per_vpl: u32,
+    /// Clamping bound b of the geometry term in 1/m^2: a number, `inf` (no
+    /// clamping), or `auto` = (10 / scene bounding-box diagonal)^2, i.e.
+    /// clamping starts within a tenth of the scene's diagonal.
+    #[arg(long, default_value = "auto", value_parser = parse_bound)]
+    bound: Bound,
+    /// SSBC steps K (0 = no compensation).
+    #[arg(long, default_value_t = 2)]
+    steps: u32,
+    /// SSBC integration: hierarchical (the paper's) or brute (reference).
+    #[arg(long, value_enum, default_value_t = Integration::Hierarchical)]
+    integration: Integration,
+    /// Lower clamp of cos(view angle) in the pixel area A_y (grazing views).
+    #[arg(long, default_value_t = 0.2)]
+    min_cos_view: f32,
     /// Exposure multiplier for PNG output.
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
@@ -75,19 +137,39 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     scene.ensure_light();
     let config = RendererConfig {
         validation: args.validate || validation_from_env(),
-        device: DeviceSelector { name_contains: args.device.clone() },
+        device: DeviceSelector {
+            name_contains: args.device.clone(),
+        },
     };
     let settings = RenderSettings {
         width: args.size.0,
         height: args.size.1,
         camera: args.camera,
         shadow_map_size: args.shadow_map_size,
+        vpl: VplSettings { count: args.vpls, bounces: args.bounces, seed: args.seed },
+        ism_tile: args.ism_res,
+        points_per_vpl: args.points_per_vpl,
+        bound: args.bound,
+        ssbc: SsbcSettings {
+            steps: args.steps,
+            integration: args.integration,
+            min_cos_view: args.min_cos_view,
+            ..Default::default()
+        },
+        debug_readback: false,
     };
     let mut renderer = Renderer::new(&config)?;
     let log = renderer.validation_log();
     let frame = renderer.render(&scene, &settings);
     drop(renderer);
-    let frame = frame?;
+    let mut frame = frame?;
+    if let Some(name) = &args.output_layer {
+        let layer = frame.layer(name).cloned().ok_or_else(|| {
+            let names: Vec<&str> = frame.layers.iter().map(|l| l.name.as_str()).collect();
+            ssbc::Error::InvalidParameter(format!("no layer '{name}' (have: final, {})", names.join(", ")))
+        })?;
+        frame.image = layer;
+    }
     ssbc::output::write_image(&frame, &args.output, args.layers, args.exposure)?;
     log::info!("wrote {}", args.output.display());
     if let Some(path) = &args.timings {

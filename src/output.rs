@@ -10,13 +10,21 @@ use crate::error::{Error, Result};
 use crate::renderer::{Frame, Layer};
 
 fn output_err(path: &Path, message: impl ToString) -> Error {
-    Error::Output { path: path.display().to_string(), message: message.to_string() }
+    Error::Output {
+        path: path.display().to_string(),
+        message: message.to_string(),
+    }
 }
 
 /// Writes `frame` to `path`: `.exr` (with the component layers when
 /// `with_layers`) or `.png` (exposure-scaled, clamped, sRGB-encoded).
 pub fn write_image(frame: &Frame, path: &Path, with_layers: bool, exposure: f32) -> Result<()> {
-    match path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).as_deref() {
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
         Some("exr") => {
             let extra: &[Layer] = if with_layers { &frame.layers } else { &[] };
             write_exr(path, frame.width, frame.height, &frame.image, extra)
@@ -28,7 +36,13 @@ pub fn write_image(frame: &Frame, path: &Path, with_layers: bool, exposure: f32)
 
 /// Writes `image` as the default R,G,B channels and each of `layers` as
 /// `name.R`, `name.G`, `name.B`, all 32-bit float.
-pub fn write_exr(path: &Path, width: u32, height: u32, image: &Layer, layers: &[Layer]) -> Result<()> {
+pub fn write_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    image: &Layer,
+    layers: &[Layer],
+) -> Result<()> {
     let channel = |name: String, layer: &Layer, c: usize| {
         let samples: Vec<f32> = layer.rgba.chunks_exact(4).map(|p| p[c]).collect();
         AnyChannel::new(name.as_str(), FlatSamples::F32(samples))
@@ -54,7 +68,11 @@ pub fn write_exr(path: &Path, width: u32, height: u32, image: &Layer, layers: &[
 
 /// Linear to sRGB transfer function.
 pub fn srgb_encode(x: f32) -> f32 {
-    if x <= 0.0031308 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
+    if x <= 0.0031308 {
+        12.92 * x
+    } else {
+        1.055 * x.powf(1.0 / 2.4) - 0.055
+    }
 }
 
 /// Writes linear RGBA radiance as an 8-bit sRGB PNG (scaled by `exposure`, clamped).
@@ -84,6 +102,18 @@ pub fn timings_table(frame: &Frame) -> String {
         s += &format!("  {:<24} {:>10.3} ms\n", p.name, p.gpu_ms);
     }
     s += &format!("  {:<24} {:>10.3} ms\n", "frame", t.frame_gpu_ms);
+    for (k, step) in t.ssbc_steps.iter().enumerate() {
+        s += &format!(
+            "  ssbc step {}: {:.1} samples/pixel on average, {} at most\n",
+            k + 1,
+            step.samples_per_pixel_avg,
+            step.samples_per_pixel_max
+        );
+    }
+    s += &format!(
+        "  CPU: BVH {:.1} ms, {} VPLs from {} light paths {:.1} ms, ISM points {:.1} ms; bound b = {}\n",
+        t.cpu_ms.bvh_build, t.vpl_count, t.light_paths, t.cpu_ms.vpl_generation, t.cpu_ms.point_sampling, t.bound
+    );
     s
 }
 
@@ -97,7 +127,14 @@ pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
             buf[i..i + 4].copy_from_slice(&[r, g, b, 1.0]);
         },
     )
-    .map_err(|e| Error::Scene { path: path.display().to_string(), message: format!("cannot read EXR: {e}") })?;
+    .map_err(|e| Error::Scene {
+        path: path.display().to_string(),
+        message: format!("cannot read EXR: {e}"),
+    })?;
     let size = image.layer_data.size;
-    Ok((size.width() as u32, size.height() as u32, image.layer_data.channel_data.pixels.1))
+    Ok((
+        size.width() as u32,
+        size.height() as u32,
+        image.layer_data.channel_data.pixels.1,
+    ))
 }

@@ -1,9 +1,10 @@
 //! The frame: which passes run in which order, and what comes back.
 //!
 //! ```text
-//! scene ──upload──▶ GpuScene
-//!                      │
-//!   shadow_maps ──▶ gbuffer ──▶ direct_lighting ──▶ (readback: layers + timings)
+//!  CPU: BVH ─▶ VPLs (light tracing) ─▶ ISM points
+//!  GPU: shadow_maps ─▶ ism_splat ─▶ ism_pullpush ─▶ gbuffer ─▶ direct_lighting
+//!        ─▶ indirect_bounded (S0 = T Le + T_b L^) ─▶ ssbc_geometry_mips
+//!        ─▶ ssbc_step_1 … ssbc_step_K (S_k = T_r S_{k-1}, final += S_k)
 //! ```
 //!
 //! A pass is added by giving it a file in `passes/`, creating it in
@@ -11,18 +12,26 @@
 //! passes whose outputs it reads and whose inputs it writes.
 
 use std::sync::Arc;
+use std::time::Instant;
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 use serde::Serialize;
 
+use crate::cpu::bvh::SceneBvh;
+use crate::cpu::points::sample_points;
+use crate::cpu::vpl::{self, Vpl, VplSettings};
 use crate::error::{Error, Result};
 use crate::gpu_scene::GpuScene;
+use crate::gpu_types::GpuVpl;
 use crate::passes::direct_lighting::DirectLightingPass;
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
+use crate::passes::indirect_bounded::IndirectBoundedPass;
+use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
+use crate::passes::ssbc::{Integration, SsbcCamera, SsbcPass, SsbcSettings};
 use crate::scene::Scene;
-use crate::vk::{Access, Buffer, CommandPool, DescriptorPool, Device, DeviceSelector, GpuProfiler, Image, Instance, PassTiming, ValidationLog};
+use crate::vk::{Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector, GpuProfiler, Image, Instance, PassTiming, ValidationLog};
 
 /// How to create the renderer.
 #[derive(Clone, Debug, Default)]
@@ -31,6 +40,27 @@ pub struct RendererConfig {
     pub validation: bool,
     /// Which device to use.
     pub device: DeviceSelector,
+}
+
+/// The clamping bound b of the geometry term [1/m²].
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum Bound {
+    /// Derived from the scene: b = (10 / diagonal)², i.e. clamping starts at a
+    /// tenth of the scene's bounding-box diagonal.
+    #[default]
+    Auto,
+    /// A fixed value (`f32::INFINITY`: no clamping).
+    Value(f32),
+}
+
+impl Bound {
+    /// The value for a scene whose bounding-box diagonal is `diagonal`.
+    pub fn resolve(self, diagonal: f32) -> f32 {
+        match self {
+            Bound::Auto => (10.0 / diagonal.max(1e-6)).powi(2),
+            Bound::Value(b) => b,
+        }
+    }
 }
 
 /// What to render.
@@ -44,11 +74,34 @@ pub struct RenderSettings {
     pub camera: Option<usize>,
     /// Shadow-map side in texels.
     pub shadow_map_size: u32,
+    /// VPL distribution (count 0 switches indirect light off).
+    pub vpl: VplSettings,
+    /// ISM tile side in texels (power of two).
+    pub ism_tile: u32,
+    /// Scene points each VPL splats into its ISM.
+    pub points_per_vpl: u32,
+    /// Clamping bound b.
+    pub bound: Bound,
+    /// Bias compensation.
+    pub ssbc: SsbcSettings,
+    /// Also read back the G-buffer and the ISM atlas (for tests and tools).
+    pub debug_readback: bool,
 }
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        Self { width: 1024, height: 768, camera: None, shadow_map_size: 1024 }
+        Self {
+            width: 1024,
+            height: 768,
+            camera: None,
+            shadow_map_size: 1024,
+            vpl: VplSettings::default(),
+            ism_tile: 64,
+            points_per_vpl: 1024,
+            bound: Bound::Auto,
+            ssbc: SsbcSettings::default(),
+            debug_readback: false,
+        }
     }
 }
 
@@ -61,7 +114,29 @@ pub struct Layer {
     pub rgba: Vec<f32>,
 }
 
-/// GPU timings of one frame.
+/// CPU time of the frame's CPU stages.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CpuTimings {
+    /// BVH build.
+    pub bvh_build: f64,
+    /// VPL generation by light tracing.
+    pub vpl_generation: f64,
+    /// ISM point sampling.
+    pub point_sampling: f64,
+}
+
+/// Per-step SSBC figures.
+#[derive(Clone, Debug, Serialize)]
+pub struct SsbcStepTiming {
+    /// GPU time of the step (radiance mips, residual, accumulation).
+    pub gpu_ms: f64,
+    /// Mean texel evaluations per geometry pixel.
+    pub samples_per_pixel_avg: f64,
+    /// Largest texel evaluations of any pixel.
+    pub samples_per_pixel_max: u32,
+}
+
+/// GPU timings of one frame, and the figures that explain them.
 #[derive(Clone, Debug, Serialize)]
 pub struct Timings {
     /// Device name.
@@ -74,6 +149,41 @@ pub struct Timings {
     pub passes: Vec<PassTiming>,
     /// First to last timestamp of the frame.
     pub frame_gpu_ms: f64,
+    /// CPU stages [ms].
+    pub cpu_ms: CpuTimings,
+    /// VPLs used.
+    pub vpl_count: usize,
+    /// Light paths traced to make them.
+    pub light_paths: u64,
+    /// ISM tile side.
+    pub ism_tile: u32,
+    /// Points per VPL.
+    pub points_per_vpl: u32,
+    /// Clamping bound b [1/m²] (a number, or the string "inf").
+    pub bound: serde_json::Value,
+    /// SSBC integration method.
+    pub integration: Integration,
+    /// Per-step SSBC figures.
+    pub ssbc_steps: Vec<SsbcStepTiming>,
+    /// Refinements that found the per-pixel stack full (texel added unrefined).
+    pub ssbc_stack_overflows: u32,
+}
+
+/// The ISM atlas, read back for diagnostics.
+#[derive(Clone, Debug)]
+pub struct IsmReadback {
+    /// Atlas width.
+    pub width: u32,
+    /// Atlas height.
+    pub height: u32,
+    /// Tile side.
+    pub tile: u32,
+    /// Tiles per row.
+    pub tiles_per_row: u32,
+    /// Distances are stored divided by this.
+    pub far: f32,
+    /// Level 0 after pull-push (negative: hole).
+    pub depth: Vec<f32>,
 }
 
 /// A rendered frame: the final image, its component layers and timings.
@@ -85,10 +195,17 @@ pub struct Frame {
     pub height: u32,
     /// The final image (linear radiance).
     pub image: Layer,
-    /// Component layers (`direct`, ...).
+    /// Component layers (`direct`, `indirect_bounded`, `residual_k`, and with
+    /// debug readback `gbuffer_position`, `gbuffer_normal`, `gbuffer_albedo`).
     pub layers: Vec<Layer>,
     /// Per-pass GPU timings.
     pub timings: Timings,
+    /// The VPLs used.
+    pub vpls: Vec<Vpl>,
+    /// The bound b used.
+    pub bound: f32,
+    /// The ISM atlas (with debug readback).
+    pub ism: Option<IsmReadback>,
 }
 
 impl Frame {
@@ -105,8 +222,11 @@ impl Frame {
 pub struct Renderer {
     // Field order is drop order: passes and pools before the device.
     shadow_maps: ShadowMapPass,
+    ism: IsmPass,
     gbuffer: GBufferPass,
     direct_lighting: DirectLightingPass,
+    indirect_bounded: IndirectBoundedPass,
+    ssbc: SsbcPass,
     profiler: GpuProfiler,
     commands: CommandPool,
     device: Arc<Device>,
@@ -127,6 +247,13 @@ fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
+fn ms_since(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Largest number of ISM points uploaded (VPLs x points per VPL).
+const MAX_ISM_POINTS: u64 = 1 << 26;
+
 impl Renderer {
     /// Creates the instance, device and every pipeline.
     pub fn new(config: &RendererConfig) -> Result<Self> {
@@ -135,8 +262,11 @@ impl Renderer {
         let device = Device::new(instance, &config.device, &[])?;
         Ok(Self {
             shadow_maps: ShadowMapPass::new(&device)?,
+            ism: IsmPass::new(&device)?,
             gbuffer: GBufferPass::new(&device)?,
             direct_lighting: DirectLightingPass::new(&device)?,
+            indirect_bounded: IndirectBoundedPass::new(&device)?,
+            ssbc: SsbcPass::new(&device)?,
             profiler: GpuProfiler::new(&device, 64)?,
             commands: CommandPool::new(&device)?,
             device,
@@ -154,67 +284,194 @@ impl Renderer {
         self.validation_log.clone()
     }
 
-    /// Renders `scene` and reads the result back.
-    pub fn render(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Frame> {
-        let (w, h) = (settings.width, settings.height);
-        check_size(&self.device, w, h)?;
+    fn check_settings(&self, settings: &RenderSettings) -> Result<()> {
+        check_size(&self.device, settings.width, settings.height)?;
+        let max = self.device.limits().max_image_dimension2_d;
         let sm = settings.shadow_map_size;
-        if sm < 16 || sm > self.device.limits().max_image_dimension2_d {
+        if sm < 16 || sm > max {
+            return Err(Error::InvalidParameter(format!("shadow map size {sm} outside 16..={max}")));
+        }
+        if let Bound::Value(b) = settings.bound {
+            if b.is_nan() || b <= 0.0 {
+                return Err(Error::InvalidParameter(format!("bound {b} must be positive (or inf)")));
+            }
+        }
+        if settings.vpl.count > 0 && settings.points_per_vpl == 0 {
+            return Err(Error::InvalidParameter("--points-per-vpl must be at least 1".into()));
+        }
+        if settings.vpl.count as u64 * settings.points_per_vpl as u64 > MAX_ISM_POINTS {
             return Err(Error::InvalidParameter(format!(
-                "shadow map size {sm} outside 16..={}",
-                self.device.limits().max_image_dimension2_d
+                "{} VPLs x {} points per VPL exceeds {MAX_ISM_POINTS} ISM points",
+                settings.vpl.count, settings.points_per_vpl
             )));
         }
+        settings.ssbc.validate()
+    }
+
+    /// Renders `scene` and reads the result back.
+    pub fn render(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Frame> {
+        self.check_settings(settings)?;
+        let (w, h) = (settings.width, settings.height);
         scene.validate()?;
         let camera = scene.camera(settings.camera)?;
         let device = self.device.clone();
+        let bounds = scene.bounds();
+        let diagonal = 2.0 * bounds.radius();
+        let bound = settings.bound.resolve(diagonal);
 
+        // CPU: light tracing and ISM points.
+        let mut cpu_ms = CpuTimings::default();
+        let t = Instant::now();
+        let bvh = SceneBvh::new(scene);
+        cpu_ms.bvh_build = ms_since(t);
+        let t = Instant::now();
+        let vpl_set = vpl::generate(scene, &bvh, &settings.vpl)?;
+        cpu_ms.vpl_generation = ms_since(t);
+        let t = Instant::now();
+        let points = sample_points(scene, vpl_set.vpls.len(), settings.points_per_vpl as usize, settings.vpl.seed);
+        cpu_ms.point_sampling = ms_since(t);
+        let gpu_vpls: Vec<GpuVpl> = vpl_set.vpls.iter().map(GpuVpl::new).collect();
+
+        // GPU resources of this frame.
         let gpu_scene = GpuScene::upload(&device, &mut self.commands, scene)?;
-        let shadows = self.shadow_maps.prepare(&device, &scene.lights, &gpu_scene.bounds, sm)?;
+        let shadows = self.shadow_maps.prepare(&device, &scene.lights, &bounds, settings.shadow_map_size)?;
+        let ism = self.ism.prepare(&device, &gpu_vpls, &points, settings.ism_tile, diagonal)?;
         let gbuffer = GBuffer::new(&device, (w, h))?;
-        let direct = crate::passes::storage_image(&device, "direct", vk::Format::R32G32B32A32_SFLOAT, (w, h), vk::ImageUsageFlags::empty())?;
-        let pool = DescriptorPool::new(&device, &[self.gbuffer.set_layout(), self.direct_lighting.set_layout()])?;
+        let layer_image = |name: &str| {
+            crate::passes::storage_image(&device, name, vk::Format::R32G32B32A32_SFLOAT, (w, h), vk::ImageUsageFlags::empty())
+        };
+        let direct = layer_image("direct")?;
+        let indirect = layer_image("indirect_bounded")?;
+        let s0 = layer_image("s0")?;
+        let steps = settings.ssbc.steps;
+        let ssbc = self.ssbc.prepare(&device, (w, h), steps)?;
+        let mut layouts: Vec<&DescriptorSetLayout> =
+            vec![self.gbuffer.set_layout(), self.direct_lighting.set_layout(), self.indirect_bounded.set_layout()];
+        layouts.extend(self.ism.set_layouts(settings.ism_tile));
+        layouts.extend(self.ssbc.set_layouts((w, h), steps));
+        let pool = DescriptorPool::new(&device, &layouts)?;
 
         // Near and far planes enclose the scene's bounding sphere.
-        let b = gpu_scene.bounds;
-        let far = (camera.position - b.center()).length() + b.radius() * 1.05;
+        let far = (camera.position - bounds.center()).length() + bounds.radius() * 1.05;
         let near = (far * 1e-4).max(1e-4);
         let view_proj = camera.projection(w as f32 / h as f32, near, far) * camera.view();
+        let ssbc_camera = SsbcCamera {
+            position: camera.position,
+            forward: camera.forward,
+            pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
+        };
 
-        let outputs: [(&str, &Image); 1] = [("direct", &direct)];
-        let readback: Vec<Buffer> = outputs
+        // What to read back.
+        let final_image = if steps > 0 { &ssbc.final_image } else { &s0 };
+        let mut outputs: Vec<(String, &Image)> = vec![
+            ("final".into(), final_image),
+            ("direct".into(), &direct),
+            ("indirect_bounded".into(), &indirect),
+        ];
+        for (k, r) in ssbc.residuals.iter().enumerate() {
+            outputs.push((format!("residual_{}", k + 1), r));
+        }
+        if settings.debug_readback {
+            outputs.push(("gbuffer_position".into(), &gbuffer.position));
+            outputs.push(("gbuffer_normal".into(), &gbuffer.normal));
+            outputs.push(("gbuffer_albedo".into(), &gbuffer.albedo));
+        }
+        let mut images: Vec<&Image> = outputs.iter().map(|o| o.1).collect();
+        images.extend(ssbc.samples.iter());
+        if settings.debug_readback {
+            images.push(&ism.pyramid);
+        }
+        let readback: Vec<Buffer> = images
             .iter()
-            .map(|(name, _)| {
-                Buffer::new(&device, name, (w * h * 16) as u64, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
+            .map(|img| {
+                let texel = if img.desc.format == vk::Format::R32G32B32A32_SFLOAT { 16 } else { 4 };
+                let size = img.desc.width as u64 * img.desc.height as u64 * texel;
+                Buffer::new(&device, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
             })
             .collect::<Result<_>>()?;
 
+        // Record the frame.
         let mut rec = self.commands.begin()?;
         self.profiler.begin_frame(rec.cmd);
         self.shadow_maps.record(&mut rec, &mut self.profiler, &gpu_scene, &shadows);
+        if ism.vpl_count > 0 {
+            self.ism.record(&mut rec, &mut self.profiler, &pool, &ism)?;
+        }
         self.gbuffer.record(&mut rec, &mut self.profiler, &pool, &gpu_scene, &gbuffer, view_proj, camera.position)?;
         self.direct_lighting.record(&mut rec, &mut self.profiler, &pool, &gbuffer, &shadows, &direct)?;
+        self.indirect_bounded.record(&mut rec, &mut self.profiler, &pool, &gbuffer, &direct, &ism, bound, &indirect, &s0)?;
+        if steps > 0 {
+            self.ssbc.record(&mut rec, &mut self.profiler, &pool, &gbuffer, &s0, &ssbc_camera, bound, &settings.ssbc, &ssbc)?;
+        }
         self.profiler.end_frame(rec.cmd);
-        for ((_, image), buffer) in outputs.iter().zip(&readback) {
+        for (image, buffer) in images.iter().zip(&readback) {
             rec.copy_image_to_buffer(image, buffer);
             rec.use_buffer(buffer, Access::HostRead);
         }
+        rec.use_buffer(&ssbc.stats, Access::HostRead);
         rec.flush_barriers();
         let done = rec.submit()?;
         device.wait(done)?;
 
+        // Read back.
         let (passes, frame_gpu_ms) = self.profiler.resolve()?;
         let mut layers = Vec::new();
         for ((name, _), buffer) in outputs.iter().zip(&readback) {
-            layers.push(Layer { name: name.to_string(), rgba: buffer.read::<f32>()? });
+            layers.push(Layer { name: name.clone(), rgba: buffer.read::<f32>()? });
         }
-        let image = Layer { name: "final".into(), rgba: layers[0].rgba.clone() };
+        let image = layers.remove(0);
+        let mut ssbc_steps = Vec::new();
+        let geometry: Vec<bool> = layers[0].rgba.chunks_exact(4).map(|p| p[3] != 0.0).collect();
+        for (k, buffer) in readback[outputs.len()..outputs.len() + steps as usize].iter().enumerate() {
+            let counts: Vec<u32> = buffer.read()?;
+            let on_geometry: Vec<u32> = counts.iter().zip(&geometry).filter(|(_, g)| **g).map(|(c, _)| *c).collect();
+            let name = format!("ssbc_step_{}", k + 1);
+            ssbc_steps.push(SsbcStepTiming {
+                gpu_ms: passes.iter().find(|p| p.name == name).map(|p| p.gpu_ms).unwrap_or(0.0),
+                samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>() / on_geometry.len().max(1) as f64,
+                samples_per_pixel_max: on_geometry.iter().copied().max().unwrap_or(0),
+            });
+        }
+        let ism_readback = if settings.debug_readback {
+            Some(IsmReadback {
+                width: ism.pyramid.desc.width,
+                height: ism.pyramid.desc.height,
+                tile: ism.tile,
+                tiles_per_row: ism.tiles_per_row,
+                far: ism.far,
+                depth: readback.last().expect("ism readback").read()?,
+            })
+        } else {
+            None
+        };
+        let stack_overflows = ssbc.stats.read::<u32>()?[0];
+        if stack_overflows > 0 {
+            log::warn!("SSBC: {stack_overflows} refinements found the per-pixel stack full (added unrefined)");
+        }
         Ok(Frame {
             width: w,
             height: h,
             image,
             layers,
-            timings: Timings { device: device.name().to_string(), width: w, height: h, passes, frame_gpu_ms },
+            timings: Timings {
+                device: device.name().to_string(),
+                width: w,
+                height: h,
+                passes,
+                frame_gpu_ms,
+                cpu_ms,
+                vpl_count: vpl_set.vpls.len(),
+                light_paths: vpl_set.paths,
+                ism_tile: settings.ism_tile,
+                points_per_vpl: settings.points_per_vpl,
+                bound: if bound.is_finite() { serde_json::json!(bound) } else { serde_json::json!("inf") },
+                integration: settings.ssbc.integration,
+                ssbc_steps,
+                ssbc_stack_overflows: stack_overflows,
+            },
+            vpls: vpl_set.vpls,
+            bound,
+            ism: ism_readback,
         })
     }
 }

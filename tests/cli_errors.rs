@@ -8,23 +8,38 @@ use std::process::Command;
 /// Runs `ssbc render ARGS` (validation on) and returns (success, stderr).
 fn run(args: &[&str], env: &[(&str, &str)]) -> (bool, String) {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_ssbc"));
-    cmd.arg("render").args(args).arg("--validate").env("RUST_LOG", "warn");
+    cmd.arg("render")
+        .args(args)
+        .arg("--validate")
+        .env("RUST_LOG", "warn");
     for (k, v) in env {
         cmd.env(k, v);
     }
     let out = cmd.output().expect("run ssbc");
-    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 /// Asserts a clean failure whose error line contains `needle`.
 fn fails_with(args: &[&str], env: &[(&str, &str)], needle: &str) {
     let (ok, stderr) = run(args, env);
     assert!(!ok, "expected failure for {args:?}, stderr:\n{stderr}");
-    assert!(!stderr.contains("panicked"), "panic for {args:?}:\n{stderr}");
-    let error_lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
-    assert_eq!(error_lines.len(), 1, "one error line for {args:?}, got:\n{stderr}");
     assert!(
-        error_lines[0].to_lowercase().contains(&needle.to_lowercase()),
+        !stderr.contains("panicked"),
+        "panic for {args:?}:\n{stderr}"
+    );
+    let error_lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(
+        error_lines.len(),
+        1,
+        "one error line for {args:?}, got:\n{stderr}"
+    );
+    assert!(
+        error_lines[0]
+            .to_lowercase()
+            .contains(&needle.to_lowercase()),
         "error for {args:?} should mention '{needle}': {}",
         error_lines[0]
     );
@@ -38,7 +53,11 @@ fn write(dir: &Path, name: &str, bytes: &[u8]) -> String {
 
 #[test]
 fn missing_file() {
-    fails_with(&["/nonexistent/scene.gltf", "-o", "/tmp/x.exr"], &[], "no such file");
+    fails_with(
+        &["/nonexistent/scene.gltf", "-o", "/tmp/x.exr"],
+        &[],
+        "no such file",
+    );
 }
 
 #[test]
@@ -68,8 +87,10 @@ fn accessor_out_of_range() {
     let p = write(dir.path(), "a.gltf", json.as_bytes());
     fails_with(&[&p], &[], "accessor index 42 out of range");
     // An accessor whose data runs past its buffer view.
-    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, "")
-        .replace(r#""componentType":5126,"count":4,"type":"VEC3","min""#, r#""componentType":5126,"count":400,"type":"VEC3","min""#);
+    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, "").replace(
+        r#""componentType":5126,"count":4,"type":"VEC3","min""#,
+        r#""componentType":5126,"count":400,"type":"VEC3","min""#,
+    );
     let p = write(dir.path(), "b.gltf", json.as_bytes());
     fails_with(&[&p], &[], "runs past the end");
 }
@@ -102,11 +123,15 @@ fn buffer_uri_outside_the_scene_folder_is_refused() {
         let p = write(&inner, "escape.gltf", json.as_bytes());
         let (ok, stderr) = run(&[&p], &[]);
         assert!(!ok && !stderr.contains("panicked"), "{uri}: {stderr}");
-        assert!(stderr.contains("refusing"), "{uri} should be refused: {stderr}");
+        assert!(
+            stderr.contains("refusing"),
+            "{uri} should be refused: {stderr}"
+        );
     }
     #[cfg(unix)]
     {
-        std::os::unix::fs::symlink(outer.path().join("secret.bin"), inner.join("link.bin")).unwrap();
+        std::os::unix::fs::symlink(outer.path().join("secret.bin"), inner.join("link.bin"))
+            .unwrap();
         let json = common::quad_gltf(Some("link.bin"), bin.len(), 5123, None, "");
         let p = write(&inner, "escape.gltf", json.as_bytes());
         fails_with(&[&p], &[], "outside the scene's folder");
@@ -122,7 +147,11 @@ fn empty_size() {
 
 #[test]
 fn size_above_device_limit() {
-    fails_with(&["--size", "40000x8", "-o", "/tmp/never.exr"], &[], "exceeds the device limit");
+    fails_with(
+        &["--size", "40000x8", "-o", "/tmp/never.exr"],
+        &[],
+        "exceeds the device limit",
+    );
 }
 
 #[test]
@@ -130,7 +159,10 @@ fn no_vulkan_device() {
     // Point the loader at a driver manifest that does not exist.
     fails_with(
         &["--size", "8x8"],
-        &[("VK_ICD_FILENAMES", "/nonexistent/icd.json"), ("VK_DRIVER_FILES", "/nonexistent/icd.json")],
+        &[
+            ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+            ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+        ],
         "lavapipe",
     );
 }

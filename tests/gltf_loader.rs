@@ -11,21 +11,38 @@ use std::f32::consts::PI;
 /// The quad's corners after the two-node hierarchy in `quad_gltf`.
 fn expected_corners() -> Vec<Vec3> {
     let r = Quat::from_rotation_y(PI / 2.0);
-    [Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, -1.0)]
-        .iter()
-        .map(|&p| (r * p + Vec3::X) * 2.0 + Vec3::Y)
-        .collect()
+    [
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(-1.0, 0.0, -1.0),
+    ]
+    .iter()
+    .map(|&p| (r * p + Vec3::X) * 2.0 + Vec3::Y)
+    .collect()
 }
 
 fn check_quad(scene: &ssbc::Scene) {
     assert_eq!(scene.triangle_count(), 2);
-    let positions: Vec<Vec3> = scene.indices.iter().map(|&i| Vec3::from(scene.vertices[i as usize].position)).collect();
+    let positions: Vec<Vec3> = scene
+        .indices
+        .iter()
+        .map(|&i| Vec3::from(scene.vertices[i as usize].position))
+        .collect();
     let expected = expected_corners();
     for (k, &i) in [0usize, 1, 2, 0, 2, 3].iter().enumerate() {
-        assert!((positions[k] - expected[i]).length() < 1e-5, "corner {k}: {} vs {}", positions[k], expected[i]);
+        assert!(
+            (positions[k] - expected[i]).length() < 1e-5,
+            "corner {k}: {} vs {}",
+            positions[k],
+            expected[i]
+        );
     }
     for v in &scene.vertices {
-        assert!((Vec3::from(v.normal) - Vec3::Y).length() < 1e-5, "normal stays +Y under rotation about Y");
+        assert!(
+            (Vec3::from(v.normal) - Vec3::Y).length() < 1e-5,
+            "normal stays +Y under rotation about Y"
+        );
     }
 }
 
@@ -74,10 +91,15 @@ fn glb_with_binary_chunk() {
 fn lights_and_cameras_are_read_radiometrically() {
     let dir = tempfile::tempdir().unwrap();
     let (bin, _) = quad_buffer(2);
-    let mut json = quad_gltf(Some(&data_uri(&bin)), bin.len(), 5123, None,
+    let mut json = quad_gltf(
+        Some(&data_uri(&bin)),
+        bin.len(),
+        5123,
+        None,
         r#","cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.1}}],
 "extensionsUsed":["KHR_lights_punctual"],
-"extensions":{"KHR_lights_punctual":{"lights":[{"type":"spot","intensity":7,"color":[1,0.5,0.25],"spot":{"innerConeAngle":0.2,"outerConeAngle":0.5}},{"type":"directional","intensity":3}]}}"#);
+"extensions":{"KHR_lights_punctual":{"lights":[{"type":"spot","intensity":7,"color":[1,0.5,0.25],"spot":{"innerConeAngle":0.2,"outerConeAngle":0.5}},{"type":"directional","intensity":3}]}}"#,
+    );
     // Add a camera node and two light nodes as extra roots.
     json = json.replace(
         r#""scenes":[{"nodes":[0]}]"#,
@@ -97,8 +119,14 @@ fn lights_and_cameras_are_read_radiometrically() {
     assert_eq!(s.lights.len(), 2);
     let spot = &s.lights[0];
     assert!(matches!(spot.kind, LightKind::Spot { .. }));
-    assert!((spot.intensity - Vec3::new(7.0, 3.5, 1.75)).length() < 1e-6, "W/sr = intensity x color, no 683 lm/W");
-    assert!((spot.direction - -Vec3::Y).length() < 1e-5, "rotated -90 deg about X points down");
+    assert!(
+        (spot.intensity - Vec3::new(7.0, 3.5, 1.75)).length() < 1e-6,
+        "W/sr = intensity x color, no 683 lm/W"
+    );
+    assert!(
+        (spot.direction - -Vec3::Y).length() < 1e-5,
+        "rotated -90 deg about X points down"
+    );
     assert!((spot.position - Vec3::new(0.0, 3.0, 0.0)).length() < 1e-6);
     assert!(matches!(s.lights[1].kind, LightKind::Directional));
     assert!((s.lights[1].direction - -Vec3::Z).length() < 1e-6);
@@ -145,10 +173,19 @@ fn base_color_texture_is_sampled_in_the_render() {
     let linear = |c: [u8; 3]| {
         Vec3::from(c.map(|v| {
             let s = v as f32 / 255.0;
-            if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
+            if s <= 0.04045 {
+                s / 12.92
+            } else {
+                ((s + 0.055) / 1.055).powf(2.4)
+            }
         }))
     };
-    for (x, y, texel) in [(32, 12, right), (10, 8, right), (32, 52, left), (50, 56, left)] {
+    for (x, y, texel) in [
+        (32, 12, right),
+        (10, 8, right),
+        (32, 52, left),
+        (50, 56, left),
+    ] {
         let got = pixel(&frame, "direct", x, y);
         let want = linear(texel) / PI;
         assert!(

@@ -53,10 +53,18 @@ impl SceneBvh {
             .chunks_exact(3)
             .map(|t| {
                 let p = |i: u32| Vec3A::from(scene.vertices[i as usize].position);
-                Triangle { v0: p(t[0]), v1: p(t[1]), v2: p(t[2]) }
+                Triangle {
+                    v0: p(t[0]),
+                    v1: p(t[1]),
+                    v2: p(t[2]),
+                }
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(&triangles, BvhBuildParams::medium_build(), &mut Duration::default());
+        let bvh = build_cwbvh_from_tris(
+            &triangles,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
         Self { bvh, triangles }
     }
 
@@ -73,7 +81,11 @@ impl SceneBvh {
         let triangle = self.bvh.primitive_indices[hit.primitive_id as usize];
         let tri = &self.triangles[triangle as usize];
         let p = Vec3::from(ray.origin + ray.direction * hit.t);
-        Some(Hit { t: hit.t, triangle, barycentric: barycentric(tri, p) })
+        Some(Hit {
+            t: hit.t,
+            triangle,
+            barycentric: barycentric(tri, p),
+        })
     }
 
     /// Whether anything blocks the segment between `a` and `b` (endpoints excluded
@@ -103,7 +115,9 @@ impl SceneBvh {
         let n = |k: usize| Vec3::from(v(k).normal);
         let position = p(0) * b0 + p(1) * u + p(2) * w;
         let mut geometric_normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
-        let mut normal = (n(0) * b0 + n(1) * u + n(2) * w).try_normalize().unwrap_or(geometric_normal);
+        let mut normal = (n(0) * b0 + n(1) * u + n(2) * w)
+            .try_normalize()
+            .unwrap_or(geometric_normal);
         if geometric_normal.dot(toward) < 0.0 {
             geometric_normal = -geometric_normal;
         }
@@ -116,7 +130,12 @@ impl SceneBvh {
         if let Some(tex) = material.texture {
             albedo *= sample_bilinear(&scene.textures[tex], uv);
         }
-        Surface { position, normal, geometric_normal, albedo }
+        Surface {
+            position,
+            normal,
+            geometric_normal,
+            albedo,
+        }
     }
 }
 
@@ -147,7 +166,11 @@ fn barycentric(t: &Triangle, p: Vec3) -> Vec2 {
 pub fn sample_bilinear(tex: &Texture, uv: Vec2) -> Vec3 {
     let decode = |c: u8| {
         let s = c as f32 / 255.0;
-        if s <= 0.04045 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }
+        if s <= 0.04045 {
+            s / 12.92
+        } else {
+            ((s + 0.055) / 1.055).powf(2.4)
+        }
     };
     let (w, h) = (tex.width as i64, tex.height as i64);
     let x = uv.x * w as f32 - 0.5;
@@ -157,7 +180,11 @@ pub fn sample_bilinear(tex: &Texture, uv: Vec2) -> Vec3 {
     let texel = |xi: i64, yi: i64| {
         let (xi, yi) = (xi.rem_euclid(w), yi.rem_euclid(h));
         let i = ((yi * w + xi) * 4) as usize;
-        Vec3::new(decode(tex.rgba8[i]), decode(tex.rgba8[i + 1]), decode(tex.rgba8[i + 2]))
+        Vec3::new(
+            decode(tex.rgba8[i]),
+            decode(tex.rgba8[i + 1]),
+            decode(tex.rgba8[i + 2]),
+        )
     };
     let (x0, y0) = (x0 as i64, y0 as i64);
     let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
@@ -173,10 +200,15 @@ mod tests {
     fn hits_the_cornell_floor_and_sees_the_blocks_shadow() {
         let scene = crate::scene::builtin::cornell();
         let bvh = SceneBvh::new(&scene);
-        let hit = bvh.intersect(Vec3::new(0.9, 1.0, 0.9), -Vec3::Y, 0.0, 10.0).expect("floor");
+        let hit = bvh
+            .intersect(Vec3::new(0.9, 1.0, 0.9), -Vec3::Y, 0.0, 10.0)
+            .expect("floor");
         assert!((hit.t - 1.0).abs() < 1e-4);
         let b = hit.barycentric;
-        assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0, "barycentrics {b}");
+        assert!(
+            b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0,
+            "barycentrics {b}"
+        );
         let s = bvh.surface(&scene, &hit, Vec3::Y);
         assert!((s.normal - Vec3::Y).length() < 1e-5);
         assert!((s.albedo - Vec3::splat(0.73)).length() < 1e-5);

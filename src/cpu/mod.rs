@@ -5,4 +5,5 @@
 pub mod bvh;
 pub mod points;
 pub mod sampling;
+pub mod ssbc;
 pub mod vpl;

@@ -18,7 +18,12 @@ pub struct IsmPoints {
 }
 
 /// Samples `points_per_vpl` area-uniform points for each of `vpl_count` VPLs.
-pub fn sample_points(scene: &Scene, vpl_count: usize, points_per_vpl: usize, seed: u64) -> IsmPoints {
+pub fn sample_points(
+    scene: &Scene,
+    vpl_count: usize,
+    points_per_vpl: usize,
+    seed: u64,
+) -> IsmPoints {
     let tri = |t: usize| {
         let i = &scene.indices[t * 3..t * 3 + 3];
         let p = |k: usize| Vec3::from(scene.vertices[i[k] as usize].position);
@@ -45,8 +50,13 @@ pub fn sample_points(scene: &Scene, vpl_count: usize, points_per_vpl: usize, see
     }
     // Consecutive Halton points are well spread, so each VPL's block of
     // consecutive points is itself a good area sampling.
-    let point_radius = (total as f32 / (std::f32::consts::PI * points_per_vpl.max(1) as f32)).sqrt();
-    IsmPoints { positions, point_radius, total_area: total as f32 }
+    let point_radius =
+        (total as f32 / (std::f32::consts::PI * points_per_vpl.max(1) as f32)).sqrt();
+    IsmPoints {
+        positions,
+        point_radius,
+        total_area: total as f32,
+    }
 }
 
 #[cfg(test)]
@@ -59,9 +69,13 @@ mod tests {
         let pts = sample_points(&scene, 4, 4096, 1);
         assert_eq!(pts.positions.len(), 4 * 4096);
         // Floor share of all points matches its share of the area.
-        let floor = pts.positions.iter().filter(|p| p[1].abs() < 1e-5).count() as f32 / pts.positions.len() as f32;
+        let floor = pts.positions.iter().filter(|p| p[1].abs() < 1e-5).count() as f32
+            / pts.positions.len() as f32;
         let floor_area = 4.0 + 0.36 + 0.36; // floor plus the two blocks' bottoms
         let expected = floor_area / pts.total_area;
-        assert!((floor - expected).abs() < 0.01, "floor share {floor} vs {expected}");
+        assert!(
+            (floor - expected).abs() < 0.01,
+            "floor share {floor} vs {expected}"
+        );
     }
 }

@@ -5,8 +5,8 @@ use glam::{Vec2, Vec3};
 
 /// The first 32 primes: one Halton base per dimension.
 const PRIMES: [u32; 32] = [
-    2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83, 89, 97, 101,
-    103, 107, 109, 113, 127, 131,
+    2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71, 73, 79, 83, 89, 97,
+    101, 103, 107, 109, 113, 127, 131,
 ];
 
 /// Number of dimensions available.
@@ -65,7 +65,8 @@ impl Halton {
 /// An orthonormal basis (t, b) around unit `n`.
 pub fn basis(n: Vec3) -> (Vec3, Vec3) {
     // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
-    let sign = 1f32.copysign(n.z);
+    // Same branch as ism_basis in shaders/include/ism.glsl (n.z = -0.0 counts as +).
+    let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     (
@@ -109,7 +110,10 @@ pub fn uniform_disk(u: Vec2) -> Vec2 {
     let (r, theta) = if o.x.abs() > o.y.abs() {
         (o.x, std::f32::consts::FRAC_PI_4 * (o.y / o.x))
     } else {
-        (o.y, std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y))
+        (
+            o.y,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (o.x / o.y),
+        )
     };
     Vec2::new(theta.cos(), theta.sin()) * r
 }

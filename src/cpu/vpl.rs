@@ -37,7 +37,11 @@ pub struct VplSettings {
 
 impl Default for VplSettings {
     fn default() -> Self {
-        Self { count: 256, bounces: 4, seed: 0 }
+        Self {
+            count: 256,
+            bounces: 4,
+            seed: 0,
+        }
     }
 }
 
@@ -55,14 +59,19 @@ pub struct VplSet {
 pub fn light_power(light: &Light, scene_radius: f32) -> Vec3 {
     match light.kind {
         LightKind::Point => light.intensity * 4.0 * std::f32::consts::PI,
-        LightKind::Spot { inner_cone, outer_cone } => {
+        LightKind::Spot {
+            inner_cone,
+            outer_cone,
+        } => {
             // Integral of the glTF smooth falloff over the cone: 2pi I int t(c)^2 dc.
             let (co, ci) = (outer_cone.cos(), inner_cone.cos());
             let width = (ci - co).max(1e-3);
             let falloff = (1.0 - ci) + width / 3.0;
             light.intensity * 2.0 * std::f32::consts::PI * falloff
         }
-        LightKind::Directional => light.intensity * std::f32::consts::PI * scene_radius * scene_radius,
+        LightKind::Directional => {
+            light.intensity * std::f32::consts::PI * scene_radius * scene_radius
+        }
     }
 }
 
@@ -74,7 +83,9 @@ fn luminance(c: Vec3) -> f32 {
 /// fewer VPLs) if 64 x `count` paths produce too few (e.g. lights facing away).
 pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result<VplSet> {
     if settings.count > 0 && settings.bounces == 0 {
-        return Err(Error::InvalidParameter("--bounces 0 leaves no VPLs; use --vpls 0 to switch indirect light off".into()));
+        return Err(Error::InvalidParameter(
+            "--bounces 0 leaves no VPLs; use --vpls 0 to switch indirect light off".into(),
+        ));
     }
     let mut set = VplSet::default();
     if settings.count == 0 || scene.lights.is_empty() {
@@ -82,7 +93,11 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     }
     let bounds = scene.bounds();
     let radius = bounds.radius().max(1e-3);
-    let powers: Vec<f32> = scene.lights.iter().map(|l| luminance(light_power(l, radius)).max(0.0)).collect();
+    let powers: Vec<f32> = scene
+        .lights
+        .iter()
+        .map(|l| luminance(light_power(l, radius)).max(0.0))
+        .collect();
     let total: f32 = powers.iter().sum();
     if total <= 0.0 {
         return Ok(set);
@@ -108,12 +123,20 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         let u1 = Vec2::new(s(1), s(2));
         let u2 = Vec2::new(s(3), s(4));
         let (origin, dir, mut flux) = match light.kind {
-            LightKind::Point => (light.position, uniform_sphere(u1), light_power(light, radius)),
+            LightKind::Point => (
+                light.position,
+                uniform_sphere(u1),
+                light_power(light, radius),
+            ),
             LightKind::Spot { outer_cone, .. } => {
                 let cos_max = outer_cone.cos();
                 let dir = uniform_cone(light.direction, cos_max, u1);
                 let pdf = 1.0 / (2.0 * std::f32::consts::PI * (1.0 - cos_max));
-                (light.position, dir, light.intensity * light.spot_factor(dir) / pdf)
+                (
+                    light.position,
+                    dir,
+                    light.intensity * light.spot_factor(dir) / pdf,
+                )
             }
             LightKind::Directional => {
                 let (t, b) = super::sampling::basis(light.direction);
@@ -127,9 +150,17 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
 
         let (mut origin, mut dir) = (origin, dir);
         for bounce in 1..=settings.bounces {
-            let Some(hit) = bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY) else { break };
+            let Some(hit) = bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY) else {
+                break;
+            };
             let surf = bvh.surface(scene, &hit, -dir);
-            raw.push(Vpl { position: surf.position, normal: surf.normal, albedo: surf.albedo, flux, bounce });
+            raw.push(Vpl {
+                position: surf.position,
+                normal: surf.normal,
+                albedo: surf.albedo,
+                flux,
+                bounce,
+            });
             if bounce == settings.bounces {
                 break;
             }
@@ -140,16 +171,29 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 break;
             }
             flux *= surf.albedo / survive;
-            dir = cosine_hemisphere(surf.normal, Vec2::new(halton.sample(path - 1, dim + 1), halton.sample(path - 1, dim + 2)));
+            dir = cosine_hemisphere(
+                surf.normal,
+                Vec2::new(
+                    halton.sample(path - 1, dim + 1),
+                    halton.sample(path - 1, dim + 2),
+                ),
+            );
             if dir.dot(surf.geometric_normal) <= 0.0 {
                 break;
             }
-            origin = surf.position + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
+            origin = surf.position
+                + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
         }
     }
     set.paths = path;
     let norm = 1.0 / path.max(1) as f32;
-    set.vpls = raw.into_iter().map(|v| Vpl { flux: v.flux * norm, ..v }).collect();
+    set.vpls = raw
+        .into_iter()
+        .map(|v| Vpl {
+            flux: v.flux * norm,
+            ..v
+        })
+        .collect();
     Ok(set)
 }
 
@@ -162,29 +206,81 @@ mod tests {
         // Close the Cornell box's open side so every path hits something.
         let mut scene = crate::scene::builtin::cornell();
         let m = scene.materials.len() as u32 - 1;
-        let p = [Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 2.0, 1.0), Vec3::new(-1.0, 2.0, 1.0)];
-        scene.add_mesh(&p, &[-Vec3::Z; 4], &[], &[0, 1, 2, 0, 2, 3], glam::Mat4::IDENTITY, m).unwrap();
+        let p = [
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 2.0, 1.0),
+            Vec3::new(-1.0, 2.0, 1.0),
+        ];
+        scene
+            .add_mesh(
+                &p,
+                &[-Vec3::Z; 4],
+                &[],
+                &[0, 1, 2, 0, 2, 3],
+                glam::Mat4::IDENTITY,
+                m,
+            )
+            .unwrap();
         let bvh = SceneBvh::new(&scene);
-        let set = generate(&scene, &bvh, &VplSettings { count: 20_000, bounces: 1, seed: 3 }).unwrap();
-        let first: Vec3 = set.vpls.iter().filter(|v| v.bounce == 1).map(|v| v.flux).sum();
+        let set = generate(
+            &scene,
+            &bvh,
+            &VplSettings {
+                count: 20_000,
+                bounces: 1,
+                seed: 3,
+            },
+        )
+        .unwrap();
+        let first: Vec3 = set
+            .vpls
+            .iter()
+            .filter(|v| v.bounce == 1)
+            .map(|v| v.flux)
+            .sum();
         let power = light_power(&scene.lights[0], 1.0);
         let rel = ((first - power).abs() / power).max_element();
-        assert!(rel < 0.01, "first-bounce flux {first} vs power {power} ({:.3}% off)", rel * 100.0);
-        assert_eq!(set.paths as usize, set.vpls.len(), "closed box: every path hits");
+        assert!(
+            rel < 0.01,
+            "first-bounce flux {first} vs power {power} ({:.3}% off)",
+            rel * 100.0
+        );
+        assert_eq!(
+            set.paths as usize,
+            set.vpls.len(),
+            "closed box: every path hits"
+        );
     }
 
     #[test]
     fn deterministic_for_a_seed() {
         let scene = crate::scene::builtin::cornell();
         let bvh = SceneBvh::new(&scene);
-        let s = VplSettings { count: 64, bounces: 4, seed: 11 };
-        assert_eq!(generate(&scene, &bvh, &s).unwrap().vpls, generate(&scene, &bvh, &s).unwrap().vpls);
+        let s = VplSettings {
+            count: 64,
+            bounces: 4,
+            seed: 11,
+        };
+        assert_eq!(
+            generate(&scene, &bvh, &s).unwrap().vpls,
+            generate(&scene, &bvh, &s).unwrap().vpls
+        );
     }
 
     #[test]
     fn zero_bounces_with_vpls_is_an_error() {
         let scene = crate::scene::builtin::cornell();
         let bvh = SceneBvh::new(&scene);
-        assert!(generate(&scene, &bvh, &VplSettings { count: 8, bounces: 0, seed: 0 }).is_err());
+        assert!(generate(
+            &scene,
+            &bvh,
+            &VplSettings {
+                count: 8,
+                bounces: 0,
+                seed: 0
+            }
+        )
+        .is_err());
     }
 }

@@ -8,7 +8,10 @@ use super::gbuffer::GBuffer;
 use super::shadow_maps::ShadowMaps;
 use crate::error::Result;
 use crate::shaders;
-use crate::vk::{Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline, Recorder, Sampler};
+use crate::vk::{
+    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline,
+    Recorder, Sampler,
+};
 
 /// The direct-lighting compute pipeline.
 pub struct DirectLightingPass {
@@ -41,9 +44,22 @@ impl DirectLightingPass {
             ],
             vk::ShaderStageFlags::COMPUTE,
         )?;
-        let pipeline = Pipeline::compute(device, shaders::DIRECT_LIGHTING_COMP, &[&layout], std::mem::size_of::<Push>() as u32)?;
-        let shadow_sampler = Sampler::new(device, vk::Filter::NEAREST, vk::SamplerAddressMode::CLAMP_TO_EDGE)?;
-        Ok(Self { layout, pipeline, shadow_sampler })
+        let pipeline = Pipeline::compute(
+            device,
+            shaders::DIRECT_LIGHTING_COMP,
+            &[&layout],
+            std::mem::size_of::<Push>() as u32,
+        )?;
+        let shadow_sampler = Sampler::new(
+            device,
+            vk::Filter::NEAREST,
+            vk::SamplerAddressMode::CLAMP_TO_EDGE,
+        )?;
+        Ok(Self {
+            layout,
+            pipeline,
+            shadow_sampler,
+        })
     }
 
     /// The descriptor layout (for sizing pools).
@@ -83,7 +99,10 @@ impl DirectLightingPass {
         rec.use_image(direct, Access::ComputeWrite);
         rec.flush_barriers();
         let (w, h) = gbuffer.extent();
-        let push = Push { size: [w, h], light_count: shadows.light_count };
+        let push = Push {
+            size: [w, h],
+            light_count: shadows.light_count,
+        };
         self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
         self.pipeline.dispatch_2d(rec.cmd, w, h, 1);
         profiler.end(rec.cmd, scope);

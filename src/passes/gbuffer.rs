@@ -10,8 +10,8 @@ use crate::error::Result;
 use crate::gpu_scene::GpuScene;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, GraphicsDesc, Image, ImageDesc,
-    Pipeline, Recorder,
+    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, GraphicsDesc, Image,
+    ImageDesc, Pipeline, Recorder,
 };
 
 /// Format of every G-buffer colour target (storage-image compatible).
@@ -33,7 +33,13 @@ impl GBuffer {
     /// Allocates the images for `extent`.
     pub fn new(device: &Arc<Device>, extent: (u32, u32)) -> Result<Self> {
         let color = |name| {
-            super::storage_image(device, name, GBUFFER_FORMAT, extent, vk::ImageUsageFlags::COLOR_ATTACHMENT)
+            super::storage_image(
+                device,
+                name,
+                GBUFFER_FORMAT,
+                extent,
+                vk::ImageUsageFlags::COLOR_ATTACHMENT,
+            )
         };
         Ok(Self {
             position: color("gbuffer_position")?,
@@ -42,7 +48,12 @@ impl GBuffer {
             depth: Image::new(
                 device,
                 "gbuffer_depth",
-                ImageDesc::new_2d(vk::Format::D32_SFLOAT, extent.0, extent.1, vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT),
+                ImageDesc::new_2d(
+                    vk::Format::D32_SFLOAT,
+                    extent.0,
+                    extent.1,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                ),
             )?,
         })
     }
@@ -72,7 +83,10 @@ impl GBufferPass {
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         let layout = DescriptorSetLayout::new(
             device,
-            &[vk::DescriptorType::STORAGE_BUFFER, vk::DescriptorType::COMBINED_IMAGE_SAMPLER],
+            &[
+                vk::DescriptorType::STORAGE_BUFFER,
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            ],
             vk::ShaderStageFlags::FRAGMENT,
         )?;
         let pipeline = Pipeline::graphics(
@@ -111,7 +125,10 @@ impl GBufferPass {
     ) -> Result<()> {
         let set = pool.allocate(
             &self.layout,
-            &[Binding::StorageBuffer(&scene.materials), Binding::sampled(&scene.textures, &scene.texture_sampler)],
+            &[
+                Binding::StorageBuffer(&scene.materials),
+                Binding::sampled(&scene.textures, &scene.texture_sampler),
+            ],
         )?;
         let scope = profiler.begin(rec.cmd, "gbuffer");
         for target in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
@@ -127,10 +144,17 @@ impl GBufferPass {
             rec.device,
             rec.cmd,
             gbuffer.extent(),
-            &[gbuffer.position.view, gbuffer.normal.view, gbuffer.albedo.view],
+            &[
+                gbuffer.position.view,
+                gbuffer.normal.view,
+                gbuffer.albedo.view,
+            ],
             gbuffer.depth.view,
         );
-        let push = Push { view_proj: view_proj.to_cols_array(), camera_position: eye.extend(1.0).into() };
+        let push = Push {
+            view_proj: view_proj.to_cols_array(),
+            camera_position: eye.extend(1.0).into(),
+        };
         self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
         // SAFETY: recording inside the rendering scope with the pipeline bound.
         unsafe {

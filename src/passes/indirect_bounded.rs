@@ -9,7 +9,10 @@ use super::gbuffer::GBuffer;
 use super::ism::Ism;
 use crate::error::Result;
 use crate::shaders;
-use crate::vk::{Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline, Recorder};
+use crate::vk::{
+    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline,
+    Recorder,
+};
 
 /// Relative depth tolerance of the ISM visibility test.
 pub const ISM_BIAS: f32 = 0.05;
@@ -40,7 +43,12 @@ impl IndirectBoundedPass {
         types.push(T::STORAGE_BUFFER);
         types.push(T::STORAGE_IMAGE);
         let layout = DescriptorSetLayout::new(device, &types, vk::ShaderStageFlags::COMPUTE)?;
-        let pipeline = Pipeline::compute(device, shaders::INDIRECT_BOUNDED_COMP, &[&layout], std::mem::size_of::<Push>() as u32)?;
+        let pipeline = Pipeline::compute(
+            device,
+            shaders::INDIRECT_BOUNDED_COMP,
+            &[&layout],
+            std::mem::size_of::<Push>() as u32,
+        )?;
         Ok(Self { layout, pipeline })
     }
 
@@ -77,7 +85,13 @@ impl IndirectBoundedPass {
             ],
         )?;
         let scope = profiler.begin(rec.cmd, "indirect_bounded");
-        for input in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo, direct, &ism.pyramid] {
+        for input in [
+            &gbuffer.position,
+            &gbuffer.normal,
+            &gbuffer.albedo,
+            direct,
+            &ism.pyramid,
+        ] {
             rec.use_image(input, Access::ComputeRead);
         }
         rec.use_buffer(&ism.vpls, Access::ComputeRead);

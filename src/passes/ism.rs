@@ -10,7 +10,10 @@ use crate::cpu::points::IsmPoints;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::shaders;
-use crate::vk::{Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, ImageDesc, Pipeline, Recorder};
+use crate::vk::{
+    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image,
+    ImageDesc, Pipeline, Recorder,
+};
 
 /// The two ISM pipelines.
 pub struct IsmPass {
@@ -66,8 +69,17 @@ impl IsmPass {
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
         let stage = vk::ShaderStageFlags::COMPUTE;
-        let splat_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER], stage)?;
-        let splat = Pipeline::compute(device, shaders::ISM_SPLAT_COMP, &[&splat_layout], std::mem::size_of::<SplatPush>() as u32)?;
+        let splat_layout = DescriptorSetLayout::new(
+            device,
+            &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
+            stage,
+        )?;
+        let splat = Pipeline::compute(
+            device,
+            shaders::ISM_SPLAT_COMP,
+            &[&splat_layout],
+            std::mem::size_of::<SplatPush>() as u32,
+        )?;
         let pullpush_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 3], stage)?;
         let pullpush = Pipeline::compute(
             device,
@@ -75,7 +87,12 @@ impl IsmPass {
             &[&pullpush_layout],
             std::mem::size_of::<PullPushPush>() as u32,
         )?;
-        Ok(Self { splat_layout, splat, pullpush_layout, pullpush })
+        Ok(Self {
+            splat_layout,
+            splat,
+            pullpush_layout,
+            pullpush,
+        })
     }
 
     /// Descriptor layouts one frame allocates sets of (one splat set and one
@@ -83,19 +100,34 @@ impl IsmPass {
     pub fn set_layouts(&self, tile: u32) -> Vec<&DescriptorSetLayout> {
         let levels = tile.trailing_zeros() + 1;
         let mut v = vec![&self.splat_layout];
-        v.extend(std::iter::repeat_n(&self.pullpush_layout, 1 + 2 * (levels as usize - 1)));
+        v.extend(std::iter::repeat_n(
+            &self.pullpush_layout,
+            1 + 2 * (levels as usize - 1),
+        ));
         v
     }
 
     /// Allocates the atlas for `vpls` with `tile`-texel tiles.
-    pub fn prepare(&self, device: &Arc<Device>, vpls: &[GpuVpl], points: &IsmPoints, tile: u32, far: f32) -> Result<Ism> {
+    pub fn prepare(
+        &self,
+        device: &Arc<Device>,
+        vpls: &[GpuVpl],
+        points: &IsmPoints,
+        tile: u32,
+        far: f32,
+    ) -> Result<Ism> {
         if !tile.is_power_of_two() || !(4..=1024).contains(&tile) {
-            return Err(Error::InvalidParameter(format!("ISM tile size {tile} must be a power of two in 4..=1024")));
+            return Err(Error::InvalidParameter(format!(
+                "ISM tile size {tile} must be a power of two in 4..=1024"
+            )));
         }
         let vpl_count = vpls.len() as u32;
         let tiles_per_row = (vpl_count.max(1) as f64).sqrt().ceil() as u32;
         let rows = vpl_count.max(1).div_ceil(tiles_per_row);
-        let (w, h) = (tiles_per_row as u64 * tile as u64, rows as u64 * tile as u64);
+        let (w, h) = (
+            tiles_per_row as u64 * tile as u64,
+            rows as u64 * tile as u64,
+        );
         let max = device.limits().max_image_dimension2_d as u64;
         if w > max || h > max {
             return Err(Error::InvalidParameter(format!(
@@ -108,7 +140,12 @@ impl IsmPass {
         let splat_target = Image::new(
             device,
             "ism_splat",
-            ImageDesc::new_2d(vk::Format::R32_UINT, w, h, vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST),
+            ImageDesc::new_2d(
+                vk::Format::R32_UINT,
+                w,
+                h,
+                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+            ),
         )?;
         let pyramid = Image::new(
             device,
@@ -119,17 +156,36 @@ impl IsmPass {
                 height: h,
                 layers: 1,
                 mip_levels: levels,
-                usage: vk::ImageUsageFlags::STORAGE,
+                // TRANSFER_SRC: diagnostics read level 0 back.
+                usage: vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
                 array: false,
             },
         )?;
-        let vpl_data = if vpls.is_empty() { vec![GpuVpl::default()] } else { vpls.to_vec() };
-        let point_data = if points.positions.is_empty() { vec![[0.0f32; 4]] } else { points.positions.clone() };
+        let vpl_data = if vpls.is_empty() {
+            vec![GpuVpl::default()]
+        } else {
+            vpls.to_vec()
+        };
+        let point_data = if points.positions.is_empty() {
+            vec![[0.0f32; 4]]
+        } else {
+            points.positions.clone()
+        };
         Ok(Ism {
             splat_target,
             pyramid,
-            vpls: Buffer::with_data(device, "vpls", &vpl_data, vk::BufferUsageFlags::STORAGE_BUFFER)?,
-            points: Buffer::with_data(device, "ism_points", &point_data, vk::BufferUsageFlags::STORAGE_BUFFER)?,
+            vpls: Buffer::with_data(
+                device,
+                "vpls",
+                &vpl_data,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
+            points: Buffer::with_data(
+                device,
+                "ism_points",
+                &point_data,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
             vpl_count,
             points_per_vpl,
             tile,
@@ -140,16 +196,28 @@ impl IsmPass {
     }
 
     /// Splats and fills every tile.
-    pub fn record(&self, rec: &mut Recorder<'_>, profiler: &mut GpuProfiler, pool: &DescriptorPool, ism: &Ism) -> Result<()> {
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        profiler: &mut GpuProfiler,
+        pool: &DescriptorPool,
+        ism: &Ism,
+    ) -> Result<()> {
         // Splat: clear to "no point" and atomicMin every point's distance.
         let set = pool.allocate(
             &self.splat_layout,
-            &[Binding::storage(&ism.splat_target), Binding::StorageBuffer(&ism.vpls), Binding::StorageBuffer(&ism.points)],
+            &[
+                Binding::storage(&ism.splat_target),
+                Binding::StorageBuffer(&ism.vpls),
+                Binding::StorageBuffer(&ism.points),
+            ],
         )?;
         let scope = profiler.begin(rec.cmd, "ism_splat");
         rec.use_image(&ism.splat_target, Access::TransferWrite);
         rec.flush_barriers();
-        let clear = vk::ClearColorValue { uint32: [u32::MAX; 4] };
+        let clear = vk::ClearColorValue {
+            uint32: [u32::MAX; 4],
+        };
         // SAFETY: recording; the image is in TRANSFER_DST layout (barrier above).
         unsafe {
             rec.device.raw.cmd_clear_color_image(
@@ -174,7 +242,11 @@ impl IsmPass {
         };
         self.splat.bind(rec.cmd, set, bytemuck::bytes_of(&push));
         // SAFETY: recording with the splat pipeline bound.
-        unsafe { rec.device.raw.cmd_dispatch(rec.cmd, ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1) };
+        unsafe {
+            rec.device
+                .raw
+                .cmd_dispatch(rec.cmd, ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1)
+        };
         profiler.end(rec.cmd, scope);
 
         // Pull-push: convert to level 0, pull up the pyramid, push back down.
@@ -183,17 +255,32 @@ impl IsmPass {
         let views = &ism.pyramid.mip_views;
         let mut steps = vec![(0u32, views[0], views[0], 0usize)];
         steps.extend((1..levels).map(|l| (1, views[l - 1], views[l], l)));
-        steps.extend((0..levels - 1).rev().map(|l| (2, views[l + 1], views[l], l)));
+        steps.extend(
+            (0..levels - 1)
+                .rev()
+                .map(|l| (2, views[l + 1], views[l], l)),
+        );
         for (mode, src, dst, level) in steps {
             let set = pool.allocate(
                 &self.pullpush_layout,
-                &[Binding::storage(&ism.splat_target), Binding::StorageImage(src), Binding::StorageImage(dst)],
+                &[
+                    Binding::storage(&ism.splat_target),
+                    Binding::StorageImage(src),
+                    Binding::StorageImage(dst),
+                ],
             )?;
             rec.use_image(&ism.splat_target, Access::ComputeRead);
             rec.use_image(&ism.pyramid, Access::ComputeWrite);
             rec.flush_barriers();
             let (w, h) = ism.pyramid.mip_extent(level as u32);
-            self.pullpush.bind(rec.cmd, set, bytemuck::bytes_of(&PullPushPush { dst_size: [w, h], mode }));
+            self.pullpush.bind(
+                rec.cmd,
+                set,
+                bytemuck::bytes_of(&PullPushPush {
+                    dst_size: [w, h],
+                    mode,
+                }),
+            );
             self.pullpush.dispatch_2d(rec.cmd, w, h, 1);
         }
         profiler.end(rec.cmd, scope);

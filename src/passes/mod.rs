@@ -9,6 +9,7 @@ pub mod gbuffer;
 pub mod indirect_bounded;
 pub mod ism;
 pub mod shadow_maps;
+pub mod ssbc;
 
 use ash::vk;
 
@@ -31,7 +32,9 @@ pub(crate) fn begin_rendering(
                 .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
                 .load_op(vk::AttachmentLoadOp::CLEAR)
                 .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: [0.0; 4] } })
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue { float32: [0.0; 4] },
+                })
         })
         .collect();
     let depth_attachment = vk::RenderingAttachmentInfo::default()
@@ -40,9 +43,18 @@ pub(crate) fn begin_rendering(
         .load_op(vk::AttachmentLoadOp::CLEAR)
         .store_op(vk::AttachmentStoreOp::STORE)
         .clear_value(vk::ClearValue {
-            depth_stencil: vk::ClearDepthStencilValue { depth: 1.0, stencil: 0 },
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 1.0,
+                stencil: 0,
+            },
         });
-    let area = vk::Rect2D { offset: vk::Offset2D::default(), extent: vk::Extent2D { width: extent.0, height: extent.1 } };
+    let area = vk::Rect2D {
+        offset: vk::Offset2D::default(),
+        extent: vk::Extent2D {
+            width: extent.0,
+            height: extent.1,
+        },
+    };
     let info = vk::RenderingInfo::default()
         .render_area(area)
         .layer_count(1)

@@ -12,7 +12,9 @@ use crate::gpu_scene::GpuScene;
 use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
 use crate::shaders;
-use crate::vk::{Access, Buffer, Device, GpuProfiler, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder};
+use crate::vk::{
+    Access, Buffer, Device, GpuProfiler, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder,
+};
 
 /// The depth-only pipeline (created once).
 pub struct ShadowMapPass {
@@ -34,11 +36,15 @@ pub struct ShadowMaps {
 
 /// A unit vector orthogonal to `d`, for look-at matrices.
 fn any_up(d: Vec3) -> Vec3 {
-    if d.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y }
+    if d.y.abs() > 0.99 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    }
 }
 
-use glam::camera::rh::view::look_to_mat4;
 use glam::camera::rh::proj::vulkan;
+use glam::camera::rh::view::look_to_mat4;
 
 fn vulkan_perspective(fov: f32, near: f32, far: f32) -> Mat4 {
     vulkan::perspective(fov, 1.0, near, far)
@@ -133,19 +139,43 @@ impl ShadowMapPass {
             },
         )?;
         let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
-        let packed = if packed.is_empty() { vec![ShadowView::default()] } else { packed };
-        let gpu_lights_buf = if gpu_lights.is_empty() { vec![GpuLight::default()] } else { gpu_lights.clone() };
+        let packed = if packed.is_empty() {
+            vec![ShadowView::default()]
+        } else {
+            packed
+        };
+        let gpu_lights_buf = if gpu_lights.is_empty() {
+            vec![GpuLight::default()]
+        } else {
+            gpu_lights.clone()
+        };
         Ok(ShadowMaps {
             depth,
-            views: Buffer::with_data(device, "shadow_views", &packed, vk::BufferUsageFlags::STORAGE_BUFFER)?,
-            lights: Buffer::with_data(device, "lights", &gpu_lights_buf, vk::BufferUsageFlags::STORAGE_BUFFER)?,
+            views: Buffer::with_data(
+                device,
+                "shadow_views",
+                &packed,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
+            lights: Buffer::with_data(
+                device,
+                "lights",
+                &gpu_lights_buf,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
             light_count: lights.len() as u32,
             view_proj: views.iter().map(|v| v.0).collect(),
         })
     }
 
     /// Renders every layer.
-    pub fn record(&self, rec: &mut Recorder<'_>, profiler: &mut GpuProfiler, scene: &GpuScene, maps: &ShadowMaps) {
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        profiler: &mut GpuProfiler,
+        scene: &GpuScene,
+        maps: &ShadowMaps,
+    ) {
         let scope = profiler.begin(rec.cmd, "shadow_maps");
         rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
@@ -153,12 +183,19 @@ impl ShadowMapPass {
         rec.flush_barriers();
         let size = maps.depth.desc.width;
         for (layer, view_proj) in maps.view_proj.iter().enumerate() {
-            super::begin_rendering(rec.device, rec.cmd, (size, size), &[], maps.depth.layer_views[layer]);
+            super::begin_rendering(
+                rec.device,
+                rec.cmd,
+                (size, size),
+                &[],
+                maps.depth.layer_views[layer],
+            );
             // SAFETY: recording inside the rendering scope begun above.
             unsafe {
                 let d = &rec.device.raw;
                 d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
-                self.pipeline.push(rec.cmd, bytemuck::bytes_of(&view_proj.to_cols_array()));
+                self.pipeline
+                    .push(rec.cmd, bytemuck::bytes_of(&view_proj.to_cols_array()));
                 d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
                 d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
                 d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);

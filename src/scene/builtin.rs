@@ -24,7 +24,14 @@ fn quad(scene: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32) {
     let n = u.cross(v).normalize();
     let p = [corner, corner + u, corner + u + v, corner + v];
     scene
-        .add_mesh(&p, &[n; 4], &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, material)
+        .add_mesh(
+            &p,
+            &[n; 4],
+            &[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            &[0, 1, 2, 0, 2, 3],
+            Mat4::IDENTITY,
+            material,
+        )
         .expect("built-in quad is valid");
 }
 
@@ -36,12 +43,12 @@ fn block(scene: &mut Scene, base: Vec3, size: Vec3, angle: f32, material: u32) {
     let c = |x: f32, y: f32, z: f32| Vec3::new(x * h.x, y * size.y, z * h.z);
     // Each face: corner, edge u, edge v with u x v pointing outward.
     let faces = [
-        (c(-1.0, 0.0, 1.0), Vec3::X * size.x, Vec3::Y * size.y),   // +z
-        (c(1.0, 0.0, -1.0), -Vec3::X * size.x, Vec3::Y * size.y),  // -z
-        (c(1.0, 0.0, 1.0), -Vec3::Z * size.z, Vec3::Y * size.y),   // +x
-        (c(-1.0, 0.0, -1.0), Vec3::Z * size.z, Vec3::Y * size.y),  // -x
-        (c(-1.0, 1.0, 1.0), Vec3::X * size.x, -Vec3::Z * size.z),  // +y
-        (c(-1.0, 0.0, -1.0), Vec3::X * size.x, Vec3::Z * size.z),  // -y
+        (c(-1.0, 0.0, 1.0), Vec3::X * size.x, Vec3::Y * size.y), // +z
+        (c(1.0, 0.0, -1.0), -Vec3::X * size.x, Vec3::Y * size.y), // -z
+        (c(1.0, 0.0, 1.0), -Vec3::Z * size.z, Vec3::Y * size.y), // +x
+        (c(-1.0, 0.0, -1.0), Vec3::Z * size.z, Vec3::Y * size.y), // -x
+        (c(-1.0, 1.0, 1.0), Vec3::X * size.x, -Vec3::Z * size.z), // +y
+        (c(-1.0, 0.0, -1.0), Vec3::X * size.x, Vec3::Z * size.z), // -y
     ];
     for (corner, u, v) in faces {
         let n = u.cross(v).normalize();
@@ -62,21 +69,67 @@ pub fn cornell() -> Scene {
     let green = s.add_material(Vec3::new(0.14, 0.45, 0.091), None);
     let (x0, x1, y0, y1, z0, z1) = (-1.0, 1.0, 0.0, 2.0, -1.0, 1.0);
     // Inward-facing walls.
-    quad(&mut s, Vec3::new(x0, y0, z1), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -2.0), white); // floor
-    quad(&mut s, Vec3::new(x0, y1, z0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 2.0), white); // ceiling
-    quad(&mut s, Vec3::new(x0, y0, z0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0), white); // back
-    quad(&mut s, Vec3::new(x0, y0, z1), Vec3::new(0.0, 0.0, -2.0), Vec3::new(0.0, 2.0, 0.0), red); // left
-    quad(&mut s, Vec3::new(x1, y0, z0), Vec3::new(0.0, 0.0, 2.0), Vec3::new(0.0, 2.0, 0.0), green); // right
+    quad(
+        &mut s,
+        Vec3::new(x0, y0, z1),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -2.0),
+        white,
+    ); // floor
+    quad(
+        &mut s,
+        Vec3::new(x0, y1, z0),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 2.0),
+        white,
+    ); // ceiling
+    quad(
+        &mut s,
+        Vec3::new(x0, y0, z0),
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(0.0, 2.0, 0.0),
+        white,
+    ); // back
+    quad(
+        &mut s,
+        Vec3::new(x0, y0, z1),
+        Vec3::new(0.0, 0.0, -2.0),
+        Vec3::new(0.0, 2.0, 0.0),
+        red,
+    ); // left
+    quad(
+        &mut s,
+        Vec3::new(x1, y0, z0),
+        Vec3::new(0.0, 0.0, 2.0),
+        Vec3::new(0.0, 2.0, 0.0),
+        green,
+    ); // right
     let _ = (x1, z1);
-    block(&mut s, Vec3::new(0.33, 0.0, 0.37), Vec3::new(0.6, 0.6, 0.6), -0.29, white);
-    block(&mut s, Vec3::new(-0.35, 0.0, -0.3), Vec3::new(0.6, 1.2, 0.6), 0.29, white);
+    block(
+        &mut s,
+        Vec3::new(0.33, 0.0, 0.37),
+        Vec3::new(0.6, 0.6, 0.6),
+        -0.29,
+        white,
+    );
+    block(
+        &mut s,
+        Vec3::new(-0.35, 0.0, -0.3),
+        Vec3::new(0.6, 1.2, 0.6),
+        0.29,
+        white,
+    );
     s.lights.push(Light {
         kind: LightKind::Point,
         position: Vec3::new(0.0, 1.9, 0.0),
         direction: -Vec3::Y,
         intensity: Vec3::splat(10.0),
     });
-    s.cameras.push(Camera::look_at(Vec3::new(0.0, 1.0, 3.9), Vec3::new(0.0, 1.0, 0.0), 40f32.to_radians()));
+    s.cameras.push(Camera::look_at(
+        Vec3::new(0.0, 1.0, 3.9),
+        Vec3::new(0.0, 1.0, 0.0),
+        40f32.to_radians(),
+    ));
     s
 }
 
@@ -123,8 +176,20 @@ pub fn tori() -> Scene {
         Vec3::new(0.7, 0.7, 0.7),
     ];
     let mats: Vec<u32> = colors.iter().map(|&c| s.add_material(c, None)).collect();
-    quad(&mut s, Vec3::new(-4.0, 0.0, 4.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -8.0), floor);
-    quad(&mut s, Vec3::new(-4.0, 0.0, -2.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0), floor);
+    quad(
+        &mut s,
+        Vec3::new(-4.0, 0.0, 4.0),
+        Vec3::new(8.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, -8.0),
+        floor,
+    );
+    quad(
+        &mut s,
+        Vec3::new(-4.0, 0.0, -2.0),
+        Vec3::new(8.0, 0.0, 0.0),
+        Vec3::new(0.0, 3.0, 0.0),
+        floor,
+    );
     let (major, minor) = (0.45, 0.15);
     // Lying tori rest on the floor; standing tori touch it with their rim.
     let lying = |x: f32, z: f32| Mat4::from_translation(Vec3::new(x, minor, z));
@@ -139,11 +204,18 @@ pub fn tori() -> Scene {
     torus(&mut s, major, minor, standing(1.4, -0.9, -0.6), mats[3]);
     torus(&mut s, major, minor, standing(-1.6, -1.1, 1.1), mats[4]);
     s.lights.push(Light {
-        kind: LightKind::Spot { inner_cone: 0.6, outer_cone: 0.8 },
+        kind: LightKind::Spot {
+            inner_cone: 0.6,
+            outer_cone: 0.8,
+        },
         position: Vec3::new(0.5, 3.5, 2.0),
         direction: (Vec3::new(0.0, 0.0, -0.3) - Vec3::new(0.5, 3.5, 2.0)).normalize(),
         intensity: Vec3::splat(40.0),
     });
-    s.cameras.push(Camera::look_at(Vec3::new(0.0, 2.0, 4.8), Vec3::new(0.0, 0.4, -0.2), 45f32.to_radians()));
+    s.cameras.push(Camera::look_at(
+        Vec3::new(0.0, 2.0, 4.8),
+        Vec3::new(0.0, 0.4, -0.2),
+        45f32.to_radians(),
+    ));
     s
 }

@@ -32,18 +32,32 @@ pub fn load(path: &Path) -> Result<Scene> {
         return Err(Error::scene(&name, "not a file"));
     }
     if meta.len() > MAX_BYTES {
-        return Err(Error::scene(&name, format!("file is larger than {MAX_BYTES} bytes")));
+        return Err(Error::scene(
+            &name,
+            format!("file is larger than {MAX_BYTES} bytes"),
+        ));
     }
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let dir = path
         .parent()
-        .map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p })
+        .map(|p| {
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            }
+        })
         .unwrap_or(Path::new("."));
     let base = dir.canonicalize().map_err(|e| Error::io(dir, e))?;
     // Last line of defence: a panic in a dependency becomes an error.
-    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| load_bytes(&name, &bytes, &base))) {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        load_bytes(&name, &bytes, &base)
+    })) {
         Ok(result) => result,
-        Err(_) => Err(Error::scene(&name, "the glTF parser failed on malformed input")),
+        Err(_) => Err(Error::scene(
+            &name,
+            "the glTF parser failed on malformed input",
+        )),
     }
 }
 
@@ -52,22 +66,36 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
     let err = |m: String| Error::scene(name, m);
     if bytes.starts_with(b"glTF") {
         check_glb_header(bytes).map_err(err)?;
-    } else if !bytes.iter().find(|b| !b.is_ascii_whitespace()).is_some_and(|&b| b == b'{') {
+    } else if bytes.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
         return Err(err("not a glTF file (neither JSON nor GLB)".into()));
     }
     let gltf = gltf::Gltf::from_slice_without_validation(bytes)
         .map_err(|e| err(format!("not valid glTF: {e}")))?;
     let blob = gltf.blob.clone();
     let root = gltf.document.into_json();
-    Loader { name, root: &root, base, blob, buffers: Vec::new() }.load()
+    Loader {
+        name,
+        root: &root,
+        base,
+        blob,
+        buffers: Vec::new(),
+    }
+    .load()
 }
 
 /// GLB header and chunk lengths must fit the file (the parser trusts them).
 fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
-    let u32_at = |o: usize| bytes.get(o..o + 4).map(|b| u32::from_le_bytes(b.try_into().unwrap()));
+    let u32_at = |o: usize| {
+        bytes
+            .get(o..o + 4)
+            .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+    };
     let length = u32_at(8).ok_or("truncated GLB header")? as usize;
     if length > bytes.len() {
-        return Err(format!("truncated GLB: header says {length} bytes, file has {}", bytes.len()));
+        return Err(format!(
+            "truncated GLB: header says {length} bytes, file has {}",
+            bytes.len()
+        ));
     }
     let mut offset = 12;
     while offset < length {
@@ -118,11 +146,16 @@ impl Loader<'_> {
         for m in &self.root.materials {
             let pbr = &m.pbr_metallic_roughness;
             let texture = match &pbr.base_color_texture {
-                Some(info) => Some(self.texture(info.index.value(), &mut scene, &mut texture_slots)?),
+                Some(info) => {
+                    Some(self.texture(info.index.value(), &mut scene, &mut texture_slots)?)
+                }
                 None => None,
             };
             let f = pbr.base_color_factor.0;
-            scene.materials.push(super::Material { base_color: Vec4::from(f), texture });
+            scene.materials.push(super::Material {
+                base_color: Vec4::from(f),
+                texture,
+            });
             material_map.push((scene.materials.len() - 1) as u32);
         }
         let default_material = scene.add_material(Vec3::splat(0.8), None);
@@ -146,12 +179,22 @@ impl Loader<'_> {
                     .iter()
                     .flat_map(|n| n.children.iter().flatten().map(|c| c.value()))
                     .collect();
-                (0..self.root.nodes.len()).filter(|i| !children.contains(i)).collect()
+                (0..self.root.nodes.len())
+                    .filter(|i| !children.contains(i))
+                    .collect()
             }
         };
         let mut on_path = HashSet::new();
         for r in roots {
-            self.node(r, Mat4::IDENTITY, 0, &mut on_path, &mut scene, &material_map, default_material)?;
+            self.node(
+                r,
+                Mat4::IDENTITY,
+                0,
+                &mut on_path,
+                &mut scene,
+                &material_map,
+                default_material,
+            )?;
         }
         if scene.indices.is_empty() {
             return Err(self.err("the scene has no triangles"));
@@ -185,7 +228,9 @@ impl Loader<'_> {
             Some(m) => Mat4::from_cols_array(&m),
             None => Mat4::from_scale_rotation_translation(
                 node.scale.map(Vec3::from).unwrap_or(Vec3::ONE),
-                node.rotation.map(|q| Quat::from_array(q.0).normalize()).unwrap_or(Quat::IDENTITY),
+                node.rotation
+                    .map(|q| Quat::from_array(q.0).normalize())
+                    .unwrap_or(Quat::IDENTITY),
                 node.translation.map(Vec3::from).unwrap_or(Vec3::ZERO),
             ),
         };
@@ -211,14 +256,30 @@ impl Loader<'_> {
                         yfov: p.yfov,
                     });
                 }
-                _ => log::warn!("{}: camera {} is not a valid perspective camera; skipped", self.name, cam.value()),
+                _ => log::warn!(
+                    "{}: camera {} is not a valid perspective camera; skipped",
+                    self.name,
+                    cam.value()
+                ),
             }
         }
-        if let Some(l) = node.extensions.as_ref().and_then(|e| e.khr_lights_punctual.as_ref()) {
+        if let Some(l) = node
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+        {
             scene.lights.push(self.light(l.light.value(), world)?);
         }
         for child in node.children.iter().flatten() {
-            self.node(child.value(), world, depth + 1, on_path, scene, materials, default_material)?;
+            self.node(
+                child.value(),
+                world,
+                depth + 1,
+                on_path,
+                scene,
+                materials,
+                default_material,
+            )?;
         }
         on_path.remove(&index);
         Ok(())
@@ -238,7 +299,9 @@ impl Loader<'_> {
             .ok_or_else(|| self.err(format!("light index {index} out of range")))?;
         let intensity = Vec3::from(l.color) * l.intensity;
         if !intensity.is_finite() || intensity.min_element() < 0.0 {
-            return Err(self.err(format!("light {index} has a negative or non-finite intensity")));
+            return Err(self.err(format!(
+                "light {index} has a negative or non-finite intensity"
+            )));
         }
         let position = world.transform_point3(Vec3::ZERO);
         let direction = world.transform_vector3(-Vec3::Z).normalize_or_zero();
@@ -249,16 +312,29 @@ impl Loader<'_> {
             Some(T::Point) => LightKind::Point,
             Some(T::Directional) => LightKind::Directional,
             Some(T::Spot) => {
-                let s = l.spot.as_ref().ok_or_else(|| self.err(format!("spot light {index} has no cone")))?;
+                let s = l
+                    .spot
+                    .as_ref()
+                    .ok_or_else(|| self.err(format!("spot light {index} has no cone")))?;
                 let (inner, outer) = (s.inner_cone_angle, s.outer_cone_angle);
-                if !(0.0..std::f32::consts::FRAC_PI_2).contains(&outer) || !(0.0..=outer).contains(&inner) {
+                if !(0.0..std::f32::consts::FRAC_PI_2).contains(&outer)
+                    || !(0.0..=outer).contains(&inner)
+                {
                     return Err(self.err(format!("spot light {index} has invalid cone angles")));
                 }
-                LightKind::Spot { inner_cone: inner, outer_cone: outer }
+                LightKind::Spot {
+                    inner_cone: inner,
+                    outer_cone: outer,
+                }
             }
             None => return Err(self.err(format!("light {index} has an unknown type"))),
         };
-        Ok(Light { kind, position, direction, intensity })
+        Ok(Light {
+            kind,
+            position,
+            direction,
+            intensity,
+        })
     }
 
     fn mesh(
@@ -277,26 +353,46 @@ impl Loader<'_> {
             .ok_or_else(|| self.err(format!("mesh index {index} out of range")))?;
         for (pi, prim) in mesh.primitives.iter().enumerate() {
             let mode = checked(&prim.mode).ok_or_else(|| self.err("invalid primitive mode"))?;
-            if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
-                log::warn!("{}: mesh {index} primitive {pi} is not triangles; skipped", self.name);
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                log::warn!(
+                    "{}: mesh {index} primitive {pi} is not triangles; skipped",
+                    self.name
+                );
                 continue;
             }
             let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
             let pos_acc = attr(Semantic::Positions)
                 .ok_or_else(|| self.err(format!("mesh {index} primitive {pi} has no POSITION")))?;
-            let positions: Vec<Vec3> = self.read_floats(pos_acc, 3)?.chunks_exact(3).map(Vec3::from_slice).collect();
+            let positions: Vec<Vec3> = self
+                .read_floats(pos_acc, 3)?
+                .chunks_exact(3)
+                .map(Vec3::from_slice)
+                .collect();
             let normals: Vec<Vec3> = match attr(Semantic::Normals) {
-                Some(a) => self.read_floats(a, 3)?.chunks_exact(3).map(Vec3::from_slice).collect(),
+                Some(a) => self
+                    .read_floats(a, 3)?
+                    .chunks_exact(3)
+                    .map(Vec3::from_slice)
+                    .collect(),
                 None => Vec::new(),
             };
             let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(0)) {
-                Some(a) => self.read_floats(a, 2)?.chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
+                Some(a) => self
+                    .read_floats(a, 2)?
+                    .chunks_exact(2)
+                    .map(|c| [c[0], c[1]])
+                    .collect(),
                 None => Vec::new(),
             };
             if !normals.is_empty() && normals.len() != positions.len()
                 || !uvs.is_empty() && uvs.len() != positions.len()
             {
-                return Err(self.err(format!("mesh {index} primitive {pi}: attribute counts differ")));
+                return Err(self.err(format!(
+                    "mesh {index} primitive {pi}: attribute counts differ"
+                )));
             }
             let raw_indices = match prim.indices {
                 Some(a) => self.read_indices(a.value())?,
@@ -310,9 +406,9 @@ impl Loader<'_> {
             }
             let indices = triangulate(mode, &raw_indices);
             let material = match prim.material {
-                Some(m) => *materials
-                    .get(m.value())
-                    .ok_or_else(|| self.err(format!("material index {} out of range", m.value())))?,
+                Some(m) => *materials.get(m.value()).ok_or_else(|| {
+                    self.err(format!("material index {} out of range", m.value()))
+                })?,
                 None => default_material,
             };
             if scene.triangle_count() + indices.len() / 3 > MAX_TRIANGLES {
@@ -331,10 +427,11 @@ impl Loader<'_> {
         if self.buffers[index].is_none() {
             let b = &self.root.buffers[index];
             let data = match &b.uri {
-                None => self
-                    .blob
-                    .clone()
-                    .ok_or_else(|| self.err(format!("buffer {index} has no URI and there is no GLB binary chunk")))?,
+                None => self.blob.clone().ok_or_else(|| {
+                    self.err(format!(
+                        "buffer {index} has no URI and there is no GLB binary chunk"
+                    ))
+                })?,
                 Some(uri) => self.read_uri(uri)?,
             };
             if (data.len() as u64) < b.byte_length.0 {
@@ -363,14 +460,18 @@ impl Loader<'_> {
                 .map_err(|e| self.err(format!("bad base64 data URI: {e}")));
         }
         if uri.contains(':') {
-            return Err(self.err(format!("refusing URI '{uri}': only relative paths and data URIs are read")));
+            return Err(self.err(format!(
+                "refusing URI '{uri}': only relative paths and data URIs are read"
+            )));
         }
         let decoded = percent_encoding::percent_decode_str(uri)
             .decode_utf8()
             .map_err(|_| self.err(format!("URI '{uri}' is not valid percent-encoded UTF-8")))?;
         let relative = PathBuf::from(decoded.as_ref());
         if relative.is_absolute() || relative.has_root() {
-            return Err(self.err(format!("refusing absolute path '{uri}' (outside the scene's folder)")));
+            return Err(self.err(format!(
+                "refusing absolute path '{uri}' (outside the scene's folder)"
+            )));
         }
         // Lexical check first (the file need not exist to be refused), then
         // the canonical path (catches symlinks out of the folder).
@@ -382,7 +483,9 @@ impl Loader<'_> {
                 _ => {}
             }
             if depth < 0 {
-                return Err(self.err(format!("refusing '{uri}': it points outside the scene's folder")));
+                return Err(self.err(format!(
+                    "refusing '{uri}': it points outside the scene's folder"
+                )));
             }
         }
         let path = self.base.join(&relative);
@@ -390,9 +493,13 @@ impl Loader<'_> {
             .canonicalize()
             .map_err(|e| self.err(format!("cannot open '{uri}': {e}")))?;
         if !resolved.starts_with(self.base) {
-            return Err(self.err(format!("refusing '{uri}': it points outside the scene's folder")));
+            return Err(self.err(format!(
+                "refusing '{uri}': it points outside the scene's folder"
+            )));
         }
-        let len = std::fs::metadata(&resolved).map_err(|e| Error::io(&resolved, e))?.len();
+        let len = std::fs::metadata(&resolved)
+            .map_err(|e| Error::io(&resolved, e))?
+            .len();
         if len > MAX_BYTES {
             return Err(self.err(format!("'{uri}' is larger than {MAX_BYTES} bytes")));
         }
@@ -411,15 +518,25 @@ impl Loader<'_> {
         let buffer_index = v.buffer.value();
         let name = self.name;
         let data = self.buffer(buffer_index)?;
-        let end = offset.checked_add(length).filter(|&e| e <= data.len() as u64).ok_or_else(|| {
-            Error::scene(name, format!("bufferView {index} runs past the end of buffer {buffer_index}"))
-        })?;
+        let end = offset
+            .checked_add(length)
+            .filter(|&e| e <= data.len() as u64)
+            .ok_or_else(|| {
+                Error::scene(
+                    name,
+                    format!("bufferView {index} runs past the end of buffer {buffer_index}"),
+                )
+            })?;
         Ok((data[offset as usize..end as usize].to_vec(), stride))
     }
 
     /// Reads accessor `index` as elements of `components` numbers each, with
     /// its component type and the raw element bytes.
-    fn accessor_elements(&mut self, index: usize, components: usize) -> Result<(ComponentType, Vec<Vec<u8>>)> {
+    fn accessor_elements(
+        &mut self,
+        index: usize,
+        components: usize,
+    ) -> Result<(ComponentType, Vec<Vec<u8>>)> {
         let a = self
             .root
             .accessors
@@ -428,7 +545,8 @@ impl Loader<'_> {
         if a.sparse.is_some() {
             return Err(self.err(format!("accessor {index} is sparse (not supported)")));
         }
-        let ty = checked(&a.type_).ok_or_else(|| self.err(format!("accessor {index} has an invalid type")))?;
+        let ty = checked(&a.type_)
+            .ok_or_else(|| self.err(format!("accessor {index} has an invalid type")))?;
         let expected = match ty {
             Type::Scalar => 1,
             Type::Vec2 => 2,
@@ -437,28 +555,42 @@ impl Loader<'_> {
             _ => 0,
         };
         if expected != components {
-            return Err(self.err(format!("accessor {index} has type {ty:?}, expected {components} components")));
+            return Err(self.err(format!(
+                "accessor {index} has type {ty:?}, expected {components} components"
+            )));
         }
         let ct = checked(&a.component_type)
             .ok_or_else(|| self.err(format!("accessor {index} has an invalid component type")))?
             .0;
         let count = a.count.0 as usize;
         if count == 0 || count > 3 * MAX_TRIANGLES {
-            return Err(self.err(format!("accessor {index} has an unreasonable count {count}")));
+            return Err(self.err(format!(
+                "accessor {index} has an unreasonable count {count}"
+            )));
         }
         let offset = a.byte_offset.map(|o| o.0 as usize).unwrap_or(0);
-        let view = a.buffer_view.ok_or_else(|| self.err(format!("accessor {index} has no bufferView")))?;
+        let view = a
+            .buffer_view
+            .ok_or_else(|| self.err(format!("accessor {index} has no bufferView")))?;
         let (bytes, stride) = self.view(view.value())?;
         let elem = ct.size() * components;
         let stride = stride.unwrap_or(elem);
         if stride < elem {
-            return Err(self.err(format!("accessor {index}: byteStride {stride} smaller than an element")));
+            return Err(self.err(format!(
+                "accessor {index}: byteStride {stride} smaller than an element"
+            )));
         }
         let needed = offset
-            .checked_add(stride.checked_mul(count - 1).ok_or_else(|| self.err("accessor size overflows"))?)
+            .checked_add(
+                stride
+                    .checked_mul(count - 1)
+                    .ok_or_else(|| self.err("accessor size overflows"))?,
+            )
             .and_then(|n| n.checked_add(elem));
         if needed.is_none_or(|n| n > bytes.len()) {
-            return Err(self.err(format!("accessor {index} runs past the end of its bufferView")));
+            return Err(self.err(format!(
+                "accessor {index} runs past the end of its bufferView"
+            )));
         }
         let elements = (0..count)
             .map(|i| bytes[offset + i * stride..offset + i * stride + elem].to_vec())
@@ -468,18 +600,29 @@ impl Loader<'_> {
 
     /// Float (or normalized integer) attribute data, flattened.
     fn read_floats(&mut self, index: usize, components: usize) -> Result<Vec<f32>> {
-        let normalized = self.root.accessors.get(index).map(|a| a.normalized).unwrap_or(false);
+        let normalized = self
+            .root
+            .accessors
+            .get(index)
+            .map(|a| a.normalized)
+            .unwrap_or(false);
         let (ct, elements) = self.accessor_elements(index, components)?;
         let mut out = Vec::with_capacity(elements.len() * components);
         for e in &elements {
             for c in 0..components {
                 let v = match ct {
-                    ComponentType::F32 => f32::from_le_bytes(e[c * 4..c * 4 + 4].try_into().unwrap()),
+                    ComponentType::F32 => {
+                        f32::from_le_bytes(e[c * 4..c * 4 + 4].try_into().unwrap())
+                    }
                     ComponentType::U8 if normalized => e[c] as f32 / 255.0,
                     ComponentType::U16 if normalized => {
                         u16::from_le_bytes(e[c * 2..c * 2 + 2].try_into().unwrap()) as f32 / 65535.0
                     }
-                    _ => return Err(self.err(format!("accessor {index}: component type {ct:?} not supported here"))),
+                    _ => {
+                        return Err(self.err(format!(
+                            "accessor {index}: component type {ct:?} not supported here"
+                        )))
+                    }
                 };
                 if !v.is_finite() {
                     return Err(self.err(format!("accessor {index} holds a non-finite number")));
@@ -499,13 +642,20 @@ impl Loader<'_> {
                 ComponentType::U8 => Ok(e[0] as u32),
                 ComponentType::U16 => Ok(u16::from_le_bytes([e[0], e[1]]) as u32),
                 ComponentType::U32 => Ok(u32::from_le_bytes([e[0], e[1], e[2], e[3]])),
-                _ => Err(self.err(format!("accessor {index}: indices must be unsigned integers"))),
+                _ => Err(self.err(format!(
+                    "accessor {index}: indices must be unsigned integers"
+                ))),
             })
             .collect()
     }
 
     /// Decodes texture `index` into the scene (once) and returns its slot.
-    fn texture(&mut self, index: usize, scene: &mut Scene, slots: &mut [Option<usize>]) -> Result<usize> {
+    fn texture(
+        &mut self,
+        index: usize,
+        scene: &mut Scene,
+        slots: &mut [Option<usize>],
+    ) -> Result<usize> {
         let t = self
             .root
             .textures
@@ -523,7 +673,11 @@ impl Loader<'_> {
         let bytes = match (&image.uri, image.buffer_view) {
             (Some(uri), _) => self.read_uri(uri)?,
             (None, Some(v)) => self.view(v.value())?.0,
-            (None, None) => return Err(self.err(format!("image {image_index} has neither uri nor bufferView"))),
+            (None, None) => {
+                return Err(self.err(format!(
+                    "image {image_index} has neither uri nor bufferView"
+                )))
+            }
         };
         let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
@@ -560,7 +714,9 @@ fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
                 }
             })
             .collect(),
-        Mode::TriangleFan => (2..idx.len()).flat_map(|i| [idx[0], idx[i - 1], idx[i]]).collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .flat_map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
         _ => idx[..idx.len() / 3 * 3].to_vec(),
     }
 }

@@ -82,7 +82,10 @@ impl Light {
     /// glTF's KHR_lights_punctual: smooth-step of the cosine between the cones.
     pub fn spot_factor(&self, dir: Vec3) -> f32 {
         match self.kind {
-            LightKind::Spot { inner_cone, outer_cone } => {
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => {
                 let cos_outer = outer_cone.cos();
                 let cos_inner = inner_cone.cos();
                 let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
@@ -113,7 +116,12 @@ impl Camera {
         let forward = (target - eye).normalize();
         let right = forward.cross(Vec3::Y).try_normalize().unwrap_or(Vec3::X);
         let up = right.cross(forward).normalize();
-        Self { position: eye, forward, up, yfov }
+        Self {
+            position: eye,
+            forward,
+            up,
+            yfov,
+        }
     }
 
     /// World-to-view matrix (right-handed, looking down -Z).
@@ -183,12 +191,18 @@ pub const MAX_TRIANGLES: usize = 1 << 24;
 impl Scene {
     /// An empty scene.
     pub fn new(name: impl Into<String>) -> Self {
-        Self { name: name.into(), ..Default::default() }
+        Self {
+            name: name.into(),
+            ..Default::default()
+        }
     }
 
     /// Adds a material and returns its index.
     pub fn add_material(&mut self, base_color: Vec3, texture: Option<usize>) -> u32 {
-        self.materials.push(Material { base_color: base_color.extend(1.0), texture });
+        self.materials.push(Material {
+            base_color: base_color.extend(1.0),
+            texture,
+        });
         (self.materials.len() - 1) as u32
     }
 
@@ -213,7 +227,10 @@ impl Scene {
             return bad("attribute counts differ from the position count");
         }
         if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-            return bad(&format!("index {i} out of range ({} vertices)", positions.len()));
+            return bad(&format!(
+                "index {i} out of range ({} vertices)",
+                positions.len()
+            ));
         }
         if material as usize >= self.materials.len() {
             return bad(&format!("material {material} does not exist"));
@@ -259,9 +276,15 @@ impl Scene {
     /// Bounds of all vertices (a unit box around the origin when empty).
     pub fn bounds(&self) -> Bounds {
         if self.vertices.is_empty() {
-            return Bounds { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) };
+            return Bounds {
+                min: Vec3::splat(-1.0),
+                max: Vec3::splat(1.0),
+            };
         }
-        let mut b = Bounds { min: Vec3::splat(f32::MAX), max: Vec3::splat(f32::MIN) };
+        let mut b = Bounds {
+            min: Vec3::splat(f32::MAX),
+            max: Vec3::splat(f32::MIN),
+        };
         for v in &self.vertices {
             let p = Vec3::from(v.position);
             b.min = b.min.min(p);
@@ -328,7 +351,10 @@ impl Scene {
         }
         for l in &self.lights {
             if !l.intensity.is_finite() || l.intensity.min_element() < 0.0 {
-                return Err(Error::scene(&self.name, "a light has a negative or non-finite intensity"));
+                return Err(Error::scene(
+                    &self.name,
+                    "a light has a negative or non-finite intensity",
+                ));
             }
         }
         Ok(())

@@ -58,8 +58,18 @@ impl Access {
         use vk::ImageLayout as L;
         use vk::PipelineStageFlags2 as S;
         let (stage, access, layout, writes) = match self {
-            Access::TransferWrite => (S::TRANSFER, A::TRANSFER_WRITE, L::TRANSFER_DST_OPTIMAL, true),
-            Access::TransferRead => (S::TRANSFER, A::TRANSFER_READ, L::TRANSFER_SRC_OPTIMAL, false),
+            Access::TransferWrite => (
+                S::TRANSFER,
+                A::TRANSFER_WRITE,
+                L::TRANSFER_DST_OPTIMAL,
+                true,
+            ),
+            Access::TransferRead => (
+                S::TRANSFER,
+                A::TRANSFER_READ,
+                L::TRANSFER_SRC_OPTIMAL,
+                false,
+            ),
             Access::HostRead => (S::HOST, A::HOST_READ, L::GENERAL, false),
             Access::VertexInput => (
                 S::VERTEX_INPUT,
@@ -106,7 +116,12 @@ impl Access {
             ),
             Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR, false),
         };
-        AccessInfo { stage, access, layout, writes }
+        AccessInfo {
+            stage,
+            access,
+            layout,
+            writes,
+        }
     }
 }
 
@@ -160,7 +175,11 @@ pub fn transition(
     is_image: bool,
 ) -> (Option<Barrier>, ResourceState) {
     let info = next.info();
-    let new_layout = if is_image { info.layout } else { vk::ImageLayout::UNDEFINED };
+    let new_layout = if is_image {
+        info.layout
+    } else {
+        vk::ImageLayout::UNDEFINED
+    };
     let layout_change = is_image && new_layout != state.layout;
     let (write_stage, write_access) = state
         .last_write
@@ -174,12 +193,15 @@ pub fn transition(
             src_access: write_access,
             dst_stage: info.stage,
             dst_access: info.access,
-            old_layout: if is_image { state.layout } else { vk::ImageLayout::UNDEFINED },
+            old_layout: if is_image {
+                state.layout
+            } else {
+                vk::ImageLayout::UNDEFINED
+            },
             new_layout,
         };
-        let needed = layout_change
-            || state.last_write.is_some()
-            || !state.visible_stages.is_empty();
+        let needed =
+            layout_change || state.last_write.is_some() || !state.visible_stages.is_empty();
         let after = if info.writes {
             ResourceState {
                 layout: new_layout,
@@ -200,8 +222,8 @@ pub fn transition(
 
     // A read in the current layout: needed only if this stage has not yet been
     // made to see the last write.
-    let covered = state.visible_stages.contains(info.stage)
-        && state.visible_access.contains(info.access);
+    let covered =
+        state.visible_stages.contains(info.stage) && state.visible_access.contains(info.access);
     if state.last_write.is_none() || covered {
         let mut after = state;
         if state.last_write.is_none() {
@@ -240,10 +262,16 @@ mod tests {
         assert_eq!(b.new_layout, vk::ImageLayout::GENERAL);
         let (b, s) = transition(s, Access::ComputeRead, true);
         let b = b.expect("read after write");
-        assert_eq!(b.src_access, vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::SHADER_STORAGE_READ);
+        assert_eq!(
+            b.src_access,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::SHADER_STORAGE_READ
+        );
         assert_eq!(b.dst_stage, vk::PipelineStageFlags2::COMPUTE_SHADER);
         let (b, _) = transition(s, Access::ComputeRead, true);
-        assert!(b.is_none(), "second read in the same stage is already visible");
+        assert!(
+            b.is_none(),
+            "second read in the same stage is already visible"
+        );
     }
 
     #[test]
@@ -255,8 +283,12 @@ mod tests {
         assert_eq!(b.new_layout, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL);
         let (b, _) = transition(s, Access::FragmentSampled, true);
         let b = b.expect("fragment stage has not seen the write yet");
-        assert!(b.src_stage.contains(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT));
-        assert!(b.src_stage.contains(vk::PipelineStageFlags2::COMPUTE_SHADER));
+        assert!(b
+            .src_stage
+            .contains(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT));
+        assert!(b
+            .src_stage
+            .contains(vk::PipelineStageFlags2::COMPUTE_SHADER));
         assert_eq!(b.old_layout, b.new_layout);
     }
 
@@ -266,7 +298,9 @@ mod tests {
         let (_, s) = transition(s, Access::ComputeRead, false);
         let (b, _) = transition(s, Access::TransferWrite, false);
         let b = b.unwrap();
-        assert!(b.src_stage.contains(vk::PipelineStageFlags2::COMPUTE_SHADER));
+        assert!(b
+            .src_stage
+            .contains(vk::PipelineStageFlags2::COMPUTE_SHADER));
         assert_eq!(b.dst_stage, vk::PipelineStageFlags2::TRANSFER);
     }
 

@@ -80,14 +80,23 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
     ) -> Result<Self> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
-        let buffer = Self::new(device, name, bytes.len() as u64, usage, MemoryLocation::CpuToGpu)?;
+        let buffer = Self::new(
+            device,
+            name,
+            bytes.len() as u64,
+            usage,
+            MemoryLocation::CpuToGpu,
+        )?;
         buffer.write(0, bytes)?;
         Ok(buffer)
     }
 
     fn mapped(&self) -> Result<(*mut u8, usize)> {
-        let allocation = self.allocation.as_ref().expect("allocation lives until drop");
-        let ptr = allocation.mapped_ptr().ok_or_else(|| Error::Vulkan {
+        let allocation = self
+            .allocation
+            .as_ref()
+            .expect("allocation lives until drop");
+        let ptr = allocation.mapped_ptr().ok_or(Error::Vulkan {
             call: "map (buffer is not host visible)",
             result: vk::Result::ERROR_MEMORY_MAP_FAILED,
         })?;
@@ -126,7 +135,8 @@ impl Buffer {
 impl Drop for Buffer {
     fn drop(&mut self) {
         if let Some(allocation) = self.allocation.take() {
-            self.device.defer_destroy(Garbage::Buffer(self.raw, allocation));
+            self.device
+                .defer_destroy(Garbage::Buffer(self.raw, allocation));
         }
     }
 }

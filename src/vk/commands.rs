@@ -25,7 +25,8 @@ impl CommandPool {
             .queue_family_index(device.queue_family)
             .flags(vk::CommandPoolCreateFlags::TRANSIENT);
         // SAFETY: valid create info.
-        let raw = unsafe { device.raw.create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
+        let raw =
+            unsafe { device.raw.create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(raw)
             .level(vk::CommandBufferLevel::PRIMARY)
@@ -36,10 +37,17 @@ impl CommandPool {
             Err(result) => {
                 // SAFETY: nothing allocated from it.
                 unsafe { device.raw.destroy_command_pool(raw, None) };
-                return Err(crate::Error::Vulkan { call: "vkAllocateCommandBuffers", result });
+                return Err(crate::Error::Vulkan {
+                    call: "vkAllocateCommandBuffers",
+                    result,
+                });
             }
         };
-        Ok(Self { device: device.clone(), raw, cmd })
+        Ok(Self {
+            device: device.clone(),
+            raw,
+            cmd,
+        })
     }
 
     /// Resets the pool and starts recording. The previous recording must have
@@ -153,7 +161,11 @@ impl Recorder<'_> {
                 base_array_layer: 0,
                 layer_count: 1,
             })
-            .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
+            .image_extent(vk::Extent3D {
+                width: image.desc.width,
+                height: image.desc.height,
+                depth: 1,
+            });
         // SAFETY: layouts set by the barrier above; buffer sized by the caller.
         unsafe {
             self.device.raw.cmd_copy_image_to_buffer(
@@ -178,7 +190,11 @@ impl Recorder<'_> {
                 base_array_layer: 0,
                 layer_count: image.desc.layers,
             })
-            .image_extent(vk::Extent3D { width: image.desc.width, height: image.desc.height, depth: 1 });
+            .image_extent(vk::Extent3D {
+                width: image.desc.width,
+                height: image.desc.height,
+                depth: 1,
+            });
         // SAFETY: layouts set by the barrier above; buffer holds every layer.
         unsafe {
             self.device.raw.cmd_copy_buffer_to_image(
@@ -196,7 +212,11 @@ impl Recorder<'_> {
         self.use_buffer(buffer, Access::TransferWrite);
         self.flush_barriers();
         // SAFETY: whole buffer, size is a multiple of 4 (Buffer::new rounds).
-        unsafe { self.device.raw.cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value) };
+        unsafe {
+            self.device
+                .raw
+                .cmd_fill_buffer(self.cmd, buffer.raw, 0, vk::WHOLE_SIZE, value)
+        };
     }
 
     /// Ends recording, submits, and returns the timeline value to wait on.

@@ -44,13 +44,18 @@ impl DescriptorSetLayout {
         // SAFETY: valid create info.
         let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }
             .vk("vkCreateDescriptorSetLayout")?;
-        Ok(Self { device: device.clone(), raw, types: types.to_vec() })
+        Ok(Self {
+            device: device.clone(),
+            raw,
+            types: types.to_vec(),
+        })
     }
 }
 
 impl Drop for DescriptorSetLayout {
     fn drop(&mut self) {
-        self.device.defer_destroy(Garbage::DescriptorSetLayout(self.raw));
+        self.device
+            .defer_destroy(Garbage::DescriptorSetLayout(self.raw));
     }
 }
 
@@ -68,7 +73,10 @@ impl DescriptorPool {
         for &t in layouts.iter().flat_map(|l| l.types.iter()) {
             match sizes.iter_mut().find(|s| s.ty == t) {
                 Some(s) => s.descriptor_count += 1,
-                None => sizes.push(vk::DescriptorPoolSize { ty: t, descriptor_count: 1 }),
+                None => sizes.push(vk::DescriptorPoolSize {
+                    ty: t,
+                    descriptor_count: 1,
+                }),
             }
         }
         let info = vk::DescriptorPoolCreateInfo::default()
@@ -77,7 +85,10 @@ impl DescriptorPool {
         // SAFETY: valid create info.
         let raw = unsafe { device.raw.create_descriptor_pool(&info, None) }
             .vk("vkCreateDescriptorPool")?;
-        Ok(Self { device: device.clone(), raw })
+        Ok(Self {
+            device: device.clone(),
+            raw,
+        })
     }
 
     /// Allocates one set of `layout` and writes `bindings` (in binding order).
@@ -86,7 +97,11 @@ impl DescriptorPool {
         layout: &DescriptorSetLayout,
         bindings: &[Binding<'_>],
     ) -> Result<vk::DescriptorSet> {
-        assert_eq!(bindings.len(), layout.types.len(), "one resource per binding");
+        assert_eq!(
+            bindings.len(),
+            layout.types.len(),
+            "one resource per binding"
+        );
         let layouts = [layout.raw];
         let info = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(self.raw)
@@ -113,7 +128,10 @@ impl DescriptorPool {
             .iter()
             .map(|b| match *b {
                 Binding::StorageBuffer(buf) | Binding::UniformBuffer(buf) => {
-                    vk::DescriptorBufferInfo::default().buffer(buf.raw).offset(0).range(vk::WHOLE_SIZE)
+                    vk::DescriptorBufferInfo::default()
+                        .buffer(buf.raw)
+                        .offset(0)
+                        .range(vk::WHOLE_SIZE)
                 }
                 _ => vk::DescriptorBufferInfo::default(),
             })

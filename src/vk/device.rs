@@ -82,7 +82,9 @@ fn unsuitable_reason(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option
     }
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
     let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
-    let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12).push_next(&mut f13);
+    let mut f2 = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut f12)
+        .push_next(&mut f13);
     // SAFETY: valid physical device and a correctly chained query struct.
     unsafe { instance.get_physical_device_features2(pd, &mut f2) };
     let missing: Vec<&str> = [
@@ -110,7 +112,8 @@ fn queue_family_index(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Optio
     families
         .iter()
         .position(|f| {
-            f.queue_flags.contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+            f.queue_flags
+                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
                 && f.timestamp_valid_bits > 0
         })
         .map(|i| i as u32)
@@ -186,7 +189,15 @@ impl Device {
             .vk("vkCreateDevice")?;
         let name = device_name(&properties);
         log::info!("using Vulkan device '{name}'");
-        Self::from_parts(instance, physical, raw, queue_family, properties, name, true)
+        Self::from_parts(
+            instance,
+            physical,
+            raw,
+            queue_family,
+            properties,
+            name,
+            true,
+        )
     }
 
     fn from_parts(
@@ -262,8 +273,11 @@ impl Device {
             .signal_semaphore_infos(&signal);
         // SAFETY: the command buffers are recorded and ended by the caller; the
         // queue is only used from the thread that owns the renderer.
-        unsafe { self.raw.queue_submit2(self.queue, &[submit], vk::Fence::null()) }
-            .vk("vkQueueSubmit2")?;
+        unsafe {
+            self.raw
+                .queue_submit2(self.queue, &[submit], vk::Fence::null())
+        }
+        .vk("vkQueueSubmit2")?;
         Ok(value)
     }
 
@@ -272,7 +286,9 @@ impl Device {
     pub fn wait(&self, value: u64) -> Result<()> {
         let semaphores = [self.timeline];
         let values = [value];
-        let info = vk::SemaphoreWaitInfo::default().semaphores(&semaphores).values(&values);
+        let info = vk::SemaphoreWaitInfo::default()
+            .semaphores(&semaphores)
+            .values(&values);
         // SAFETY: valid timeline semaphore; the value was or will be signalled.
         unsafe { self.raw.wait_semaphores(&info, u64::MAX) }.vk("vkWaitSemaphores")?;
         self.collect_garbage();

@@ -33,7 +33,15 @@ pub struct ImageDesc {
 impl ImageDesc {
     /// A single-layer, single-mip 2D image.
     pub fn new_2d(format: vk::Format, width: u32, height: u32, usage: vk::ImageUsageFlags) -> Self {
-        Self { format, width, height, layers: 1, mip_levels: 1, usage, array: false }
+        Self {
+            format,
+            width,
+            height,
+            layers: 1,
+            mip_levels: 1,
+            usage,
+            array: false,
+        }
     }
 }
 
@@ -67,9 +75,12 @@ impl Image {
     pub fn new(device: &Arc<Device>, name: &str, desc: ImageDesc) -> Result<Self> {
         let limits = device.limits();
         if desc.width == 0 || desc.height == 0 {
-            return Err(Error::InvalidParameter(format!("image '{name}' has a zero size")));
+            return Err(Error::InvalidParameter(format!(
+                "image '{name}' has a zero size"
+            )));
         }
-        if desc.width > limits.max_image_dimension2_d || desc.height > limits.max_image_dimension2_d {
+        if desc.width > limits.max_image_dimension2_d || desc.height > limits.max_image_dimension2_d
+        {
             return Err(Error::InvalidParameter(format!(
                 "image '{name}' of {}x{} exceeds the device limit of {} texels per side",
                 desc.width, desc.height, limits.max_image_dimension2_d
@@ -84,7 +95,11 @@ impl Image {
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(desc.format)
-            .extent(vk::Extent3D { width: desc.width, height: desc.height, depth: 1 })
+            .extent(vk::Extent3D {
+                width: desc.width,
+                height: desc.height,
+                depth: 1,
+            })
             .mip_levels(desc.mip_levels)
             .array_layers(desc.layers)
             .samples(vk::SampleCountFlags::TYPE_1)
@@ -93,15 +108,19 @@ impl Image {
             .sharing_mode(vk::SharingMode::EXCLUSIVE)
             .initial_layout(vk::ImageLayout::UNDEFINED);
         // SAFETY: valid create info; sizes checked against the limits.
-        let raw = unsafe { device.raw.create_image(&info, None) }.map_err(|result| match result {
-            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                Error::InvalidParameter(format!(
-                    "image '{name}' ({}x{}x{}) does not fit in memory",
-                    desc.width, desc.height, desc.layers
-                ))
-            }
-            result => Error::Vulkan { call: "vkCreateImage", result },
-        })?;
+        let raw =
+            unsafe { device.raw.create_image(&info, None) }.map_err(|result| match result {
+                vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                    Error::InvalidParameter(format!(
+                        "image '{name}' ({}x{}x{}) does not fit in memory",
+                        desc.width, desc.height, desc.layers
+                    ))
+                }
+                result => Error::Vulkan {
+                    call: "vkCreateImage",
+                    result,
+                },
+            })?;
         // SAFETY: created above from this device.
         let requirements = unsafe { device.raw.get_image_memory_requirements(raw) };
         let allocation = match device.allocator().allocate(&AllocationCreateDesc {
@@ -129,8 +148,11 @@ impl Image {
             state: Cell::new(ResourceState::default()),
         };
         // SAFETY: memory allocated for this image's requirements.
-        let bound =
-            unsafe { device.raw.bind_image_memory(raw, allocation.memory(), allocation.offset()) };
+        let bound = unsafe {
+            device
+                .raw
+                .bind_image_memory(raw, allocation.memory(), allocation.offset())
+        };
         image.allocation = Some(allocation);
         bound.vk("vkBindImageMemory")?;
 
@@ -161,7 +183,11 @@ impl Image {
     ) -> Result<vk::ImageView> {
         let info = vk::ImageViewCreateInfo::default()
             .image(self.raw)
-            .view_type(if array { vk::ImageViewType::TYPE_2D_ARRAY } else { vk::ImageViewType::TYPE_2D })
+            .view_type(if array {
+                vk::ImageViewType::TYPE_2D_ARRAY
+            } else {
+                vk::ImageViewType::TYPE_2D
+            })
             .format(self.desc.format)
             .subresource_range(vk::ImageSubresourceRange {
                 aspect_mask: aspect_of(self.desc.format),
@@ -187,7 +213,10 @@ impl Image {
 
     /// Extent of mip `level`.
     pub fn mip_extent(&self, level: u32) -> (u32, u32) {
-        ((self.desc.width >> level).max(1), (self.desc.height >> level).max(1))
+        (
+            (self.desc.width >> level).max(1),
+            (self.desc.height >> level).max(1),
+        )
     }
 }
 
@@ -200,7 +229,8 @@ impl Drop for Image {
             self.device.defer_destroy(Garbage::ImageView(v));
         }
         if let Some(allocation) = self.allocation.take() {
-            self.device.defer_destroy(Garbage::Image(self.raw, allocation));
+            self.device
+                .defer_destroy(Garbage::Image(self.raw, allocation));
         }
     }
 }
@@ -214,7 +244,11 @@ pub struct Sampler {
 
 impl Sampler {
     /// Creates a sampler with the given filter and addressing.
-    pub fn new(device: &Arc<Device>, filter: vk::Filter, address: vk::SamplerAddressMode) -> Result<Self> {
+    pub fn new(
+        device: &Arc<Device>,
+        filter: vk::Filter,
+        address: vk::SamplerAddressMode,
+    ) -> Result<Self> {
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(filter)
             .min_filter(filter)
@@ -225,7 +259,10 @@ impl Sampler {
             .max_lod(vk::LOD_CLAMP_NONE);
         // SAFETY: valid create info.
         let raw = unsafe { device.raw.create_sampler(&info, None) }.vk("vkCreateSampler")?;
-        Ok(Self { device: device.clone(), raw })
+        Ok(Self {
+            device: device.clone(),
+            raw,
+        })
     }
 }
 

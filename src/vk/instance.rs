@@ -116,18 +116,18 @@ impl Instance {
         let user_data = Arc::as_ptr(&validation_log) as *mut c_void;
         let messenger_info = || {
             vk::DebugUtilsMessengerCreateInfoEXT::default()
-            .message_severity(
-                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
-            )
-            .message_type(
-                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-            )
-            .pfn_user_callback(Some(debug_callback))
-            .user_data(user_data)
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(user_data)
         };
         // Chained into the instance create info: also reports during
         // vkCreateInstance/vkDestroyInstance.
@@ -162,13 +162,21 @@ impl Instance {
                 Err(result) => {
                     // SAFETY: nothing was created from this instance yet.
                     unsafe { raw.destroy_instance(None) };
-                    return Err(Error::Vulkan { call: "vkCreateDebugUtilsMessengerEXT", result });
+                    return Err(Error::Vulkan {
+                        call: "vkCreateDebugUtilsMessengerEXT",
+                        result,
+                    });
                 }
             }
         } else {
             None
         };
-        Ok(Arc::new(Self { entry, raw, debug, validation_log }))
+        Ok(Arc::new(Self {
+            entry,
+            raw,
+            debug,
+            validation_log,
+        }))
     }
 
     /// Whether validation is on.

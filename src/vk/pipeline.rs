@@ -10,10 +10,11 @@ use crate::error::{Error, Result, VkResultExt};
 
 fn shader_module(device: &Device, spirv: &[u8]) -> Result<vk::ShaderModule> {
     // Embedded SPIR-V comes from build.rs; a failure here is a build bug.
-    let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|_| Error::Vulkan {
-        call: "read_spv (embedded SPIR-V is malformed)",
-        result: vk::Result::ERROR_INITIALIZATION_FAILED,
-    })?;
+    let code =
+        ash::util::read_spv(&mut std::io::Cursor::new(spirv)).map_err(|_| Error::Vulkan {
+            call: "read_spv (embedded SPIR-V is malformed)",
+            result: vk::Result::ERROR_INITIALIZATION_FAILED,
+        })?;
     let info = vk::ShaderModuleCreateInfo::default().code(&code);
     // SAFETY: SPIR-V produced by build.rs from our own shaders.
     unsafe { device.raw.create_shader_module(&info, None) }.vk("vkCreateShaderModule")
@@ -38,7 +39,11 @@ fn pipeline_layout(
     stages: vk::ShaderStageFlags,
 ) -> Result<vk::PipelineLayout> {
     let raw_layouts: Vec<_> = set_layouts.iter().map(|l| l.raw).collect();
-    let ranges = [vk::PushConstantRange { stage_flags: stages, offset: 0, size: push_size }];
+    let ranges = [vk::PushConstantRange {
+        stage_flags: stages,
+        offset: 0,
+        size: push_size,
+    }];
     let info = vk::PipelineLayoutCreateInfo::default()
         .set_layouts(&raw_layouts)
         .push_constant_ranges(if push_size > 0 { &ranges[..] } else { &[] });
@@ -85,7 +90,9 @@ impl Pipeline {
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main");
-        let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout);
+        let info = vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout);
         // SAFETY: module and layout are valid; the module may be destroyed
         // right after pipeline creation.
         let result = unsafe {
@@ -99,7 +106,10 @@ impl Pipeline {
             Ok(p) => p[0],
             Err((_, result)) => {
                 device.defer_destroy(Garbage::PipelineLayout(layout));
-                return Err(Error::Vulkan { call: "vkCreateComputePipelines", result });
+                return Err(Error::Vulkan {
+                    call: "vkCreateComputePipelines",
+                    result,
+                });
             }
         };
         Ok(Self {
@@ -151,12 +161,14 @@ impl Pipeline {
         let attrs: Vec<_> = desc
             .attributes
             .iter()
-            .map(|&(location, format, offset)| vk::VertexInputAttributeDescription {
-                location,
-                binding: 0,
-                format,
-                offset,
-            })
+            .map(
+                |&(location, format, offset)| vk::VertexInputAttributeDescription {
+                    location,
+                    binding: 0,
+                    format,
+                    offset,
+                },
+            )
             .collect();
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vb)
@@ -188,7 +200,8 @@ impl Pipeline {
                     .color_write_mask(vk::ColorComponentFlags::RGBA)
             })
             .collect();
-        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
+        let blend =
+            vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachments);
         let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
         let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
@@ -222,7 +235,10 @@ impl Pipeline {
             Ok(p) => p[0],
             Err((_, result)) => {
                 device.defer_destroy(Garbage::PipelineLayout(layout));
-                return Err(Error::Vulkan { call: "vkCreateGraphicsPipelines", result });
+                return Err(Error::Vulkan {
+                    call: "vkCreateGraphicsPipelines",
+                    result,
+                });
             }
         };
         Ok(Self {
@@ -238,10 +254,17 @@ impl Pipeline {
     pub fn bind(&self, cmd: vk::CommandBuffer, set: vk::DescriptorSet, push: &[u8]) {
         // SAFETY: recording; the set matches the layout this pipeline was made with.
         unsafe {
-            self.device.raw.cmd_bind_pipeline(cmd, self.bind_point, self.raw);
             self.device
                 .raw
-                .cmd_bind_descriptor_sets(cmd, self.bind_point, self.layout, 0, &[set], &[]);
+                .cmd_bind_pipeline(cmd, self.bind_point, self.raw);
+            self.device.raw.cmd_bind_descriptor_sets(
+                cmd,
+                self.bind_point,
+                self.layout,
+                0,
+                &[set],
+                &[],
+            );
         }
         self.push(cmd, push);
     }
@@ -262,13 +285,18 @@ impl Pipeline {
     /// Dispatches enough 8x8 groups to cover `width` x `height` x `depth`.
     pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, width: u32, height: u32, depth: u32) {
         // SAFETY: recording with this compute pipeline bound.
-        unsafe { self.device.raw.cmd_dispatch(cmd, width.div_ceil(8), height.div_ceil(8), depth) };
+        unsafe {
+            self.device
+                .raw
+                .cmd_dispatch(cmd, width.div_ceil(8), height.div_ceil(8), depth)
+        };
     }
 }
 
 impl Drop for Pipeline {
     fn drop(&mut self) {
         self.device.defer_destroy(Garbage::Pipeline(self.raw));
-        self.device.defer_destroy(Garbage::PipelineLayout(self.layout));
+        self.device
+            .defer_destroy(Garbage::PipelineLayout(self.layout));
     }
 }

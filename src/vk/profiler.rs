@@ -48,7 +48,11 @@ impl GpuProfiler {
                 .get_physical_device_queue_family_properties(device.physical)
         };
         let bits = families[device.queue_family as usize].timestamp_valid_bits;
-        let valid_mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        let valid_mask = if bits >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << bits) - 1
+        };
         Ok(Self {
             device: device.clone(),
             pool,
@@ -66,17 +70,26 @@ impl GpuProfiler {
         // SAFETY: hostQueryReset is enabled; no pending submission uses the pool
         // (the previous frame was resolved, which waited for it).
         unsafe {
-            self.device.raw.reset_query_pool(self.pool, 0, self.capacity * 2 + 2);
             self.device
                 .raw
-                .cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 0);
+                .reset_query_pool(self.pool, 0, self.capacity * 2 + 2);
+            self.device.raw.cmd_write_timestamp2(
+                cmd,
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                self.pool,
+                0,
+            );
         }
     }
 
     /// Writes the start timestamp of a pass.
     pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> PassScope {
         let index = self.names.len() as u32;
-        assert!(index < self.capacity, "GpuProfiler capacity {} exceeded", self.capacity);
+        assert!(
+            index < self.capacity,
+            "GpuProfiler capacity {} exceeded",
+            self.capacity
+        );
         self.names.push(name.to_string());
         // SAFETY: query index inside the pool, reset this frame.
         unsafe {
@@ -107,9 +120,12 @@ impl GpuProfiler {
     pub fn end_frame(&mut self, cmd: vk::CommandBuffer) {
         // SAFETY: query 1 is reserved for the frame end.
         unsafe {
-            self.device
-                .raw
-                .cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.pool, 1)
+            self.device.raw.cmd_write_timestamp2(
+                cmd,
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                self.pool,
+                1,
+            )
         };
     }
 

@@ -10,23 +10,37 @@ use ssbc::scene::{Camera, Light, LightKind, Scene};
 /// Renders `scene` with validation + synchronization validation on, drops the
 /// renderer, and panics if the layer reported anything.
 pub fn render_validated(scene: &Scene, settings: &RenderSettings) -> Frame {
-    let mut renderer = Renderer::new(&RendererConfig { validation: true, ..Default::default() })
-        .expect("renderer (is lavapipe + the validation layer installed? run scripts/setup.sh)");
+    let mut renderer = Renderer::new(&RendererConfig {
+        validation: true,
+        ..Default::default()
+    })
+    .expect("renderer (is lavapipe + the validation layer installed? run scripts/setup.sh)");
     let log = renderer.validation_log();
     let frame = renderer.render(scene, settings).expect("render");
     drop(renderer);
-    assert_eq!(log.total(), 0, "validation reported {} warning(s)/error(s)", log.total());
+    assert_eq!(
+        log.total(),
+        0,
+        "validation reported {} warning(s)/error(s)",
+        log.total()
+    );
     frame
 }
 
 /// Settings for a small test image.
 pub fn small(width: u32, height: u32) -> RenderSettings {
-    RenderSettings { width, height, ..Default::default() }
+    RenderSettings {
+        width,
+        height,
+        ..Default::default()
+    }
 }
 
 /// RGB of pixel (x, y) of a layer.
 pub fn pixel(frame: &Frame, layer: &str, x: u32, y: u32) -> Vec3 {
-    let l = frame.layer(layer).unwrap_or_else(|| panic!("no layer {layer}"));
+    let l = frame
+        .layer(layer)
+        .unwrap_or_else(|| panic!("no layer {layer}"));
     let i = ((y * frame.width + x) * 4) as usize;
     Vec3::new(l.rgba[i], l.rgba[i + 1], l.rgba[i + 2])
 }
@@ -36,20 +50,50 @@ pub fn plane_scene(albedo: f32, size: f32) -> Scene {
     let mut s = Scene::new("plane");
     let m = s.add_material(Vec3::splat(albedo), None);
     let h = size * 0.5;
-    let p = [Vec3::new(-h, 0.0, h), Vec3::new(h, 0.0, h), Vec3::new(h, 0.0, -h), Vec3::new(-h, 0.0, -h)];
-    s.add_mesh(&p, &[Vec3::Y; 4], &[], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, m).unwrap();
-    s.cameras.push(Camera::look_at(Vec3::new(0.0, 2.5, 2.0), Vec3::ZERO, 50f32.to_radians()));
+    let p = [
+        Vec3::new(-h, 0.0, h),
+        Vec3::new(h, 0.0, h),
+        Vec3::new(h, 0.0, -h),
+        Vec3::new(-h, 0.0, -h),
+    ];
+    s.add_mesh(
+        &p,
+        &[Vec3::Y; 4],
+        &[],
+        &[0, 1, 2, 0, 2, 3],
+        Mat4::IDENTITY,
+        m,
+    )
+    .unwrap();
+    s.cameras.push(Camera::look_at(
+        Vec3::new(0.0, 2.5, 2.0),
+        Vec3::ZERO,
+        50f32.to_radians(),
+    ));
     s
 }
 
 /// A point light.
 pub fn point_light(position: Vec3, intensity: f32) -> Light {
-    Light { kind: LightKind::Point, position, direction: -Vec3::Y, intensity: Vec3::splat(intensity) }
+    Light {
+        kind: LightKind::Point,
+        position,
+        direction: -Vec3::Y,
+        intensity: Vec3::splat(intensity),
+    }
 }
 
 /// Where the camera ray of pixel (x, y) hits the plane y = 0, if it does
 /// within `half` of the origin (and not within `margin` of its edge).
-pub fn hit_plane(camera: &Camera, x: u32, y: u32, w: u32, h: u32, half: f32, margin: f32) -> Option<Vec3> {
+pub fn hit_plane(
+    camera: &Camera,
+    x: u32,
+    y: u32,
+    w: u32,
+    h: u32,
+    half: f32,
+    margin: f32,
+) -> Option<Vec3> {
     let d = camera.pixel_ray(x as f32, y as f32, w, h);
     if d.y >= -1e-4 {
         return None;
@@ -64,7 +108,12 @@ pub fn hit_plane(camera: &Camera, x: u32, y: u32, w: u32, h: u32, half: f32, mar
 /// given width (2 or 4 bytes; 0 for none). Returns (bytes, index_offset).
 pub fn quad_buffer(index_width: usize) -> (Vec<u8>, usize) {
     let mut b = Vec::new();
-    let positions = [[-1.0f32, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]];
+    let positions = [
+        [-1.0f32, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.0, 0.0, -1.0],
+        [-1.0, 0.0, -1.0],
+    ];
     for p in positions {
         for c in p {
             b.extend(c.to_le_bytes());
@@ -97,7 +146,13 @@ pub fn quad_buffer(index_width: usize) -> (Vec<u8>, usize) {
 /// glTF JSON for one quad mesh in a two-level node hierarchy, with the given
 /// buffer URI (None: GLB blob), index component type (5123 u16, 5125 u32, 0
 /// none), and extra top-level JSON members (materials, textures, ...).
-pub fn quad_gltf(uri: Option<&str>, byte_length: usize, index_type: u32, material: Option<u32>, extra: &str) -> String {
+pub fn quad_gltf(
+    uri: Option<&str>,
+    byte_length: usize,
+    index_type: u32,
+    material: Option<u32>,
+    extra: &str,
+) -> String {
     let index_count = 6;
     let index_width = match index_type {
         5123 => 2,
@@ -105,17 +160,28 @@ pub fn quad_gltf(uri: Option<&str>, byte_length: usize, index_type: u32, materia
         _ => 0,
     };
     let indices_view = if index_width > 0 {
-        format!(r#",{{"buffer":0,"byteOffset":128,"byteLength":{}}}"#, index_count * index_width)
+        format!(
+            r#",{{"buffer":0,"byteOffset":128,"byteLength":{}}}"#,
+            index_count * index_width
+        )
     } else {
         String::new()
     };
     let indices_acc = if index_width > 0 {
-        format!(r#",{{"bufferView":3,"componentType":{index_type},"count":{index_count},"type":"SCALAR"}}"#)
+        format!(
+            r#",{{"bufferView":3,"componentType":{index_type},"count":{index_count},"type":"SCALAR"}}"#
+        )
     } else {
         String::new()
     };
-    let prim_indices = if index_width > 0 { r#","indices":3"# } else { "" };
-    let prim_material = material.map(|m| format!(r#","material":{m}"#)).unwrap_or_default();
+    let prim_indices = if index_width > 0 {
+        r#","indices":3"#
+    } else {
+        ""
+    };
+    let prim_material = material
+        .map(|m| format!(r#","material":{m}"#))
+        .unwrap_or_default();
     let uri = uri.map(|u| format!(r#","uri":"{u}""#)).unwrap_or_default();
     format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
@@ -154,5 +220,8 @@ pub fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
 /// Base64 data URI of `bytes`.
 pub fn data_uri(bytes: &[u8]) -> String {
     use base64::Engine as _;
-    format!("data:application/octet-stream;base64,{}", base64::engine::general_purpose::STANDARD.encode(bytes))
+    format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
 }

@@ -1,0 +1,425 @@
+//! Screen-space bias compensation: K steps of residual transport
+//! `S_k = T_r S_{k-1}` over the screen, hierarchically (Nichols et al. 2009
+//! style top-down integration over mip chains) or by brute force.
+//!
+//! Per frame: the geometry pyramid (area-weighted position and normal, summed
+//! area `A_y`, discontinuity flag) is built once; each step builds the
+//! radiance pyramid of the previous term, integrates the residual, and adds it
+//! to the final image.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::gbuffer::GBuffer;
+use crate::error::{Error, Result};
+use crate::shaders;
+use crate::vk::{Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, ImageDesc, Pipeline, Recorder, Sampler};
+
+/// How each residual step integrates over the screen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Integration {
+    /// Top-down over the mip chains (the paper's method).
+    #[default]
+    Hierarchical,
+    /// Every full-resolution pixel within the bounding radius (the reference).
+    Brute,
+}
+
+/// SSBC parameters.
+#[derive(Clone, Debug)]
+pub struct SsbcSettings {
+    /// Number of residual steps K (0 = no compensation).
+    pub steps: u32,
+    /// Integration method.
+    pub integration: Integration,
+    /// Lower clamp of cos(theta_view) in A_y (conservative grazing-angle compensation).
+    pub min_cos_view: f32,
+    /// Refine a texel whose extent exceeds this fraction of its distance to x.
+    pub refine_ratio: f32,
+    /// Children whose normal has a cosine below this to the mean are discontinuous.
+    pub max_normal_spread: f32,
+    /// Children farther than this x sqrt(area) from the mean are discontinuous.
+    pub max_depth_spread: f32,
+}
+
+impl Default for SsbcSettings {
+    fn default() -> Self {
+        Self {
+            steps: 2,
+            integration: Integration::Hierarchical,
+            min_cos_view: 0.2,
+            refine_ratio: 0.25,
+            max_normal_spread: 0.9,
+            max_depth_spread: 1.5,
+        }
+    }
+}
+
+impl SsbcSettings {
+    /// Checks the parameters.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::InvalidParameter(m));
+        if self.steps > 16 {
+            return bad(format!("--steps {} (at most 16)", self.steps));
+        }
+        if !(self.min_cos_view > 0.0 && self.min_cos_view <= 1.0) {
+            return bad(format!("min cos view {} must be in (0, 1]", self.min_cos_view));
+        }
+        if !(self.refine_ratio > 0.0 && self.refine_ratio.is_finite()) {
+            return bad(format!("refine ratio {} must be positive", self.refine_ratio));
+        }
+        Ok(())
+    }
+}
+
+/// Camera quantities the SSBC shaders need.
+#[derive(Clone, Copy, Debug)]
+pub struct SsbcCamera {
+    /// Eye position.
+    pub position: glam::Vec3,
+    /// Unit optical axis.
+    pub forward: glam::Vec3,
+    /// Pixel side on the image plane at distance 1: 2 tan(fov/2) / height.
+    pub pixel_side: f32,
+}
+
+/// The SSBC pipelines.
+pub struct SsbcPass {
+    geometry_layout: DescriptorSetLayout,
+    geometry: Pipeline,
+    radiance_layout: DescriptorSetLayout,
+    radiance: Pipeline,
+    residual_layout: DescriptorSetLayout,
+    residual: Pipeline,
+    accumulate_layout: DescriptorSetLayout,
+    accumulate: Pipeline,
+    nearest: Sampler,
+}
+
+/// One frame's SSBC images.
+pub struct SsbcFrame {
+    /// xyz mean position, w summed area A (mip chain).
+    pub geo_position: Image,
+    /// xyz mean normal, w discontinuity (mip chain).
+    pub geo_normal: Image,
+    /// Mean of the term being compensated (mip chain).
+    pub radiance: Image,
+    /// `residual_k` for k = 1..=K.
+    pub residuals: Vec<Image>,
+    /// Texel evaluations per pixel of each step (r32ui).
+    pub samples: Vec<Image>,
+    /// `S0 + residual_1 + ... + residual_K`.
+    pub final_image: Image,
+    /// One u32: how often a refinement stack was full (texel added unrefined).
+    pub stats: Buffer,
+    levels: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct GeometryPush {
+    camera_position: [f32; 4],
+    camera_forward: [f32; 4],
+    dst_size: [u32; 2],
+    gbuffer_size: [u32; 2],
+    mode: u32,
+    min_cos_view: f32,
+    max_normal_spread: f32,
+    max_depth_spread: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct RadiancePush {
+    dst_size: [u32; 2],
+    term_size: [u32; 2],
+    mode: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ResidualPush {
+    camera_position: [f32; 4],
+    camera_forward: [f32; 4],
+    size: [u32; 2],
+    levels: u32,
+    mode: u32,
+    bound: f32,
+    refine_ratio: f32,
+}
+
+/// Pyramid levels for an image: down to about 2 texels on the short side.
+pub fn pyramid_levels(width: u32, height: u32) -> u32 {
+    (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
+}
+
+impl SsbcPass {
+    /// Creates the pipelines.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        use vk::DescriptorType as T;
+        let stage = vk::ShaderStageFlags::COMPUTE;
+        let geometry_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 6], stage)?;
+        let geometry = Pipeline::compute(device, shaders::SSBC_GEOMETRY_MIPS_COMP, &[&geometry_layout], std::mem::size_of::<GeometryPush>() as u32)?;
+        let radiance_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 4], stage)?;
+        let radiance = Pipeline::compute(device, shaders::SSBC_RADIANCE_MIPS_COMP, &[&radiance_layout], std::mem::size_of::<RadiancePush>() as u32)?;
+        let residual_layout = DescriptorSetLayout::new(
+            device,
+            &[
+                T::STORAGE_IMAGE,
+                T::STORAGE_IMAGE,
+                T::STORAGE_IMAGE,
+                T::COMBINED_IMAGE_SAMPLER,
+                T::COMBINED_IMAGE_SAMPLER,
+                T::COMBINED_IMAGE_SAMPLER,
+                T::STORAGE_IMAGE,
+                T::STORAGE_IMAGE,
+                T::STORAGE_BUFFER,
+            ],
+            stage,
+        )?;
+        let residual = Pipeline::compute(device, shaders::SSBC_RESIDUAL_COMP, &[&residual_layout], std::mem::size_of::<ResidualPush>() as u32)?;
+        let accumulate_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 3], stage)?;
+        let accumulate = Pipeline::compute(device, shaders::ACCUMULATE_COMP, &[&accumulate_layout], 8)?;
+        let nearest = Sampler::new(device, vk::Filter::NEAREST, vk::SamplerAddressMode::CLAMP_TO_EDGE)?;
+        Ok(Self {
+            geometry_layout,
+            geometry,
+            radiance_layout,
+            radiance,
+            residual_layout,
+            residual,
+            accumulate_layout,
+            accumulate,
+            nearest,
+        })
+    }
+
+    /// Layouts of every set one frame allocates.
+    pub fn set_layouts(&self, extent: (u32, u32), steps: u32) -> Vec<&DescriptorSetLayout> {
+        let levels = pyramid_levels(extent.0, extent.1) as usize;
+        let mut v = vec![&self.geometry_layout; levels];
+        for _ in 0..steps {
+            v.extend(std::iter::repeat_n(&self.radiance_layout, levels));
+            v.push(&self.residual_layout);
+            v.push(&self.accumulate_layout);
+        }
+        v
+    }
+
+    /// Allocates one frame's images for `steps` steps.
+    pub fn prepare(&self, device: &Arc<Device>, extent: (u32, u32), steps: u32) -> Result<SsbcFrame> {
+        let levels = pyramid_levels(extent.0, extent.1);
+        // Pad level 0 so every level halves exactly (padding has zero area).
+        let align = 1u32 << (levels - 1);
+        let (pw, ph) = (extent.0.div_ceil(align) * align, extent.1.div_ceil(align) * align);
+        let pyramid = |name| {
+            Image::new(
+                device,
+                name,
+                ImageDesc {
+                    format: vk::Format::R32G32B32A32_SFLOAT,
+                    width: pw,
+                    height: ph,
+                    layers: 1,
+                    mip_levels: levels,
+                    usage: vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED,
+                    array: false,
+                },
+            )
+        };
+        let rgba = |name: String| {
+            super::storage_image(device, &name, vk::Format::R32G32B32A32_SFLOAT, extent, vk::ImageUsageFlags::empty())
+        };
+        let residuals = (1..=steps).map(|k| rgba(format!("residual_{k}"))).collect::<Result<_>>()?;
+        let samples = (1..=steps)
+            .map(|k| super::storage_image(device, &format!("samples_{k}"), vk::Format::R32_UINT, extent, vk::ImageUsageFlags::empty()))
+            .collect::<Result<_>>()?;
+        Ok(SsbcFrame {
+            geo_position: pyramid("ssbc_geo_position")?,
+            geo_normal: pyramid("ssbc_geo_normal")?,
+            radiance: pyramid("ssbc_radiance")?,
+            residuals,
+            samples,
+            final_image: rgba("final".into())?,
+            stats: Buffer::new(
+                device,
+                "ssbc_stats",
+                4,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?,
+            levels,
+        })
+    }
+
+    /// Records the geometry pyramid and every step; `s0` is `T Le + T_b L^`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        rec: &mut Recorder<'_>,
+        profiler: &mut GpuProfiler,
+        pool: &DescriptorPool,
+        gbuffer: &GBuffer,
+        s0: &Image,
+        camera: &SsbcCamera,
+        bound: f32,
+        settings: &SsbcSettings,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        let extent = gbuffer.extent();
+        rec.fill_buffer(&frame.stats, 0);
+        rec.use_buffer(&frame.stats, Access::ComputeWrite);
+
+        let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
+        for level in 0..frame.levels {
+            let src = level.saturating_sub(1) as usize;
+            let set = pool.allocate(
+                &self.geometry_layout,
+                &[
+                    Binding::storage(&gbuffer.position),
+                    Binding::storage(&gbuffer.normal),
+                    Binding::StorageImage(frame.geo_position.mip_views[src]),
+                    Binding::StorageImage(frame.geo_normal.mip_views[src]),
+                    Binding::StorageImage(frame.geo_position.mip_views[level as usize]),
+                    Binding::StorageImage(frame.geo_normal.mip_views[level as usize]),
+                ],
+            )?;
+            rec.use_image(&gbuffer.position, Access::ComputeRead);
+            rec.use_image(&gbuffer.normal, Access::ComputeRead);
+            rec.use_image(&frame.geo_position, Access::ComputeWrite);
+            rec.use_image(&frame.geo_normal, Access::ComputeWrite);
+            rec.flush_barriers();
+            let (w, h) = frame.geo_position.mip_extent(level);
+            let push = GeometryPush {
+                camera_position: camera.position.extend(1.0).into(),
+                camera_forward: camera.forward.extend(camera.pixel_side).into(),
+                dst_size: [w, h],
+                gbuffer_size: [extent.0, extent.1],
+                mode: (level > 0) as u32,
+                min_cos_view: settings.min_cos_view,
+                max_normal_spread: settings.max_normal_spread,
+                max_depth_spread: settings.max_depth_spread,
+            };
+            self.geometry.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+            self.geometry.dispatch_2d(rec.cmd, w, h, 1);
+        }
+        profiler.end(rec.cmd, scope);
+
+        for step in 0..settings.steps as usize {
+            let term = if step == 0 { s0 } else { &frame.residuals[step - 1] };
+            let scope = profiler.begin(rec.cmd, &format!("ssbc_step_{}", step + 1));
+            self.record_radiance_mips(rec, pool, term, extent, frame)?;
+            self.record_residual(rec, pool, gbuffer, camera, bound, settings, frame, step)?;
+            let accumulated = if step == 0 { s0 } else { &frame.final_image };
+            self.record_accumulate(rec, pool, accumulated, &frame.residuals[step], &frame.final_image, extent)?;
+            profiler.end(rec.cmd, scope);
+        }
+        Ok(())
+    }
+
+    fn record_radiance_mips(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        term: &Image,
+        extent: (u32, u32),
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        for level in 0..frame.levels {
+            let src = level.saturating_sub(1) as usize;
+            let set = pool.allocate(
+                &self.radiance_layout,
+                &[
+                    Binding::storage(term),
+                    Binding::StorageImage(frame.geo_position.mip_views[src]),
+                    Binding::StorageImage(frame.radiance.mip_views[src]),
+                    Binding::StorageImage(frame.radiance.mip_views[level as usize]),
+                ],
+            )?;
+            rec.use_image(term, Access::ComputeRead);
+            rec.use_image(&frame.geo_position, Access::ComputeRead);
+            rec.use_image(&frame.radiance, Access::ComputeWrite);
+            rec.flush_barriers();
+            let (w, h) = frame.radiance.mip_extent(level);
+            let push = RadiancePush { dst_size: [w, h], term_size: [extent.0, extent.1], mode: (level > 0) as u32 };
+            self.radiance.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+            self.radiance.dispatch_2d(rec.cmd, w, h, 1);
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn record_residual(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        gbuffer: &GBuffer,
+        camera: &SsbcCamera,
+        bound: f32,
+        settings: &SsbcSettings,
+        frame: &SsbcFrame,
+        step: usize,
+    ) -> Result<()> {
+        let set = pool.allocate(
+            &self.residual_layout,
+            &[
+                Binding::storage(&gbuffer.position),
+                Binding::storage(&gbuffer.normal),
+                Binding::storage(&gbuffer.albedo),
+                Binding::sampled(&frame.geo_position, &self.nearest),
+                Binding::sampled(&frame.geo_normal, &self.nearest),
+                Binding::sampled(&frame.radiance, &self.nearest),
+                Binding::storage(&frame.residuals[step]),
+                Binding::storage(&frame.samples[step]),
+                Binding::StorageBuffer(&frame.stats),
+            ],
+        )?;
+        for g in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
+            rec.use_image(g, Access::ComputeRead);
+        }
+        for pyramid in [&frame.geo_position, &frame.geo_normal, &frame.radiance] {
+            rec.use_image(pyramid, Access::ComputeSampled);
+        }
+        rec.use_image(&frame.residuals[step], Access::ComputeWrite);
+        rec.use_image(&frame.samples[step], Access::ComputeWrite);
+        rec.use_buffer(&frame.stats, Access::ComputeWrite);
+        rec.flush_barriers();
+        let (w, h) = gbuffer.extent();
+        let push = ResidualPush {
+            camera_position: camera.position.extend(1.0).into(),
+            camera_forward: camera.forward.extend(1.0 / camera.pixel_side).into(),
+            size: [w, h],
+            levels: frame.levels,
+            mode: (settings.integration == Integration::Brute) as u32,
+            bound,
+            refine_ratio: settings.refine_ratio,
+        };
+        self.residual.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+        self.residual.dispatch_2d(rec.cmd, w, h, 1);
+        Ok(())
+    }
+
+    fn record_accumulate(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        a: &Image,
+        b: &Image,
+        dst: &Image,
+        extent: (u32, u32),
+    ) -> Result<()> {
+        let set = pool.allocate(&self.accumulate_layout, &[Binding::storage(a), Binding::storage(b), Binding::storage(dst)])?;
+        if !std::ptr::eq(a, dst) {
+            rec.use_image(a, Access::ComputeRead);
+        }
+        rec.use_image(b, Access::ComputeRead);
+        rec.use_image(dst, Access::ComputeWrite);
+        rec.flush_barriers();
+        self.accumulate.bind(rec.cmd, set, bytemuck::bytes_of(&[extent.0, extent.1]));
+        self.accumulate.dispatch_2d(rec.cmd, extent.0, extent.1, 1);
+        Ok(())
+    }
+}

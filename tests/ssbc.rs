@@ -1,0 +1,107 @@
+//! Screen-space bias compensation: exactness of the brute-force step against
+//! a CPU twin, hierarchical against brute force, and `--bound inf`.
+
+mod common;
+
+use glam::Vec3;
+use ssbc::cpu::ssbc::{brute_force_step, GBufferView};
+use ssbc::passes::ssbc::{Integration, SsbcSettings};
+use ssbc::renderer::{Bound, RenderSettings};
+use ssbc::Frame;
+
+fn settings(integration: Integration, steps: u32, bound: Bound) -> RenderSettings {
+    let mut s = common::small(128, 96);
+    s.vpl.count = 64;
+    s.bound = bound;
+    s.ssbc = SsbcSettings { steps, integration, ..Default::default() };
+    s.debug_readback = true;
+    s
+}
+
+/// sqrt(sum (a - b)^2 / sum b^2) over RGB.
+fn relative_rmse(a: &[f32], b: &[f32]) -> f64 {
+    let (mut num, mut den) = (0f64, 0f64);
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        if i % 4 == 3 {
+            continue;
+        }
+        num += ((x - y) as f64).powi(2);
+        den += (*y as f64).powi(2);
+    }
+    (num / den.max(1e-30)).sqrt()
+}
+
+fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
+    &f.layer(name).unwrap_or_else(|| panic!("layer {name}")).rgba
+}
+
+#[test]
+fn unbounded_transport_leaves_nothing_to_compensate() {
+    let mut scene = ssbc::scene::builtin::cornell();
+    scene.ensure_light();
+    let f = common::render_validated(&scene, &settings(Integration::Hierarchical, 2, Bound::Value(f32::INFINITY)));
+    for k in 1..=2 {
+        assert!(layer(&f, &format!("residual_{k}")).chunks_exact(4).all(|p| p[..3] == [0.0; 3]));
+    }
+}
+
+#[test]
+fn gpu_brute_force_step_equals_cpu_twin() {
+    let scene = ssbc::scene::builtin::cornell();
+    let f = common::render_validated(&scene, &settings(Integration::Brute, 1, Bound::Auto));
+    let camera = scene.camera(None).unwrap();
+    let g = GBufferView {
+        width: f.width,
+        height: f.height,
+        position: layer(&f, "gbuffer_position"),
+        normal: layer(&f, "gbuffer_normal"),
+        albedo: layer(&f, "gbuffer_albedo"),
+    };
+    // S0 = direct + bounded indirect, as read back.
+    let s0: Vec<f32> = layer(&f, "direct").iter().zip(layer(&f, "indirect_bounded")).map(|(a, b)| a + b).collect();
+    let pixel_side = 2.0 * (camera.yfov * 0.5).tan() / f.height as f32;
+    let cpu = brute_force_step(&g, &s0, camera.position, camera.forward, pixel_side, 0.2, f.bound);
+    let gpu = layer(&f, "residual_1");
+    let err = relative_rmse(gpu, &cpu);
+    let energy: f32 = cpu.iter().step_by(4).sum();
+    eprintln!("brute-force step: GPU vs CPU relative RMSE {err:.2e} (CPU residual red sum {energy})");
+    assert!(energy > 0.0, "the default bound should leave something to compensate");
+    assert!(err < 1e-3, "relative RMSE {err}");
+}
+
+fn hierarchical_matches_brute_force(scene: ssbc::Scene) -> (f64, f64) {
+    let mut scene = scene;
+    scene.ensure_light();
+    let brute = common::render_validated(&scene, &settings(Integration::Brute, 1, Bound::Auto));
+    let hier = common::render_validated(&scene, &settings(Integration::Hierarchical, 1, Bound::Auto));
+    let err = relative_rmse(layer(&hier, "residual_1"), layer(&brute, "residual_1"));
+    let ratio = brute.timings.ssbc_steps[0].samples_per_pixel_avg / hier.timings.ssbc_steps[0].samples_per_pixel_avg;
+    eprintln!(
+        "{}: hierarchical vs brute relative RMSE {:.2}%, samples/pixel {:.1} vs {:.1} ({ratio:.1}x fewer), stack overflows {}",
+        scene.name,
+        err * 100.0,
+        hier.timings.ssbc_steps[0].samples_per_pixel_avg,
+        brute.timings.ssbc_steps[0].samples_per_pixel_avg,
+        hier.timings.ssbc_stack_overflows
+    );
+    (err, ratio)
+}
+
+#[test]
+fn hierarchical_matches_brute_force_on_cornell() {
+    let (err, ratio) = hierarchical_matches_brute_force(ssbc::scene::builtin::cornell());
+    assert!(err <= 0.02, "relative RMSE {err}");
+    assert!(ratio >= 8.0, "only {ratio}x fewer samples");
+}
+
+#[test]
+fn hierarchical_matches_brute_force_on_tori() {
+    let (err, ratio) = hierarchical_matches_brute_force(ssbc::scene::builtin::tori());
+    assert!(err <= 0.02, "relative RMSE {err}");
+    assert!(ratio >= 8.0, "only {ratio}x fewer samples");
+}
+
+#[allow(dead_code)]
+fn luminance(p: &[f32]) -> f32 {
+    Vec3::new(p[0], p[1], p[2]).dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
