@@ -13,8 +13,10 @@ layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D src_position;  // level l-1: xyz mean position, w area
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D src_normal;    // level l-1: xyz mean normal, w discontinuity
-layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D dst_position;
-layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D dst_normal;
+layout(set = 0, binding = 4, rg32f) uniform readonly image2D src_extent;      // level l-1: x bounding radius, y slab half-thickness
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D dst_position;
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D dst_normal;
+layout(set = 0, binding = 7, rg32f) uniform writeonly image2D dst_extent;
 
 layout(push_constant) uniform Push {
     vec4 camera_position;   // xyz eye
@@ -50,10 +52,12 @@ void main() {
         }
         imageStore(dst_position, p, vec4(pos.xyz, area));
         imageStore(dst_normal, p, vec4(n, 0.0));
+        imageStore(dst_extent, p, vec4(0.0));
         return;
     }
     vec4 cp[4];
     vec4 cn[4];
+    vec2 cr[4];
     float area = 0.0;
     vec3 position = vec3(0.0);
     vec3 normal = vec3(0.0);
@@ -64,6 +68,7 @@ void main() {
         ivec2 c = p * 2 + ivec2(k & 1, k >> 1);
         cp[k] = imageLoad(src_position, c);
         cn[k] = imageLoad(src_normal, c);
+        cr[k] = imageLoad(src_extent, c).xy;
         if (cp[k].w > 0.0) {
             geometry++;
             area += cp[k].w;
@@ -74,14 +79,25 @@ void main() {
             empty++;
         }
     }
+    // Bounding sphere (radius) and slab (half-thickness along the mean normal)
+    // of every pixel position below: |y - mean| <= radius and
+    // |n . (y - mean)| <= thickness. A child's slab projected onto n adds
+    // |a| thickness_c + sqrt(1 - a^2) radius_c, with a = n . n_c.
+    float radius = 0.0;
+    float thickness = 0.0;
     if (area > 0.0) {
         position /= area;
-        normal = normalize(normal);
+        float len = length(normal);
+        normal = len > 0.0 ? normal / len : cn[0].xyz;
         float spread = pc.max_depth_spread * sqrt(area);
         for (int k = 0; k < 4; k++) {
             if (cp[k].w > 0.0) {
-                discontinuous = discontinuous || distance(cp[k].xyz, position) > spread
-                    || dot(cn[k].xyz, normal) < pc.max_normal_spread;
+                vec3 offset = cp[k].xyz - position;
+                float dist = length(offset);
+                float a = clamp(dot(normal, cn[k].xyz), -1.0, 1.0);
+                radius = max(radius, dist + cr[k].x);
+                thickness = max(thickness, abs(dot(normal, offset)) + abs(a) * cr[k].y + sqrt(1.0 - a * a) * cr[k].x);
+                discontinuous = discontinuous || dist > spread || a < pc.max_normal_spread;
             }
         }
     }
@@ -89,4 +105,5 @@ void main() {
     discontinuous = discontinuous || (geometry > 0 && empty > 0);
     imageStore(dst_position, p, vec4(position, area));
     imageStore(dst_normal, p, vec4(normal, discontinuous ? 1.0 : 0.0));
+    imageStore(dst_extent, p, vec4(radius, thickness, 0.0, 0.0));
 }

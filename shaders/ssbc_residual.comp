@@ -15,19 +15,27 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 3) uniform sampler2D geo_position;   // xyz mean position, w summed area
 layout(set = 0, binding = 4) uniform sampler2D geo_normal;     // xyz mean normal, w discontinuity
 layout(set = 0, binding = 5) uniform sampler2D radiance;       // rgb mean S_{k-1}
-layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D residual;
-layout(set = 0, binding = 7, r32ui) uniform writeonly uimage2D samples;
-layout(set = 0, binding = 8) buffer Stats { uint stack_overflows; };
+layout(set = 0, binding = 6) uniform sampler2D geo_extent;     // x bounding radius around the mean, y slab half-thickness along the mean normal
+layout(set = 0, binding = 7, rgba32f) uniform writeonly image2D residual;
+layout(set = 0, binding = 8, r32ui) uniform writeonly uimage2D samples;
+layout(set = 0, binding = 9) buffer Stats { uint stack_overflows; };
 
 layout(push_constant) uniform Push {
     vec4 camera_position;   // xyz eye
     vec4 camera_forward;    // xyz optical axis, w focal length in pixels
     uvec2 size;
+    uvec2 pyramid_size;     // level 0 of the pyramids (padded so every level halves exactly)
     uint levels;
     uint mode;
     float bound;            // b [1/m^2]
     float refine_ratio;     // refine a texel whose extent exceeds this fraction of its distance
 } pc;
+
+// Texels of pyramid level l. (Computed, not textureSize(): lavapipe returned
+// zero sizes for a non-constant lod.)
+ivec2 level_size(int l) {
+    return max(ivec2(pc.pyramid_size) >> l, ivec2(1));
+}
 
 const int STACK_SIZE = 64;
 
@@ -75,9 +83,8 @@ void main() {
         // Coarsest level whose texels are about half the radius.
         int top = int(pc.levels) - 1;
         int level = clamp(int(ceil(log2(max(radius_px, 1.0) * 0.5))), 0, top);
-        ivec2 level_size = textureSize(geo_position, level);
         ivec2 lo = max((pixel - ivec2(ceil(radius_px))) >> level, ivec2(0));
-        ivec2 hi = min((pixel + ivec2(ceil(radius_px))) >> level, level_size - 1);
+        ivec2 hi = min((pixel + ivec2(ceil(radius_px))) >> level, level_size(level) - 1);
         ivec3 stack[STACK_SIZE];
         for (int ty = lo.y; ty <= hi.y; ty++) {
             for (int tx = lo.x; tx <= hi.x; tx++) {
@@ -90,14 +97,27 @@ void main() {
                     if (yp.w == 0.0) continue;
                     vec3 d = yp.xyz - x;
                     float dist = length(d);
-                    // Extent of the texel's surface: half the diagonal of a square of its area.
-                    float extent = t.z == 0 ? 0.0 : 0.7072 * sqrt(yp.w);
-                    if (dist - extent >= r_world) continue;  // G cannot exceed b anywhere in it
+                    // Sphere (radius `extent`) and slab (half-thickness along the
+                    // mean normal) holding all of the texel's surface.
+                    vec2 bounds = texelFetch(geo_extent, t.xy, t.z).xy;
+                    float extent = bounds.x;
                     vec4 yn = texelFetch(geo_normal, t.xy, t.z);
+                    // Skip texels where G cannot exceed b anywhere: G <= cos_x / d^2 with
+                    // d >= dist - extent, and n_x . (y - x) <= n_x . d + |a| thickness
+                    // + sqrt(1 - a^2) extent for every y in the texel (a = n_x . n_mean).
+                    float d_min = dist - extent;
+                    if (d_min >= r_world) continue;
+                    if (d_min > 0.0) {
+                        float a = clamp(dot(nx, yn.xyz), -1.0, 1.0);
+                        float reach = dot(nx, d) + abs(a) * bounds.y + sqrt(1.0 - a * a) * extent;
+                        float cos_x_max = min(1.0, reach / d_min);
+                        if (cos_x_max <= 0.0 || cos_x_max <= pc.bound * d_min * d_min) continue;
+                    }
+                    // Refine discontinuous texels and texels too large for their distance.
                     bool refine = t.z > 0 && (yn.w > 0.5 || extent > pc.refine_ratio * dist);
                     if (refine) {
                         if (top_of_stack + 4 <= STACK_SIZE) {
-                            ivec2 finer = textureSize(geo_position, t.z - 1);
+                            ivec2 finer = level_size(t.z - 1);
                             for (int k = 0; k < 4; k++) {
                                 ivec2 c = t.xy * 2 + ivec2(k & 1, k >> 1);
                                 if (all(lessThan(c, finer))) stack[top_of_stack++] = ivec3(c, t.z - 1);

@@ -52,7 +52,9 @@ fn parse_bound(s: &str) -> Result<Bound, String> {
         "auto" => Ok(Bound::Auto),
         "inf" | "infinity" => Ok(Bound::Value(f32::INFINITY)),
         _ => {
-            let b: f32 = s.parse().map_err(|_| format!("'{s}' is not a number, 'inf' or 'auto'"))?;
+            let b: f32 = s
+                .parse()
+                .map_err(|_| format!("'{s}' is not a number, 'inf' or 'auto'"))?;
             if b.is_nan() || b <= 0.0 {
                 return Err(format!("the bound must be positive, got {s}"));
             }
@@ -146,7 +148,11 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         height: args.size.1,
         camera: args.camera,
         shadow_map_size: args.shadow_map_size,
-        vpl: VplSettings { count: args.vpls, bounces: args.bounces, seed: args.seed },
+        vpl: VplSettings {
+            count: args.vpls,
+            bounces: args.bounces,
+            seed: args.seed,
+        },
         ism_tile: args.ism_res,
         points_per_vpl: args.points_per_vpl,
         bound: args.bound,
@@ -166,7 +172,10 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     if let Some(name) = &args.output_layer {
         let layer = frame.layer(name).cloned().ok_or_else(|| {
             let names: Vec<&str> = frame.layers.iter().map(|l| l.name.as_str()).collect();
-            ssbc::Error::InvalidParameter(format!("no layer '{name}' (have: final, {})", names.join(", ")))
+            ssbc::Error::InvalidParameter(format!(
+                "no layer '{name}' (have: final, {})",
+                names.join(", ")
+            ))
         })?;
         frame.image = layer;
     }

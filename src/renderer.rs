@@ -31,7 +31,10 @@ use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
 use crate::passes::ssbc::{Integration, SsbcCamera, SsbcPass, SsbcSettings};
 use crate::scene::Scene;
-use crate::vk::{Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector, GpuProfiler, Image, Instance, PassTiming, ValidationLog};
+use crate::vk::{
+    Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector,
+    GpuProfiler, Image, Instance, PassTiming, ValidationLog,
+};
 
 /// How to create the renderer.
 #[derive(Clone, Debug, Default)]
@@ -237,7 +240,9 @@ pub struct Renderer {
 fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
     let max = device.limits().max_image_dimension2_d;
     if width == 0 || height == 0 {
-        return Err(Error::InvalidParameter(format!("image size {width}x{height} is empty")));
+        return Err(Error::InvalidParameter(format!(
+            "image size {width}x{height} is empty"
+        )));
     }
     if width > max || height > max {
         return Err(Error::InvalidParameter(format!(
@@ -289,15 +294,21 @@ impl Renderer {
         let max = self.device.limits().max_image_dimension2_d;
         let sm = settings.shadow_map_size;
         if sm < 16 || sm > max {
-            return Err(Error::InvalidParameter(format!("shadow map size {sm} outside 16..={max}")));
+            return Err(Error::InvalidParameter(format!(
+                "shadow map size {sm} outside 16..={max}"
+            )));
         }
         if let Bound::Value(b) = settings.bound {
             if b.is_nan() || b <= 0.0 {
-                return Err(Error::InvalidParameter(format!("bound {b} must be positive (or inf)")));
+                return Err(Error::InvalidParameter(format!(
+                    "bound {b} must be positive (or inf)"
+                )));
             }
         }
         if settings.vpl.count > 0 && settings.points_per_vpl == 0 {
-            return Err(Error::InvalidParameter("--points-per-vpl must be at least 1".into()));
+            return Err(Error::InvalidParameter(
+                "--points-per-vpl must be at least 1".into(),
+            ));
         }
         if settings.vpl.count as u64 * settings.points_per_vpl as u64 > MAX_ISM_POINTS {
             return Err(Error::InvalidParameter(format!(
@@ -328,25 +339,43 @@ impl Renderer {
         let vpl_set = vpl::generate(scene, &bvh, &settings.vpl)?;
         cpu_ms.vpl_generation = ms_since(t);
         let t = Instant::now();
-        let points = sample_points(scene, vpl_set.vpls.len(), settings.points_per_vpl as usize, settings.vpl.seed);
+        let points = sample_points(
+            scene,
+            vpl_set.vpls.len(),
+            settings.points_per_vpl as usize,
+            settings.vpl.seed,
+        );
         cpu_ms.point_sampling = ms_since(t);
         let gpu_vpls: Vec<GpuVpl> = vpl_set.vpls.iter().map(GpuVpl::new).collect();
 
         // GPU resources of this frame.
         let gpu_scene = GpuScene::upload(&device, &mut self.commands, scene)?;
-        let shadows = self.shadow_maps.prepare(&device, &scene.lights, &bounds, settings.shadow_map_size)?;
-        let ism = self.ism.prepare(&device, &gpu_vpls, &points, settings.ism_tile, diagonal)?;
+        let shadows =
+            self.shadow_maps
+                .prepare(&device, &scene.lights, &bounds, settings.shadow_map_size)?;
+        let ism = self
+            .ism
+            .prepare(&device, &gpu_vpls, &points, settings.ism_tile, diagonal)?;
         let gbuffer = GBuffer::new(&device, (w, h))?;
         let layer_image = |name: &str| {
-            crate::passes::storage_image(&device, name, vk::Format::R32G32B32A32_SFLOAT, (w, h), vk::ImageUsageFlags::empty())
+            crate::passes::storage_image(
+                &device,
+                name,
+                vk::Format::R32G32B32A32_SFLOAT,
+                (w, h),
+                vk::ImageUsageFlags::empty(),
+            )
         };
         let direct = layer_image("direct")?;
         let indirect = layer_image("indirect_bounded")?;
         let s0 = layer_image("s0")?;
         let steps = settings.ssbc.steps;
         let ssbc = self.ssbc.prepare(&device, (w, h), steps)?;
-        let mut layouts: Vec<&DescriptorSetLayout> =
-            vec![self.gbuffer.set_layout(), self.direct_lighting.set_layout(), self.indirect_bounded.set_layout()];
+        let mut layouts: Vec<&DescriptorSetLayout> = vec![
+            self.gbuffer.set_layout(),
+            self.direct_lighting.set_layout(),
+            self.indirect_bounded.set_layout(),
+        ];
         layouts.extend(self.ism.set_layouts(settings.ism_tile));
         layouts.extend(self.ssbc.set_layouts((w, h), steps));
         let pool = DescriptorPool::new(&device, &layouts)?;
@@ -384,24 +413,70 @@ impl Renderer {
         let readback: Vec<Buffer> = images
             .iter()
             .map(|img| {
-                let texel = if img.desc.format == vk::Format::R32G32B32A32_SFLOAT { 16 } else { 4 };
+                let texel = if img.desc.format == vk::Format::R32G32B32A32_SFLOAT {
+                    16
+                } else {
+                    4
+                };
                 let size = img.desc.width as u64 * img.desc.height as u64 * texel;
-                Buffer::new(&device, "readback", size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)
+                Buffer::new(
+                    &device,
+                    "readback",
+                    size,
+                    vk::BufferUsageFlags::TRANSFER_DST,
+                    MemoryLocation::GpuToCpu,
+                )
             })
             .collect::<Result<_>>()?;
 
         // Record the frame.
         let mut rec = self.commands.begin()?;
         self.profiler.begin_frame(rec.cmd);
-        self.shadow_maps.record(&mut rec, &mut self.profiler, &gpu_scene, &shadows);
+        self.shadow_maps
+            .record(&mut rec, &mut self.profiler, &gpu_scene, &shadows);
         if ism.vpl_count > 0 {
             self.ism.record(&mut rec, &mut self.profiler, &pool, &ism)?;
         }
-        self.gbuffer.record(&mut rec, &mut self.profiler, &pool, &gpu_scene, &gbuffer, view_proj, camera.position)?;
-        self.direct_lighting.record(&mut rec, &mut self.profiler, &pool, &gbuffer, &shadows, &direct)?;
-        self.indirect_bounded.record(&mut rec, &mut self.profiler, &pool, &gbuffer, &direct, &ism, bound, &indirect, &s0)?;
+        self.gbuffer.record(
+            &mut rec,
+            &mut self.profiler,
+            &pool,
+            &gpu_scene,
+            &gbuffer,
+            view_proj,
+            camera.position,
+        )?;
+        self.direct_lighting.record(
+            &mut rec,
+            &mut self.profiler,
+            &pool,
+            &gbuffer,
+            &shadows,
+            &direct,
+        )?;
+        self.indirect_bounded.record(
+            &mut rec,
+            &mut self.profiler,
+            &pool,
+            &gbuffer,
+            &direct,
+            &ism,
+            bound,
+            &indirect,
+            &s0,
+        )?;
         if steps > 0 {
-            self.ssbc.record(&mut rec, &mut self.profiler, &pool, &gbuffer, &s0, &ssbc_camera, bound, &settings.ssbc, &ssbc)?;
+            self.ssbc.record(
+                &mut rec,
+                &mut self.profiler,
+                &pool,
+                &gbuffer,
+                &s0,
+                &ssbc_camera,
+                bound,
+                &settings.ssbc,
+                &ssbc,
+            )?;
         }
         self.profiler.end_frame(rec.cmd);
         for (image, buffer) in images.iter().zip(&readback) {
@@ -417,18 +492,38 @@ impl Renderer {
         let (passes, frame_gpu_ms) = self.profiler.resolve()?;
         let mut layers = Vec::new();
         for ((name, _), buffer) in outputs.iter().zip(&readback) {
-            layers.push(Layer { name: name.clone(), rgba: buffer.read::<f32>()? });
+            layers.push(Layer {
+                name: name.clone(),
+                rgba: buffer.read::<f32>()?,
+            });
         }
         let image = layers.remove(0);
         let mut ssbc_steps = Vec::new();
-        let geometry: Vec<bool> = layers[0].rgba.chunks_exact(4).map(|p| p[3] != 0.0).collect();
-        for (k, buffer) in readback[outputs.len()..outputs.len() + steps as usize].iter().enumerate() {
+        let geometry: Vec<bool> = layers[0]
+            .rgba
+            .chunks_exact(4)
+            .map(|p| p[3] != 0.0)
+            .collect();
+        for (k, buffer) in readback[outputs.len()..outputs.len() + steps as usize]
+            .iter()
+            .enumerate()
+        {
             let counts: Vec<u32> = buffer.read()?;
-            let on_geometry: Vec<u32> = counts.iter().zip(&geometry).filter(|(_, g)| **g).map(|(c, _)| *c).collect();
+            let on_geometry: Vec<u32> = counts
+                .iter()
+                .zip(&geometry)
+                .filter(|(_, g)| **g)
+                .map(|(c, _)| *c)
+                .collect();
             let name = format!("ssbc_step_{}", k + 1);
             ssbc_steps.push(SsbcStepTiming {
-                gpu_ms: passes.iter().find(|p| p.name == name).map(|p| p.gpu_ms).unwrap_or(0.0),
-                samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>() / on_geometry.len().max(1) as f64,
+                gpu_ms: passes
+                    .iter()
+                    .find(|p| p.name == name)
+                    .map(|p| p.gpu_ms)
+                    .unwrap_or(0.0),
+                samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>()
+                    / on_geometry.len().max(1) as f64,
                 samples_per_pixel_max: on_geometry.iter().copied().max().unwrap_or(0),
             });
         }
@@ -464,7 +559,11 @@ impl Renderer {
                 light_paths: vpl_set.paths,
                 ism_tile: settings.ism_tile,
                 points_per_vpl: settings.points_per_vpl,
-                bound: if bound.is_finite() { serde_json::json!(bound) } else { serde_json::json!("inf") },
+                bound: if bound.is_finite() {
+                    serde_json::json!(bound)
+                } else {
+                    serde_json::json!("inf")
+                },
                 integration: settings.ssbc.integration,
                 ssbc_steps,
                 ssbc_stack_overflows: stack_overflows,

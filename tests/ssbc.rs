@@ -10,10 +10,14 @@ use ssbc::renderer::{Bound, RenderSettings};
 use ssbc::Frame;
 
 fn settings(integration: Integration, steps: u32, bound: Bound) -> RenderSettings {
-    let mut s = common::small(128, 96);
+    let mut s = common::small(256, 192);
     s.vpl.count = 64;
     s.bound = bound;
-    s.ssbc = SsbcSettings { steps, integration, ..Default::default() };
+    s.ssbc = SsbcSettings {
+        steps,
+        integration,
+        ..Default::default()
+    };
     s.debug_readback = true;
     s
 }
@@ -39,9 +43,14 @@ fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
 fn unbounded_transport_leaves_nothing_to_compensate() {
     let mut scene = ssbc::scene::builtin::cornell();
     scene.ensure_light();
-    let f = common::render_validated(&scene, &settings(Integration::Hierarchical, 2, Bound::Value(f32::INFINITY)));
+    let f = common::render_validated(
+        &scene,
+        &settings(Integration::Hierarchical, 2, Bound::Value(f32::INFINITY)),
+    );
     for k in 1..=2 {
-        assert!(layer(&f, &format!("residual_{k}")).chunks_exact(4).all(|p| p[..3] == [0.0; 3]));
+        assert!(layer(&f, &format!("residual_{k}"))
+            .chunks_exact(4)
+            .all(|p| p[..3] == [0.0; 3]));
     }
 }
 
@@ -58,14 +67,31 @@ fn gpu_brute_force_step_equals_cpu_twin() {
         albedo: layer(&f, "gbuffer_albedo"),
     };
     // S0 = direct + bounded indirect, as read back.
-    let s0: Vec<f32> = layer(&f, "direct").iter().zip(layer(&f, "indirect_bounded")).map(|(a, b)| a + b).collect();
+    let s0: Vec<f32> = layer(&f, "direct")
+        .iter()
+        .zip(layer(&f, "indirect_bounded"))
+        .map(|(a, b)| a + b)
+        .collect();
     let pixel_side = 2.0 * (camera.yfov * 0.5).tan() / f.height as f32;
-    let cpu = brute_force_step(&g, &s0, camera.position, camera.forward, pixel_side, 0.2, f.bound);
+    let cpu = brute_force_step(
+        &g,
+        &s0,
+        camera.position,
+        camera.forward,
+        pixel_side,
+        0.2,
+        f.bound,
+    );
     let gpu = layer(&f, "residual_1");
     let err = relative_rmse(gpu, &cpu);
     let energy: f32 = cpu.iter().step_by(4).sum();
-    eprintln!("brute-force step: GPU vs CPU relative RMSE {err:.2e} (CPU residual red sum {energy})");
-    assert!(energy > 0.0, "the default bound should leave something to compensate");
+    eprintln!(
+        "brute-force step: GPU vs CPU relative RMSE {err:.2e} (CPU residual red sum {energy})"
+    );
+    assert!(
+        energy > 0.0,
+        "the default bound should leave something to compensate"
+    );
     assert!(err < 1e-3, "relative RMSE {err}");
 }
 
@@ -73,9 +99,11 @@ fn hierarchical_matches_brute_force(scene: ssbc::Scene) -> (f64, f64) {
     let mut scene = scene;
     scene.ensure_light();
     let brute = common::render_validated(&scene, &settings(Integration::Brute, 1, Bound::Auto));
-    let hier = common::render_validated(&scene, &settings(Integration::Hierarchical, 1, Bound::Auto));
+    let hier =
+        common::render_validated(&scene, &settings(Integration::Hierarchical, 1, Bound::Auto));
     let err = relative_rmse(layer(&hier, "residual_1"), layer(&brute, "residual_1"));
-    let ratio = brute.timings.ssbc_steps[0].samples_per_pixel_avg / hier.timings.ssbc_steps[0].samples_per_pixel_avg;
+    let ratio = brute.timings.ssbc_steps[0].samples_per_pixel_avg
+        / hier.timings.ssbc_steps[0].samples_per_pixel_avg;
     eprintln!(
         "{}: hierarchical vs brute relative RMSE {:.2}%, samples/pixel {:.1} vs {:.1} ({ratio:.1}x fewer), stack overflows {}",
         scene.name,

@@ -55,7 +55,14 @@ pub fn brute_force_step(
             if g.position[i * 4 + 3] == 0.0 {
                 0.0
             } else {
-                pixel_area(at(g.position, i), at(g.normal, i), camera_position, camera_forward, pixel_side, min_cos_view)
+                pixel_area(
+                    at(g.position, i),
+                    at(g.normal, i),
+                    camera_position,
+                    camera_forward,
+                    pixel_side,
+                    min_cos_view,
+                )
             }
         })
         .collect();

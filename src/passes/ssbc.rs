@@ -15,7 +15,10 @@ use gpu_allocator::MemoryLocation;
 use super::gbuffer::GBuffer;
 use crate::error::{Error, Result};
 use crate::shaders;
-use crate::vk::{Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, ImageDesc, Pipeline, Recorder, Sampler};
+use crate::vk::{
+    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image,
+    ImageDesc, Pipeline, Recorder, Sampler,
+};
 
 /// How each residual step integrates over the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
@@ -51,7 +54,7 @@ impl Default for SsbcSettings {
             steps: 2,
             integration: Integration::Hierarchical,
             min_cos_view: 0.2,
-            refine_ratio: 0.25,
+            refine_ratio: 0.2,
             max_normal_spread: 0.9,
             max_depth_spread: 1.5,
         }
@@ -66,10 +69,16 @@ impl SsbcSettings {
             return bad(format!("--steps {} (at most 16)", self.steps));
         }
         if !(self.min_cos_view > 0.0 && self.min_cos_view <= 1.0) {
-            return bad(format!("min cos view {} must be in (0, 1]", self.min_cos_view));
+            return bad(format!(
+                "min cos view {} must be in (0, 1]",
+                self.min_cos_view
+            ));
         }
         if !(self.refine_ratio > 0.0 && self.refine_ratio.is_finite()) {
-            return bad(format!("refine ratio {} must be positive", self.refine_ratio));
+            return bad(format!(
+                "refine ratio {} must be positive",
+                self.refine_ratio
+            ));
         }
         Ok(())
     }
@@ -105,6 +114,8 @@ pub struct SsbcFrame {
     pub geo_position: Image,
     /// xyz mean normal, w discontinuity (mip chain).
     pub geo_normal: Image,
+    /// x radius of a sphere around the mean position bounding the texel's surface (mip chain).
+    pub geo_extent: Image,
     /// Mean of the term being compensated (mip chain).
     pub radiance: Image,
     /// `residual_k` for k = 1..=K.
@@ -145,6 +156,7 @@ struct ResidualPush {
     camera_position: [f32; 4],
     camera_forward: [f32; 4],
     size: [u32; 2],
+    pyramid_size: [u32; 2],
     levels: u32,
     mode: u32,
     bound: f32,
@@ -161,10 +173,20 @@ impl SsbcPass {
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
         let stage = vk::ShaderStageFlags::COMPUTE;
-        let geometry_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 6], stage)?;
-        let geometry = Pipeline::compute(device, shaders::SSBC_GEOMETRY_MIPS_COMP, &[&geometry_layout], std::mem::size_of::<GeometryPush>() as u32)?;
+        let geometry_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 8], stage)?;
+        let geometry = Pipeline::compute(
+            device,
+            shaders::SSBC_GEOMETRY_MIPS_COMP,
+            &[&geometry_layout],
+            std::mem::size_of::<GeometryPush>() as u32,
+        )?;
         let radiance_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 4], stage)?;
-        let radiance = Pipeline::compute(device, shaders::SSBC_RADIANCE_MIPS_COMP, &[&radiance_layout], std::mem::size_of::<RadiancePush>() as u32)?;
+        let radiance = Pipeline::compute(
+            device,
+            shaders::SSBC_RADIANCE_MIPS_COMP,
+            &[&radiance_layout],
+            std::mem::size_of::<RadiancePush>() as u32,
+        )?;
         let residual_layout = DescriptorSetLayout::new(
             device,
             &[
@@ -174,16 +196,27 @@ impl SsbcPass {
                 T::COMBINED_IMAGE_SAMPLER,
                 T::COMBINED_IMAGE_SAMPLER,
                 T::COMBINED_IMAGE_SAMPLER,
+                T::COMBINED_IMAGE_SAMPLER,
                 T::STORAGE_IMAGE,
                 T::STORAGE_IMAGE,
                 T::STORAGE_BUFFER,
             ],
             stage,
         )?;
-        let residual = Pipeline::compute(device, shaders::SSBC_RESIDUAL_COMP, &[&residual_layout], std::mem::size_of::<ResidualPush>() as u32)?;
+        let residual = Pipeline::compute(
+            device,
+            shaders::SSBC_RESIDUAL_COMP,
+            &[&residual_layout],
+            std::mem::size_of::<ResidualPush>() as u32,
+        )?;
         let accumulate_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 3], stage)?;
-        let accumulate = Pipeline::compute(device, shaders::ACCUMULATE_COMP, &[&accumulate_layout], 8)?;
-        let nearest = Sampler::new(device, vk::Filter::NEAREST, vk::SamplerAddressMode::CLAMP_TO_EDGE)?;
+        let accumulate =
+            Pipeline::compute(device, shaders::ACCUMULATE_COMP, &[&accumulate_layout], 8)?;
+        let nearest = Sampler::new(
+            device,
+            vk::Filter::NEAREST,
+            vk::SamplerAddressMode::CLAMP_TO_EDGE,
+        )?;
         Ok(Self {
             geometry_layout,
             geometry,
@@ -210,17 +243,25 @@ impl SsbcPass {
     }
 
     /// Allocates one frame's images for `steps` steps.
-    pub fn prepare(&self, device: &Arc<Device>, extent: (u32, u32), steps: u32) -> Result<SsbcFrame> {
+    pub fn prepare(
+        &self,
+        device: &Arc<Device>,
+        extent: (u32, u32),
+        steps: u32,
+    ) -> Result<SsbcFrame> {
         let levels = pyramid_levels(extent.0, extent.1);
         // Pad level 0 so every level halves exactly (padding has zero area).
         let align = 1u32 << (levels - 1);
-        let (pw, ph) = (extent.0.div_ceil(align) * align, extent.1.div_ceil(align) * align);
-        let pyramid = |name| {
+        let (pw, ph) = (
+            extent.0.div_ceil(align) * align,
+            extent.1.div_ceil(align) * align,
+        );
+        let pyramid = |name, format| {
             Image::new(
                 device,
                 name,
                 ImageDesc {
-                    format: vk::Format::R32G32B32A32_SFLOAT,
+                    format,
                     width: pw,
                     height: ph,
                     layers: 1,
@@ -231,16 +272,33 @@ impl SsbcPass {
             )
         };
         let rgba = |name: String| {
-            super::storage_image(device, &name, vk::Format::R32G32B32A32_SFLOAT, extent, vk::ImageUsageFlags::empty())
+            super::storage_image(
+                device,
+                &name,
+                vk::Format::R32G32B32A32_SFLOAT,
+                extent,
+                vk::ImageUsageFlags::empty(),
+            )
         };
-        let residuals = (1..=steps).map(|k| rgba(format!("residual_{k}"))).collect::<Result<_>>()?;
+        let residuals = (1..=steps)
+            .map(|k| rgba(format!("residual_{k}")))
+            .collect::<Result<_>>()?;
         let samples = (1..=steps)
-            .map(|k| super::storage_image(device, &format!("samples_{k}"), vk::Format::R32_UINT, extent, vk::ImageUsageFlags::empty()))
+            .map(|k| {
+                super::storage_image(
+                    device,
+                    &format!("samples_{k}"),
+                    vk::Format::R32_UINT,
+                    extent,
+                    vk::ImageUsageFlags::empty(),
+                )
+            })
             .collect::<Result<_>>()?;
         Ok(SsbcFrame {
-            geo_position: pyramid("ssbc_geo_position")?,
-            geo_normal: pyramid("ssbc_geo_normal")?,
-            radiance: pyramid("ssbc_radiance")?,
+            geo_position: pyramid("ssbc_geo_position", vk::Format::R32G32B32A32_SFLOAT)?,
+            geo_normal: pyramid("ssbc_geo_normal", vk::Format::R32G32B32A32_SFLOAT)?,
+            geo_extent: pyramid("ssbc_geo_extent", vk::Format::R32G32_SFLOAT)?,
+            radiance: pyramid("ssbc_radiance", vk::Format::R32G32B32A32_SFLOAT)?,
             residuals,
             samples,
             final_image: rgba("final".into())?,
@@ -283,14 +341,17 @@ impl SsbcPass {
                     Binding::storage(&gbuffer.normal),
                     Binding::StorageImage(frame.geo_position.mip_views[src]),
                     Binding::StorageImage(frame.geo_normal.mip_views[src]),
+                    Binding::StorageImage(frame.geo_extent.mip_views[src]),
                     Binding::StorageImage(frame.geo_position.mip_views[level as usize]),
                     Binding::StorageImage(frame.geo_normal.mip_views[level as usize]),
+                    Binding::StorageImage(frame.geo_extent.mip_views[level as usize]),
                 ],
             )?;
             rec.use_image(&gbuffer.position, Access::ComputeRead);
             rec.use_image(&gbuffer.normal, Access::ComputeRead);
-            rec.use_image(&frame.geo_position, Access::ComputeWrite);
-            rec.use_image(&frame.geo_normal, Access::ComputeWrite);
+            for pyramid in [&frame.geo_position, &frame.geo_normal, &frame.geo_extent] {
+                rec.use_image(pyramid, Access::ComputeWrite);
+            }
             rec.flush_barriers();
             let (w, h) = frame.geo_position.mip_extent(level);
             let push = GeometryPush {
@@ -309,12 +370,23 @@ impl SsbcPass {
         profiler.end(rec.cmd, scope);
 
         for step in 0..settings.steps as usize {
-            let term = if step == 0 { s0 } else { &frame.residuals[step - 1] };
+            let term = if step == 0 {
+                s0
+            } else {
+                &frame.residuals[step - 1]
+            };
             let scope = profiler.begin(rec.cmd, &format!("ssbc_step_{}", step + 1));
             self.record_radiance_mips(rec, pool, term, extent, frame)?;
             self.record_residual(rec, pool, gbuffer, camera, bound, settings, frame, step)?;
             let accumulated = if step == 0 { s0 } else { &frame.final_image };
-            self.record_accumulate(rec, pool, accumulated, &frame.residuals[step], &frame.final_image, extent)?;
+            self.record_accumulate(
+                rec,
+                pool,
+                accumulated,
+                &frame.residuals[step],
+                &frame.final_image,
+                extent,
+            )?;
             profiler.end(rec.cmd, scope);
         }
         Ok(())
@@ -344,7 +416,11 @@ impl SsbcPass {
             rec.use_image(&frame.radiance, Access::ComputeWrite);
             rec.flush_barriers();
             let (w, h) = frame.radiance.mip_extent(level);
-            let push = RadiancePush { dst_size: [w, h], term_size: [extent.0, extent.1], mode: (level > 0) as u32 };
+            let push = RadiancePush {
+                dst_size: [w, h],
+                term_size: [extent.0, extent.1],
+                mode: (level > 0) as u32,
+            };
             self.radiance.bind(rec.cmd, set, bytemuck::bytes_of(&push));
             self.radiance.dispatch_2d(rec.cmd, w, h, 1);
         }
@@ -372,6 +448,7 @@ impl SsbcPass {
                 Binding::sampled(&frame.geo_position, &self.nearest),
                 Binding::sampled(&frame.geo_normal, &self.nearest),
                 Binding::sampled(&frame.radiance, &self.nearest),
+                Binding::sampled(&frame.geo_extent, &self.nearest),
                 Binding::storage(&frame.residuals[step]),
                 Binding::storage(&frame.samples[step]),
                 Binding::StorageBuffer(&frame.stats),
@@ -380,7 +457,12 @@ impl SsbcPass {
         for g in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
             rec.use_image(g, Access::ComputeRead);
         }
-        for pyramid in [&frame.geo_position, &frame.geo_normal, &frame.radiance] {
+        for pyramid in [
+            &frame.geo_position,
+            &frame.geo_normal,
+            &frame.radiance,
+            &frame.geo_extent,
+        ] {
             rec.use_image(pyramid, Access::ComputeSampled);
         }
         rec.use_image(&frame.residuals[step], Access::ComputeWrite);
@@ -392,6 +474,10 @@ impl SsbcPass {
             camera_position: camera.position.extend(1.0).into(),
             camera_forward: camera.forward.extend(1.0 / camera.pixel_side).into(),
             size: [w, h],
+            pyramid_size: [
+                frame.geo_position.desc.width,
+                frame.geo_position.desc.height,
+            ],
             levels: frame.levels,
             mode: (settings.integration == Integration::Brute) as u32,
             bound,
@@ -411,14 +497,22 @@ impl SsbcPass {
         dst: &Image,
         extent: (u32, u32),
     ) -> Result<()> {
-        let set = pool.allocate(&self.accumulate_layout, &[Binding::storage(a), Binding::storage(b), Binding::storage(dst)])?;
+        let set = pool.allocate(
+            &self.accumulate_layout,
+            &[
+                Binding::storage(a),
+                Binding::storage(b),
+                Binding::storage(dst),
+            ],
+        )?;
         if !std::ptr::eq(a, dst) {
             rec.use_image(a, Access::ComputeRead);
         }
         rec.use_image(b, Access::ComputeRead);
         rec.use_image(dst, Access::ComputeWrite);
         rec.flush_barriers();
-        self.accumulate.bind(rec.cmd, set, bytemuck::bytes_of(&[extent.0, extent.1]));
+        self.accumulate
+            .bind(rec.cmd, set, bytemuck::bytes_of(&[extent.0, extent.1]));
         self.accumulate.dispatch_2d(rec.cmd, extent.0, extent.1, 1);
         Ok(())
     }
