@@ -23,13 +23,17 @@ layout(push_constant) uniform Push {
     float far;            // ISM distances are stored divided by this
     float bound;          // b [1/m^2]; +inf disables clamping
     float ism_bias;       // relative depth tolerance of the ISM test
+    float point_radius;   // world radius of one splatted point
 } pc;
 
-float ism_visible(uint v, vec3 w, vec3 n, float dist) {
+// ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
+// n), whose surface makes cos_x with -w. The tolerance grows with the
+// receiver's slope across a splat (its own surface's points land in its texel).
+float ism_visible(uint v, vec3 w, vec3 n, float dist, float cos_x) {
     vec2 uv = ism_paraboloid(w, n);
     float stored = imageLoad(ism, ism_texel(v, uv, pc.tile, pc.tiles_per_row)).r;
     if (stored < 0.0) return 1.0;
-    return dist <= stored * pc.far * (1.0 + pc.ism_bias) + 1e-3 ? 1.0 : 0.0;
+    return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, pc.ism_bias) ? 1.0 : 0.0;
 }
 
 void main() {
@@ -53,7 +57,7 @@ void main() {
             float cos_x = -dot(n, w);
             if (cos_z <= 0.0 || cos_x <= 0.0) continue;
             float g = min(cos_x * cos_z / d2, pc.bound);
-            float v = ism_visible(i, w, vpl.normal.xyz, dist);
+            float v = ism_visible(i, w, vpl.normal.xyz, dist, cos_x);
             radiance += vpl.albedo.rgb * vpl.flux.rgb * (g * v);
         }
         radiance *= albedo / (PI * PI);

@@ -46,6 +46,18 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// Parses a non-negative count with a clear message for negative numbers.
+fn parse_count(s: &str) -> Result<usize, String> {
+    if s.trim().starts_with('-') {
+        return Err(format!(
+            "{s} is negative; use 0 to switch indirect light off"
+        ));
+    }
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a whole number"))
+}
+
 /// Parses the clamping bound: `auto`, `inf`, or a positive number [1/m^2].
 fn parse_bound(s: &str) -> Result<Bound, String> {
     match s {
@@ -91,7 +103,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 1024)]
     shadow_map_size: u32,
     /// Number of VPLs wanted (0 switches indirect light off).
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_count)]
     vpls: usize,
     /// Maximum diffuse bounces of a light path (VPLs per path), at least 1.
     #[arg(long, default_value_t = 4)]
@@ -108,7 +120,7 @@ struct RenderArgs {
     /// Clamping bound b of the geometry term in 1/m^2: a number, `inf` (no
     /// clamping), or `auto` = (10 / scene bounding-box diagonal)^2, i.e.
     /// clamping starts within a tenth of the scene's diagonal.
-    #[arg(long, default_value = "auto", value_parser = parse_bound)]
+    #[arg(long, default_value = "auto", value_parser = parse_bound, allow_negative_numbers = true)]
     bound: Bound,
     /// SSBC steps K (0 = no compensation).
     #[arg(long, default_value_t = 2)]

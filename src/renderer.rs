@@ -187,6 +187,37 @@ pub struct IsmReadback {
     pub far: f32,
     /// Level 0 after pull-push (negative: hole).
     pub depth: Vec<f32>,
+    /// World radius of one splatted point.
+    pub point_radius: f32,
+}
+
+impl IsmReadback {
+    /// The GPU's ISM visibility test, replayed on the CPU: is `x` visible from
+    /// VPL `index` (at `vpl`) according to its imperfect shadow map? `normal`
+    /// is the receiver's.
+    pub fn visible(&self, index: usize, vpl: &Vpl, x: glam::Vec3, normal: glam::Vec3) -> bool {
+        let d = x - vpl.position;
+        let dist = d.length();
+        let w = d / dist;
+        let (t, b) = crate::cpu::sampling::basis(vpl.normal);
+        let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
+        let uv = glam::Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + glam::Vec2::splat(0.5);
+        let tile = self.tile as i64;
+        let origin = (
+            (index as u32 % self.tiles_per_row) as i64 * tile,
+            (index as u32 / self.tiles_per_row) as i64 * tile,
+        );
+        let local = ((uv.x * tile as f32) as i64).clamp(0, tile - 1);
+        let local_y = ((uv.y * tile as f32) as i64).clamp(0, tile - 1);
+        let texel = ((origin.1 + local_y) * self.width as i64 + origin.0 + local) as usize;
+        let stored = self.depth[texel];
+        // ism_tolerance() in shaders/include/ism.glsl.
+        let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
+        let c = (-normal.dot(w)).clamp(0.1, 1.0);
+        let slope = (1.0 - c * c).sqrt() / c;
+        let tolerance = crate::passes::indirect_bounded::ISM_BIAS * dist + footprint * slope + 1e-3;
+        stored < 0.0 || dist <= stored * self.far + tolerance
+    }
 }
 
 /// A rendered frame: the final image, its component layers and timings.
@@ -535,6 +566,7 @@ impl Renderer {
                 tiles_per_row: ism.tiles_per_row,
                 far: ism.far,
                 depth: readback.last().expect("ism readback").read()?,
+                point_radius: ism.point_radius,
             })
         } else {
             None

@@ -166,3 +166,36 @@ fn no_vulkan_device() {
         "lavapipe",
     );
 }
+
+#[test]
+fn bad_instant_radiosity_parameters() {
+    let (ok, stderr) = run(&["--vpls", "-1"], &[]);
+    assert!(
+        !ok && !stderr.contains("panicked") && stderr.contains("--vpls"),
+        "{stderr}"
+    );
+    for bound in ["0", "-3", "nan", "abc"] {
+        let (ok, stderr) = run(&["--bound", bound], &[]);
+        assert!(
+            !ok && !stderr.contains("panicked") && stderr.contains("bound"),
+            "--bound {bound}: {stderr}"
+        );
+    }
+    fails_with(&["--size", "8x8", "--bounces", "0"], &[], "--bounces 0");
+    fails_with(
+        &[
+            "--size",
+            "8x8",
+            "--vpls",
+            "70000",
+            "--ism-res",
+            "1024",
+            "--points-per-vpl",
+            "1",
+        ],
+        &[],
+        "exceeds the device limit",
+    );
+    fails_with(&["--size", "8x8", "--ism-res", "48"], &[], "power of two");
+    fails_with(&["--size", "8x8", "--steps", "100"], &[], "--steps");
+}

@@ -36,4 +36,14 @@ ivec2 ism_texel(uint vpl, vec2 uv, uint tile, uint tiles_per_row) {
     return origin + local;
 }
 
+// Depth tolerance of the ISM test [m]: a relative bias, plus the depth change
+// of the receiver's own surface across one splat footprint (a texel or a
+// point, whichever is larger) at its slope. Mirrored in renderer.rs.
+float ism_tolerance(float dist, float cos_x, uint tile, float point_radius, float relative_bias) {
+    float footprint = max(dist * 4.0 / float(tile), point_radius);
+    float c = clamp(cos_x, 0.1, 1.0);
+    float slope = sqrt(1.0 - c * c) / c;
+    return relative_bias * dist + footprint * slope + 1e-3;
+}
+
 #endif

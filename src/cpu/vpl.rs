@@ -197,6 +197,37 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     Ok(set)
 }
 
+/// Bounded VPL lighting at one surface point, the CPU twin of the GPU's
+/// `indirect_bounded` pass: `albedo/pi * sum_i min(G, b) V(x, z_i) albedo_i/pi Phi_i`.
+/// `visible(i, vpl)` decides visibility (exact ray casts, or an ISM lookup).
+pub fn bounded_radiance(
+    position: Vec3,
+    normal: Vec3,
+    albedo: Vec3,
+    vpls: &[Vpl],
+    bound: f32,
+    mut visible: impl FnMut(usize, &Vpl) -> bool,
+) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    for (i, v) in vpls.iter().enumerate() {
+        let d = position - v.position;
+        let d2 = d.length_squared();
+        if d2 < 1e-10 {
+            continue;
+        }
+        let w = d / d2.sqrt();
+        let (cos_z, cos_x) = (v.normal.dot(w), -normal.dot(w));
+        if cos_z <= 0.0 || cos_x <= 0.0 {
+            continue;
+        }
+        let g = (cos_x * cos_z / d2).min(bound);
+        if visible(i, v) {
+            sum += v.albedo * v.flux * g;
+        }
+    }
+    albedo * sum / (std::f32::consts::PI * std::f32::consts::PI)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -33,6 +33,7 @@ struct Push {
     far: f32,
     bound: f32,
     ism_bias: f32,
+    point_radius: f32,
 }
 
 impl IndirectBoundedPass {
@@ -107,6 +108,7 @@ impl IndirectBoundedPass {
             far: ism.far,
             bound,
             ism_bias: ISM_BIAS,
+            point_radius: ism.point_radius,
         };
         self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
         self.pipeline.dispatch_2d(rec.cmd, w, h, 1);

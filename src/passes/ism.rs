@@ -43,7 +43,8 @@ pub struct Ism {
     pub tiles_per_row: u32,
     /// Distances are stored divided by this [m].
     pub far: f32,
-    point_radius: f32,
+    /// World radius one splatted point stands for.
+    pub point_radius: f32,
 }
 
 #[repr(C)]

@@ -1,0 +1,163 @@
+//! Instant radiosity: the GPU's bounded VPL lighting against a CPU evaluation
+//! of the same sum, ISM visibility against exact ray casts, the energy a
+//! finite bound removes, and bad parameters.
+
+mod common;
+
+use glam::Vec3;
+use ssbc::cpu::bvh::SceneBvh;
+use ssbc::cpu::vpl::bounded_radiance;
+use ssbc::passes::ssbc::SsbcSettings;
+use ssbc::renderer::{Bound, RenderSettings};
+use ssbc::Frame;
+
+fn settings(bound: Bound) -> RenderSettings {
+    let mut s = common::small(128, 96);
+    s.vpl.count = 64;
+    s.bound = bound;
+    s.ssbc = SsbcSettings {
+        steps: 0,
+        ..Default::default()
+    };
+    s.debug_readback = true;
+    s
+}
+
+fn rgb(layer: &[f32], i: usize) -> Vec3 {
+    Vec3::new(layer[i * 4], layer[i * 4 + 1], layer[i * 4 + 2])
+}
+
+fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
+    &f.layer(name).unwrap().rgba
+}
+
+/// sqrt(sum |a - b|^2 / sum |b|^2).
+fn relative_rmse(a: &[Vec3], b: &[Vec3]) -> f64 {
+    let num: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).length_squared() as f64)
+        .sum();
+    let den: f64 = b.iter().map(|y| y.length_squared() as f64).sum();
+    (num / den).sqrt()
+}
+
+#[test]
+fn gpu_bounded_indirect_equals_cpu_vpl_sum() {
+    let scene = ssbc::scene::builtin::cornell();
+    let f = common::render_validated(&scene, &settings(Bound::Auto));
+    let bvh = SceneBvh::new(&scene);
+    let ism = f.ism.as_ref().unwrap();
+    let (pos, nrm, alb) = (
+        layer(&f, "gbuffer_position"),
+        layer(&f, "gbuffer_normal"),
+        layer(&f, "gbuffer_albedo"),
+    );
+    let gpu_layer = layer(&f, "indirect_bounded");
+    let (mut gpu, mut cpu_ism, mut cpu_exact) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut agree, mut pairs) = (0usize, 0usize);
+    for i in 0..(f.width * f.height) as usize {
+        if pos[i * 4 + 3] == 0.0 {
+            continue;
+        }
+        let (x, n, a) = (rgb(pos, i), rgb(nrm, i), rgb(alb, i));
+        gpu.push(rgb(gpu_layer, i));
+        cpu_ism.push(bounded_radiance(x, n, a, &f.vpls, f.bound, |k, v| {
+            ism.visible(k, v, x, n)
+        }));
+        cpu_exact.push(bounded_radiance(x, n, a, &f.vpls, f.bound, |_, v| {
+            // Exact visibility, with the receiver nudged off its surface.
+            !bvh.occluded(v.position + v.normal * 1e-4, x + n * 1e-4)
+        }));
+        // Sample (pixel, VPL) pairs where the VPL faces the pixel.
+        if i % 7 == 0 {
+            for (k, v) in f.vpls.iter().enumerate() {
+                let d = x - v.position;
+                // Pairs that exchange light, not at grazing angles (cos < 0.1, where
+                // G is negligible and any depth test is ill-conditioned).
+                let w = d.normalize();
+                if v.normal.dot(w) < 0.1 || -n.dot(w) < 0.1 {
+                    continue;
+                }
+                pairs += 1;
+                let exact = !bvh.occluded(v.position + v.normal * 1e-4, x + n * 1e-4);
+                agree += (exact == ism.visible(k, v, x, n)) as usize;
+            }
+        }
+    }
+    let sum_err = relative_rmse(&gpu, &cpu_ism);
+    let exact_err = relative_rmse(&gpu, &cpu_exact);
+    let agreement = agree as f64 / pairs as f64;
+    eprintln!(
+        "bounded indirect: GPU vs CPU sum with the same ISM visibility: relative RMSE {sum_err:.2e}; \
+         vs exact visibility: {:.2}%; ISM agrees with ray casts on {:.2}% of {pairs} pairs",
+        exact_err * 100.0,
+        agreement * 100.0
+    );
+    assert!(sum_err < 1e-3, "the GPU sum itself is off: {sum_err}");
+    assert!(agreement >= 0.90, "ISM visibility agreement {agreement}");
+    assert!(exact_err < 0.15, "ISM approximation error {exact_err}");
+}
+
+#[test]
+fn a_finite_bound_removes_energy_mostly_in_corners() {
+    let scene = ssbc::scene::builtin::cornell();
+    let clamped = common::render_validated(&scene, &settings(Bound::Auto));
+    let unclamped = common::render_validated(&scene, &settings(Bound::Value(f32::INFINITY)));
+    let (c, u) = (
+        layer(&clamped, "indirect_bounded"),
+        layer(&unclamped, "indirect_bounded"),
+    );
+    let pos = layer(&clamped, "gbuffer_position");
+    // Corner regions: within 15 cm of two walls of the box (x = +-1, y = 0 or 2, z = -1).
+    let near_walls = |p: Vec3| {
+        [
+            (p.x + 1.0).abs(),
+            (1.0 - p.x).abs(),
+            p.y.abs(),
+            (2.0 - p.y).abs(),
+            (p.z + 1.0).abs(),
+        ]
+        .iter()
+        .filter(|&&d| d < 0.15)
+        .count()
+    };
+    let (mut all_c, mut all_u, mut corner_c, mut corner_u) = (0f64, 0f64, 0f64, 0f64);
+    for i in 0..(clamped.width * clamped.height) as usize {
+        if pos[i * 4 + 3] == 0.0 {
+            continue;
+        }
+        let (vc, vu) = (
+            rgb(c, i).element_sum() as f64,
+            rgb(u, i).element_sum() as f64,
+        );
+        all_c += vc;
+        all_u += vu;
+        if near_walls(rgb(pos, i)) >= 2 {
+            corner_c += vc;
+            corner_u += vu;
+        }
+    }
+    let missing_all = 1.0 - all_c / all_u;
+    let missing_corners = 1.0 - corner_c / corner_u;
+    eprintln!(
+        "clamping at b = {:.2} /m^2 removes {:.1}% of the indirect light overall and {:.1}% in the corners",
+        clamped.bound,
+        missing_all * 100.0,
+        missing_corners * 100.0
+    );
+    assert!(missing_all > 0.0);
+    assert!(
+        missing_corners > 1.5 * missing_all,
+        "clamping should hit the corners hardest"
+    );
+}
+
+#[test]
+fn unclamped_gpu_equals_clamped_when_bound_is_huge() {
+    // b above every G in the scene clamps nothing: identical images.
+    let scene = ssbc::scene::builtin::cornell();
+    let a = common::render_validated(&scene, &settings(Bound::Value(1e30)));
+    let b = common::render_validated(&scene, &settings(Bound::Value(f32::INFINITY)));
+    assert_eq!(layer(&a, "indirect_bounded"), layer(&b, "indirect_bounded"));
+}
