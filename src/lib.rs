@@ -10,6 +10,7 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 
+pub mod compare;
 pub mod cpu;
 pub mod error;
 pub mod gpu_scene;

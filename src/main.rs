@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
@@ -25,6 +26,59 @@ struct Cli {
 enum Command {
     /// Render a scene headless and write the image.
     Render(RenderArgs),
+    /// Ground truth on the CPU: path tracing, or the VPL baselines.
+    Reference(ReferenceArgs),
+    /// Compare two EXR images (A against reference B).
+    Compare(CompareArgs),
+}
+
+#[derive(clap::Args)]
+struct ReferenceArgs {
+    /// Scene: a .gltf/.glb path or a built-in name (cornell, tori).
+    #[arg(default_value = "cornell")]
+    scene: String,
+    /// Image size.
+    #[arg(long, default_value = "1024x768", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Output EXR.
+    #[arg(short, long, default_value = "reference.exr")]
+    output: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Maximum indirect bounces (0 = direct light only); matches the GPU's --bounces.
+    #[arg(long, default_value_t = 4)]
+    bounces: u32,
+    /// Seed.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Estimator: path-trace (truth), vpl (VPL sum, exact visibility), or
+    /// kollig-keller (clamped VPL sum + path-traced residual, unbiased).
+    #[arg(long, value_enum, default_value_t = Method::PathTrace)]
+    method: Method,
+    /// VPLs for the VPL methods.
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_count)]
+    vpls: usize,
+    /// Clamping bound b (number, inf, or auto) for the VPL methods.
+    #[arg(long, default_value = "auto", value_parser = parse_bound, allow_negative_numbers = true)]
+    bound: Bound,
+    /// Camera index.
+    #[arg(long)]
+    camera: Option<usize>,
+}
+
+#[derive(clap::Args)]
+struct CompareArgs {
+    /// Image to judge (EXR).
+    a: PathBuf,
+    /// Reference image (EXR).
+    b: PathBuf,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Write a false-colour relative-error map (PNG).
+    #[arg(long, value_name = "OUT.png")]
+    heatmap: Option<PathBuf>,
 }
 
 /// Parses `WxH`.
@@ -200,6 +254,95 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     Ok(log.total())
 }
 
+fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+    let mut scene = ssbc::scene::load(&args.scene)?;
+    scene.ensure_light();
+    let bound = args.bound.resolve(2.0 * scene.bounds().radius());
+    let settings = ReferenceSettings {
+        width: args.size.0,
+        height: args.size.1,
+        camera: args.camera,
+        spp: args.spp,
+        bounces: args.bounces,
+        seed: args.seed,
+        method: args.method,
+        vpl: VplSettings {
+            count: args.vpls,
+            bounces: args.bounces.max(1),
+            seed: args.seed,
+        },
+        bound,
+    };
+    let start = std::time::Instant::now();
+    let reference = Reference::new(&scene, settings)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // Ctrl-C finishes the current pass and writes what is done.
+        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
+    }
+    let bar = indicatif::ProgressBar::new(args.spp as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} passes, eta {eta}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let (rgba, done) = reference.render(&stop, |p| bar.set_position(p as u64));
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    let layer = ssbc::Layer {
+        name: "final".into(),
+        rgba,
+    };
+    ssbc::output::write_exr(&args.output, args.size.0, args.size.1, &layer, &[])?;
+    eprintln!(
+        "{:?}: {} of {} passes in {:.2} s ({} VPLs, bound {bound}); wrote {}",
+        args.method,
+        done,
+        args.spp,
+        seconds,
+        reference.vpls().len(),
+        args.output.display()
+    );
+    Ok(0)
+}
+
+fn compare(args: CompareArgs) -> Result<u32, ssbc::Error> {
+    let (wa, ha, a) = ssbc::output::read_exr_rgb(&args.a)?;
+    let (wb, hb, b) = ssbc::output::read_exr_rgb(&args.b)?;
+    if (wa, ha) != (wb, hb) {
+        return Err(ssbc::Error::InvalidParameter(format!(
+            "image sizes differ: {wa}x{ha} vs {wb}x{hb}"
+        )));
+    }
+    let c = ssbc::compare::compare(&a, &b)?;
+    if let Some(path) = &args.heatmap {
+        ssbc::compare::write_heatmap(&a, &b, wa, ha, path)?;
+    }
+    let mut text = String::new();
+    if args.json {
+        text = serde_json::to_string_pretty(&c).expect("serialisable") + "\n";
+    } else {
+        text += &format!(
+            "RMSE {:.6}  relMSE {:.6}  mean ratio A/B {:.4}\n",
+            c.rmse, c.rel_mse, c.mean_ratio
+        );
+        for (name, ch) in ["R", "G", "B"].iter().zip(&c.channels) {
+            text += &format!(
+                "  {name}: RMSE {:.6}  relMSE {:.6}  mean ratio {:.4}\n",
+                ch.rmse, ch.rel_mse, ch.mean_ratio
+            );
+        }
+    }
+    // A closed pipe (e.g. `| head`) is not an error worth a panic.
+    use std::io::Write as _;
+    let _ = std::io::stdout().write_all(text.as_bytes());
+    Ok(0)
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
         .target(env_logger::Target::Stderr)
@@ -207,6 +350,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::Reference(args) => reference(args),
+        Command::Compare(args) => compare(args),
     };
     match result {
         Ok(0) => ExitCode::SUCCESS,

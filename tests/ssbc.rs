@@ -133,3 +133,126 @@ fn hierarchical_matches_brute_force_on_tori() {
 fn luminance(p: &[f32]) -> f32 {
     Vec3::new(p[0], p[1], p[2]).dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
+
+/// Mean RGB sum per corner region of the Cornell box: pixels within 20 cm of
+/// two walls, grouped by the pair of walls (floor-left, back-ceiling, ...).
+fn corner_means(f: &Frame, name: &str) -> Vec<(String, f64)> {
+    let pos = layer(f, "gbuffer_position");
+    let img = layer(f, name);
+    let walls = ["left", "right", "floor", "ceiling", "back"];
+    let mut sums = std::collections::BTreeMap::<String, (f64, usize)>::new();
+    for i in 0..(f.width * f.height) as usize {
+        if pos[i * 4 + 3] == 0.0 {
+            continue;
+        }
+        let p = Vec3::new(pos[i * 4], pos[i * 4 + 1], pos[i * 4 + 2]);
+        let d = [p.x + 1.0, 1.0 - p.x, p.y, 2.0 - p.y, p.z + 1.0];
+        let near: Vec<&str> = walls
+            .iter()
+            .zip(d)
+            .filter(|(_, d)| d.abs() < 0.2)
+            .map(|(w, _)| *w)
+            .collect();
+        if near.len() == 2 {
+            let e = sums.entry(near.join("-")).or_default();
+            e.0 += (img[i * 4] + img[i * 4 + 1] + img[i * 4 + 2]) as f64;
+            e.1 += 1;
+        }
+    }
+    sums.into_iter()
+        .filter(|(_, (_, n))| *n >= 20)
+        .map(|(k, (s, n))| (k, s / n as f64))
+        .collect()
+}
+
+fn rmse(a: &[f32], b: &[f32]) -> f64 {
+    let n = a.len() as f64 * 0.75;
+    (a.iter()
+        .zip(b)
+        .enumerate()
+        .filter(|(i, _)| i % 4 != 3)
+        .map(|(_, (x, y))| ((x - y) as f64).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt()
+}
+
+fn mean(a: &[f32]) -> f64 {
+    a.iter()
+        .enumerate()
+        .filter(|(i, _)| i % 4 != 3)
+        .map(|(_, x)| *x as f64)
+        .sum::<f64>()
+        / (a.len() as f64 * 0.75)
+}
+
+#[test]
+fn ssbc_restores_the_energy_clamping_removed() {
+    let scene = ssbc::scene::builtin::cornell();
+    let run = |steps: u32, bound: Bound| {
+        let mut s = common::small(256, 192);
+        s.bound = bound;
+        s.ssbc.steps = steps;
+        s.debug_readback = true;
+        common::render_validated(&scene, &s)
+    };
+    // The truth: a path-traced image on the same pixel grid (4 bounces, as the
+    // VPLs), in a copy of a GPU frame so the corner regions come from its G-buffer.
+    let unclamped = run(0, Bound::Value(f32::INFINITY));
+    let mut truth = unclamped.clone();
+    let settings = ssbc::cpu::reference::ReferenceSettings {
+        width: 256,
+        height: 192,
+        spp: 256,
+        ..Default::default()
+    };
+    let reference = ssbc::cpu::reference::Reference::new(&scene, settings).unwrap();
+    truth.image.rgba = reference
+        .render(&std::sync::atomic::AtomicBool::new(false), |_| {})
+        .0;
+    let truth_img = &truth.image.rgba;
+    let truth_corners = corner_means(&truth, "final");
+    assert!(
+        truth_corners.len() >= 6,
+        "corner regions found: {truth_corners:?}"
+    );
+    let summary = |label: &str, f: &Frame| {
+        let (m, e) = (
+            mean(&f.image.rgba) / mean(truth_img),
+            rmse(&f.image.rgba, truth_img),
+        );
+        eprintln!("{label}: mean radiance {m:.4} of the truth, RMSE {e:.4}");
+        (m, e, corner_means(f, "final"))
+    };
+    summary("unclamped (b = inf)", &unclamped);
+    // b = 2 /m^2 clamps within 0.7 m: the corners visibly darken.
+    let (clamped_mean, clamped_rmse, clamped_corners) =
+        summary("clamped (b = 2)", &run(0, Bound::Value(2.0)));
+    for steps in [2, 3] {
+        let (m, e, corners) = summary(
+            &format!("SSBC {steps} steps"),
+            &run(steps, Bound::Value(2.0)),
+        );
+        assert!(
+            (m - 1.0).abs() < (clamped_mean - 1.0).abs(),
+            "mean radiance not closer: {m} vs {clamped_mean}"
+        );
+        assert!(e < clamped_rmse, "RMSE not lower: {e} vs {clamped_rmse}");
+        for ((region, t), ((_, c), (_, s))) in truth_corners
+            .iter()
+            .zip(clamped_corners.iter().zip(corners))
+        {
+            eprintln!(
+                "  {region:>14}: clamped {:.3}, SSBC {:.3} of the truth",
+                c / t,
+                s / t
+            );
+            assert!(
+                s / t < 1.03,
+                "{region}: SSBC overshoots the truth by {:.1}%",
+                (s / t - 1.0) * 100.0
+            );
+            assert!(s > *c, "{region}: SSBC adds no energy");
+        }
+    }
+}

@@ -4,6 +4,7 @@
 
 pub mod bvh;
 pub mod points;
+pub mod reference;
 pub mod sampling;
 pub mod ssbc;
 pub mod vpl;

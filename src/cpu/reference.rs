@@ -1,0 +1,350 @@
+//! Ground truth on the CPU: a path tracer for the same scenes, cameras, pixel
+//! grid and light units as the GPU renderer, plus the two VPL baselines:
+//! the VPL sum with exact visibility (`Vpl`) and Kollig & Keller's unbiased
+//! compensation of the clamped sum by path tracing (`KolligKeller`).
+//!
+//! Every estimator is deterministic for a seed: each (pixel, sample,
+//! dimension) draws from a hash. Samples are taken in passes over the whole
+//! image, so a run can stop after any pass with a consistent image.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::bvh::{SceneBvh, Surface, RAY_EPSILON};
+use super::sampling::{cosine_hemisphere, hash64};
+use super::vpl::{self, bounded_radiance, Vpl, VplSettings};
+use crate::error::{Error, Result};
+use crate::scene::{Camera, LightKind, Scene};
+
+/// Which estimator to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Method {
+    /// Path tracing with next-event estimation (the truth).
+    PathTrace,
+    /// Direct light plus the (clamped) VPL sum with exact visibility.
+    Vpl,
+    /// Direct light plus the clamped VPL sum plus the residual recovered by
+    /// path tracing (Kollig & Keller 2004): unbiased w.r.t. the unclamped sum.
+    KolligKeller,
+}
+
+/// Reference-renderer parameters.
+#[derive(Clone, Debug)]
+pub struct ReferenceSettings {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Camera index (None: first or framing).
+    pub camera: Option<usize>,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum indirect bounces (0 = direct light only).
+    pub bounces: u32,
+    /// Seed.
+    pub seed: u64,
+    /// Estimator.
+    pub method: Method,
+    /// VPLs for `Vpl` and `KolligKeller`.
+    pub vpl: VplSettings,
+    /// Clamping bound b for `Vpl` and `KolligKeller`.
+    pub bound: f32,
+}
+
+impl Default for ReferenceSettings {
+    fn default() -> Self {
+        Self {
+            width: 1024,
+            height: 768,
+            camera: None,
+            spp: 64,
+            bounces: 4,
+            seed: 0,
+            method: Method::PathTrace,
+            vpl: VplSettings::default(),
+            bound: f32::INFINITY,
+        }
+    }
+}
+
+/// A deterministic random stream for one (pixel, sample).
+struct Rng {
+    key: u64,
+    dim: u64,
+}
+
+impl Rng {
+    fn new(seed: u64, pixel: u64, sample: u64) -> Self {
+        Self {
+            key: hash64(seed ^ hash64(pixel ^ hash64(sample.wrapping_add(0x5851_F42D)))),
+            dim: 0,
+        }
+    }
+    fn next(&mut self) -> f32 {
+        self.dim += 1;
+        let bits = hash64(self.key ^ self.dim.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        ((bits >> 40) as f32 / (1u64 << 24) as f32).min(1.0 - f32::EPSILON)
+    }
+    fn next2(&mut self) -> Vec2 {
+        Vec2::new(self.next(), self.next())
+    }
+}
+
+/// Scene, BVH and VPLs shared by every pixel.
+pub struct Reference<'a> {
+    scene: &'a Scene,
+    bvh: SceneBvh,
+    camera: Camera,
+    settings: ReferenceSettings,
+    vpls: Vec<Vpl>,
+    scene_radius: f32,
+}
+
+/// Offset from a surface along its geometric normal, scaled to the scene.
+fn offset(s: &Surface) -> Vec3 {
+    s.position + s.geometric_normal * RAY_EPSILON * (1.0 + s.position.abs().max_element())
+}
+
+impl<'a> Reference<'a> {
+    /// Prepares the BVH and (for the VPL methods) the VPLs.
+    pub fn new(scene: &'a Scene, settings: ReferenceSettings) -> Result<Self> {
+        if settings.width == 0
+            || settings.height == 0
+            || settings.width > 16384
+            || settings.height > 16384
+        {
+            return Err(Error::InvalidParameter(format!(
+                "image size {}x{} outside 1..=16384",
+                settings.width, settings.height
+            )));
+        }
+        if settings.spp == 0 {
+            return Err(Error::InvalidParameter("--spp must be at least 1".into()));
+        }
+        if settings.bounces > 64 {
+            return Err(Error::InvalidParameter("--bounces above 64".into()));
+        }
+        if settings.bound.is_nan() || settings.bound <= 0.0 {
+            return Err(Error::InvalidParameter(format!(
+                "bound {} must be positive (or inf)",
+                settings.bound
+            )));
+        }
+        scene.validate()?;
+        let camera = scene.camera(settings.camera)?;
+        let bvh = SceneBvh::new(scene);
+        let vpls = if settings.method == Method::PathTrace {
+            Vec::new()
+        } else {
+            vpl::generate(scene, &bvh, &settings.vpl)?.vpls
+        };
+        Ok(Self {
+            scene,
+            bvh,
+            camera,
+            scene_radius: scene.bounds().radius(),
+            settings,
+            vpls,
+        })
+    }
+
+    /// The VPLs used by the VPL methods.
+    pub fn vpls(&self) -> &[Vpl] {
+        &self.vpls
+    }
+
+    /// Direct light (next-event estimation to every light) leaving `s`.
+    pub fn direct(&self, s: &Surface) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        let origin = offset(s);
+        for light in &self.scene.lights {
+            let (to_light, irradiance, target) = match light.kind {
+                LightKind::Directional => {
+                    let dir = -light.direction;
+                    (
+                        dir,
+                        light.intensity,
+                        origin + dir * (4.0 * self.scene_radius + s.position.length()),
+                    )
+                }
+                _ => {
+                    let d = light.position - s.position;
+                    let d2 = d.length_squared();
+                    let dir = d / d2.sqrt();
+                    (
+                        dir,
+                        light.intensity * light.spot_factor(-dir) / d2,
+                        light.position,
+                    )
+                }
+            };
+            let cos = s.normal.dot(to_light);
+            if cos <= 0.0
+                || irradiance.max_element() <= 0.0
+                || s.geometric_normal.dot(to_light) <= 0.0
+            {
+                continue;
+            }
+            if !self.bvh.occluded(origin, target) {
+                e += irradiance * cos;
+            }
+        }
+        s.albedo / std::f32::consts::PI * e
+    }
+
+    /// The clamped VPL sum at `s` with exact visibility.
+    fn vpl_sum(&self, s: &Surface) -> Vec3 {
+        let origin = offset(s);
+        bounded_radiance(
+            s.position,
+            s.normal,
+            s.albedo,
+            &self.vpls,
+            self.settings.bound,
+            |_, v| {
+                !self.bvh.occluded(
+                    v.position + v.normal * RAY_EPSILON * (1.0 + v.position.abs().max_element()),
+                    origin,
+                )
+            },
+        )
+    }
+
+    /// Path-traced radiance leaving `s` towards the previous vertex, counting
+    /// only light that took `min_bounce..=max_bounce` indirect bounces.
+    pub fn path_radiance(
+        &self,
+        s: &Surface,
+        rng_pixel: u64,
+        sample: u64,
+        min_bounce: u32,
+        max_bounce: u32,
+    ) -> Vec3 {
+        let mut rng = Rng::new(self.settings.seed, rng_pixel, sample);
+        let mut surface = *s;
+        let mut throughput = Vec3::ONE;
+        let mut radiance = Vec3::ZERO;
+        for bounce in 0..=max_bounce {
+            if bounce >= min_bounce {
+                radiance += throughput * self.direct(&surface);
+            }
+            if bounce == max_bounce {
+                break;
+            }
+            // Russian roulette by albedo, then a cosine-sampled bounce
+            // (f_r cos / pdf = albedo).
+            let survive = surface.albedo.max_element().min(1.0);
+            if survive <= 0.0 || rng.next() >= survive {
+                break;
+            }
+            throughput *= surface.albedo / survive;
+            let dir = cosine_hemisphere(surface.normal, rng.next2());
+            if dir.dot(surface.geometric_normal) <= 0.0 {
+                break;
+            }
+            let Some(hit) = self
+                .bvh
+                .intersect(offset(&surface), dir, 0.0, f32::INFINITY)
+            else {
+                break;
+            };
+            surface = self.bvh.surface(self.scene, &hit, -dir);
+        }
+        radiance
+    }
+
+    /// Kollig & Keller: L(x) = direct + clamped VPL sum + residual, the
+    /// residual estimated by a cosine-sampled ray weighted by max(1 - b/G, 0)
+    /// and recursing with the same estimator.
+    fn kollig_keller(&self, s: &Surface, rng: &mut Rng, depth: u32) -> Vec3 {
+        let mut l = self.direct(s) + self.vpl_sum(s);
+        if depth >= self.settings.bounces || !self.settings.bound.is_finite() {
+            return l;
+        }
+        let dir = cosine_hemisphere(s.normal, rng.next2());
+        if dir.dot(s.geometric_normal) <= 0.0 {
+            return l;
+        }
+        let Some(hit) = self.bvh.intersect(offset(s), dir, 0.0, f32::INFINITY) else {
+            return l;
+        };
+        let y = self.bvh.surface(self.scene, &hit, -dir);
+        let cos_x = s.normal.dot(dir);
+        let cos_y = y.normal.dot(-dir);
+        let g = cos_x * cos_y / (hit.t * hit.t);
+        if g > self.settings.bound {
+            // f_r cos_x / pdf = albedo; the residual keeps the part of G above b.
+            let weight = s.albedo * (1.0 - self.settings.bound / g);
+            l += weight * self.kollig_keller(&y, rng, depth + 1);
+        }
+        l
+    }
+
+    /// One sample of pixel (x, y).
+    fn sample(&self, x: u32, y: u32, sample: u64) -> Vec3 {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let dir = self.camera.pixel_ray(x as f32, y as f32, w, h);
+        let Some(hit) = self
+            .bvh
+            .intersect(self.camera.position, dir, 0.0, f32::INFINITY)
+        else {
+            return Vec3::ZERO;
+        };
+        let s = self.bvh.surface(self.scene, &hit, -dir);
+        let pixel = (y * w + x) as u64;
+        match self.settings.method {
+            Method::PathTrace => self.path_radiance(&s, pixel, sample, 0, self.settings.bounces),
+            Method::Vpl => self.direct(&s) + self.vpl_sum(&s),
+            Method::KolligKeller => {
+                let mut rng = Rng::new(self.settings.seed ^ 0x4B4B, pixel, sample);
+                self.kollig_keller(&s, &mut rng, 0)
+            }
+        }
+    }
+
+    /// Renders `spp` passes (fewer if `stop` is raised between passes),
+    /// calling `progress(passes_done)` after each. Returns RGBA (alpha 1 on
+    /// geometry) averaged over the passes done, and that count.
+    pub fn render(&self, stop: &AtomicBool, mut progress: impl FnMut(u32)) -> (Vec<f32>, u32) {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let mut sum = vec![Vec3::ZERO; (w * h) as usize];
+        // Deterministic methods need one pass.
+        let passes = if self.settings.method == Method::Vpl {
+            1
+        } else {
+            self.settings.spp
+        };
+        let mut done = 0;
+        for pass in 0..passes {
+            if stop.load(Ordering::Relaxed) {
+                break;
+            }
+            sum.par_iter_mut().enumerate().for_each(|(i, acc)| {
+                *acc += self.sample(i as u32 % w, i as u32 / w, pass as u64);
+            });
+            done += 1;
+            progress(done);
+        }
+        let inv = 1.0 / done.max(1) as f32;
+        let geometry: Vec<bool> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let dir = self.camera.pixel_ray((i % w) as f32, (i / w) as f32, w, h);
+                self.bvh
+                    .intersect(self.camera.position, dir, 0.0, f32::INFINITY)
+                    .is_some()
+            })
+            .collect();
+        let rgba = sum
+            .iter()
+            .zip(&geometry)
+            .flat_map(|(s, &g)| {
+                let v = *s * inv;
+                [v.x, v.y, v.z, if g { 1.0 } else { 0.0 }]
+            })
+            .collect();
+        (rgba, done)
+    }
+}
