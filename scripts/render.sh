@@ -4,5 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-cargo run --release --locked -- render cornell -o cornell.exr --timings cornell-timings.json "$@"
-cargo run --release --locked -- render cornell -o cornell.png "$@"
+cargo run --release --locked -- render cornell -o cornell.exr -o cornell.png --timings cornell-timings.json "$@"

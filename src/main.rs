@@ -137,9 +137,10 @@ struct RenderArgs {
     /// Image size.
     #[arg(long, default_value = "1024x768", value_parser = parse_size)]
     size: (u32, u32),
-    /// Output image: .exr (32-bit float linear RGB) or .png (tonemapped sRGB).
+    /// Output image: .exr (32-bit float linear RGB) or .png (tonemapped
+    /// sRGB); repeat to write several.
     #[arg(short, long, default_value = "out.exr")]
-    output: PathBuf,
+    output: Vec<PathBuf>,
     /// Also write the component layers into the EXR as named channels.
     #[arg(long)]
     layers: bool,
@@ -245,8 +246,10 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         })?;
         frame.image = layer;
     }
-    ssbc::output::write_image(&frame, &args.output, args.layers, args.exposure)?;
-    log::info!("wrote {}", args.output.display());
+    for path in &args.output {
+        ssbc::output::write_image(&frame, path, args.layers, args.exposure)?;
+        log::info!("wrote {}", path.display());
+    }
     if let Some(path) = &args.timings {
         ssbc::output::write_timings(&frame, path)?;
     }

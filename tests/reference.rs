@@ -285,3 +285,36 @@ fn gpu_agrees_with_the_cpu_reference_on_cornell() {
         "ISM visibility explains at most 5% of the mean: {c:?}"
     );
 }
+
+#[test]
+fn unclamped_vpl_lighting_converges_to_the_path_tracer() {
+    let scene = ssbc::scene::builtin::cornell();
+    let (w, h) = (128, 96);
+    let truth = render(
+        &scene,
+        ReferenceSettings {
+            width: w,
+            height: h,
+            spp: 256,
+            ..Default::default()
+        },
+    );
+    let mut errors = Vec::new();
+    for vpls in [16, 64, 256] {
+        let mut s = common::small(w, h);
+        s.vpl.count = vpls;
+        s.bound = Bound::Value(f32::INFINITY);
+        s.ssbc.steps = 0;
+        let gpu = common::render_validated(&scene, &s);
+        let c = compare(&gpu.image.rgba, &truth).unwrap();
+        eprintln!(
+            "{vpls} VPLs, b = inf: relMSE {:.4}, mean ratio {:.4}",
+            c.rel_mse, c.mean_ratio
+        );
+        errors.push(c.rel_mse);
+    }
+    assert!(
+        errors[2] < errors[1] && errors[1] < errors[0],
+        "relMSE should fall as VPLs grow: {errors:?}"
+    );
+}
