@@ -9,14 +9,13 @@ use super::shadow_maps::ShadowMaps;
 use crate::error::Result;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline,
-    Recorder, Sampler,
+    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler,
+    Image, Recorder, Sampler,
 };
 
-/// The direct-lighting compute pipeline.
+/// The direct-lighting compute kernel.
 pub struct DirectLightingPass {
-    layout: DescriptorSetLayout,
-    pipeline: Pipeline,
+    kernel: ComputeKernel,
     shadow_sampler: Sampler,
 }
 
@@ -28,43 +27,36 @@ struct Push {
 }
 
 impl DirectLightingPass {
-    /// Creates the pipeline.
+    /// Creates the kernel.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
-        let layout = DescriptorSetLayout::new(
-            device,
-            &[
-                T::STORAGE_IMAGE,
-                T::STORAGE_IMAGE,
-                T::STORAGE_IMAGE,
-                T::STORAGE_IMAGE,
-                T::STORAGE_BUFFER,
-                T::STORAGE_BUFFER,
-                T::COMBINED_IMAGE_SAMPLER,
-            ],
-            vk::ShaderStageFlags::COMPUTE,
-        )?;
-        let pipeline = Pipeline::compute(
-            device,
-            shaders::DIRECT_LIGHTING_COMP,
-            &[&layout],
-            std::mem::size_of::<Push>() as u32,
-        )?;
-        let shadow_sampler = Sampler::new(
-            device,
-            vk::Filter::NEAREST,
-            vk::SamplerAddressMode::CLAMP_TO_EDGE,
-        )?;
+        let bindings = [
+            T::STORAGE_IMAGE,          // g_position
+            T::STORAGE_IMAGE,          // g_normal
+            T::STORAGE_IMAGE,          // g_albedo
+            T::STORAGE_IMAGE,          // direct (out)
+            T::STORAGE_BUFFER,         // lights
+            T::STORAGE_BUFFER,         // shadow views
+            T::COMBINED_IMAGE_SAMPLER, // shadow maps
+        ];
         Ok(Self {
-            layout,
-            pipeline,
-            shadow_sampler,
+            kernel: ComputeKernel::new(
+                device,
+                shaders::DIRECT_LIGHTING_COMP,
+                &bindings,
+                std::mem::size_of::<Push>(),
+            )?,
+            shadow_sampler: Sampler::new(
+                device,
+                vk::Filter::NEAREST,
+                vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            )?,
         })
     }
 
     /// The descriptor layout (for sizing pools).
     pub fn set_layout(&self) -> &DescriptorSetLayout {
-        &self.layout
+        self.kernel.set_layout()
     }
 
     /// Writes the direct radiance of every G-buffer pixel into `direct`.
@@ -77,18 +69,6 @@ impl DirectLightingPass {
         shadows: &ShadowMaps,
         direct: &Image,
     ) -> Result<()> {
-        let set = pool.allocate(
-            &self.layout,
-            &[
-                Binding::storage(&gbuffer.position),
-                Binding::storage(&gbuffer.normal),
-                Binding::storage(&gbuffer.albedo),
-                Binding::storage(direct),
-                Binding::StorageBuffer(&shadows.lights),
-                Binding::StorageBuffer(&shadows.views),
-                Binding::sampled(&shadows.depth, &self.shadow_sampler),
-            ],
-        )?;
         let scope = profiler.begin(rec.cmd, "direct_lighting");
         for input in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
             rec.use_image(input, Access::ComputeRead);
@@ -103,8 +83,17 @@ impl DirectLightingPass {
             size: [w, h],
             light_count: shadows.light_count,
         };
-        self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-        self.pipeline.dispatch_2d(rec.cmd, w, h, 1);
+        let bindings = [
+            Binding::storage(&gbuffer.position),
+            Binding::storage(&gbuffer.normal),
+            Binding::storage(&gbuffer.albedo),
+            Binding::storage(direct),
+            Binding::StorageBuffer(&shadows.lights),
+            Binding::StorageBuffer(&shadows.views),
+            Binding::sampled(&shadows.depth, &self.shadow_sampler),
+        ];
+        self.kernel
+            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

@@ -10,17 +10,16 @@ use super::ism::Ism;
 use crate::error::Result;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Pipeline,
-    Recorder,
+    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler,
+    Image, Recorder,
 };
 
 /// Relative depth tolerance of the ISM visibility test.
 pub const ISM_BIAS: f32 = 0.05;
 
-/// The bounded-indirect compute pipeline.
+/// The bounded-indirect compute kernel.
 pub struct IndirectBoundedPass {
-    layout: DescriptorSetLayout,
-    pipeline: Pipeline,
+    kernel: ComputeKernel,
 }
 
 #[repr(C)]
@@ -37,25 +36,24 @@ struct Push {
 }
 
 impl IndirectBoundedPass {
-    /// Creates the pipeline.
+    /// Creates the kernel.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
-        let mut types = vec![T::STORAGE_IMAGE; 6];
-        types.push(T::STORAGE_BUFFER);
-        types.push(T::STORAGE_IMAGE);
-        let layout = DescriptorSetLayout::new(device, &types, vk::ShaderStageFlags::COMPUTE)?;
-        let pipeline = Pipeline::compute(
+        // G-buffer (3), direct, indirect_bounded (out), s0 (out), VPLs, ISM.
+        let mut bindings = vec![T::STORAGE_IMAGE; 6];
+        bindings.extend([T::STORAGE_BUFFER, T::STORAGE_IMAGE]);
+        let kernel = ComputeKernel::new(
             device,
             shaders::INDIRECT_BOUNDED_COMP,
-            &[&layout],
-            std::mem::size_of::<Push>() as u32,
+            &bindings,
+            std::mem::size_of::<Push>(),
         )?;
-        Ok(Self { layout, pipeline })
+        Ok(Self { kernel })
     }
 
     /// The descriptor layout (for sizing pools).
     pub fn set_layout(&self) -> &DescriptorSetLayout {
-        &self.layout
+        self.kernel.set_layout()
     }
 
     /// Writes `indirect_bounded` and `s0 = direct + indirect_bounded`.
@@ -72,19 +70,6 @@ impl IndirectBoundedPass {
         indirect_bounded: &Image,
         s0: &Image,
     ) -> Result<()> {
-        let set = pool.allocate(
-            &self.layout,
-            &[
-                Binding::storage(&gbuffer.position),
-                Binding::storage(&gbuffer.normal),
-                Binding::storage(&gbuffer.albedo),
-                Binding::storage(direct),
-                Binding::storage(indirect_bounded),
-                Binding::storage(s0),
-                Binding::StorageBuffer(&ism.vpls),
-                Binding::StorageImage(ism.pyramid.mip_views[0]),
-            ],
-        )?;
         let scope = profiler.begin(rec.cmd, "indirect_bounded");
         for input in [
             &gbuffer.position,
@@ -110,8 +95,18 @@ impl IndirectBoundedPass {
             ism_bias: ISM_BIAS,
             point_radius: ism.point_radius,
         };
-        self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-        self.pipeline.dispatch_2d(rec.cmd, w, h, 1);
+        let bindings = [
+            Binding::storage(&gbuffer.position),
+            Binding::storage(&gbuffer.normal),
+            Binding::storage(&gbuffer.albedo),
+            Binding::storage(direct),
+            Binding::storage(indirect_bounded),
+            Binding::storage(s0),
+            Binding::StorageBuffer(&ism.vpls),
+            Binding::StorageImage(ism.pyramid.mip_views[0]),
+        ];
+        self.kernel
+            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

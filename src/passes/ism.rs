@@ -11,16 +11,14 @@ use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image,
-    ImageDesc, Pipeline, Recorder,
+    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device,
+    GpuProfiler, Image, ImageDesc, Recorder,
 };
 
 /// The two ISM pipelines.
 pub struct IsmPass {
-    splat_layout: DescriptorSetLayout,
-    splat: Pipeline,
-    pullpush_layout: DescriptorSetLayout,
-    pullpush: Pipeline,
+    splat: ComputeKernel,
+    pullpush: ComputeKernel,
 }
 
 /// One frame's ISM atlas and inputs.
@@ -66,33 +64,24 @@ struct PullPushPush {
 }
 
 impl IsmPass {
-    /// Creates the pipelines.
+    /// Creates the kernels.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
-        let stage = vk::ShaderStageFlags::COMPUTE;
-        let splat_layout = DescriptorSetLayout::new(
-            device,
-            &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
-            stage,
-        )?;
-        let splat = Pipeline::compute(
-            device,
-            shaders::ISM_SPLAT_COMP,
-            &[&splat_layout],
-            std::mem::size_of::<SplatPush>() as u32,
-        )?;
-        let pullpush_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 3], stage)?;
-        let pullpush = Pipeline::compute(
-            device,
-            shaders::ISM_PULLPUSH_COMP,
-            &[&pullpush_layout],
-            std::mem::size_of::<PullPushPush>() as u32,
-        )?;
         Ok(Self {
-            splat_layout,
-            splat,
-            pullpush_layout,
-            pullpush,
+            // Splat target, VPLs, points.
+            splat: ComputeKernel::new(
+                device,
+                shaders::ISM_SPLAT_COMP,
+                &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
+                std::mem::size_of::<SplatPush>(),
+            )?,
+            // Splat target, source level, destination level.
+            pullpush: ComputeKernel::new(
+                device,
+                shaders::ISM_PULLPUSH_COMP,
+                &[T::STORAGE_IMAGE; 3],
+                std::mem::size_of::<PullPushPush>(),
+            )?,
         })
     }
 
@@ -100,9 +89,9 @@ impl IsmPass {
     /// pull-push set per pyramid level transition).
     pub fn set_layouts(&self, tile: u32) -> Vec<&DescriptorSetLayout> {
         let levels = tile.trailing_zeros() + 1;
-        let mut v = vec![&self.splat_layout];
+        let mut v = vec![self.splat.set_layout()];
         v.extend(std::iter::repeat_n(
-            &self.pullpush_layout,
+            self.pullpush.set_layout(),
             1 + 2 * (levels as usize - 1),
         ));
         v
@@ -205,14 +194,6 @@ impl IsmPass {
         ism: &Ism,
     ) -> Result<()> {
         // Splat: clear to "no point" and atomicMin every point's distance.
-        let set = pool.allocate(
-            &self.splat_layout,
-            &[
-                Binding::storage(&ism.splat_target),
-                Binding::StorageBuffer(&ism.vpls),
-                Binding::StorageBuffer(&ism.points),
-            ],
-        )?;
         let scope = profiler.begin(rec.cmd, "ism_splat");
         rec.use_image(&ism.splat_target, Access::TransferWrite);
         rec.flush_barriers();
@@ -241,13 +222,15 @@ impl IsmPass {
             depth_scale: 1.0 / ism.far,
             point_radius: ism.point_radius,
         };
-        self.splat.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-        // SAFETY: recording with the splat pipeline bound.
-        unsafe {
-            rec.device
-                .raw
-                .cmd_dispatch(rec.cmd, ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1)
-        };
+        let bindings = [
+            Binding::storage(&ism.splat_target),
+            Binding::StorageBuffer(&ism.vpls),
+            Binding::StorageBuffer(&ism.points),
+        ];
+        // One invocation per (point, VPL).
+        let groups = [ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1];
+        self.splat
+            .dispatch(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), groups)?;
         profiler.end(rec.cmd, scope);
 
         // Pull-push: convert to level 0, pull up the pyramid, push back down.
@@ -262,27 +245,26 @@ impl IsmPass {
                 .map(|l| (2, views[l + 1], views[l], l)),
         );
         for (mode, src, dst, level) in steps {
-            let set = pool.allocate(
-                &self.pullpush_layout,
-                &[
-                    Binding::storage(&ism.splat_target),
-                    Binding::StorageImage(src),
-                    Binding::StorageImage(dst),
-                ],
-            )?;
             rec.use_image(&ism.splat_target, Access::ComputeRead);
             rec.use_image(&ism.pyramid, Access::ComputeWrite);
             rec.flush_barriers();
             let (w, h) = ism.pyramid.mip_extent(level as u32);
-            self.pullpush.bind(
+            let bindings = [
+                Binding::storage(&ism.splat_target),
+                Binding::StorageImage(src),
+                Binding::StorageImage(dst),
+            ];
+            let push = PullPushPush {
+                dst_size: [w, h],
+                mode,
+            };
+            self.pullpush.dispatch_2d(
                 rec.cmd,
-                set,
-                bytemuck::bytes_of(&PullPushPush {
-                    dst_size: [w, h],
-                    mode,
-                }),
-            );
-            self.pullpush.dispatch_2d(rec.cmd, w, h, 1);
+                pool,
+                &bindings,
+                bytemuck::bytes_of(&push),
+                (w, h),
+            )?;
         }
         profiler.end(rec.cmd, scope);
         Ok(())

@@ -16,8 +16,8 @@ use super::gbuffer::GBuffer;
 use crate::error::{Error, Result};
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image,
-    ImageDesc, Pipeline, Recorder, Sampler,
+    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device,
+    GpuProfiler, Image, ImageDesc, Recorder, Sampler,
 };
 
 /// How each residual step integrates over the screen.
@@ -97,14 +97,10 @@ pub struct SsbcCamera {
 
 /// The SSBC pipelines.
 pub struct SsbcPass {
-    geometry_layout: DescriptorSetLayout,
-    geometry: Pipeline,
-    radiance_layout: DescriptorSetLayout,
-    radiance: Pipeline,
-    residual_layout: DescriptorSetLayout,
-    residual: Pipeline,
-    accumulate_layout: DescriptorSetLayout,
-    accumulate: Pipeline,
+    geometry: ComputeKernel,
+    radiance: ComputeKernel,
+    residual: ComputeKernel,
+    accumulate: ComputeKernel,
     nearest: Sampler,
 }
 
@@ -172,72 +168,57 @@ impl SsbcPass {
     /// Creates the pipelines.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
-        let stage = vk::ShaderStageFlags::COMPUTE;
-        let geometry_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 8], stage)?;
-        let geometry = Pipeline::compute(
-            device,
-            shaders::SSBC_GEOMETRY_MIPS_COMP,
-            &[&geometry_layout],
-            std::mem::size_of::<GeometryPush>() as u32,
-        )?;
-        let radiance_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 4], stage)?;
-        let radiance = Pipeline::compute(
-            device,
-            shaders::SSBC_RADIANCE_MIPS_COMP,
-            &[&radiance_layout],
-            std::mem::size_of::<RadiancePush>() as u32,
-        )?;
-        let residual_layout = DescriptorSetLayout::new(
-            device,
-            &[
-                T::STORAGE_IMAGE,
-                T::STORAGE_IMAGE,
-                T::STORAGE_IMAGE,
-                T::COMBINED_IMAGE_SAMPLER,
-                T::COMBINED_IMAGE_SAMPLER,
-                T::COMBINED_IMAGE_SAMPLER,
-                T::COMBINED_IMAGE_SAMPLER,
-                T::STORAGE_IMAGE,
-                T::STORAGE_IMAGE,
-                T::STORAGE_BUFFER,
-            ],
-            stage,
-        )?;
-        let residual = Pipeline::compute(
-            device,
-            shaders::SSBC_RESIDUAL_COMP,
-            &[&residual_layout],
-            std::mem::size_of::<ResidualPush>() as u32,
-        )?;
-        let accumulate_layout = DescriptorSetLayout::new(device, &[T::STORAGE_IMAGE; 3], stage)?;
-        let accumulate =
-            Pipeline::compute(device, shaders::ACCUMULATE_COMP, &[&accumulate_layout], 8)?;
-        let nearest = Sampler::new(
-            device,
-            vk::Filter::NEAREST,
-            vk::SamplerAddressMode::CLAMP_TO_EDGE,
-        )?;
+        let samplers = [T::COMBINED_IMAGE_SAMPLER; 4];
         Ok(Self {
-            geometry_layout,
-            geometry,
-            radiance_layout,
-            radiance,
-            residual_layout,
-            residual,
-            accumulate_layout,
-            accumulate,
-            nearest,
+            // G-buffer position and normal; source position, normal, extent; destination ditto.
+            geometry: ComputeKernel::new(
+                device,
+                shaders::SSBC_GEOMETRY_MIPS_COMP,
+                &[T::STORAGE_IMAGE; 8],
+                std::mem::size_of::<GeometryPush>(),
+            )?,
+            // Term, source area, source radiance, destination radiance.
+            radiance: ComputeKernel::new(
+                device,
+                shaders::SSBC_RADIANCE_MIPS_COMP,
+                &[T::STORAGE_IMAGE; 4],
+                std::mem::size_of::<RadiancePush>(),
+            )?,
+            // G-buffer (3), pyramids (position, normal, radiance, extent), residual, samples, stats.
+            residual: ComputeKernel::new(
+                device,
+                shaders::SSBC_RESIDUAL_COMP,
+                &[
+                    &[T::STORAGE_IMAGE; 3][..],
+                    &samplers,
+                    &[T::STORAGE_IMAGE, T::STORAGE_IMAGE, T::STORAGE_BUFFER],
+                ]
+                .concat(),
+                std::mem::size_of::<ResidualPush>(),
+            )?,
+            // a, b, a + b.
+            accumulate: ComputeKernel::new(
+                device,
+                shaders::ACCUMULATE_COMP,
+                &[T::STORAGE_IMAGE; 3],
+                8,
+            )?,
+            nearest: Sampler::new(
+                device,
+                vk::Filter::NEAREST,
+                vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            )?,
         })
     }
 
     /// Layouts of every set one frame allocates.
     pub fn set_layouts(&self, extent: (u32, u32), steps: u32) -> Vec<&DescriptorSetLayout> {
         let levels = pyramid_levels(extent.0, extent.1) as usize;
-        let mut v = vec![&self.geometry_layout; levels];
+        let mut v = vec![self.geometry.set_layout(); levels];
         for _ in 0..steps {
-            v.extend(std::iter::repeat_n(&self.radiance_layout, levels));
-            v.push(&self.residual_layout);
-            v.push(&self.accumulate_layout);
+            v.extend(std::iter::repeat_n(self.radiance.set_layout(), levels));
+            v.push(self.residual.set_layout());
+            v.push(self.accumulate.set_layout());
         }
         v
     }
@@ -334,19 +315,16 @@ impl SsbcPass {
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
         for level in 0..frame.levels {
             let src = level.saturating_sub(1) as usize;
-            let set = pool.allocate(
-                &self.geometry_layout,
-                &[
-                    Binding::storage(&gbuffer.position),
-                    Binding::storage(&gbuffer.normal),
-                    Binding::StorageImage(frame.geo_position.mip_views[src]),
-                    Binding::StorageImage(frame.geo_normal.mip_views[src]),
-                    Binding::StorageImage(frame.geo_extent.mip_views[src]),
-                    Binding::StorageImage(frame.geo_position.mip_views[level as usize]),
-                    Binding::StorageImage(frame.geo_normal.mip_views[level as usize]),
-                    Binding::StorageImage(frame.geo_extent.mip_views[level as usize]),
-                ],
-            )?;
+            let bindings = [
+                Binding::storage(&gbuffer.position),
+                Binding::storage(&gbuffer.normal),
+                Binding::StorageImage(frame.geo_position.mip_views[src]),
+                Binding::StorageImage(frame.geo_normal.mip_views[src]),
+                Binding::StorageImage(frame.geo_extent.mip_views[src]),
+                Binding::StorageImage(frame.geo_position.mip_views[level as usize]),
+                Binding::StorageImage(frame.geo_normal.mip_views[level as usize]),
+                Binding::StorageImage(frame.geo_extent.mip_views[level as usize]),
+            ];
             rec.use_image(&gbuffer.position, Access::ComputeRead);
             rec.use_image(&gbuffer.normal, Access::ComputeRead);
             for pyramid in [&frame.geo_position, &frame.geo_normal, &frame.geo_extent] {
@@ -364,8 +342,13 @@ impl SsbcPass {
                 max_normal_spread: settings.max_normal_spread,
                 max_depth_spread: settings.max_depth_spread,
             };
-            self.geometry.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-            self.geometry.dispatch_2d(rec.cmd, w, h, 1);
+            self.geometry.dispatch_2d(
+                rec.cmd,
+                pool,
+                &bindings,
+                bytemuck::bytes_of(&push),
+                (w, h),
+            )?;
         }
         profiler.end(rec.cmd, scope);
 
@@ -402,15 +385,12 @@ impl SsbcPass {
     ) -> Result<()> {
         for level in 0..frame.levels {
             let src = level.saturating_sub(1) as usize;
-            let set = pool.allocate(
-                &self.radiance_layout,
-                &[
-                    Binding::storage(term),
-                    Binding::StorageImage(frame.geo_position.mip_views[src]),
-                    Binding::StorageImage(frame.radiance.mip_views[src]),
-                    Binding::StorageImage(frame.radiance.mip_views[level as usize]),
-                ],
-            )?;
+            let bindings = [
+                Binding::storage(term),
+                Binding::StorageImage(frame.geo_position.mip_views[src]),
+                Binding::StorageImage(frame.radiance.mip_views[src]),
+                Binding::StorageImage(frame.radiance.mip_views[level as usize]),
+            ];
             rec.use_image(term, Access::ComputeRead);
             rec.use_image(&frame.geo_position, Access::ComputeRead);
             rec.use_image(&frame.radiance, Access::ComputeWrite);
@@ -421,8 +401,13 @@ impl SsbcPass {
                 term_size: [extent.0, extent.1],
                 mode: (level > 0) as u32,
             };
-            self.radiance.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-            self.radiance.dispatch_2d(rec.cmd, w, h, 1);
+            self.radiance.dispatch_2d(
+                rec.cmd,
+                pool,
+                &bindings,
+                bytemuck::bytes_of(&push),
+                (w, h),
+            )?;
         }
         Ok(())
     }
@@ -439,21 +424,18 @@ impl SsbcPass {
         frame: &SsbcFrame,
         step: usize,
     ) -> Result<()> {
-        let set = pool.allocate(
-            &self.residual_layout,
-            &[
-                Binding::storage(&gbuffer.position),
-                Binding::storage(&gbuffer.normal),
-                Binding::storage(&gbuffer.albedo),
-                Binding::sampled(&frame.geo_position, &self.nearest),
-                Binding::sampled(&frame.geo_normal, &self.nearest),
-                Binding::sampled(&frame.radiance, &self.nearest),
-                Binding::sampled(&frame.geo_extent, &self.nearest),
-                Binding::storage(&frame.residuals[step]),
-                Binding::storage(&frame.samples[step]),
-                Binding::StorageBuffer(&frame.stats),
-            ],
-        )?;
+        let bindings = [
+            Binding::storage(&gbuffer.position),
+            Binding::storage(&gbuffer.normal),
+            Binding::storage(&gbuffer.albedo),
+            Binding::sampled(&frame.geo_position, &self.nearest),
+            Binding::sampled(&frame.geo_normal, &self.nearest),
+            Binding::sampled(&frame.radiance, &self.nearest),
+            Binding::sampled(&frame.geo_extent, &self.nearest),
+            Binding::storage(&frame.residuals[step]),
+            Binding::storage(&frame.samples[step]),
+            Binding::StorageBuffer(&frame.stats),
+        ];
         for g in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
             rec.use_image(g, Access::ComputeRead);
         }
@@ -483,8 +465,8 @@ impl SsbcPass {
             bound,
             refine_ratio: settings.refine_ratio,
         };
-        self.residual.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-        self.residual.dispatch_2d(rec.cmd, w, h, 1);
+        self.residual
+            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))?;
         Ok(())
     }
 
@@ -497,23 +479,24 @@ impl SsbcPass {
         dst: &Image,
         extent: (u32, u32),
     ) -> Result<()> {
-        let set = pool.allocate(
-            &self.accumulate_layout,
-            &[
-                Binding::storage(a),
-                Binding::storage(b),
-                Binding::storage(dst),
-            ],
-        )?;
+        let bindings = [
+            Binding::storage(a),
+            Binding::storage(b),
+            Binding::storage(dst),
+        ];
         if !std::ptr::eq(a, dst) {
             rec.use_image(a, Access::ComputeRead);
         }
         rec.use_image(b, Access::ComputeRead);
         rec.use_image(dst, Access::ComputeWrite);
         rec.flush_barriers();
-        self.accumulate
-            .bind(rec.cmd, set, bytemuck::bytes_of(&[extent.0, extent.1]));
-        self.accumulate.dispatch_2d(rec.cmd, extent.0, extent.1, 1);
+        self.accumulate.dispatch_2d(
+            rec.cmd,
+            pool,
+            &bindings,
+            bytemuck::bytes_of(&[extent.0, extent.1]),
+            (extent.0, extent.1),
+        )?;
         Ok(())
     }
 }

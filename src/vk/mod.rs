@@ -24,5 +24,5 @@ pub use descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 pub use device::{Device, DeviceSelector};
 pub use image::{Image, ImageDesc, Sampler};
 pub use instance::{Instance, ValidationLog};
-pub use pipeline::{GraphicsDesc, Pipeline};
+pub use pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
 pub use profiler::{GpuProfiler, PassTiming};

@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::descriptor::DescriptorSetLayout;
+use super::descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 use super::device::{Device, Garbage};
 use crate::error::{Error, Result, VkResultExt};
 
@@ -281,16 +281,6 @@ impl Pipeline {
                 .cmd_push_constants(cmd, self.layout, self.push_stages, 0, push)
         };
     }
-
-    /// Dispatches enough 8x8 groups to cover `width` x `height` x `depth`.
-    pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, width: u32, height: u32, depth: u32) {
-        // SAFETY: recording with this compute pipeline bound.
-        unsafe {
-            self.device
-                .raw
-                .cmd_dispatch(cmd, width.div_ceil(8), height.div_ceil(8), depth)
-        };
-    }
 }
 
 impl Drop for Pipeline {
@@ -298,5 +288,67 @@ impl Drop for Pipeline {
         self.device.defer_destroy(Garbage::Pipeline(self.raw));
         self.device
             .defer_destroy(Garbage::PipelineLayout(self.layout));
+    }
+}
+
+/// A compute shader with the one descriptor set layout it uses: the unit
+/// most passes are made of.
+pub struct ComputeKernel {
+    layout: DescriptorSetLayout,
+    pipeline: Pipeline,
+}
+
+impl ComputeKernel {
+    /// Creates the layout (binding i of type `bindings[i]`) and the pipeline
+    /// with `push_size` bytes of push constants.
+    pub fn new(
+        device: &Arc<Device>,
+        spirv: &[u8],
+        bindings: &[vk::DescriptorType],
+        push_size: usize,
+    ) -> Result<Self> {
+        let layout = DescriptorSetLayout::new(device, bindings, vk::ShaderStageFlags::COMPUTE)?;
+        let pipeline = Pipeline::compute(device, spirv, &[&layout], push_size as u32)?;
+        Ok(Self { layout, pipeline })
+    }
+
+    /// The descriptor set layout (for sizing a frame's pool).
+    pub fn set_layout(&self) -> &DescriptorSetLayout {
+        &self.layout
+    }
+
+    /// Writes a set for `bindings`, binds it with the pipeline, pushes `push`
+    /// and dispatches `groups`. Barriers must already be flushed.
+    pub fn dispatch(
+        &self,
+        cmd: vk::CommandBuffer,
+        pool: &DescriptorPool,
+        bindings: &[Binding<'_>],
+        push: &[u8],
+        groups: [u32; 3],
+    ) -> Result<()> {
+        let set = pool.allocate(&self.layout, bindings)?;
+        self.pipeline.bind(cmd, set, push);
+        // SAFETY: recording with this compute pipeline and its set bound.
+        unsafe {
+            self.pipeline
+                .device
+                .raw
+                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
+        };
+        Ok(())
+    }
+
+    /// [`ComputeKernel::dispatch`] over `extent` with 8x8 work groups.
+    pub fn dispatch_2d(
+        &self,
+        cmd: vk::CommandBuffer,
+        pool: &DescriptorPool,
+        bindings: &[Binding<'_>],
+        push: &[u8],
+        extent: (u32, u32),
+    ) -> Result<()> {
+        let groups = [extent.0.div_ceil(8), extent.1.div_ceil(8), 1];
+        self.dispatch(cmd, pool, bindings, push, groups)
     }
 }
