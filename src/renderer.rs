@@ -294,8 +294,30 @@ impl Renderer {
     /// Creates the instance, device and every pipeline.
     pub fn new(config: &RendererConfig) -> Result<Self> {
         let instance = Instance::new(config.validation, &[])?;
-        let validation_log = instance.validation_log();
         let device = Device::new(instance, &config.device, &[])?;
+        Self::with_device(device)
+    }
+
+    /// Creates every pipeline on an existing device: one ssbc made
+    /// ([`Device::new`]) or a host engine's ([`Device::from_host`]).
+    ///
+    /// ```no_run
+    /// # fn host() -> ssbc::Result<()> {
+    /// # let (entry, instance, physical, device): (ash::Entry, ash::Instance, ash::vk::PhysicalDevice, ash::Device) = todo!();
+    /// use ssbc::vk::{Device, HostDevice, Instance, RequiredFeatures};
+    /// let instance = Instance::from_host(entry, instance);
+    /// let device = Device::from_host(instance, HostDevice {
+    ///     physical,
+    ///     device,
+    ///     queue_family: 0,
+    ///     queue_index: 0,
+    ///     enabled_features: RequiredFeatures::ALL,
+    /// })?;
+    /// let mut renderer = ssbc::Renderer::with_device(device)?;
+    /// # Ok(()) }
+    /// ```
+    pub fn with_device(device: Arc<Device>) -> Result<Self> {
+        let validation_log = device.instance.validation_log();
         Ok(Self {
             shadow_maps: ShadowMapPass::new(&device)?,
             ism: IsmPass::new(&device)?,

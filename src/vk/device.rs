@@ -39,6 +39,58 @@ pub struct DeviceSelector {
     pub name_contains: Option<String>,
 }
 
+/// The device features ssbc needs enabled (all core in Vulkan 1.3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RequiredFeatures {
+    /// `VkPhysicalDeviceVulkan13Features::synchronization2`.
+    pub synchronization2: bool,
+    /// `VkPhysicalDeviceVulkan13Features::dynamicRendering`.
+    pub dynamic_rendering: bool,
+    /// `VkPhysicalDeviceVulkan12Features::timelineSemaphore`.
+    pub timeline_semaphore: bool,
+    /// `VkPhysicalDeviceVulkan12Features::hostQueryReset`.
+    pub host_query_reset: bool,
+}
+
+impl RequiredFeatures {
+    /// Every feature ssbc needs.
+    pub const ALL: Self = Self {
+        synchronization2: true,
+        dynamic_rendering: true,
+        timeline_semaphore: true,
+        host_query_reset: true,
+    };
+
+    /// Names of the needed features that are not set.
+    pub fn missing(&self) -> Vec<&'static str> {
+        [
+            (self.synchronization2, "synchronization2"),
+            (self.dynamic_rendering, "dynamicRendering"),
+            (self.timeline_semaphore, "timelineSemaphore"),
+            (self.host_query_reset, "hostQueryReset"),
+        ]
+        .iter()
+        .filter(|(on, _)| !on)
+        .map(|(_, name)| *name)
+        .collect()
+    }
+}
+
+/// A device a host engine created and owns, handed to ssbc.
+pub struct HostDevice {
+    /// The physical device it was created from.
+    pub physical: vk::PhysicalDevice,
+    /// The device (ssbc never destroys it).
+    pub device: ash::Device,
+    /// Family of the queue ssbc may submit to (graphics + compute, with timestamps).
+    pub queue_family: u32,
+    /// Index of that queue in its family. The host must not use it from
+    /// another thread while ssbc records or submits.
+    pub queue_index: u32,
+    /// The features the host enabled at device creation.
+    pub enabled_features: RequiredFeatures,
+}
+
 /// The logical device and everything that is per-device.
 pub struct Device {
     /// The instance this device came from (kept alive by this Arc).
@@ -87,16 +139,13 @@ fn unsuitable_reason(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option
         .push_next(&mut f13);
     // SAFETY: valid physical device and a correctly chained query struct.
     unsafe { instance.get_physical_device_features2(pd, &mut f2) };
-    let missing: Vec<&str> = [
-        (f13.synchronization2, "synchronization2"),
-        (f13.dynamic_rendering, "dynamicRendering"),
-        (f12.timeline_semaphore, "timelineSemaphore"),
-        (f12.host_query_reset, "hostQueryReset"),
-    ]
-    .iter()
-    .filter(|(have, _)| *have == vk::FALSE)
-    .map(|(_, name)| *name)
-    .collect();
+    let missing = RequiredFeatures {
+        synchronization2: f13.synchronization2 == vk::TRUE,
+        dynamic_rendering: f13.dynamic_rendering == vk::TRUE,
+        timeline_semaphore: f12.timeline_semaphore == vk::TRUE,
+        host_query_reset: f12.host_query_reset == vk::TRUE,
+    }
+    .missing();
     if !missing.is_empty() {
         return Some(format!("missing features {}", missing.join(", ")));
     }
@@ -193,10 +242,72 @@ impl Device {
             instance,
             physical,
             raw,
-            queue_family,
+            (queue_family, 0),
             properties,
             name,
             true,
+        )
+    }
+
+    /// Wraps a host engine's device. Checks the API version, the queue
+    /// family and the enabled features, naming whatever is missing. ssbc
+    /// creates its own allocator, semaphore, pools and resources on it and
+    /// destroys only those.
+    pub fn from_host(instance: Arc<Instance>, host: HostDevice) -> Result<Arc<Self>> {
+        // SAFETY: the host guarantees `physical` belongs to `instance`.
+        let properties = unsafe { instance.raw.get_physical_device_properties(host.physical) };
+        let mut problems = Vec::new();
+        if properties.api_version < vk::API_VERSION_1_3 {
+            problems.push("the physical device does not support Vulkan 1.3".to_string());
+        }
+        let missing = host.enabled_features.missing();
+        if !missing.is_empty() {
+            problems.push(format!("features not enabled: {}", missing.join(", ")));
+        }
+        // SAFETY: as above.
+        let families = unsafe {
+            instance
+                .raw
+                .get_physical_device_queue_family_properties(host.physical)
+        };
+        match families.get(host.queue_family as usize) {
+            None => problems.push(format!("queue family {} does not exist", host.queue_family)),
+            Some(f) => {
+                if !f
+                    .queue_flags
+                    .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+                {
+                    problems.push(format!(
+                        "queue family {} lacks graphics+compute",
+                        host.queue_family
+                    ));
+                }
+                if f.timestamp_valid_bits == 0 {
+                    problems.push(format!(
+                        "queue family {} has no timestamps",
+                        host.queue_family
+                    ));
+                }
+                if host.queue_index >= f.queue_count {
+                    problems.push(format!("queue index {} out of range", host.queue_index));
+                }
+            }
+        }
+        if !problems.is_empty() {
+            return Err(Error::NoDevice(format!(
+                "the host device cannot run ssbc: {}",
+                problems.join("; ")
+            )));
+        }
+        let name = device_name(&properties);
+        Self::from_parts(
+            instance,
+            host.physical,
+            host.device,
+            (host.queue_family, host.queue_index),
+            properties,
+            name,
+            false,
         )
     }
 
@@ -204,13 +315,13 @@ impl Device {
         instance: Arc<Instance>,
         physical: vk::PhysicalDevice,
         raw: ash::Device,
-        queue_family: u32,
+        (queue_family, queue_index): (u32, u32),
         properties: vk::PhysicalDeviceProperties,
         name: String,
         owns_device: bool,
     ) -> Result<Arc<Self>> {
-        // SAFETY: the family was created with one queue.
-        let queue = unsafe { raw.get_device_queue(queue_family, 0) };
+        // SAFETY: the family was created with at least `queue_index + 1` queues.
+        let queue = unsafe { raw.get_device_queue(queue_family, queue_index) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: instance.raw.clone(),
             device: raw.clone(),

@@ -76,6 +76,8 @@ pub struct Instance {
     pub raw: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation_log: Arc<ValidationLog>,
+    /// False for a host engine's instance: never destroyed here.
+    owned: bool,
 }
 
 impl Instance {
@@ -176,7 +178,20 @@ impl Instance {
             raw,
             debug,
             validation_log,
+            owned: true,
         }))
+    }
+
+    /// Wraps an instance a host engine created and owns (API 1.3). ssbc
+    /// never destroys it; validation, if any, is the host's.
+    pub fn from_host(entry: ash::Entry, raw: ash::Instance) -> Arc<Self> {
+        Arc::new(Self {
+            entry,
+            raw,
+            debug: None,
+            validation_log: Arc::default(),
+            owned: false,
+        })
     }
 
     /// Whether validation is on.
@@ -199,7 +214,9 @@ impl Drop for Instance {
             if let Some((loader, messenger)) = self.debug.take() {
                 loader.destroy_debug_utils_messenger(messenger, None);
             }
-            self.raw.destroy_instance(None);
+            if self.owned {
+                self.raw.destroy_instance(None);
+            }
         }
     }
 }

@@ -21,7 +21,7 @@ pub use barrier::Access;
 pub use buffer::Buffer;
 pub use commands::{CommandPool, Recorder};
 pub use descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
-pub use device::{Device, DeviceSelector};
+pub use device::{Device, DeviceSelector, HostDevice, RequiredFeatures};
 pub use image::{Image, ImageDesc, Sampler};
 pub use instance::{Instance, ValidationLog};
 pub use pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
