@@ -19,6 +19,7 @@ pub mod output;
 pub mod passes;
 pub mod renderer;
 pub mod scene;
+pub mod viewer;
 pub mod vk;
 
 /// SPIR-V of every shader, compiled by `build.rs`.

@@ -30,6 +30,8 @@ enum Command {
     Reference(ReferenceArgs),
     /// Compare two EXR images (A against reference B).
     Compare(CompareArgs),
+    /// Interactive viewer (winit window; X11 or Wayland).
+    View(ViewArgs),
 }
 
 #[derive(clap::Args)]
@@ -130,27 +132,13 @@ fn parse_bound(s: &str) -> Result<Bound, String> {
 }
 
 #[derive(clap::Args)]
-struct RenderArgs {
+struct SceneOptions {
     /// Scene: a .gltf/.glb path or a built-in name (cornell, tori).
     #[arg(default_value = "cornell")]
     scene: String,
     /// Image size.
     #[arg(long, default_value = "1024x768", value_parser = parse_size)]
     size: (u32, u32),
-    /// Output image: .exr (32-bit float linear RGB) or .png (tonemapped
-    /// sRGB); repeat to write several.
-    #[arg(short, long, default_value = "out.exr")]
-    output: Vec<PathBuf>,
-    /// Also write the component layers into the EXR as named channels.
-    #[arg(long)]
-    layers: bool,
-    /// Write this layer as the output image instead of the final image
-    /// (direct, indirect_bounded, residual_1, ...).
-    #[arg(long, value_name = "LAYER")]
-    output_layer: Option<String>,
-    /// Write per-pass GPU timings as JSON.
-    #[arg(long, value_name = "FILE.json")]
-    timings: Option<PathBuf>,
     /// Camera index (default: the scene's first camera, or one framing the scene).
     #[arg(long)]
     camera: Option<usize>,
@@ -197,40 +185,89 @@ struct RenderArgs {
     device: Option<String>,
 }
 
+#[derive(clap::Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    common: SceneOptions,
+    /// Output image: .exr (32-bit float linear RGB) or .png (tonemapped
+    /// sRGB); repeat to write several.
+    #[arg(short, long, default_value = "out.exr")]
+    output: Vec<PathBuf>,
+
+    /// Also write the component layers into the EXR as named channels.
+    #[arg(long)]
+    layers: bool,
+
+    /// Write this layer as the output image instead of the final image
+    /// (direct, indirect_bounded, residual_1, ...).
+    #[arg(long, value_name = "LAYER")]
+    output_layer: Option<String>,
+
+    /// Write per-pass GPU timings as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    timings: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    #[command(flatten)]
+    common: SceneOptions,
+    /// Render this many frames, then exit (with --screenshot: for tests).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Screenshot written on exit: FILE.exr (linear) and FILE.png (as shown).
+    #[arg(long, value_name = "FILE")]
+    screenshot: Option<std::path::PathBuf>,
+}
+
 fn validation_from_env() -> bool {
     std::env::var("SSBC_VALIDATION").is_ok_and(|v| v != "0" && !v.is_empty())
 }
 
+impl SceneOptions {
+    fn settings(&self) -> RenderSettings {
+        RenderSettings {
+            width: self.size.0,
+            height: self.size.1,
+            camera: self.camera,
+            shadow_map_size: self.shadow_map_size,
+            vpl: VplSettings {
+                count: self.vpls,
+                bounces: self.bounces,
+                seed: self.seed,
+            },
+            ism_tile: self.ism_res,
+            points_per_vpl: self.points_per_vpl,
+            bound: self.bound,
+            ssbc: SsbcSettings {
+                steps: self.steps,
+                integration: self.integration,
+                min_cos_view: self.min_cos_view,
+                ..Default::default()
+            },
+            debug_readback: false,
+        }
+    }
+
+    fn validation(&self) -> bool {
+        self.validate || validation_from_env()
+    }
+
+    fn device(&self) -> DeviceSelector {
+        DeviceSelector {
+            name_contains: self.device.clone(),
+        }
+    }
+}
+
 fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
-    let mut scene = ssbc::scene::load(&args.scene)?;
+    let mut scene = ssbc::scene::load(&args.common.scene)?;
     scene.ensure_light();
     let config = RendererConfig {
-        validation: args.validate || validation_from_env(),
-        device: DeviceSelector {
-            name_contains: args.device.clone(),
-        },
+        validation: args.common.validation(),
+        device: args.common.device(),
     };
-    let settings = RenderSettings {
-        width: args.size.0,
-        height: args.size.1,
-        camera: args.camera,
-        shadow_map_size: args.shadow_map_size,
-        vpl: VplSettings {
-            count: args.vpls,
-            bounces: args.bounces,
-            seed: args.seed,
-        },
-        ism_tile: args.ism_res,
-        points_per_vpl: args.points_per_vpl,
-        bound: args.bound,
-        ssbc: SsbcSettings {
-            steps: args.steps,
-            integration: args.integration,
-            min_cos_view: args.min_cos_view,
-            ..Default::default()
-        },
-        debug_readback: false,
-    };
+    let settings = args.common.settings();
     let mut renderer = Renderer::new(&config)?;
     let log = renderer.validation_log();
     let frame = renderer.render(&scene, &settings);
@@ -247,7 +284,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         frame.image = layer;
     }
     for path in &args.output {
-        ssbc::output::write_image(&frame, path, args.layers, args.exposure)?;
+        ssbc::output::write_image(&frame, path, args.layers, args.common.exposure)?;
         log::info!("wrote {}", path.display());
     }
     if let Some(path) = &args.timings {
@@ -346,6 +383,19 @@ fn compare(args: CompareArgs) -> Result<u32, ssbc::Error> {
     Ok(0)
 }
 
+fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
+    let scene = ssbc::scene::load(&args.common.scene)?;
+    ssbc::viewer::run(ssbc::viewer::ViewOptions {
+        scene,
+        settings: args.common.settings(),
+        validation: args.common.validation(),
+        device: args.common.device(),
+        exposure: args.common.exposure,
+        frames: args.frames,
+        screenshot: args.screenshot,
+    })
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("info"))
         .target(env_logger::Target::Stderr)
@@ -355,6 +405,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render(args),
         Command::Reference(args) => reference(args),
         Command::Compare(args) => compare(args),
+        Command::View(args) => view(args),
     };
     match result {
         Ok(0) => ExitCode::SUCCESS,

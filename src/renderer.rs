@@ -240,6 +240,8 @@ pub struct Frame {
     pub bound: f32,
     /// The ISM atlas (with debug readback).
     pub ism: Option<IsmReadback>,
+    /// Texel evaluations per pixel of each SSBC step.
+    pub samples: Vec<Vec<u32>>,
 }
 
 impl Frame {
@@ -552,6 +554,7 @@ impl Renderer {
         }
         let image = layers.remove(0);
         let mut ssbc_steps = Vec::new();
+        let mut samples = Vec::new();
         let geometry: Vec<bool> = layers[0]
             .rgba
             .chunks_exact(4)
@@ -579,6 +582,7 @@ impl Renderer {
                     / on_geometry.len().max(1) as f64,
                 samples_per_pixel_max: on_geometry.iter().copied().max().unwrap_or(0),
             });
+            samples.push(counts);
         }
         let ism_readback = if settings.debug_readback {
             Some(IsmReadback {
@@ -625,6 +629,7 @@ impl Renderer {
             vpls: vpl_set.vpls,
             bound,
             ism: ism_readback,
+            samples,
         })
     }
 }

@@ -5,11 +5,36 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::barrier::{transition, Access};
+use std::cell::Cell;
+
+use super::barrier::{transition, Access, ResourceState};
 use super::buffer::Buffer;
 use super::device::{Device, Garbage};
 use super::image::Image;
 use crate::error::{Result, VkResultExt};
+
+/// An image whose last access ssbc tracks: its own [`Image`]s and the
+/// swapchain's images.
+pub trait TrackedImage {
+    /// The raw handle.
+    fn tracked_raw(&self) -> vk::Image;
+    /// Its access state.
+    fn tracked_state(&self) -> &Cell<ResourceState>;
+    /// The subresources barriers cover.
+    fn tracked_range(&self) -> vk::ImageSubresourceRange;
+}
+
+impl TrackedImage for Image {
+    fn tracked_raw(&self) -> vk::Image {
+        self.raw
+    }
+    fn tracked_state(&self) -> &Cell<ResourceState> {
+        &self.state
+    }
+    fn tracked_range(&self) -> vk::ImageSubresourceRange {
+        self.full_range()
+    }
+}
 
 /// A command pool with one primary command buffer, reset for every recording.
 pub struct CommandPool {
@@ -95,9 +120,10 @@ pub struct Recorder<'a> {
 
 impl Recorder<'_> {
     /// Declares the next use of `image`; a barrier is queued if needed.
-    pub fn use_image(&mut self, image: &Image, access: Access) {
-        let (barrier, after) = transition(image.state.get(), access, true);
-        image.state.set(after);
+    pub fn use_image(&mut self, image: &impl TrackedImage, access: Access) {
+        let state = image.tracked_state();
+        let (barrier, after) = transition(state.get(), access, true);
+        state.set(after);
         if let Some(b) = barrier {
             self.image_barriers.push(
                 vk::ImageMemoryBarrier2::default()
@@ -109,8 +135,8 @@ impl Recorder<'_> {
                     .new_layout(b.new_layout)
                     .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                     .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                    .image(image.raw)
-                    .subresource_range(image.full_range()),
+                    .image(image.tracked_raw())
+                    .subresource_range(image.tracked_range()),
             );
         }
     }
@@ -221,8 +247,18 @@ impl Recorder<'_> {
 
     /// Ends recording, submits, and returns the timeline value to wait on.
     pub fn submit(self) -> Result<u64> {
+        self.submit_with(&[], &[])
+    }
+
+    /// Like [`Recorder::submit`], also waiting on binary semaphores (at the
+    /// given stages) and signalling others (for a swapchain).
+    pub fn submit_with(
+        self,
+        waits: &[(vk::Semaphore, vk::PipelineStageFlags2)],
+        signals: &[vk::Semaphore],
+    ) -> Result<u64> {
         // SAFETY: recording was begun in CommandPool::begin.
         unsafe { self.device.raw.end_command_buffer(self.cmd) }.vk("vkEndCommandBuffer")?;
-        self.device.submit(&[self.cmd])
+        self.device.submit_with(&[self.cmd], waits, signals)
     }
 }

@@ -370,17 +370,42 @@ impl Device {
     /// Submits command buffers on the queue and returns the timeline value
     /// that signals their completion.
     pub fn submit(&self, command_buffers: &[vk::CommandBuffer]) -> Result<u64> {
+        self.submit_with(command_buffers, &[], &[])
+    }
+
+    /// Submits, waiting on binary semaphores at the given stages and
+    /// signalling `signals` as well as the timeline (whose value is returned).
+    pub fn submit_with(
+        &self,
+        command_buffers: &[vk::CommandBuffer],
+        waits: &[(vk::Semaphore, vk::PipelineStageFlags2)],
+        signals: &[vk::Semaphore],
+    ) -> Result<u64> {
         let value = self.next_submission.fetch_add(1, Ordering::SeqCst);
         let cmd_infos: Vec<_> = command_buffers
             .iter()
             .map(|&c| vk::CommandBufferSubmitInfo::default().command_buffer(c))
             .collect();
-        let signal = [vk::SemaphoreSubmitInfo::default()
+        let mut signal = vec![vk::SemaphoreSubmitInfo::default()
             .semaphore(self.timeline)
             .value(value)
             .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        signal.extend(signals.iter().map(|&s| {
+            vk::SemaphoreSubmitInfo::default()
+                .semaphore(s)
+                .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+        }));
+        let wait: Vec<_> = waits
+            .iter()
+            .map(|&(s, stage)| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(s)
+                    .stage_mask(stage)
+            })
+            .collect();
         let submit = vk::SubmitInfo2::default()
             .command_buffer_infos(&cmd_infos)
+            .wait_semaphore_infos(&wait)
             .signal_semaphore_infos(&signal);
         // SAFETY: the command buffers are recorded and ended by the caller; the
         // queue is only used from the thread that owns the renderer.

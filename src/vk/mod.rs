@@ -16,13 +16,15 @@ pub mod image;
 pub mod instance;
 pub mod pipeline;
 pub mod profiler;
+pub mod swapchain;
 
 pub use barrier::Access;
 pub use buffer::Buffer;
-pub use commands::{CommandPool, Recorder};
+pub use commands::{CommandPool, Recorder, TrackedImage};
 pub use descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 pub use device::{Device, DeviceSelector, HostDevice, RequiredFeatures};
 pub use image::{Image, ImageDesc, Sampler};
 pub use instance::{Instance, ValidationLog};
 pub use pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
 pub use profiler::{GpuProfiler, PassTiming};
+pub use swapchain::{Swapchain, SwapchainImage};

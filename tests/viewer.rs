@@ -1,0 +1,111 @@
+//! The viewer under Xvfb on lavapipe: it opens a window, renders a few
+//! frames with validation on, and its screenshot is the image the headless
+//! renderer makes with the same settings. Skipped (with the reason printed)
+//! only when no X server can be started.
+
+mod common;
+
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct Xvfb(Child);
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Starts Xvfb on a free display number.
+fn start_xvfb() -> Result<(Xvfb, String), String> {
+    for display in 90..120 {
+        if std::path::Path::new(&format!("/tmp/.X11-unix/X{display}")).exists()
+            || std::path::Path::new(&format!("/tmp/.X{display}-lock")).exists()
+        {
+            continue;
+        }
+        let child = Command::new("Xvfb")
+            .args([
+                format!(":{display}"),
+                "-screen".into(),
+                "0".into(),
+                "320x240x24".into(),
+                "-nolisten".into(),
+                "tcp".into(),
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .map_err(|e| {
+                format!("Xvfb not available ({e}); install xvfb (scripts/setup.sh does)")
+            })?;
+        let server = Xvfb(child);
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(10) {
+            if std::path::Path::new(&format!("/tmp/.X11-unix/X{display}")).exists() {
+                return Ok((server, format!(":{display}")));
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        return Err("Xvfb did not start within 10 s".into());
+    }
+    Err("no free X display number".into())
+}
+
+#[test]
+fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
+    let (_server, display) = match start_xvfb() {
+        Ok(s) => s,
+        Err(reason) => {
+            eprintln!("SKIPPED viewer test: {reason}");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("shot");
+    let out = Command::new(env!("CARGO_BIN_EXE_ssbc"))
+        .args([
+            "view",
+            "cornell",
+            "--size",
+            "96x72",
+            "--frames",
+            "3",
+            "--vpls",
+            "32",
+            "--validate",
+            "--screenshot",
+        ])
+        .arg(&shot)
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("run ssbc view");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "viewer failed:\n{stderr}");
+    assert!(
+        !stderr.contains("validation"),
+        "validation messages:\n{stderr}"
+    );
+
+    let (w, h, shown) = ssbc::output::read_exr_rgb(&shot.with_extension("exr")).unwrap();
+    assert_eq!(
+        (w, h),
+        (96, 72),
+        "the window (and so the render) is the requested size"
+    );
+    let mut settings = common::small(w, h);
+    settings.vpl.count = 32;
+    let headless = common::render_validated(&ssbc::scene::builtin::cornell(), &settings);
+    let c = ssbc::compare::compare(&shown, &headless.image.rgba).unwrap();
+    eprintln!(
+        "viewer screenshot vs headless render: relMSE {:.2e}, mean ratio {:.5}",
+        c.rel_mse, c.mean_ratio
+    );
+    assert!(
+        c.rel_mse < 1e-6 && (c.mean_ratio - 1.0).abs() < 1e-4,
+        "{c:?}"
+    );
+}
