@@ -32,9 +32,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for name in ["cornell", "tori"] {
         let scene = ssbc::scene::load(name)?;
         let t = Instant::now();
-        let settings = ReferenceSettings { width: w, height: h, spp, ..Default::default() };
+        let settings = ReferenceSettings {
+            width: w,
+            height: h,
+            spp,
+            ..Default::default()
+        };
         let (truth, _) = Reference::new(&scene, settings)?.render(&AtomicBool::new(false), |_| {});
-        println!("| {name} | path-traced reference, {spp} spp | — | 1 | {:.1} s CPU |", t.elapsed().as_secs_f64());
+        println!(
+            "| {name} | path-traced reference, {spp} spp | — | 1 | {:.1} s CPU |",
+            t.elapsed().as_secs_f64()
+        );
         let configs: [(&str, u32, Bound); 5] = [
             ("clamped (b auto)", 0, Bound::Auto),
             ("SSBC 1 step", 1, Bound::Auto),
@@ -43,7 +51,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ("unclamped (b = inf)", 0, Bound::Value(f32::INFINITY)),
         ];
         for (label, steps, bound) in configs {
-            let mut s = RenderSettings { width: w, height: h, bound, ..Default::default() };
+            let mut s = RenderSettings {
+                width: w,
+                height: h,
+                bound,
+                ..Default::default()
+            };
             s.ssbc.steps = steps;
             let frame = renderer.render(&scene, &s)?;
             let c = ssbc::compare::compare(&frame.image.rgba, &truth)?;

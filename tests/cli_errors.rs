@@ -199,3 +199,72 @@ fn bad_instant_radiosity_parameters() {
     fails_with(&["--size", "8x8", "--ism-res", "48"], &[], "power of two");
     fails_with(&["--size", "8x8", "--steps", "100"], &[], "--steps");
 }
+
+#[test]
+fn layers_go_into_named_exr_channels() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("l.exr");
+    let json = dir.path().join("t.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_ssbc"))
+        .args([
+            "render",
+            "--size",
+            "32x24",
+            "--vpls",
+            "16",
+            "--steps",
+            "2",
+            "--layers",
+            "--validate",
+            "-o",
+        ])
+        .arg(&exr)
+        .arg("--timings")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta = exr::meta::MetaData::read_from_file(&exr, false).unwrap();
+    let names: Vec<String> = meta.headers[0]
+        .channels
+        .list
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    for expected in [
+        "R",
+        "G",
+        "B",
+        "direct.R",
+        "indirect_bounded.G",
+        "residual_1.B",
+        "residual_2.R",
+    ] {
+        assert!(
+            names.iter().any(|n| n == expected),
+            "channel {expected} missing from {names:?}"
+        );
+    }
+    let t: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(t["width"], 32);
+    assert_eq!(t["ssbc_steps"].as_array().unwrap().len(), 2);
+    assert!(t["passes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|p| p["gpu_ms"].as_f64().unwrap() > 0.0));
+    for key in [
+        "vpl_count",
+        "ism_tile",
+        "points_per_vpl",
+        "bound",
+        "cpu_ms",
+        "frame_gpu_ms",
+    ] {
+        assert!(!t[key].is_null(), "{key} missing from the timings JSON");
+    }
+}
