@@ -5,7 +5,7 @@
 //   Omega_px = s^2 cos^3(alpha)   (s: pixel side on the image plane at distance 1),
 // and the normal. Mode 1 builds level l from l-1: summed area, area-weighted
 // mean position and normal, and the discontinuity flag (children that mix
-// background and geometry, spread too far in depth, or disagree in normal).
+// background and geometry, are not close to one plane, or disagree in normal).
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -26,7 +26,7 @@ layout(push_constant) uniform Push {
     uint mode;
     float min_cos_view;
     float max_normal_spread;  // children whose normals' cosine to the mean is below this are discontinuous
-    float max_depth_spread;   // children farther than this x sqrt(area) from the mean are discontinuous
+    float max_thickness;      // a texel whose slab is thicker than this x its radius is discontinuous
 } pc;
 
 void main() {
@@ -89,7 +89,6 @@ void main() {
         position /= area;
         float len = length(normal);
         normal = len > 0.0 ? normal / len : cn[0].xyz;
-        float spread = pc.max_depth_spread * sqrt(area);
         for (int k = 0; k < 4; k++) {
             if (cp[k].w > 0.0) {
                 vec3 offset = cp[k].xyz - position;
@@ -97,12 +96,14 @@ void main() {
                 float a = clamp(dot(normal, cn[k].xyz), -1.0, 1.0);
                 radius = max(radius, dist + cr[k].x);
                 thickness = max(thickness, abs(dot(normal, offset)) + abs(a) * cr[k].y + sqrt(1.0 - a * a) * cr[k].x);
-                discontinuous = discontinuous || dist > spread || a < pc.max_normal_spread;
+                discontinuous = discontinuous || a < pc.max_normal_spread;
             }
         }
     }
-    // Mixing background and geometry is a discontinuity too.
-    discontinuous = discontinuous || (geometry > 0 && empty > 0);
+    // A depth step (children far from one plane) or a mix of background and
+    // geometry is a discontinuity too. The slab test does not depend on the
+    // viewing angle, so grazing planes stay continuous.
+    discontinuous = discontinuous || thickness > pc.max_thickness * radius || (geometry > 0 && empty > 0);
     imageStore(dst_position, p, vec4(position, area));
     imageStore(dst_normal, p, vec4(normal, discontinuous ? 1.0 : 0.0));
     imageStore(dst_extent, p, vec4(radius, thickness, 0.0, 0.0));

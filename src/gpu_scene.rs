@@ -99,7 +99,7 @@ impl GpuScene {
         )?;
         staging.write(0, &texels)?;
         let mut rec = pool.begin()?;
-        rec.copy_buffer_to_image(&staging, &textures);
+        rec.copy_buffer_to_image(&staging, &textures, (w, h), layers);
         let done = rec.submit()?;
         device.wait(done)?;
 

@@ -289,31 +289,7 @@ impl Viewer {
         };
         let image = &gpu.swapchain.images[index];
         let mut rec = gpu.commands.begin()?;
-        rec.use_buffer(staging, Access::TransferRead);
-        rec.use_image(image, Access::TransferWrite);
-        rec.flush_barriers();
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: extent.width,
-                height: extent.height,
-                depth: 1,
-            });
-        // SAFETY: recording; the image is in TRANSFER_DST layout and as large as the copy.
-        unsafe {
-            gpu.device.raw.cmd_copy_buffer_to_image(
-                rec.cmd,
-                staging.raw,
-                image.raw,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &[region],
-            )
-        };
+        rec.copy_buffer_to_image(staging, image, (extent.width, extent.height), 1);
         rec.use_image(image, Access::Present);
         rec.flush_barriers();
         let done = rec.submit_with(

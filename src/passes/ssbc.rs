@@ -44,8 +44,9 @@ pub struct SsbcSettings {
     pub refine_ratio: f32,
     /// Children whose normal has a cosine below this to the mean are discontinuous.
     pub max_normal_spread: f32,
-    /// Children farther than this x sqrt(area) from the mean are discontinuous.
-    pub max_depth_spread: f32,
+    /// A texel whose bounding slab is thicker than this x its bounding radius
+    /// is discontinuous (a depth step).
+    pub max_thickness: f32,
 }
 
 impl Default for SsbcSettings {
@@ -56,7 +57,7 @@ impl Default for SsbcSettings {
             min_cos_view: 0.2,
             refine_ratio: 0.2,
             max_normal_spread: 0.9,
-            max_depth_spread: 1.5,
+            max_thickness: 0.25,
         }
     }
 }
@@ -135,7 +136,7 @@ struct GeometryPush {
     mode: u32,
     min_cos_view: f32,
     max_normal_spread: f32,
-    max_depth_spread: f32,
+    max_thickness: f32,
 }
 
 #[repr(C)]
@@ -340,7 +341,7 @@ impl SsbcPass {
                 mode: (level > 0) as u32,
                 min_cos_view: settings.min_cos_view,
                 max_normal_spread: settings.max_normal_spread,
-                max_depth_spread: settings.max_depth_spread,
+                max_thickness: settings.max_thickness,
             };
             self.geometry.dispatch_2d(
                 rec.cmd,

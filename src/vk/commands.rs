@@ -13,6 +13,22 @@ use super::device::{Device, Garbage};
 use super::image::Image;
 use crate::error::{Result, VkResultExt};
 
+/// A tightly packed copy region covering `layers` layers of mip 0.
+fn color_region(extent: (u32, u32), layers: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: layers,
+        })
+        .image_extent(vk::Extent3D {
+            width: extent.0,
+            height: extent.1,
+            depth: 1,
+        })
+}
+
 /// An image whose last access ssbc tracks: its own [`Image`]s and the
 /// swapchain's images.
 pub trait TrackedImage {
@@ -180,18 +196,7 @@ impl Recorder<'_> {
         self.use_image(image, Access::TransferRead);
         self.use_buffer(buffer, Access::TransferWrite);
         self.flush_barriers();
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: image.desc.width,
-                height: image.desc.height,
-                depth: 1,
-            });
+        let region = color_region((image.desc.width, image.desc.height), 1);
         // SAFETY: layouts set by the barrier above; buffer sized by the caller.
         unsafe {
             self.device.raw.cmd_copy_image_to_buffer(
@@ -204,29 +209,25 @@ impl Recorder<'_> {
         };
     }
 
-    /// Uploads tightly packed texels from `buffer` into every layer of mip 0.
-    pub fn copy_buffer_to_image(&mut self, buffer: &Buffer, image: &Image) {
+    /// Uploads tightly packed texels from `buffer` into `layers` layers of
+    /// mip 0 of `image` (of size `extent`): a texture or a swapchain image.
+    pub fn copy_buffer_to_image(
+        &mut self,
+        buffer: &Buffer,
+        image: &impl TrackedImage,
+        extent: (u32, u32),
+        layers: u32,
+    ) {
         self.use_buffer(buffer, Access::TransferRead);
         self.use_image(image, Access::TransferWrite);
         self.flush_barriers();
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: image.desc.layers,
-            })
-            .image_extent(vk::Extent3D {
-                width: image.desc.width,
-                height: image.desc.height,
-                depth: 1,
-            });
-        // SAFETY: layouts set by the barrier above; buffer holds every layer.
+        let region = color_region(extent, layers);
+        // SAFETY: layouts set by the barrier above; the buffer holds every layer.
         unsafe {
             self.device.raw.cmd_copy_buffer_to_image(
                 self.cmd,
                 buffer.raw,
-                image.raw,
+                image.tracked_raw(),
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                 &[region],
             )
