@@ -28,5 +28,5 @@ pub mod shaders {
 }
 
 pub use error::{Error, Result};
-pub use renderer::{Frame, Layer, RenderSettings, Renderer, RendererConfig, Timings};
+pub use renderer::{Frame, GpuImage, Layer, RenderSettings, Renderer, RendererConfig, Timings};
 pub use scene::Scene;

@@ -265,8 +265,30 @@ pub struct Renderer {
     ssbc: SsbcPass,
     profiler: GpuProfiler,
     commands: CommandPool,
+    /// The last frame's final image and the timeline value that finished it.
+    output: Option<(Image, u64)>,
     device: Arc<Device>,
     validation_log: Arc<ValidationLog>,
+}
+
+/// The last frame's final image, left on the GPU for a host engine. Valid
+/// until the next [`Renderer::render`] or until the renderer is dropped.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuImage {
+    /// The image (RGBA32F, linear radiance; owned by ssbc).
+    pub image: vk::Image,
+    /// A 2D view of it.
+    pub view: vk::ImageView,
+    /// Its format.
+    pub format: vk::Format,
+    /// Width and height.
+    pub extent: (u32, u32),
+    /// The layout it is in.
+    pub layout: vk::ImageLayout,
+    /// Timeline semaphore to wait on before reading it...
+    pub semaphore: vk::Semaphore,
+    /// ...for this value.
+    pub value: u64,
 }
 
 /// Validates an image size against the device.
@@ -331,6 +353,21 @@ impl Renderer {
             commands: CommandPool::new(&device)?,
             device,
             validation_log,
+            output: None,
+        })
+    }
+
+    /// The last frame's final image, on the GPU, with its layout and the
+    /// timeline semaphore value to wait for (None before the first frame).
+    pub fn output_image(&self) -> Option<GpuImage> {
+        self.output.as_ref().map(|(image, value)| GpuImage {
+            image: image.raw,
+            view: image.view,
+            format: image.desc.format,
+            extent: (image.desc.width, image.desc.height),
+            layout: image.state.get().layout,
+            semaphore: self.device.timeline(),
+            value: *value,
         })
     }
 
@@ -597,6 +634,8 @@ impl Renderer {
         } else {
             None
         };
+        // Keep the final image for the host (see `output_image`).
+        self.output = Some((if steps > 0 { ssbc.final_image } else { s0 }, done));
         let stack_overflows = ssbc.stats.read::<u32>()?[0];
         if stack_overflows > 0 {
             log::warn!("SSBC: {stack_overflows} refinements found the per-pixel stack full (added unrefined)");

@@ -14,6 +14,10 @@ fn host_owned_device_renders_and_survives_the_renderer() {
         "validation messages in the host's messenger"
     );
     assert!(report.mean_radiance > 0.0 && report.mean_radiance.is_finite());
+    assert_eq!(
+        report.handoff_max_difference, 0.0,
+        "the GPU image handed over is the frame read back"
+    );
     let names: Vec<&str> = report.passes.iter().map(|(n, _)| n.as_str()).collect();
     assert!(
         names.contains(&"indirect_bounded") && names.contains(&"ssbc_step_1"),

@@ -431,6 +431,12 @@ impl Device {
         Ok(())
     }
 
+    /// The timeline semaphore every submission signals (its value is the
+    /// submission's number).
+    pub fn timeline(&self) -> vk::Semaphore {
+        self.timeline
+    }
+
     /// Timeline value of the last finished submission.
     pub fn completed_submission(&self) -> u64 {
         // SAFETY: valid timeline semaphore.
