@@ -272,6 +272,10 @@ mod tests {
             .sum();
         let power = light_power(&scene.lights[0], 1.0);
         let rel = ((first - power).abs() / power).max_element();
+        eprintln!(
+            "first-bounce flux {first} vs emitted {power}: {:.3}% apart",
+            rel * 100.0
+        );
         assert!(
             rel < 0.01,
             "first-bounce flux {first} vs power {power} ({:.3}% off)",

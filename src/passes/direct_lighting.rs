@@ -70,9 +70,7 @@ impl DirectLightingPass {
         direct: &Image,
     ) -> Result<()> {
         let scope = profiler.begin(rec.cmd, "direct_lighting");
-        for input in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
-            rec.use_image(input, Access::ComputeRead);
-        }
+        gbuffer.read_in_compute(rec);
         rec.use_image(&shadows.depth, Access::ComputeSampled);
         rec.use_buffer(&shadows.lights, Access::ComputeRead);
         rec.use_buffer(&shadows.views, Access::ComputeRead);
@@ -83,10 +81,11 @@ impl DirectLightingPass {
             size: [w, h],
             light_count: shadows.light_count,
         };
+        let [position, normal, albedo] = gbuffer.storage_bindings();
         let bindings = [
-            Binding::storage(&gbuffer.position),
-            Binding::storage(&gbuffer.normal),
-            Binding::storage(&gbuffer.albedo),
+            position,
+            normal,
+            albedo,
             Binding::storage(direct),
             Binding::StorageBuffer(&shadows.lights),
             Binding::StorageBuffer(&shadows.views),

@@ -58,6 +58,24 @@ impl GBuffer {
         })
     }
 
+    /// The three colour targets: position, normal, albedo.
+    pub fn targets(&self) -> [&Image; 3] {
+        [&self.position, &self.normal, &self.albedo]
+    }
+
+    /// Declares that a compute pass reads the three targets.
+    pub fn read_in_compute(&self, rec: &mut Recorder<'_>) {
+        for target in self.targets() {
+            rec.use_image(target, Access::ComputeRead);
+        }
+    }
+
+    /// Storage bindings of position, normal and albedo (the first three
+    /// bindings of every compute pass that shades G-buffer pixels).
+    pub fn storage_bindings(&self) -> [Binding<'_>; 3] {
+        self.targets().map(Binding::storage)
+    }
+
     /// Width and height.
     pub fn extent(&self) -> (u32, u32) {
         (self.position.desc.width, self.position.desc.height)
@@ -131,7 +149,7 @@ impl GBufferPass {
             ],
         )?;
         let scope = profiler.begin(rec.cmd, "gbuffer");
-        for target in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
+        for target in gbuffer.targets() {
             rec.use_image(target, Access::ColorAttachmentWrite);
         }
         rec.use_image(&gbuffer.depth, Access::DepthAttachmentWrite);

@@ -95,10 +95,11 @@ impl IndirectBoundedPass {
             ism_bias: ISM_BIAS,
             point_radius: ism.point_radius,
         };
+        let [position, normal, albedo] = gbuffer.storage_bindings();
         let bindings = [
-            Binding::storage(&gbuffer.position),
-            Binding::storage(&gbuffer.normal),
-            Binding::storage(&gbuffer.albedo),
+            position,
+            normal,
+            albedo,
             Binding::storage(direct),
             Binding::storage(indirect_bounded),
             Binding::storage(s0),

@@ -425,10 +425,11 @@ impl SsbcPass {
         frame: &SsbcFrame,
         step: usize,
     ) -> Result<()> {
+        let [position, normal, albedo] = gbuffer.storage_bindings();
         let bindings = [
-            Binding::storage(&gbuffer.position),
-            Binding::storage(&gbuffer.normal),
-            Binding::storage(&gbuffer.albedo),
+            position,
+            normal,
+            albedo,
             Binding::sampled(&frame.geo_position, &self.nearest),
             Binding::sampled(&frame.geo_normal, &self.nearest),
             Binding::sampled(&frame.radiance, &self.nearest),
@@ -437,9 +438,7 @@ impl SsbcPass {
             Binding::storage(&frame.samples[step]),
             Binding::StorageBuffer(&frame.stats),
         ];
-        for g in [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo] {
-            rec.use_image(g, Access::ComputeRead);
-        }
+        gbuffer.read_in_compute(rec);
         for pyramid in [
             &frame.geo_position,
             &frame.geo_normal,
