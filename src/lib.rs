@@ -6,7 +6,35 @@
 //!
 //! Start with [`renderer::Renderer`]: create it with a
 //! [`renderer::RendererConfig`], load a [`scene::Scene`] and call
-//! [`renderer::Renderer::render`].
+//! [`renderer::Renderer::render`]:
+//!
+//! ```no_run
+//! # fn main() -> ssbc::Result<()> {
+//! let mut renderer = ssbc::Renderer::new(&ssbc::RendererConfig::default())?;
+//! let mut scene = ssbc::scene::load("cornell")?;
+//! scene.ensure_light();
+//! let mut settings = ssbc::RenderSettings { width: 640, height: 480, ..Default::default() };
+//! settings.ssbc.steps = 2; // K steps of bias compensation
+//! let frame = renderer.render(&scene, &settings)?;
+//! for pass in &frame.timings.passes {
+//!     println!("{}: {:.2} ms", pass.name, pass.gpu_ms);
+//! }
+//! ssbc::output::write_image(&frame, "out.exr".as_ref(), true, 1.0)?;
+//! # Ok(()) }
+//! ```
+//!
+//! A scene can also be built from a host's own data:
+//!
+//! ```
+//! use glam::{Mat4, Vec3};
+//! let mut scene = ssbc::Scene::new("host");
+//! let grey = scene.add_material(Vec3::splat(0.5), None);
+//! let quad = [Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, -1.0)];
+//! scene.add_mesh(&quad, &[], &[], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, grey).unwrap();
+//! scene.ensure_light(); // a documented default point light
+//! assert_eq!(scene.triangle_count(), 2);
+//! assert_eq!(scene.lights.len(), 1);
+//! ```
 #![warn(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 
