@@ -268,3 +268,58 @@ fn layers_go_into_named_exr_channels() {
         assert!(!t[key].is_null(), "{key} missing from the timings JSON");
     }
 }
+
+/// Runs `ssbc ARGS` and returns (success, stdout, stderr).
+fn run_any(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_ssbc"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn reference_and_compare_work_and_refuse_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.exr").display().to_string();
+    let b = dir.path().join("b.exr").display().to_string();
+    let c = dir.path().join("c.exr").display().to_string();
+    let heat = dir.path().join("heat.png").display().to_string();
+    for (out, spp, size) in [(&a, "2", "16x12"), (&b, "8", "16x12"), (&c, "1", "8x6")] {
+        let (ok, _, err) = run_any(&["reference", "--size", size, "--spp", spp, "-o", out]);
+        assert!(ok, "{err}");
+    }
+    let (ok, stdout, err) = run_any(&["compare", &a, &b, "--json", "--heatmap", &heat]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(v["rel_mse"].as_f64().unwrap() > 0.0 && v["mean_ratio"].as_f64().unwrap() > 0.5);
+    assert!(std::path::Path::new(&heat).exists());
+    for (args, needle) in [
+        (vec!["compare", &a, &c], "sizes differ"),
+        (vec!["compare", &a, "/nonexistent.exr"], "cannot read"),
+        (vec!["reference", "--size", "8x8", "--spp", "0"], "--spp"),
+        (
+            vec![
+                "reference",
+                "--size",
+                "8x8",
+                "--method",
+                "vpl",
+                "--bound",
+                "0",
+            ],
+            "bound",
+        ),
+    ] {
+        let (ok, _, err) = run_any(&args);
+        assert!(
+            !ok && !err.contains("panicked") && err.contains(needle),
+            "{args:?}: {err}"
+        );
+    }
+}
