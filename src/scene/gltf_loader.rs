@@ -507,7 +507,7 @@ impl Loader<'_> {
     }
 
     /// The byte range of buffer view `index` (checked), and its stride.
-    fn view(&mut self, index: usize) -> Result<(Vec<u8>, Option<usize>)> {
+    fn view(&mut self, index: usize) -> Result<(&[u8], Option<usize>)> {
         let v = self
             .root
             .buffer_views
@@ -527,16 +527,16 @@ impl Loader<'_> {
                     format!("bufferView {index} runs past the end of buffer {buffer_index}"),
                 )
             })?;
-        Ok((data[offset as usize..end as usize].to_vec(), stride))
+        Ok((&data[offset as usize..end as usize], stride))
     }
 
-    /// Reads accessor `index` as elements of `components` numbers each, with
-    /// its component type and the raw element bytes.
+    /// Reads accessor `index` as elements of `components` numbers each: its
+    /// component type and the elements' bytes, packed without stride.
     fn accessor_elements(
         &mut self,
         index: usize,
         components: usize,
-    ) -> Result<(ComponentType, Vec<Vec<u8>>)> {
+    ) -> Result<(ComponentType, Vec<u8>)> {
         let a = self
             .root
             .accessors
@@ -572,30 +572,30 @@ impl Loader<'_> {
         let view = a
             .buffer_view
             .ok_or_else(|| self.err(format!("accessor {index} has no bufferView")))?;
+        let name = self.name;
         let (bytes, stride) = self.view(view.value())?;
+        let err = |m: String| Error::scene(name, m);
         let elem = ct.size() * components;
         let stride = stride.unwrap_or(elem);
         if stride < elem {
-            return Err(self.err(format!(
+            return Err(err(format!(
                 "accessor {index}: byteStride {stride} smaller than an element"
             )));
         }
-        let needed = offset
-            .checked_add(
-                stride
-                    .checked_mul(count - 1)
-                    .ok_or_else(|| self.err("accessor size overflows"))?,
-            )
+        let needed = stride
+            .checked_mul(count - 1)
+            .and_then(|n| n.checked_add(offset))
             .and_then(|n| n.checked_add(elem));
         if needed.is_none_or(|n| n > bytes.len()) {
-            return Err(self.err(format!(
+            return Err(err(format!(
                 "accessor {index} runs past the end of its bufferView"
             )));
         }
-        let elements = (0..count)
-            .map(|i| bytes[offset + i * stride..offset + i * stride + elem].to_vec())
-            .collect();
-        Ok((ct, elements))
+        let mut packed = Vec::with_capacity(count * elem);
+        for i in 0..count {
+            packed.extend_from_slice(&bytes[offset + i * stride..offset + i * stride + elem]);
+        }
+        Ok((ct, packed))
     }
 
     /// Float (or normalized integer) attribute data, flattened.
@@ -606,38 +606,34 @@ impl Loader<'_> {
             .get(index)
             .map(|a| a.normalized)
             .unwrap_or(false);
-        let (ct, elements) = self.accessor_elements(index, components)?;
-        let mut out = Vec::with_capacity(elements.len() * components);
-        for e in &elements {
-            for c in 0..components {
-                let v = match ct {
-                    ComponentType::F32 => {
-                        f32::from_le_bytes(e[c * 4..c * 4 + 4].try_into().unwrap())
-                    }
-                    ComponentType::U8 if normalized => e[c] as f32 / 255.0,
-                    ComponentType::U16 if normalized => {
-                        u16::from_le_bytes(e[c * 2..c * 2 + 2].try_into().unwrap()) as f32 / 65535.0
-                    }
-                    _ => {
-                        return Err(self.err(format!(
-                            "accessor {index}: component type {ct:?} not supported here"
-                        )))
-                    }
-                };
-                if !v.is_finite() {
-                    return Err(self.err(format!("accessor {index} holds a non-finite number")));
+        let (ct, packed) = self.accessor_elements(index, components)?;
+        let mut out = Vec::with_capacity(packed.len() / ct.size());
+        for c in packed.chunks_exact(ct.size()) {
+            let v = match ct {
+                ComponentType::F32 => f32::from_le_bytes([c[0], c[1], c[2], c[3]]),
+                ComponentType::U8 if normalized => c[0] as f32 / 255.0,
+                ComponentType::U16 if normalized => {
+                    u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0
                 }
-                out.push(v);
+                _ => {
+                    return Err(self.err(format!(
+                        "accessor {index}: component type {ct:?} not supported here"
+                    )))
+                }
+            };
+            if !v.is_finite() {
+                return Err(self.err(format!("accessor {index} holds a non-finite number")));
             }
+            out.push(v);
         }
         Ok(out)
     }
 
     /// Index data (u8, u16 or u32).
     fn read_indices(&mut self, index: usize) -> Result<Vec<u32>> {
-        let (ct, elements) = self.accessor_elements(index, 1)?;
-        elements
-            .iter()
+        let (ct, packed) = self.accessor_elements(index, 1)?;
+        packed
+            .chunks_exact(ct.size())
             .map(|e| match ct {
                 ComponentType::U8 => Ok(e[0] as u32),
                 ComponentType::U16 => Ok(u16::from_le_bytes([e[0], e[1]]) as u32),
@@ -672,7 +668,7 @@ impl Loader<'_> {
         }
         let bytes = match (&image.uri, image.buffer_view) {
             (Some(uri), _) => self.read_uri(uri)?,
-            (None, Some(v)) => self.view(v.value())?.0,
+            (None, Some(v)) => self.view(v.value())?.0.to_vec(),
             (None, None) => {
                 return Err(self.err(format!(
                     "image {image_index} has neither uri nor bufferView"
