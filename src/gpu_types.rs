@@ -145,7 +145,7 @@ pub struct GpuVpl {
     pub normal: [f32; 4],
     /// rgb albedo.
     pub albedo: [f32; 4],
-    /// rgb flux [W].
+    /// rgb flux (W).
     pub flux: [f32; 4],
 }
 

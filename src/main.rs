@@ -114,7 +114,7 @@ fn parse_count(s: &str) -> Result<usize, String> {
         .map_err(|_| format!("'{s}' is not a whole number"))
 }
 
-/// Parses the clamping bound: `auto`, `inf`, or a positive number [1/m^2].
+/// Parses the clamping bound: `auto`, `inf`, or a positive number (1/m^2).
 fn parse_bound(s: &str) -> Result<Bound, String> {
     match s {
         "auto" => Ok(Bound::Auto),

@@ -45,7 +45,7 @@ pub struct RendererConfig {
     pub device: DeviceSelector,
 }
 
-/// The clamping bound b of the geometry term [1/m²].
+/// The clamping bound b of the geometry term (1/m²).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum Bound {
     /// Derived from the scene: b = (10 / diagonal)², i.e. clamping starts at a
@@ -152,7 +152,7 @@ pub struct Timings {
     pub passes: Vec<PassTiming>,
     /// First to last timestamp of the frame.
     pub frame_gpu_ms: f64,
-    /// CPU stages [ms].
+    /// CPU stages (ms).
     pub cpu_ms: CpuTimings,
     /// VPLs used.
     pub vpl_count: usize,
@@ -162,7 +162,7 @@ pub struct Timings {
     pub ism_tile: u32,
     /// Points per VPL.
     pub points_per_vpl: u32,
-    /// Clamping bound b [1/m²] (a number, or the string "inf").
+    /// Clamping bound b (1/m²) (a number, or the string "inf").
     pub bound: serde_json::Value,
     /// SSBC integration method.
     pub integration: Integration,

@@ -13,7 +13,7 @@ pub struct IsmPoints {
     pub positions: Vec<[f32; 4]>,
     /// World radius one point stands for: sqrt(area / (pi * points_per_vpl)).
     pub point_radius: f32,
-    /// Total surface area of the scene [m^2].
+    /// Total surface area of the scene (m^2).
     pub total_area: f32,
 }
 

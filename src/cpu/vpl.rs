@@ -12,13 +12,13 @@ use crate::scene::{Light, LightKind, Scene};
 /// A virtual point light: a diffuse surface point lit by a light path.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Vpl {
-    /// Position z_i [m].
+    /// Position z_i (m).
     pub position: Vec3,
     /// Unit normal on the side the light arrived from.
     pub normal: Vec3,
     /// Linear albedo at z_i (f_r(z_i) = albedo / pi).
     pub albedo: Vec3,
-    /// Flux Phi_i [W] the path carried into z_i.
+    /// Flux Phi_i (W) the path carried into z_i.
     pub flux: Vec3,
     /// Bounce at which it was deposited (1 = first hit from the light).
     pub bounce: u32,
@@ -54,7 +54,7 @@ pub struct VplSet {
     pub paths: u64,
 }
 
-/// Power [W] emitted by a light (per channel); `scene_radius` sizes the disk
+/// Power (W) emitted by a light (per channel); `scene_radius` sizes the disk
 /// that stands in for a directional light.
 pub fn light_power(light: &Light, scene_radius: f32) -> Vec3 {
     match light.kind {

@@ -19,7 +19,7 @@ pub const GBUFFER_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 /// The G-buffer images of one frame.
 pub struct GBuffer {
-    /// xyz world position [m], w = 1 where there is geometry, 0 for background.
+    /// xyz world position (m), w = 1 where there is geometry, 0 for background.
     pub position: Image,
     /// xyz unit normal facing the camera; w free for later passes.
     pub normal: Image,

@@ -39,7 +39,7 @@ pub struct Ism {
     pub tile: u32,
     /// Tiles per atlas row.
     pub tiles_per_row: u32,
-    /// Distances are stored divided by this [m].
+    /// Distances are stored divided by this (m).
     pub far: f32,
     /// World radius one splatted point stands for.
     pub point_radius: f32,

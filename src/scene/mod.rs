@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Vertex {
-    /// World-space position [m].
+    /// World-space position (m).
     pub position: [f32; 3],
     /// World-space unit normal.
     pub normal: [f32; 3],
@@ -73,7 +73,7 @@ pub struct Light {
     pub position: Vec3,
     /// Unit direction the light travels (spot axis; directional light direction).
     pub direction: Vec3,
-    /// Radiant intensity [W/sr] or irradiance [W/m²] per channel.
+    /// Radiant intensity (W/sr) or irradiance (W/m²) per channel.
     pub intensity: Vec3,
 }
 

@@ -2,7 +2,7 @@
 //! submission tracking (a timeline semaphore) and deferred destruction.
 //!
 //! Resources never destroy their Vulkan handles directly: `Drop` hands them to
-//! [`Device::defer_destroy`], tagged with the last submission that may still
+//! `Device::defer_destroy`, tagged with the last submission that may still
 //! use them. They are destroyed once the timeline semaphore has passed that
 //! submission (or when the device is dropped, after `vkDeviceWaitIdle`).
 
