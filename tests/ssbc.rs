@@ -129,10 +129,6 @@ fn hierarchical_matches_brute_force_on_tori() {
     assert!(ratio >= 8.0, "only {ratio}x fewer samples");
 }
 
-#[allow(dead_code)]
-fn luminance(p: &[f32]) -> f32 {
-    Vec3::new(p[0], p[1], p[2]).dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
 
 /// Mean RGB sum per corner region of the Cornell box: pixels within 20 cm of
 /// two walls, grouped by the pair of walls (floor-left, back-ceiling, ...).
