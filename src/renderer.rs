@@ -264,7 +264,12 @@ pub struct Renderer {
     indirect_bounded: IndirectBoundedPass,
     ssbc: SsbcPass,
     profiler: GpuProfiler,
-    commands: CommandPool,
+    /// One command pool per frame slot.
+    commands: Vec<CommandPool>,
+    /// Timeline value of each slot's last submission.
+    slot_done: [u64; FRAME_SLOTS],
+    /// Frames started so far (picks the slot).
+    frame_index: u64,
     /// The last frame's final image and the timeline value that finished it.
     output: Option<(Image, u64)>,
     device: Arc<Device>,
@@ -311,6 +316,26 @@ fn ms_since(t: Instant) -> f64 {
     t.elapsed().as_secs_f64() * 1e3
 }
 
+/// Frames that may be in flight at once (each has its command pool and
+/// timestamp queries).
+pub const FRAME_SLOTS: usize = 2;
+
+/// A frame submitted by [`Renderer::render_to_gpu`].
+#[derive(Clone, Debug)]
+pub struct GpuSubmission {
+    /// Timeline value that signals the frame is done (see [`Renderer::output_image`]).
+    pub value: u64,
+    /// Per-pass timings and frame time of the previous frame that used this
+    /// frame slot, read without waiting (None for a slot's first frame).
+    pub previous_timings: Option<(Vec<PassTiming>, f64)>,
+}
+
+/// What a frame returns: everything read back, or a GPU submission.
+enum Outcome {
+    Frame(Box<Frame>),
+    Gpu(GpuSubmission),
+}
+
 /// Largest number of ISM points uploaded (VPLs x points per VPL).
 const MAX_ISM_POINTS: u64 = 1 << 26;
 
@@ -349,8 +374,12 @@ impl Renderer {
             direct_lighting: DirectLightingPass::new(&device)?,
             indirect_bounded: IndirectBoundedPass::new(&device)?,
             ssbc: SsbcPass::new(&device)?,
-            profiler: GpuProfiler::new(&device, 64)?,
-            commands: CommandPool::new(&device)?,
+            profiler: GpuProfiler::new(&device, 64, FRAME_SLOTS)?,
+            commands: (0..FRAME_SLOTS)
+                .map(|_| CommandPool::new(&device))
+                .collect::<Result<_>>()?,
+            slot_done: [0; FRAME_SLOTS],
+            frame_index: 0,
             device,
             validation_log,
             output: None,
@@ -369,6 +398,12 @@ impl Renderer {
             semaphore: self.device.timeline(),
             value: *value,
         })
+    }
+
+    /// The last frame's output image as a tracked [`Image`] (for in-crate
+    /// consumers that record their own commands on the same queue).
+    pub(crate) fn output(&self) -> Option<&Image> {
+        self.output.as_ref().map(|(image, _)| image)
     }
 
     /// The device.
@@ -411,9 +446,56 @@ impl Renderer {
         settings.ssbc.validate()
     }
 
-    /// Renders `scene` and reads the result back.
+    /// Renders `scene` and reads the result back (waits for the GPU).
     pub fn render(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Frame> {
+        match self.run(scene, settings, None)? {
+            Outcome::Frame(frame) => Ok(*frame),
+            Outcome::Gpu(_) => unreachable!("no GPU layer was asked for"),
+        }
+    }
+
+    /// Records and submits a frame without waiting for it or reading it
+    /// back; `layer` (`final`, `direct`, `indirect_bounded` or `residual_k`)
+    /// is kept on the GPU as [`Renderer::output_image`]. Up to
+    /// [`FRAME_SLOTS`] frames are in flight: this waits only for the frame
+    /// that last used the same slot, whose timings it returns.
+    pub fn render_to_gpu(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        layer: &str,
+    ) -> Result<GpuSubmission> {
+        let steps = settings.ssbc.steps as usize;
+        let known = matches!(layer, "final" | "direct" | "indirect_bounded")
+            || layer
+                .strip_prefix("residual_")
+                .and_then(|k| k.parse::<usize>().ok())
+                .is_some_and(|k| k >= 1 && k <= steps);
+        if !known {
+            return Err(Error::InvalidParameter(format!("no GPU layer '{layer}'")));
+        }
+        match self.run(scene, settings, Some(layer))? {
+            Outcome::Gpu(submission) => Ok(submission),
+            Outcome::Frame(_) => unreachable!("a GPU layer was asked for"),
+        }
+    }
+
+    fn run(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        gpu_layer: Option<&str>,
+    ) -> Result<Outcome> {
         self.check_settings(settings)?;
+        // The frame slot: wait for (only) the frame that used it last.
+        let slot = (self.frame_index % FRAME_SLOTS as u64) as usize;
+        self.frame_index += 1;
+        self.device.wait(self.slot_done[slot])?;
+        let previous_timings = if self.profiler.has_frame(slot) {
+            Some(self.profiler.resolve(slot)?)
+        } else {
+            None
+        };
         let (w, h) = (settings.width, settings.height);
         scene.validate()?;
         let camera = scene.camera(settings.camera)?;
@@ -441,7 +523,7 @@ impl Renderer {
         let gpu_vpls: Vec<GpuVpl> = vpl_set.vpls.iter().map(GpuVpl::new).collect();
 
         // GPU resources of this frame.
-        let gpu_scene = GpuScene::upload(&device, &mut self.commands, scene)?;
+        let gpu_scene = GpuScene::upload(&device, &mut self.commands[slot], scene)?;
         let shadows =
             self.shadow_maps
                 .prepare(&device, &scene.lights, &bounds, settings.shadow_map_size)?;
@@ -497,10 +579,15 @@ impl Renderer {
             outputs.push(("gbuffer_normal".into(), &gbuffer.normal));
             outputs.push(("gbuffer_albedo".into(), &gbuffer.albedo));
         }
+        if gpu_layer.is_some() {
+            outputs.clear(); // nothing is read back
+        }
         let mut images: Vec<&Image> = outputs.iter().map(|o| o.1).collect();
-        images.extend(ssbc.samples.iter());
-        if settings.debug_readback {
-            images.push(&ism.pyramid);
+        if gpu_layer.is_none() {
+            images.extend(ssbc.samples.iter());
+            if settings.debug_readback {
+                images.push(&ism.pyramid);
+            }
         }
         let readback: Vec<Buffer> = images
             .iter()
@@ -522,8 +609,8 @@ impl Renderer {
             .collect::<Result<_>>()?;
 
         // Record the frame.
-        let mut rec = self.commands.begin()?;
-        self.profiler.begin_frame(rec.cmd);
+        let mut rec = self.commands[slot].begin()?;
+        self.profiler.begin_frame(rec.cmd, slot);
         self.shadow_maps
             .record(&mut rec, &mut self.profiler, &gpu_scene, &shadows);
         if ism.vpl_count > 0 {
@@ -575,13 +662,38 @@ impl Renderer {
             rec.copy_image_to_buffer(image, buffer);
             rec.use_buffer(buffer, Access::HostRead);
         }
-        rec.use_buffer(&ssbc.stats, Access::HostRead);
+        if gpu_layer.is_none() {
+            rec.use_buffer(&ssbc.stats, Access::HostRead);
+        }
         rec.flush_barriers();
         let done = rec.submit()?;
+        self.slot_done[slot] = done;
+        if let Some(layer) = gpu_layer {
+            // Keep the asked-for image; everything else is dropped into the
+            // device's deferred-destruction queue until `done` has passed.
+            let mut residuals = ssbc.residuals;
+            let image = match layer {
+                "final" if steps > 0 => ssbc.final_image,
+                "final" => s0,
+                "direct" => direct,
+                "indirect_bounded" => indirect,
+                _ => {
+                    let k: usize = layer["residual_".len()..]
+                        .parse()
+                        .expect("checked by render_to_gpu");
+                    residuals.swap_remove(k - 1)
+                }
+            };
+            self.output = Some((image, done));
+            return Ok(Outcome::Gpu(GpuSubmission {
+                value: done,
+                previous_timings,
+            }));
+        }
         device.wait(done)?;
 
         // Read back.
-        let (passes, frame_gpu_ms) = self.profiler.resolve()?;
+        let (passes, frame_gpu_ms) = self.profiler.resolve(slot)?;
         let mut layers = Vec::new();
         for ((name, _), buffer) in outputs.iter().zip(&readback) {
             layers.push(Layer {
@@ -640,7 +752,7 @@ impl Renderer {
         if stack_overflows > 0 {
             log::warn!("SSBC: {stack_overflows} refinements found the per-pixel stack full (added unrefined)");
         }
-        Ok(Frame {
+        Ok(Outcome::Frame(Box::new(Frame {
             width: w,
             height: h,
             image,
@@ -669,6 +781,6 @@ impl Renderer {
             bound,
             ism: ism_readback,
             samples,
-        })
+        })))
     }
 }

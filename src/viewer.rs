@@ -27,7 +27,8 @@ use crate::error::{Error, Result, VkResultExt};
 use crate::renderer::{Bound, Frame, RenderSettings, Renderer};
 use crate::scene::{Camera, Scene};
 use crate::vk::{
-    Access, Buffer, CommandPool, Device, DeviceSelector, Instance, Swapchain, ValidationLog,
+    Access, BinarySemaphore, Binding, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device,
+    DeviceSelector, Image, Instance, Swapchain, ValidationLog,
 };
 
 /// What `ssbc view` was asked to do.
@@ -52,14 +53,40 @@ const HELP: &str =
     "keys: WASD/QE move, drag to look, Space SSBC on/off, +/- steps, [ ] bound /2 x2, \
 L layer, arrows/PgUp/PgDn move the light, P screenshot, H help, Esc quit";
 
+/// Per frame in flight: its commands, acquire semaphore and 8-bit image.
+struct FrameSlot {
+    commands: CommandPool,
+    acquired: BinarySemaphore,
+    display: Option<Image>,
+    /// Timeline value of the slot's last submission.
+    done: u64,
+}
+
 /// The GPU side: device, renderer, swapchain and the copy to the window.
 struct Gpu {
     // Drop order: these before the window (the surface needs it).
+    slots: Vec<FrameSlot>,
+    present: ComputeKernel,
     staging: Option<Buffer>,
-    commands: CommandPool,
     swapchain: Swapchain,
     renderer: Renderer,
     device: Arc<Device>,
+    frames: u64,
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // Semaphores and images below may still be in use by queued frames.
+        let _ = self.device.wait_idle();
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PresentPush {
+    size: [u32; 2],
+    exposure: f32,
+    swap_red_blue: u32,
 }
 
 struct Viewer {
@@ -74,8 +101,9 @@ struct Viewer {
     timings: BTreeMap<String, f64>,
     last_title: Instant,
     frames_done: u64,
+    /// Frame slot whose display image holds the last GPU-presented frame.
+    last_gpu_slot: Option<usize>,
     screenshots: u32,
-    last: Option<Frame>,
     result: Result<()>,
     log: Option<Arc<ValidationLog>>,
     gpu: Option<Gpu>,
@@ -103,8 +131,8 @@ pub fn run(options: ViewOptions) -> Result<u32> {
         timings: BTreeMap::new(),
         last_title: Instant::now(),
         frames_done: 0,
+        last_gpu_slot: None,
         screenshots: 0,
-        last: None,
         result: Ok(()),
         log: None,
         gpu: None,
@@ -177,12 +205,31 @@ impl Viewer {
                 height: inner.height,
             },
         )?;
+        let slots = (0..crate::renderer::FRAME_SLOTS)
+            .map(|_| {
+                Ok(FrameSlot {
+                    commands: CommandPool::new(&device)?,
+                    acquired: BinarySemaphore::new(&device)?,
+                    display: None,
+                    done: 0,
+                })
+            })
+            .collect::<Result<_>>()?;
+        use vk::DescriptorType as T;
+        let present = ComputeKernel::new(
+            &device,
+            crate::shaders::PRESENT_COMP,
+            &[T::STORAGE_IMAGE, T::STORAGE_IMAGE],
+            std::mem::size_of::<PresentPush>(),
+        )?;
         self.gpu = Some(Gpu {
+            slots,
+            present,
             staging: None,
-            commands: CommandPool::new(&device)?,
             swapchain,
             renderer: Renderer::with_device(device.clone())?,
             device,
+            frames: 0,
         });
         self.window = Some(window);
         Ok(())
@@ -209,20 +256,27 @@ impl Viewer {
         let names = self.layer_names();
         let name = &names[self.layer % names.len()];
         if name == "samples_1" {
-            let counts = &frame.samples[0];
-            let max = counts.iter().copied().max().unwrap_or(1).max(1) as f32;
-            return counts
-                .iter()
-                .flat_map(|&c| {
-                    let t = c as f32 / max;
-                    [t, 1.0 - (2.0 * t - 1.0).abs(), 1.0 - t, 1.0]
-                })
-                .collect();
+            return Self::heat_map(frame);
         }
         frame
             .layer(name)
             .map(|l| l.rgba.clone())
             .unwrap_or_else(|| frame.image.rgba.clone())
+    }
+
+    /// Samples per pixel of step 1 as false colour (blue few, red most).
+    fn heat_map(frame: &Frame) -> Vec<f32> {
+        let Some(counts) = frame.samples.first() else {
+            return vec![0.0; (frame.width * frame.height * 4) as usize];
+        };
+        let max = counts.iter().copied().max().unwrap_or(1).max(1) as f32;
+        counts
+            .iter()
+            .flat_map(|&c| {
+                let t = c as f32 / max;
+                [t, 1.0 - (2.0 * t - 1.0).abs(), 1.0 - t, 1.0]
+            })
+            .collect()
     }
 
     fn draw(&mut self) -> Result<()> {
@@ -240,6 +294,8 @@ impl Viewer {
             width: size.width,
             height: size.height,
         };
+        let names = self.layer_names();
+        let layer = names[self.layer % names.len()].clone();
         let gpu = self.gpu.as_mut().expect("initialised with the window");
         if gpu.swapchain.extent != wanted {
             gpu.swapchain.recreate(wanted)?;
@@ -251,65 +307,127 @@ impl Viewer {
         let mut scene = self.options.scene.clone();
         scene.cameras.insert(0, self.camera.clone());
         self.options.settings.camera = Some(0);
-        let frame = gpu.renderer.render(&scene, &self.options.settings)?;
+        // This frame slot's previous frame must be done before its commands,
+        // semaphore and display image are reused; the other slot runs on.
+        let slot_index = (gpu.frames % gpu.slots.len() as u64) as usize;
+        gpu.frames += 1;
+        gpu.device.wait(gpu.slots[slot_index].done)?;
 
-        // Linear radiance -> exposure -> sRGB 8-bit in the swapchain's channel order.
-        let exposure = self.options.exposure;
-        let shown = self.shown(&frame);
-        let gpu = self.gpu.as_mut().expect("initialised with the window");
-        let bytes: Vec<u8> = shown
-            .chunks_exact(4)
-            .flat_map(|p| {
-                let q = |v: f32| {
-                    (crate::output::srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8
-                };
-                if bgra {
-                    [q(p[2]), q(p[1]), q(p[0]), 255]
-                } else {
-                    [q(p[0]), q(p[1]), q(p[2]), 255]
-                }
-            })
-            .collect();
-        let needed = bytes.len() as u64;
-        if gpu.staging.as_ref().is_none_or(|b| b.size < needed) {
-            gpu.staging = Some(Buffer::new(
+        // Render: on the GPU, kept there (timings come from this slot's
+        // previous frame, read without waiting), or, for the samples heat
+        // map, read back and uploaded.
+        let timings = if layer == "samples_1" {
+            let frame = gpu.renderer.render(&scene, &self.options.settings)?;
+            let exposure = self.options.exposure;
+            let heat = Self::heat_map(&frame);
+            let bytes: Vec<u8> = heat
+                .chunks_exact(4)
+                .flat_map(|p| {
+                    let q = |v: f32| {
+                        (crate::output::srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5)
+                            as u8
+                    };
+                    if bgra {
+                        [q(p[2]), q(p[1]), q(p[0]), 255]
+                    } else {
+                        [q(p[0]), q(p[1]), q(p[2]), 255]
+                    }
+                })
+                .collect();
+            if gpu
+                .staging
+                .as_ref()
+                .is_none_or(|b| b.size < bytes.len() as u64)
+            {
+                gpu.staging = Some(Buffer::new(
+                    &gpu.device,
+                    "present_staging",
+                    bytes.len() as u64,
+                    vk::BufferUsageFlags::TRANSFER_SRC,
+                    MemoryLocation::CpuToGpu,
+                )?);
+            }
+            gpu.staging
+                .as_ref()
+                .expect("allocated above")
+                .write(0, &bytes)?;
+            Some((frame.timings.passes.clone(), frame.timings.frame_gpu_ms))
+        } else {
+            gpu.renderer
+                .render_to_gpu(&scene, &self.options.settings, &layer)?
+                .previous_timings
+        };
+
+        let slot = &mut gpu.slots[slot_index];
+        if slot
+            .display
+            .as_ref()
+            .is_none_or(|d| (d.desc.width, d.desc.height) != (extent.width, extent.height))
+        {
+            slot.display = Some(Image::new(
                 &gpu.device,
-                "present_staging",
-                needed,
-                vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::CpuToGpu,
+                "display",
+                crate::vk::ImageDesc::new_2d(
+                    vk::Format::R8G8B8A8_UNORM,
+                    extent.width,
+                    extent.height,
+                    vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+                ),
             )?);
         }
-        let staging = gpu.staging.as_ref().expect("allocated above");
-        staging.write(0, &bytes)?;
-
-        let Some(index) = gpu.swapchain.acquire()? else {
+        let Some(index) = gpu.swapchain.acquire(&slot.acquired)? else {
             gpu.swapchain.recreate(wanted)?;
             return Ok(());
         };
         let image = &gpu.swapchain.images[index];
-        let mut rec = gpu.commands.begin()?;
-        rec.copy_buffer_to_image(staging, image, (extent.width, extent.height), 1);
+        let display = slot.display.as_ref().expect("allocated above");
+        let pool = DescriptorPool::new(&gpu.device, &[gpu.present.set_layout()])?;
+        let mut rec = slot.commands.begin()?;
+        match (layer.as_str(), gpu.renderer.output()) {
+            ("samples_1", _) | (_, None) => {
+                let staging = gpu.staging.as_ref().expect("uploaded above");
+                rec.copy_buffer_to_image(staging, image, (extent.width, extent.height), 1);
+            }
+            (_, Some(output)) => {
+                rec.use_image(output, Access::ComputeRead);
+                rec.use_image(display, Access::ComputeWrite);
+                rec.flush_barriers();
+                let push = PresentPush {
+                    size: [extent.width, extent.height],
+                    exposure: self.options.exposure,
+                    swap_red_blue: bgra as u32,
+                };
+                let bindings = [Binding::storage(output), Binding::storage(display)];
+                gpu.present.dispatch_2d(
+                    rec.cmd,
+                    &pool,
+                    &bindings,
+                    bytemuck::bytes_of(&push),
+                    (extent.width, extent.height),
+                )?;
+                rec.copy_image(display, image, (extent.width, extent.height));
+            }
+        }
         rec.use_image(image, Access::Present);
         rec.flush_barriers();
-        let done = rec.submit_with(
-            &[(gpu.swapchain.acquired, vk::PipelineStageFlags2::TRANSFER)],
+        slot.done = rec.submit_with(
+            &[(slot.acquired.raw, vk::PipelineStageFlags2::ALL_COMMANDS)],
             &[image.render_done],
         )?;
-        gpu.device.wait(done)?;
+        drop(pool); // destroyed once this frame is done
+        self.last_gpu_slot = (layer != "samples_1").then_some(slot_index);
         if !gpu.swapchain.present(index)? {
             gpu.swapchain.recreate(wanted)?;
         }
 
-        for p in &frame.timings.passes {
-            let e = self.timings.entry(p.name.clone()).or_insert(p.gpu_ms);
-            *e = 0.8 * *e + 0.2 * p.gpu_ms;
+        if let Some((passes, frame_ms)) = timings {
+            for p in &passes {
+                let e = self.timings.entry(p.name.clone()).or_insert(p.gpu_ms);
+                *e = 0.8 * *e + 0.2 * p.gpu_ms;
+            }
+            let f = self.timings.entry("frame".into()).or_insert(frame_ms);
+            *f = 0.8 * *f + 0.2 * frame_ms;
         }
-        let f = self
-            .timings
-            .entry("frame".into())
-            .or_insert(frame.timings.frame_gpu_ms);
-        *f = 0.8 * *f + 0.2 * frame.timings.frame_gpu_ms;
         if self.last_title.elapsed().as_secs_f32() >= 1.0 {
             self.last_title = Instant::now();
             let names = self.layer_names();
@@ -317,14 +435,16 @@ impl Viewer {
                 "ssbc | {} | {} steps | b {} | GPU frame {:.1} ms",
                 names[self.layer % names.len()],
                 self.options.settings.ssbc.steps,
-                frame.timings.bound,
-                self.timings["frame"]
+                self.options
+                    .settings
+                    .bound
+                    .resolve(2.0 * self.options.scene.bounds().radius()),
+                self.timings.get("frame").copied().unwrap_or(0.0)
             );
             if let Some(w) = &self.window {
                 w.set_title(&title);
             }
         }
-        self.last = Some(frame);
         self.frames_done += 1;
         Ok(())
     }
@@ -348,11 +468,18 @@ impl Viewer {
         }
     }
 
+    /// Renders the current view once more, read back, and saves the shown
+    /// layer as EXR (linear) and PNG (as displayed).
     fn screenshot(&mut self, path: &Path) -> Result<()> {
-        let Some(frame) = &self.last else {
+        let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
-        let rgba = self.shown(frame);
+        let mut scene = self.options.scene.clone();
+        scene.cameras.insert(0, self.camera.clone());
+        let mut settings = self.options.settings.clone();
+        settings.camera = Some(0);
+        let frame = gpu.renderer.render(&scene, &settings)?;
+        let rgba = self.shown(&frame);
         let layer = crate::renderer::Layer {
             name: "shown".into(),
             rgba,
@@ -368,6 +495,57 @@ impl Viewer {
             self.options.exposure,
         )?;
         eprintln!("screenshot: {} and {}", exr.display(), png.display());
+        self.save_displayed(&path.with_file_name(format!(
+            "{}-display.png",
+            path.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default()
+        )))
+    }
+
+    /// Saves the 8-bit image the GPU path last put on screen (converted by
+    /// `present.comp`), read back from its frame slot.
+    fn save_displayed(&mut self, path: &Path) -> Result<()> {
+        let (Some(gpu), Some(slot)) = (self.gpu.as_mut(), self.last_gpu_slot) else {
+            return Ok(());
+        };
+        gpu.device.wait_idle()?;
+        let bgra = gpu.swapchain.format == vk::Format::B8G8R8A8_UNORM;
+        let slot = &mut gpu.slots[slot];
+        let Some(display) = slot.display.as_ref() else {
+            return Ok(());
+        };
+        let (w, h) = (display.desc.width, display.desc.height);
+        let buffer = Buffer::new(
+            &gpu.device,
+            "display_readback",
+            w as u64 * h as u64 * 4,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let mut rec = slot.commands.begin()?;
+        rec.copy_image_to_buffer(display, &buffer);
+        rec.use_buffer(&buffer, Access::HostRead);
+        rec.flush_barriers();
+        let done = rec.submit()?;
+        slot.done = done;
+        gpu.device.wait(done)?;
+        let bytes: Vec<u8> = buffer.read::<u8>()?;
+        let rgb: Vec<u8> = bytes
+            .chunks_exact(4)
+            .flat_map(|p| {
+                if bgra {
+                    [p[2], p[1], p[0]]
+                } else {
+                    [p[0], p[1], p[2]]
+                }
+            })
+            .collect();
+        image::save_buffer(path, &rgb, w, h, image::ExtendedColorType::Rgb8).map_err(|e| {
+            Error::Output {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            }
+        })?;
+        eprintln!("displayed frame: {}", path.display());
         Ok(())
     }
 

@@ -129,7 +129,6 @@ fn hierarchical_matches_brute_force_on_tori() {
     assert!(ratio >= 8.0, "only {ratio}x fewer samples");
 }
 
-
 /// Mean RGB sum per corner region of the Cornell box: pixels within 20 cm of
 /// two walls, grouped by the pair of walls (floor-left, back-ceiling, ...).
 fn corner_means(f: &Frame, name: &str) -> Vec<(String, f64)> {

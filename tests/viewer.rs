@@ -108,4 +108,20 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
         c.rel_mse < 1e-6 && (c.mean_ratio - 1.0).abs() < 1e-4,
         "{c:?}"
     );
+
+    // What the GPU path put on screen (present.comp's 8-bit sRGB) is the
+    // headless image, encoded: within one step of 8-bit rounding.
+    let shown = image::open(dir.path().join("shot-display.png"))
+        .expect("displayed frame")
+        .into_rgb8();
+    let mut worst = 0i32;
+    for (i, p) in shown.pixels().enumerate() {
+        for c in 0..3 {
+            let v = headless.image.rgba[i * 4 + c].clamp(0.0, 1.0);
+            let want = (ssbc::output::srgb_encode(v) * 255.0).round() as i32;
+            worst = worst.max((p[c] as i32 - want).abs());
+        }
+    }
+    eprintln!("displayed 8-bit frame vs headless render: worst difference {worst}/255");
+    assert!(worst <= 1, "displayed frame differs by {worst}/255");
 }

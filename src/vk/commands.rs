@@ -234,6 +234,39 @@ impl Recorder<'_> {
         };
     }
 
+    /// Copies mip 0 / layer 0 of `src` into `dst` (size-compatible formats,
+    /// both `extent` large), e.g. into a swapchain image.
+    pub fn copy_image(&mut self, src: &Image, dst: &impl TrackedImage, extent: (u32, u32)) {
+        self.use_image(src, Access::TransferRead);
+        self.use_image(dst, Access::TransferWrite);
+        self.flush_barriers();
+        let layers = vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let region = vk::ImageCopy::default()
+            .src_subresource(layers)
+            .dst_subresource(layers)
+            .extent(vk::Extent3D {
+                width: extent.0,
+                height: extent.1,
+                depth: 1,
+            });
+        // SAFETY: layouts set by the barrier above; both images hold `extent`.
+        unsafe {
+            self.device.raw.cmd_copy_image(
+                self.cmd,
+                src.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst.tracked_raw(),
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+    }
+
     /// Fills a buffer with a 32-bit value.
     pub fn fill_buffer(&mut self, buffer: &Buffer, value: u32) {
         self.use_buffer(buffer, Access::TransferWrite);

@@ -27,4 +27,4 @@ pub use image::{Image, ImageDesc, Sampler};
 pub use instance::{Instance, ValidationLog};
 pub use pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
 pub use profiler::{GpuProfiler, PassTiming};
-pub use swapchain::{Swapchain, SwapchainImage};
+pub use swapchain::{BinarySemaphore, Swapchain, SwapchainImage};

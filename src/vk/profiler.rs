@@ -18,12 +18,17 @@ pub struct PassTiming {
     pub gpu_ms: f64,
 }
 
-/// A query pool with room for `capacity` passes.
+/// A query pool with room for `capacity` passes in each of several frame
+/// slots, so a frame's timestamps can be read when its slot comes round
+/// again, without waiting.
 pub struct GpuProfiler {
     device: Arc<Device>,
     pool: vk::QueryPool,
     capacity: u32,
-    names: Vec<String>,
+    /// Pass names recorded in each slot.
+    names: Vec<Vec<String>>,
+    /// The slot being recorded.
+    current: usize,
     period_ns: f64,
     valid_mask: u64,
 }
@@ -33,11 +38,11 @@ pub struct GpuProfiler {
 pub struct PassScope(u32);
 
 impl GpuProfiler {
-    /// A pool for up to `capacity` passes per frame.
-    pub fn new(device: &Arc<Device>, capacity: u32) -> Result<Self> {
+    /// A pool for up to `capacity` passes per frame in each of `slots` slots.
+    pub fn new(device: &Arc<Device>, capacity: u32, slots: usize) -> Result<Self> {
         let info = vk::QueryPoolCreateInfo::default()
             .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(capacity * 2 + 2);
+            .query_count((capacity * 2 + 2) * slots as u32);
         // SAFETY: valid create info.
         let pool = unsafe { device.raw.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
         // SAFETY: valid instance and physical device.
@@ -57,47 +62,55 @@ impl GpuProfiler {
             device: device.clone(),
             pool,
             capacity,
-            names: Vec::new(),
+            names: vec![Vec::new(); slots],
+            current: 0,
             period_ns: device.properties.limits.timestamp_period as f64,
             valid_mask,
         })
     }
 
-    /// Resets the queries (host reset) and starts a frame: writes the frame's
-    /// first timestamp.
-    pub fn begin_frame(&mut self, cmd: vk::CommandBuffer) {
-        self.names.clear();
-        // SAFETY: hostQueryReset is enabled; no pending submission uses the pool
-        // (the previous frame was resolved, which waited for it).
+    /// First query of `slot`.
+    fn base(&self, slot: usize) -> u32 {
+        slot as u32 * (self.capacity * 2 + 2)
+    }
+
+    /// Resets `slot`'s queries (host reset) and starts a frame in it: writes
+    /// the frame's first timestamp. The slot's previous frame must be done.
+    pub fn begin_frame(&mut self, cmd: vk::CommandBuffer, slot: usize) {
+        self.current = slot;
+        self.names[slot].clear();
+        let base = self.base(slot);
+        // SAFETY: hostQueryReset is enabled; the caller waited for the slot's
+        // previous submission, so no pending work uses these queries.
         unsafe {
             self.device
                 .raw
-                .reset_query_pool(self.pool, 0, self.capacity * 2 + 2);
+                .reset_query_pool(self.pool, base, self.capacity * 2 + 2);
             self.device.raw.cmd_write_timestamp2(
                 cmd,
                 vk::PipelineStageFlags2::ALL_COMMANDS,
                 self.pool,
-                0,
+                base,
             );
         }
     }
 
     /// Writes the start timestamp of a pass.
     pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> PassScope {
-        let index = self.names.len() as u32;
+        let index = self.names[self.current].len() as u32;
         assert!(
             index < self.capacity,
             "GpuProfiler capacity {} exceeded",
             self.capacity
         );
-        self.names.push(name.to_string());
+        self.names[self.current].push(name.to_string());
         // SAFETY: query index inside the pool, reset this frame.
         unsafe {
             self.device.raw.cmd_write_timestamp2(
                 cmd,
                 vk::PipelineStageFlags2::ALL_COMMANDS,
                 self.pool,
-                2 + index * 2,
+                self.base(self.current) + 2 + index * 2,
             )
         };
         PassScope(index)
@@ -111,34 +124,41 @@ impl GpuProfiler {
                 cmd,
                 vk::PipelineStageFlags2::ALL_COMMANDS,
                 self.pool,
-                3 + scope.0 * 2,
+                self.base(self.current) + 3 + scope.0 * 2,
             )
         };
     }
 
     /// Writes the frame's last timestamp.
     pub fn end_frame(&mut self, cmd: vk::CommandBuffer) {
-        // SAFETY: query 1 is reserved for the frame end.
+        let query = self.base(self.current) + 1;
+        // SAFETY: the slot's second query is reserved for the frame end.
         unsafe {
             self.device.raw.cmd_write_timestamp2(
                 cmd,
                 vk::PipelineStageFlags2::ALL_COMMANDS,
                 self.pool,
-                1,
+                query,
             )
         };
     }
 
-    /// Reads every timestamp (waiting for them) and returns the per-pass times
-    /// and the whole frame's time in milliseconds.
-    pub fn resolve(&self) -> Result<(Vec<PassTiming>, f64)> {
-        let count = 2 + self.names.len() * 2;
+    /// Whether `slot` holds a recorded frame.
+    pub fn has_frame(&self, slot: usize) -> bool {
+        !self.names[slot].is_empty()
+    }
+
+    /// Reads `slot`'s timestamps and returns the per-pass times and the whole
+    /// frame's time in milliseconds. Waits if the frame has not finished;
+    /// once its submission is known done this returns at once.
+    pub fn resolve(&self, slot: usize) -> Result<(Vec<PassTiming>, f64)> {
+        let count = 2 + self.names[slot].len() * 2;
         let mut raw = vec![0u64; count];
         // SAFETY: the queries 0..count were written by the submitted frame.
         unsafe {
             self.device.raw.get_query_pool_results(
                 self.pool,
-                0,
+                self.base(slot),
                 &mut raw,
                 vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
             )
@@ -148,8 +168,7 @@ impl GpuProfiler {
             let delta = b.wrapping_sub(a) & self.valid_mask;
             delta as f64 * self.period_ns * 1e-6
         };
-        let passes = self
-            .names
+        let passes = self.names[slot]
             .iter()
             .enumerate()
             .map(|(i, name)| PassTiming {

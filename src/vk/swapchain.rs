@@ -51,8 +51,38 @@ pub struct Swapchain {
     pub format: vk::Format,
     /// Size in pixels.
     pub extent: vk::Extent2D,
-    /// Signalled when the acquired image may be written.
-    pub acquired: vk::Semaphore,
+}
+
+/// A binary semaphore (for acquire/present). Destroyed on drop: the owner
+/// makes sure no queue operation still uses it.
+pub struct BinarySemaphore {
+    device: Arc<Device>,
+    /// The raw handle.
+    pub raw: vk::Semaphore,
+}
+
+impl BinarySemaphore {
+    /// Creates one.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        // SAFETY: valid device.
+        let raw = unsafe {
+            device
+                .raw
+                .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+        }
+        .vk("vkCreateSemaphore")?;
+        Ok(Self {
+            device: device.clone(),
+            raw,
+        })
+    }
+}
+
+impl Drop for BinarySemaphore {
+    fn drop(&mut self) {
+        // SAFETY: the owner waited for the queue operations that use it.
+        unsafe { self.device.raw.destroy_semaphore(self.raw, None) };
+    }
 }
 
 impl Swapchain {
@@ -83,15 +113,6 @@ impl Swapchain {
             )));
         }
         let loader = ash::khr::swapchain::Device::new(&instance.raw, &device.raw);
-        let semaphore = || {
-            // SAFETY: valid device.
-            unsafe {
-                device
-                    .raw
-                    .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
-            }
-            .vk("vkCreateSemaphore")
-        };
         let mut swapchain = Self {
             device: device.clone(),
             surface_loader,
@@ -101,7 +122,6 @@ impl Swapchain {
             images: Vec::new(),
             format: vk::Format::B8G8R8A8_UNORM,
             extent,
-            acquired: semaphore()?,
         };
         swapchain.recreate(extent)?;
         Ok(swapchain)
@@ -192,13 +212,14 @@ impl Swapchain {
         Ok(())
     }
 
-    /// Acquires the next image; None when the swapchain must be recreated.
-    pub fn acquire(&self) -> Result<Option<usize>> {
-        // SAFETY: valid swapchain; `acquired` is unsignalled (the previous frame
-        // waited on it and finished).
+    /// Acquires the next image, signalling `acquired` when it may be
+    /// written; None when the swapchain must be recreated.
+    pub fn acquire(&self, acquired: &BinarySemaphore) -> Result<Option<usize>> {
+        // SAFETY: valid swapchain; `acquired` is unsignalled (the frame that
+        // last waited on it has finished).
         match unsafe {
             self.loader
-                .acquire_next_image(self.raw, u64::MAX, self.acquired, vk::Fence::null())
+                .acquire_next_image(self.raw, u64::MAX, acquired.raw, vk::Fence::null())
         } {
             // Suboptimal still acquires (and signals): use the image; the
             // present that follows reports it and the caller recreates then.
@@ -257,9 +278,6 @@ impl Drop for Swapchain {
         let _ = self.device.wait_idle();
         self.destroy_images_and_swapchain();
         // SAFETY: idle device; the surface outlives its swapchain and is destroyed last.
-        unsafe {
-            self.device.raw.destroy_semaphore(self.acquired, None);
-            self.surface_loader.destroy_surface(self.surface, None);
-        }
+        unsafe { self.surface_loader.destroy_surface(self.surface, None) };
     }
 }
