@@ -1,10 +1,13 @@
 //! `ssbc view`: an interactive window (winit, X11 or Wayland) showing the
 //! renderer live, with a fly camera and keys for the technique's parameters.
 //!
-//! Each frame renders synchronously at the window's size (the renderer reads
-//! its layers back so any of them can be shown), converts the chosen layer to
-//! 8-bit sRGB on the CPU, and copies it into the acquired swapchain image.
-//! Timings therefore come from the frame just finished: no extra stall.
+//! Frames are in flight two at a time: each frame slot has its command
+//! pool, acquire semaphore and 8-bit display image, and a frame waits only for
+//! the previous use of its slot. The renderer keeps the shown layer on the GPU
+//! (`Renderer::render_to_gpu`), `present.comp` encodes it to 8-bit sRGB, and a
+//! copy puts it into the acquired swapchain image. Timings come from the
+//! slot's previous frame, read without waiting. The samples heat map is the
+//! exception: it is read back and uploaded.
 
 use std::collections::BTreeMap;
 use std::ffi::CStr;
