@@ -104,10 +104,12 @@ pub fn timings_table(frame: &Frame) -> String {
     s += &format!("  {:<24} {:>10.3} ms\n", "frame", t.frame_gpu_ms);
     for (k, step) in t.ssbc_steps.iter().enumerate() {
         s += &format!(
-            "  ssbc step {}: {:.1} samples/pixel on average, {} at most\n",
+            "  ssbc step {}: {:.1} samples/pixel on average, {:.0} at most (eval level {}, {:.1}% of pixels evaluated alone)\n",
             k + 1,
             step.samples_per_pixel_avg,
-            step.samples_per_pixel_max
+            step.samples_per_pixel_max,
+            step.eval_level,
+            step.fallback_fraction * 100.0
         );
     }
     s += &format!(

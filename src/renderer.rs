@@ -29,7 +29,7 @@ use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::indirect_bounded::IndirectBoundedPass;
 use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
-use crate::passes::ssbc::{Integration, SsbcCamera, SsbcPass, SsbcSettings};
+use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSettings};
 use crate::scene::Scene;
 use crate::vk::{
     Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector,
@@ -133,10 +133,17 @@ pub struct CpuTimings {
 pub struct SsbcStepTiming {
     /// GPU time of the step (radiance mips, residual, accumulation).
     pub gpu_ms: f64,
-    /// Mean texel evaluations per geometry pixel.
+    /// Texels read per geometry pixel, on average: every texel read by an
+    /// evaluation point (shared among the pixels under it) or by a pixel
+    /// evaluated alone, divided by the geometry pixels.
     pub samples_per_pixel_avg: f64,
-    /// Largest texel evaluations of any pixel.
-    pub samples_per_pixel_max: u32,
+    /// The most texels any one pixel accounts for.
+    pub samples_per_pixel_max: f64,
+    /// Level of the pyramid whose texels were the evaluation points (0: every
+    /// pixel was evaluated alone).
+    pub eval_level: u32,
+    /// Fraction of geometry pixels evaluated alone rather than interpolated.
+    pub fallback_fraction: f64,
 }
 
 /// GPU timings of one frame, and the figures that explain them.
@@ -168,8 +175,6 @@ pub struct Timings {
     pub integration: Integration,
     /// Per-step SSBC figures.
     pub ssbc_steps: Vec<SsbcStepTiming>,
-    /// Refinements that found the per-pixel stack full (texel added unrefined).
-    pub ssbc_stack_overflows: u32,
 }
 
 /// The ISM atlas, read back for diagnostics.
@@ -240,8 +245,8 @@ pub struct Frame {
     pub bound: f32,
     /// The ISM atlas (with debug readback).
     pub ism: Option<IsmReadback>,
-    /// Texel evaluations per pixel of each SSBC step.
-    pub samples: Vec<Vec<u32>>,
+    /// Texels read per pixel of each SSBC step (see [`SsbcStepTiming`]).
+    pub samples: Vec<Vec<f32>>,
 }
 
 impl Frame {
@@ -545,24 +550,31 @@ impl Renderer {
         let s0 = layer_image("s0")?;
         let steps = settings.ssbc.steps;
         let ssbc = self.ssbc.prepare(&device, (w, h), steps)?;
+        let ssbc_camera = SsbcCamera {
+            position: camera.position,
+            forward: camera.forward,
+            pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
+        };
+        let eval_level = SsbcPass::eval_level(
+            &ssbc_camera,
+            (bounds.center() - camera.position).dot(camera.forward),
+            bound,
+            ssbc.levels(),
+            &settings.ssbc,
+        );
         let mut layouts: Vec<&DescriptorSetLayout> = vec![
             self.gbuffer.set_layout(),
             self.direct_lighting.set_layout(),
             self.indirect_bounded.set_layout(),
         ];
         layouts.extend(self.ism.set_layouts(settings.ism_tile));
-        layouts.extend(self.ssbc.set_layouts((w, h), steps));
+        layouts.extend(self.ssbc.set_layouts((w, h), steps, eval_level));
         let pool = DescriptorPool::new(&device, &layouts)?;
 
         // Near and far planes enclose the scene's bounding sphere.
         let far = (camera.position - bounds.center()).length() + bounds.radius() * 1.05;
         let near = (far * 1e-4).max(1e-4);
         let view_proj = camera.projection(w as f32 / h as f32, near, far) * camera.view();
-        let ssbc_camera = SsbcCamera {
-            position: camera.position,
-            forward: camera.forward,
-            pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
-        };
 
         // What to read back.
         let final_image = if steps > 0 { &ssbc.final_image } else { &s0 };
@@ -651,19 +663,20 @@ impl Renderer {
                 &pool,
                 &gbuffer,
                 &s0,
-                &ssbc_camera,
-                bound,
-                &settings.ssbc,
+                &SsbcInputs {
+                    camera: &ssbc_camera,
+                    bound,
+                    eval_level,
+                    settings: &settings.ssbc,
+                },
                 &ssbc,
             )?;
         }
         self.profiler.end_frame(rec.cmd);
+        rec.use_buffer(&ssbc.stats, Access::HostRead);
         for (image, buffer) in images.iter().zip(&readback) {
             rec.copy_image_to_buffer(image, buffer);
             rec.use_buffer(buffer, Access::HostRead);
-        }
-        if gpu_layer.is_none() {
-            rec.use_buffer(&ssbc.stats, Access::HostRead);
         }
         rec.flush_barriers();
         let done = rec.submit()?;
@@ -704,6 +717,7 @@ impl Renderer {
         let image = layers.remove(0);
         let mut ssbc_steps = Vec::new();
         let mut samples = Vec::new();
+        let fallback_counts = ssbc.fallback_counts()?;
         let geometry: Vec<bool> = layers[0]
             .rgba
             .chunks_exact(4)
@@ -713,13 +727,14 @@ impl Renderer {
             .iter()
             .enumerate()
         {
-            let counts: Vec<u32> = buffer.read()?;
-            let on_geometry: Vec<u32> = counts
+            let counts: Vec<f32> = buffer.read()?;
+            let on_geometry: Vec<f32> = counts
                 .iter()
                 .zip(&geometry)
                 .filter(|(_, g)| **g)
                 .map(|(c, _)| *c)
                 .collect();
+
             let name = format!("ssbc_step_{}", k + 1);
             ssbc_steps.push(SsbcStepTiming {
                 gpu_ms: passes
@@ -729,7 +744,10 @@ impl Renderer {
                     .unwrap_or(0.0),
                 samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>()
                     / on_geometry.len().max(1) as f64,
-                samples_per_pixel_max: on_geometry.iter().copied().max().unwrap_or(0),
+                samples_per_pixel_max: on_geometry.iter().fold(0.0, |m, &c| m.max(c as f64)),
+                eval_level,
+                fallback_fraction: fallback_counts.get(k).copied().unwrap_or(0) as f64
+                    / on_geometry.len().max(1) as f64,
             });
             samples.push(counts);
         }
@@ -748,10 +766,6 @@ impl Renderer {
         };
         // Keep the final image for the host (see `output_image`).
         self.output = Some((if steps > 0 { ssbc.final_image } else { s0 }, done));
-        let stack_overflows = ssbc.stats.read::<u32>()?[0];
-        if stack_overflows > 0 {
-            log::warn!("SSBC: {stack_overflows} refinements found the per-pixel stack full (added unrefined)");
-        }
         Ok(Outcome::Frame(Box::new(Frame {
             width: w,
             height: h,
@@ -775,7 +789,6 @@ impl Renderer {
                 },
                 integration: settings.ssbc.integration,
                 ssbc_steps,
-                ssbc_stack_overflows: stack_overflows,
             },
             vpls: vpl_set.vpls,
             bound,

@@ -272,11 +272,11 @@ impl Viewer {
         let Some(counts) = frame.samples.first() else {
             return vec![0.0; (frame.width * frame.height * 4) as usize];
         };
-        let max = counts.iter().copied().max().unwrap_or(1).max(1) as f32;
+        let max = counts.iter().copied().fold(1.0f32, f32::max);
         counts
             .iter()
             .flat_map(|&c| {
-                let t = c as f32 / max;
+                let t = c / max;
                 [t, 1.0 - (2.0 * t - 1.0).abs(), 1.0 - t, 1.0]
             })
             .collect()

@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::shaders;
 use crate::vk::{
     Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device,
-    GpuProfiler, Image, ImageDesc, Recorder, Sampler,
+    GpuProfiler, Image, Recorder,
 };
 
 /// How each residual step integrates over the screen.
@@ -40,13 +40,25 @@ pub struct SsbcSettings {
     pub integration: Integration,
     /// Lower clamp of cos(theta_view) in A_y (conservative grazing-angle compensation).
     pub min_cos_view: f32,
-    /// Refine a texel whose extent exceeds this fraction of its distance to x.
+    /// Refine a texel whose bounding sphere's radius exceeds this fraction of
+    /// its distance to x.
     pub refine_ratio: f32,
-    /// Children whose normal has a cosine below this to the mean are discontinuous.
+    /// A texel is one smooth surface ("continuous", usable as an evaluation
+    /// point) if the mean of its unit normals is at least this long...
     pub max_normal_spread: f32,
-    /// A texel whose bounding slab is thicker than this x its bounding radius
-    /// is discontinuous (a depth step).
+    /// ...and its bounding slab is at most this x its bounding radius thick.
     pub max_thickness: f32,
+    /// The residual is evaluated at the texels of the coarsest pyramid level
+    /// (up to `max_eval_level`) that still puts this many texels across the
+    /// bounding radius 1/sqrt(b) on screen, and interpolated to the pixels
+    /// that lie on the same smooth surface; other pixels are evaluated alone.
+    pub texels_per_radius: f32,
+    /// Coarsest evaluation level (0: every pixel is evaluated alone).
+    pub max_eval_level: u32,
+    /// A pixel interpolates only from points closer to it than this fraction
+    /// of their distance to the nearest surface that contributes to them
+    /// (I(x) changes on that scale near corners and contacts).
+    pub nearest_fraction: f32,
 }
 
 impl Default for SsbcSettings {
@@ -55,9 +67,12 @@ impl Default for SsbcSettings {
             steps: 2,
             integration: Integration::Hierarchical,
             min_cos_view: 0.2,
-            refine_ratio: 0.2,
-            max_normal_spread: 0.9,
-            max_thickness: 0.25,
+            refine_ratio: 0.1,
+            max_normal_spread: 0.98,
+            max_thickness: 0.1,
+            texels_per_radius: 12.0,
+            max_eval_level: 4,
+            nearest_fraction: 0.25,
         }
     }
 }
@@ -81,6 +96,24 @@ impl SsbcSettings {
                 self.refine_ratio
             ));
         }
+        if !(self.texels_per_radius >= 1.0 && self.texels_per_radius.is_finite()) {
+            return bad(format!(
+                "texels per radius {} must be at least 1",
+                self.texels_per_radius
+            ));
+        }
+        if !(self.nearest_fraction > 0.0 && self.nearest_fraction.is_finite()) {
+            return bad(format!(
+                "nearest fraction {} must be positive",
+                self.nearest_fraction
+            ));
+        }
+        if self.max_eval_level > 8 {
+            return bad(format!(
+                "max eval level {} (at most 8)",
+                self.max_eval_level
+            ));
+        }
         Ok(())
     }
 }
@@ -100,64 +133,78 @@ pub struct SsbcCamera {
 pub struct SsbcPass {
     geometry: ComputeKernel,
     radiance: ComputeKernel,
-    residual: ComputeKernel,
-    accumulate: ComputeKernel,
-    nearest: Sampler,
+    eval: ComputeKernel,
+    resolve: ComputeKernel,
+    fallback: ComputeKernel,
+    samples: ComputeKernel,
 }
 
-/// One frame's SSBC images.
+/// One frame's SSBC resources.
 pub struct SsbcFrame {
-    /// xyz mean position, w summed area A (mip chain).
-    pub geo_position: Image,
-    /// xyz mean normal, w discontinuity (mip chain).
-    pub geo_normal: Image,
-    /// x radius of a sphere around the mean position bounding the texel's surface (mip chain).
-    pub geo_extent: Image,
-    /// Mean of the term being compensated (mip chain).
-    pub radiance: Image,
+    /// Geometry pyramid, every level in one buffer (`GeoTexel` in ssbc.glsl).
+    pub geo: Buffer,
+    /// Summed area, pixel count and continuity per texel (`GeoAux`).
+    pub aux: Buffer,
+    /// Sum of `A_y S_{k-1}(y)` per texel.
+    pub radiance: Buffer,
+    /// Evaluation points, one per texel of every level (`EvalPoint`).
+    pub points: Buffer,
+    /// Pixels still to resolve at the next finer level (two, used in turn).
+    pub pending: [Buffer; 2],
+    /// Texels whose evaluation points the next level needs.
+    pub requests: Buffer,
+    /// Pixels evaluated alone.
+    pub fallback: Buffer,
+    /// Per step, the fallback list's header (dispatch x, y, z, pixel count),
+    /// for the host.
+    pub stats: Buffer,
     /// `residual_k` for k = 1..=K.
     pub residuals: Vec<Image>,
-    /// Texel evaluations per pixel of each step (r32ui).
+    /// Texels read per pixel of each step (r32f: a pixel's own reads plus its
+    /// share of the evaluation points whose blocks it is in).
     pub samples: Vec<Image>,
     /// `S0 + residual_1 + ... + residual_K`.
     pub final_image: Image,
-    /// One u32: how often a refinement stack was full (texel added unrefined).
-    pub stats: Buffer,
     levels: u32,
+    pyramid_size: (u32, u32),
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct GeometryPush {
-    camera_position: [f32; 4],
-    camera_forward: [f32; 4],
-    dst_size: [u32; 2],
-    gbuffer_size: [u32; 2],
-    mode: u32,
-    min_cos_view: f32,
-    max_normal_spread: f32,
-    max_thickness: f32,
+impl SsbcFrame {
+    /// Pyramid levels.
+    pub fn levels(&self) -> u32 {
+        self.levels
+    }
+
+    /// Pixels evaluated alone in each step (after the frame has finished;
+    /// `stats` declared as host-read).
+    pub fn fallback_counts(&self) -> Result<Vec<u32>> {
+        let words: Vec<u32> = self.stats.read()?;
+        Ok(words.chunks_exact(4).map(|h| h[3]).collect())
+    }
 }
 
+/// Push constants of every SSBC kernel (`SsbcPush` in ssbc.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct RadiancePush {
-    dst_size: [u32; 2],
-    term_size: [u32; 2],
-    mode: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ResidualPush {
+struct SsbcPush {
     camera_position: [f32; 4],
     camera_forward: [f32; 4],
     size: [u32; 2],
     pyramid_size: [u32; 2],
     levels: u32,
+    level: u32,
+    eval_level: u32,
     mode: u32,
     bound: f32,
     refine_ratio: f32,
+    min_cos_view: f32,
+    max_normal_spread: f32,
+    max_thickness: f32,
+    texels_per_radius: f32,
+    nearest_fraction: f32,
+    generation: u32,
+    from_list: u32,
+    pad: [u32; 3],
 }
 
 /// Pyramid levels for an image: down to about 2 texels on the short side.
@@ -165,66 +212,108 @@ pub fn pyramid_levels(width: u32, height: u32) -> u32 {
     (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
 }
 
+/// Texel slots of a pyramid whose level 0 is `size` (padded so every level
+/// halves exactly): level l starts at 2N - 2N / 2^l (`texel_index` in
+/// ssbc.glsl), so all levels fit in 2N.
+fn pyramid_texels(size: (u32, u32)) -> u64 {
+    2 * size.0 as u64 * size.1 as u64
+}
+
+/// Sizes of the GLSL structs, in bytes.
+const GEO_TEXEL_BYTES: u64 = 32;
+const VEC4_BYTES: u64 = 16;
+const EVAL_POINT_BYTES: u64 = 32;
+/// A list's header: `VkDispatchIndirectCommand` and the item count.
+const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
+
+/// Everything the recording needs besides the resources.
+#[derive(Clone, Copy, Debug)]
+pub struct SsbcInputs<'a> {
+    /// The camera.
+    pub camera: &'a SsbcCamera,
+    /// Clamping bound b (1/m²).
+    pub bound: f32,
+    /// Coarsest level of evaluation points ([`SsbcPass::eval_level`]).
+    pub eval_level: u32,
+    /// Parameters.
+    pub settings: &'a SsbcSettings,
+}
+
 impl SsbcPass {
     /// Creates the pipelines.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
-        let samplers = [T::COMBINED_IMAGE_SAMPLER; 4];
+        // Bindings 0..2 of every kernel: geo, aux, radiance (ssbc.glsl).
+        let with_pyramids = |own: &[T]| [&[T::STORAGE_BUFFER; 3][..], own].concat();
+        let push = std::mem::size_of::<SsbcPush>();
+        // Points, pending in, pending out, requests, G-buffer (3), previous
+        // sum, final, residual, samples (ssbc_output.glsl).
+        let output = [&[T::STORAGE_BUFFER; 4][..], &[T::STORAGE_IMAGE; 7]].concat();
+        let kernel = |spirv, own: &[T]| ComputeKernel::new(device, spirv, &with_pyramids(own), push);
         Ok(Self {
-            // G-buffer position and normal; source position, normal, extent; destination ditto.
-            geometry: ComputeKernel::new(
-                device,
-                shaders::SSBC_GEOMETRY_MIPS_COMP,
-                &[T::STORAGE_IMAGE; 8],
-                std::mem::size_of::<GeometryPush>(),
-            )?,
-            // Term, source area, source radiance, destination radiance.
-            radiance: ComputeKernel::new(
-                device,
-                shaders::SSBC_RADIANCE_MIPS_COMP,
-                &[T::STORAGE_IMAGE; 4],
-                std::mem::size_of::<RadiancePush>(),
-            )?,
-            // G-buffer (3), pyramids (position, normal, radiance, extent), residual, samples, stats.
-            residual: ComputeKernel::new(
-                device,
-                shaders::SSBC_RESIDUAL_COMP,
-                &[
-                    &[T::STORAGE_IMAGE; 3][..],
-                    &samplers,
-                    &[T::STORAGE_IMAGE, T::STORAGE_IMAGE, T::STORAGE_BUFFER],
-                ]
-                .concat(),
-                std::mem::size_of::<ResidualPush>(),
-            )?,
-            // a, b, a + b.
-            accumulate: ComputeKernel::new(
-                device,
-                shaders::ACCUMULATE_COMP,
-                &[T::STORAGE_IMAGE; 3],
-                8,
-            )?,
-            nearest: Sampler::new(
-                device,
-                vk::Filter::NEAREST,
-                vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            // G-buffer position and normal.
+            geometry: kernel(shaders::SSBC_GEOMETRY_MIPS_COMP, &[T::STORAGE_IMAGE; 2])?,
+            // The term S_{k-1}.
+            radiance: kernel(shaders::SSBC_RADIANCE_MIPS_COMP, &[T::STORAGE_IMAGE])?,
+            // Points, requests.
+            eval: kernel(shaders::SSBC_EVAL_COMP, &[T::STORAGE_BUFFER; 2])?,
+            resolve: kernel(shaders::SSBC_RESOLVE_COMP, &output)?,
+            fallback: kernel(shaders::SSBC_FALLBACK_COMP, &output)?,
+            // Points, samples.
+            samples: kernel(
+                shaders::SSBC_SAMPLES_COMP,
+                &[T::STORAGE_BUFFER, T::STORAGE_IMAGE],
             )?,
         })
     }
 
     /// Layouts of every set one frame allocates.
-    pub fn set_layouts(&self, extent: (u32, u32), steps: u32) -> Vec<&DescriptorSetLayout> {
+    pub fn set_layouts(
+        &self,
+        extent: (u32, u32),
+        steps: u32,
+        eval_level: u32,
+    ) -> Vec<&DescriptorSetLayout> {
         let levels = pyramid_levels(extent.0, extent.1) as usize;
         let mut v = vec![self.geometry.set_layout(); levels];
         for _ in 0..steps {
             v.extend(std::iter::repeat_n(self.radiance.set_layout(), levels));
-            v.push(self.residual.set_layout());
-            v.push(self.accumulate.set_layout());
+            for _ in 0..=eval_level {
+                v.push(self.eval.set_layout());
+                v.push(self.resolve.set_layout());
+            }
+            v.push(self.fallback.set_layout());
+            v.push(self.samples.set_layout());
         }
         v
     }
 
-    /// Allocates one frame's images for `steps` steps.
+    /// The coarsest level of evaluation points: the coarsest (at most
+    /// `max_eval_level`) that puts `texels_per_radius` texels across the
+    /// bounding radius 1/sqrt(b) at `depth` (the distance along the optical
+    /// axis of the scene's centre). Where the radius is smaller on screen,
+    /// pixels use finer points or are evaluated alone.
+    pub fn eval_level(
+        camera: &SsbcCamera,
+        depth: f32,
+        bound: f32,
+        levels: u32,
+        settings: &SsbcSettings,
+    ) -> u32 {
+        if settings.integration == Integration::Brute || !bound.is_finite() {
+            return 0;
+        }
+        let radius_px = bound.sqrt().recip() / (depth.max(1e-3) * camera.pixel_side);
+        let texels = radius_px / settings.texels_per_radius;
+        if !(texels >= 2.0) {
+            return 0;
+        }
+        (texels.log2().floor() as u32)
+            .min(settings.max_eval_level)
+            .min(levels - 1)
+    }
+
+    /// Allocates one frame's resources for `steps` steps.
     pub fn prepare(
         &self,
         device: &Arc<Device>,
@@ -232,71 +321,102 @@ impl SsbcPass {
         steps: u32,
     ) -> Result<SsbcFrame> {
         let levels = pyramid_levels(extent.0, extent.1);
-        // Pad level 0 so every level halves exactly (padding has zero area).
+        // Pad level 0 so every level halves exactly (padding has no geometry).
         let align = 1u32 << (levels - 1);
-        let (pw, ph) = (
+        let pyramid_size = (
             extent.0.div_ceil(align) * align,
             extent.1.div_ceil(align) * align,
         );
-        let pyramid = |name, format| {
-            Image::new(
+        let texels = pyramid_texels(pyramid_size);
+        let storage = |name: &str, size: u64, extra: vk::BufferUsageFlags| {
+            Buffer::new(
                 device,
                 name,
-                ImageDesc {
-                    format,
-                    width: pw,
-                    height: ph,
-                    layers: 1,
-                    mip_levels: levels,
-                    usage: vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::SAMPLED,
-                    array: false,
-                },
+                size,
+                vk::BufferUsageFlags::STORAGE_BUFFER | extra,
+                MemoryLocation::GpuOnly,
             )
         };
-        let rgba = |name: String| {
-            super::storage_image(
-                device,
-                &name,
-                vk::Format::R32G32B32A32_SFLOAT,
-                extent,
-                vk::ImageUsageFlags::empty(),
+        let none = vk::BufferUsageFlags::empty();
+        let list_bytes = 16 + 4 * pyramid_size.0 as u64 * pyramid_size.1 as u64;
+        let list = |name: &str| {
+            storage(
+                name,
+                list_bytes,
+                vk::BufferUsageFlags::INDIRECT_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
             )
+        };
+        let image = |name: String, format| {
+            super::storage_image(device, &name, format, extent, vk::ImageUsageFlags::empty())
         };
         let residuals = (1..=steps)
-            .map(|k| rgba(format!("residual_{k}")))
+            .map(|k| image(format!("residual_{k}"), vk::Format::R32G32B32A32_SFLOAT))
             .collect::<Result<_>>()?;
         let samples = (1..=steps)
-            .map(|k| {
-                super::storage_image(
-                    device,
-                    &format!("samples_{k}"),
-                    vk::Format::R32_UINT,
-                    extent,
-                    vk::ImageUsageFlags::empty(),
-                )
-            })
+            .map(|k| image(format!("samples_{k}"), vk::Format::R32_SFLOAT))
             .collect::<Result<_>>()?;
         Ok(SsbcFrame {
-            geo_position: pyramid("ssbc_geo_position", vk::Format::R32G32B32A32_SFLOAT)?,
-            geo_normal: pyramid("ssbc_geo_normal", vk::Format::R32G32B32A32_SFLOAT)?,
-            geo_extent: pyramid("ssbc_geo_extent", vk::Format::R32G32_SFLOAT)?,
-            radiance: pyramid("ssbc_radiance", vk::Format::R32G32B32A32_SFLOAT)?,
-            residuals,
-            samples,
-            final_image: rgba("final".into())?,
+            geo: storage("ssbc.pyramid.geometry", texels * GEO_TEXEL_BYTES, none)?,
+            aux: storage("ssbc.pyramid.aux", texels * VEC4_BYTES, none)?,
+            radiance: storage("ssbc.pyramid.radiance", texels * VEC4_BYTES, none)?,
+            points: storage(
+                "ssbc.eval_points",
+                texels * EVAL_POINT_BYTES,
+                vk::BufferUsageFlags::TRANSFER_DST,
+            )?,
+            pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
+            requests: list("ssbc.requests")?,
+            fallback: list("ssbc.fallback")?,
             stats: Buffer::new(
                 device,
-                "ssbc_stats",
-                4,
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+                "ssbc.stats",
+                16 * steps.max(1) as u64,
+                vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )?,
+            residuals,
+            samples,
+            final_image: image("final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
             levels,
+            pyramid_size,
         })
     }
 
+    fn push(&self, inputs: &SsbcInputs<'_>, extent: (u32, u32), frame: &SsbcFrame) -> SsbcPush {
+        let (camera, settings) = (inputs.camera, inputs.settings);
+        SsbcPush {
+            camera_position: camera.position.extend(camera.pixel_side).into(),
+            camera_forward: camera.forward.extend(1.0 / camera.pixel_side).into(),
+            size: [extent.0, extent.1],
+            pyramid_size: [frame.pyramid_size.0, frame.pyramid_size.1],
+            levels: frame.levels,
+            level: 0,
+            eval_level: inputs.eval_level,
+            mode: (settings.integration == Integration::Brute) as u32,
+            bound: inputs.bound,
+            refine_ratio: settings.refine_ratio,
+            min_cos_view: settings.min_cos_view,
+            max_normal_spread: settings.max_normal_spread,
+            max_thickness: settings.max_thickness,
+            texels_per_radius: settings.texels_per_radius,
+            nearest_fraction: settings.nearest_fraction,
+            generation: 0,
+            from_list: 0,
+            pad: [0; 3],
+        }
+    }
+
+    fn pyramid_bindings(frame: &SsbcFrame) -> [Binding<'_>; 3] {
+        [
+            Binding::StorageBuffer(&frame.geo),
+            Binding::StorageBuffer(&frame.aux),
+            Binding::StorageBuffer(&frame.radiance),
+        ]
+    }
+
     /// Records the geometry pyramid and every step; `s0` is `T Le + T_b L^`.
-    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         rec: &mut Recorder<'_>,
@@ -304,76 +424,67 @@ impl SsbcPass {
         pool: &DescriptorPool,
         gbuffer: &GBuffer,
         s0: &Image,
-        camera: &SsbcCamera,
-        bound: f32,
-        settings: &SsbcSettings,
+        inputs: &SsbcInputs<'_>,
         frame: &SsbcFrame,
     ) -> Result<()> {
         let extent = gbuffer.extent();
-        rec.fill_buffer(&frame.stats, 0);
-        rec.use_buffer(&frame.stats, Access::ComputeWrite);
+        let mut push = self.push(inputs, extent, frame);
 
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
         for level in 0..frame.levels {
-            let src = level.saturating_sub(1) as usize;
-            let bindings = [
-                Binding::storage(&gbuffer.position),
-                Binding::storage(&gbuffer.normal),
-                Binding::StorageImage(frame.geo_position.mip_views[src]),
-                Binding::StorageImage(frame.geo_normal.mip_views[src]),
-                Binding::StorageImage(frame.geo_extent.mip_views[src]),
-                Binding::StorageImage(frame.geo_position.mip_views[level as usize]),
-                Binding::StorageImage(frame.geo_normal.mip_views[level as usize]),
-                Binding::StorageImage(frame.geo_extent.mip_views[level as usize]),
-            ];
             rec.use_image(&gbuffer.position, Access::ComputeRead);
             rec.use_image(&gbuffer.normal, Access::ComputeRead);
-            for pyramid in [&frame.geo_position, &frame.geo_normal, &frame.geo_extent] {
-                rec.use_image(pyramid, Access::ComputeWrite);
-            }
+            rec.use_buffer(&frame.geo, Access::ComputeWrite);
+            rec.use_buffer(&frame.aux, Access::ComputeWrite);
+            rec.use_buffer(&frame.radiance, Access::ComputeRead);
             rec.flush_barriers();
-            let (w, h) = frame.geo_position.mip_extent(level);
-            let push = GeometryPush {
-                camera_position: camera.position.extend(1.0).into(),
-                camera_forward: camera.forward.extend(camera.pixel_side).into(),
-                dst_size: [w, h],
-                gbuffer_size: [extent.0, extent.1],
-                mode: (level > 0) as u32,
-                min_cos_view: settings.min_cos_view,
-                max_normal_spread: settings.max_normal_spread,
-                max_thickness: settings.max_thickness,
-            };
+            push.level = level;
+            let bindings = [
+                &Self::pyramid_bindings(frame)[..],
+                &[
+                    Binding::storage(&gbuffer.position),
+                    Binding::storage(&gbuffer.normal),
+                ],
+            ]
+            .concat();
             self.geometry.dispatch_2d(
                 rec.cmd,
                 pool,
                 &bindings,
                 bytemuck::bytes_of(&push),
-                (w, h),
+                Self::level_extent(frame, level),
             )?;
         }
+        // Evaluation points are stamped with the step's generation (1, 2, ...).
+        rec.fill_buffer(&frame.points, 0);
         profiler.end(rec.cmd, scope);
 
-        for step in 0..settings.steps as usize {
+        for step in 0..inputs.settings.steps as usize {
+            let previous = if step == 0 { s0 } else { &frame.final_image };
             let term = if step == 0 {
                 s0
             } else {
                 &frame.residuals[step - 1]
             };
+            push.generation = step as u32 + 1;
             let scope = profiler.begin(rec.cmd, &format!("ssbc_step_{}", step + 1));
-            self.record_radiance_mips(rec, pool, term, extent, frame)?;
-            self.record_residual(rec, pool, gbuffer, camera, bound, settings, frame, step)?;
-            let accumulated = if step == 0 { s0 } else { &frame.final_image };
-            self.record_accumulate(
-                rec,
-                pool,
-                accumulated,
-                &frame.residuals[step],
-                &frame.final_image,
-                extent,
-            )?;
+            self.record_radiance_mips(rec, pool, term, &mut push, frame)?;
+            let step_out = StepOutput {
+                gbuffer,
+                previous,
+                final_image: &frame.final_image,
+                residual: &frame.residuals[step],
+                samples: &frame.samples[step],
+            };
+            self.record_residual(rec, pool, &step_out, &mut push, frame)?;
+            rec.copy_buffer(&frame.fallback, 0, &frame.stats, 16 * step as u64, 16);
             profiler.end(rec.cmd, scope);
         }
         Ok(())
+    }
+
+    fn level_extent(frame: &SsbcFrame, level: u32) -> (u32, u32) {
+        (frame.pyramid_size.0 >> level, frame.pyramid_size.1 >> level)
     }
 
     fn record_radiance_mips(
@@ -381,122 +492,247 @@ impl SsbcPass {
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
         term: &Image,
-        extent: (u32, u32),
+        push: &mut SsbcPush,
         frame: &SsbcFrame,
     ) -> Result<()> {
         for level in 0..frame.levels {
-            let src = level.saturating_sub(1) as usize;
-            let bindings = [
-                Binding::storage(term),
-                Binding::StorageImage(frame.geo_position.mip_views[src]),
-                Binding::StorageImage(frame.radiance.mip_views[src]),
-                Binding::StorageImage(frame.radiance.mip_views[level as usize]),
-            ];
             rec.use_image(term, Access::ComputeRead);
-            rec.use_image(&frame.geo_position, Access::ComputeRead);
-            rec.use_image(&frame.radiance, Access::ComputeWrite);
+            rec.use_buffer(&frame.geo, Access::ComputeRead);
+            rec.use_buffer(&frame.aux, Access::ComputeRead);
+            rec.use_buffer(&frame.radiance, Access::ComputeWrite);
             rec.flush_barriers();
-            let (w, h) = frame.radiance.mip_extent(level);
-            let push = RadiancePush {
-                dst_size: [w, h],
-                term_size: [extent.0, extent.1],
-                mode: (level > 0) as u32,
-            };
+            push.level = level;
+            let bindings = [
+                &Self::pyramid_bindings(frame)[..],
+                &[Binding::storage(term)],
+            ]
+            .concat();
             self.radiance.dispatch_2d(
                 rec.cmd,
                 pool,
                 &bindings,
-                bytemuck::bytes_of(&push),
-                (w, h),
+                bytemuck::bytes_of(push),
+                Self::level_extent(frame, level),
             )?;
         }
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
+    fn read_pyramids(rec: &mut Recorder<'_>, frame: &SsbcFrame) {
+        for buffer in [&frame.geo, &frame.aux, &frame.radiance] {
+            rec.use_buffer(buffer, Access::ComputeRead);
+        }
+    }
+
+    /// One step's residual, coarse to fine: the evaluation points of the
+    /// coarsest level; every pixel interpolates them or asks for finer ones
+    /// and waits for the next level; at level 1 what is left is evaluated
+    /// pixel by pixel (the fallback list). Then the samples image.
     fn record_residual(
         &self,
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
-        gbuffer: &GBuffer,
-        camera: &SsbcCamera,
-        bound: f32,
-        settings: &SsbcSettings,
+        out: &StepOutput<'_>,
+        push: &mut SsbcPush,
         frame: &SsbcFrame,
-        step: usize,
     ) -> Result<()> {
-        let [position, normal, albedo] = gbuffer.storage_bindings();
-        let bindings = [
-            position,
-            normal,
-            albedo,
-            Binding::sampled(&frame.geo_position, &self.nearest),
-            Binding::sampled(&frame.geo_normal, &self.nearest),
-            Binding::sampled(&frame.radiance, &self.nearest),
-            Binding::sampled(&frame.geo_extent, &self.nearest),
-            Binding::storage(&frame.residuals[step]),
-            Binding::storage(&frame.samples[step]),
-            Binding::StorageBuffer(&frame.stats),
-        ];
-        gbuffer.read_in_compute(rec);
-        for pyramid in [
-            &frame.geo_position,
-            &frame.geo_normal,
-            &frame.radiance,
-            &frame.geo_extent,
-        ] {
-            rec.use_image(pyramid, Access::ComputeSampled);
-        }
-        rec.use_image(&frame.residuals[step], Access::ComputeWrite);
-        rec.use_image(&frame.samples[step], Access::ComputeWrite);
-        rec.use_buffer(&frame.stats, Access::ComputeWrite);
-        rec.flush_barriers();
-        let (w, h) = gbuffer.extent();
-        let push = ResidualPush {
-            camera_position: camera.position.extend(1.0).into(),
-            camera_forward: camera.forward.extend(1.0 / camera.pixel_side).into(),
-            size: [w, h],
-            pyramid_size: [
-                frame.geo_position.desc.width,
-                frame.geo_position.desc.height,
-            ],
-            levels: frame.levels,
-            mode: (settings.integration == Integration::Brute) as u32,
-            bound,
-            refine_ratio: settings.refine_ratio,
+        let pixels = out.gbuffer.extent();
+        let top = push.eval_level;
+        // The coarsest level: every texel is an evaluation point, every pixel
+        // tries to interpolate.
+        push.level = top;
+        push.from_list = 0;
+        let (w, h) = Self::level_extent(frame, top);
+        self.record_eval(rec, pool, push, frame, [(w * h).div_ceil(64), 1, 1])?;
+        let mut pending_in = &frame.fallback; // unused while from_list == 0
+        let mut pending_out = if top >= 2 {
+            &frame.pending[0]
+        } else {
+            &frame.fallback
         };
-        self.residual
-            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))?;
-        Ok(())
-    }
-
-    fn record_accumulate(
-        &self,
-        rec: &mut Recorder<'_>,
-        pool: &DescriptorPool,
-        a: &Image,
-        b: &Image,
-        dst: &Image,
-        extent: (u32, u32),
-    ) -> Result<()> {
-        let bindings = [
-            Binding::storage(a),
-            Binding::storage(b),
-            Binding::storage(dst),
-        ];
-        if !std::ptr::eq(a, dst) {
-            rec.use_image(a, Access::ComputeRead);
+        self.record_resolve(
+            rec,
+            pool,
+            push,
+            frame,
+            out,
+            (pending_in, pending_out),
+            Some([(pixels.0 * pixels.1).div_ceil(64), 1, 1]),
+        )?;
+        // Finer levels: the points asked for, the pixels still pending.
+        push.from_list = 1;
+        for level in (1..top).rev() {
+            push.level = level;
+            self.record_eval(rec, pool, push, frame, [0; 3])?;
+            pending_in = pending_out;
+            pending_out = if level == 1 {
+                &frame.fallback
+            } else if std::ptr::eq(pending_in, &frame.pending[0]) {
+                &frame.pending[1]
+            } else {
+                &frame.pending[0]
+            };
+            self.record_resolve(rec, pool, push, frame, out, (pending_in, pending_out), None)?;
         }
-        rec.use_image(b, Access::ComputeRead);
-        rec.use_image(dst, Access::ComputeWrite);
+        // The pixels no point could stand for.
+        Self::read_pyramids(rec, frame);
+        out.declare(rec);
+        rec.use_buffer(&frame.points, Access::ComputeRead);
+        rec.use_buffer(&frame.requests, Access::ComputeRead);
+        rec.use_buffer(&frame.fallback, Access::IndirectRead);
+        rec.use_buffer(&frame.fallback, Access::ComputeRead);
         rec.flush_barriers();
-        self.accumulate.dispatch_2d(
+        // The fallback list is read as pending_in; nothing is written to the
+        // other lists.
+        let bindings = out.bindings(frame, (&frame.fallback, &frame.requests));
+        self.fallback.dispatch_indirect(
             rec.cmd,
             pool,
             &bindings,
-            bytemuck::bytes_of(&[extent.0, extent.1]),
-            (extent.0, extent.1),
+            bytemuck::bytes_of(push),
+            &frame.fallback,
+            0,
         )?;
+        // Texels read per pixel.
+        Self::read_pyramids(rec, frame);
+        rec.use_buffer(&frame.points, Access::ComputeRead);
+        rec.use_image(out.samples, Access::ComputeWrite);
+        rec.flush_barriers();
+        let bindings = [
+            &Self::pyramid_bindings(frame)[..],
+            &[
+                Binding::StorageBuffer(&frame.points),
+                Binding::storage(out.samples),
+            ],
+        ]
+        .concat();
+        self.samples
+            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(push), pixels)?;
         Ok(())
+    }
+
+    /// Evaluation points of `push.level`: every texel (`push.from_list` 0,
+    /// `groups` work groups) or the requested ones (indirect).
+    fn record_eval(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        push: &SsbcPush,
+        frame: &SsbcFrame,
+        groups: [u32; 3],
+    ) -> Result<()> {
+        Self::read_pyramids(rec, frame);
+        rec.use_buffer(&frame.points, Access::ComputeWrite);
+        if push.from_list == 1 {
+            rec.use_buffer(&frame.requests, Access::IndirectRead);
+        }
+        rec.use_buffer(&frame.requests, Access::ComputeRead);
+        rec.flush_barriers();
+        let bindings = [
+            &Self::pyramid_bindings(frame)[..],
+            &[
+                Binding::StorageBuffer(&frame.points),
+                Binding::StorageBuffer(&frame.requests),
+            ],
+        ]
+        .concat();
+        let push_bytes = bytemuck::bytes_of(push);
+        if push.from_list == 1 {
+            self.eval
+                .dispatch_indirect(rec.cmd, pool, &bindings, push_bytes, &frame.requests, 0)
+        } else {
+            self.eval
+                .dispatch(rec.cmd, pool, &bindings, push_bytes, groups)
+        }
+    }
+
+    /// Resolve at `push.level`: pixels of `lists.0` (or every pixel, with
+    /// `groups`) interpolate or go on `lists.1`, asking for finer points.
+    #[allow(clippy::too_many_arguments)]
+    fn record_resolve(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        push: &SsbcPush,
+        frame: &SsbcFrame,
+        out: &StepOutput<'_>,
+        lists: (&Buffer, &Buffer),
+        groups: Option<[u32; 3]>,
+    ) -> Result<()> {
+        let (pending_in, pending_out) = lists;
+        rec.update_buffer(pending_out, 0, bytemuck::bytes_of(&LIST_HEADER));
+        rec.update_buffer(&frame.requests, 0, bytemuck::bytes_of(&LIST_HEADER));
+        Self::read_pyramids(rec, frame);
+        out.declare(rec);
+        rec.use_buffer(&frame.points, Access::ComputeWrite);
+        if groups.is_none() {
+            rec.use_buffer(pending_in, Access::IndirectRead);
+            rec.use_buffer(pending_in, Access::ComputeRead);
+        }
+        rec.use_buffer(pending_out, Access::ComputeWrite);
+        rec.use_buffer(&frame.requests, Access::ComputeWrite);
+        rec.flush_barriers();
+        let bindings = out.bindings(frame, lists);
+        let push_bytes = bytemuck::bytes_of(push);
+        match groups {
+            Some(groups) => self
+                .resolve
+                .dispatch(rec.cmd, pool, &bindings, push_bytes, groups),
+            None => self
+                .resolve
+                .dispatch_indirect(rec.cmd, pool, &bindings, push_bytes, pending_in, 0),
+        }
+    }
+}
+
+/// What a step writes, and what it reads from the frame besides the pyramids.
+struct StepOutput<'a> {
+    gbuffer: &'a GBuffer,
+    /// `S0 + ... + S_{k-1}` (the final image itself after the first step).
+    previous: &'a Image,
+    final_image: &'a Image,
+    residual: &'a Image,
+    samples: &'a Image,
+}
+
+impl StepOutput<'_> {
+    /// Declares the images of ssbc_output.glsl.
+    fn declare(&self, rec: &mut Recorder<'_>) {
+        self.gbuffer.read_in_compute(rec);
+        // After the first step `previous` is the final image itself (read and
+        // written by the same invocation).
+        if !std::ptr::eq(self.previous, self.final_image) {
+            rec.use_image(self.previous, Access::ComputeRead);
+        }
+        rec.use_image(self.final_image, Access::ComputeWrite);
+        rec.use_image(self.residual, Access::ComputeWrite);
+        rec.use_image(self.samples, Access::ComputeWrite);
+    }
+
+    /// Every binding of ssbc_output.glsl (after the pyramids') for the
+    /// pending lists `lists` (in, out).
+    fn bindings<'b>(
+        &'b self,
+        frame: &'b SsbcFrame,
+        lists: (&'b Buffer, &'b Buffer),
+    ) -> Vec<Binding<'b>> {
+        let [position, normal, albedo] = self.gbuffer.storage_bindings();
+        [
+            &SsbcPass::pyramid_bindings(frame)[..],
+            &[
+                Binding::StorageBuffer(&frame.points),
+                Binding::StorageBuffer(lists.0),
+                Binding::StorageBuffer(lists.1),
+                Binding::StorageBuffer(&frame.requests),
+                position,
+                normal,
+                albedo,
+                Binding::storage(self.previous),
+                Binding::storage(self.final_image),
+                Binding::storage(self.residual),
+                Binding::storage(self.samples),
+            ],
+        ]
+        .concat()
     }
 }

@@ -33,6 +33,8 @@ pub enum Access {
     ComputeRead,
     /// Storage image or buffer written (and possibly read) by a compute shader.
     ComputeWrite,
+    /// Arguments of an indirect dispatch or draw.
+    IndirectRead,
     /// Handed to the presentation engine.
     Present,
 }
@@ -113,6 +115,12 @@ impl Access {
                 A::SHADER_STORAGE_WRITE | A::SHADER_STORAGE_READ,
                 L::GENERAL,
                 true,
+            ),
+            Access::IndirectRead => (
+                S::DRAW_INDIRECT,
+                A::INDIRECT_COMMAND_READ,
+                L::UNDEFINED,
+                false,
             ),
             Access::Present => (S::NONE, A::NONE, L::PRESENT_SRC_KHR, false),
         };

@@ -209,6 +209,31 @@ impl Recorder<'_> {
         };
     }
 
+    /// Copies `size` bytes from `src` at `src_offset` to `dst` at `dst_offset`.
+    pub fn copy_buffer(
+        &mut self,
+        src: &Buffer,
+        src_offset: u64,
+        dst: &Buffer,
+        dst_offset: u64,
+        size: u64,
+    ) {
+        self.use_buffer(src, Access::TransferRead);
+        self.use_buffer(dst, Access::TransferWrite);
+        self.flush_barriers();
+        let region = vk::BufferCopy {
+            src_offset,
+            dst_offset,
+            size,
+        };
+        // SAFETY: barriers above; the caller keeps both ranges inside the buffers.
+        unsafe {
+            self.device
+                .raw
+                .cmd_copy_buffer(self.cmd, src.raw, dst.raw, &[region])
+        };
+    }
+
     /// Uploads tightly packed texels from `buffer` into `layers` layers of
     /// mip 0 of `image` (of size `extent`): a texture or a swapchain image.
     pub fn copy_buffer_to_image(
@@ -264,6 +289,20 @@ impl Recorder<'_> {
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                 &[region],
             )
+        };
+    }
+
+    /// Writes `data` (at most 65536 bytes, a multiple of 4) into `buffer` at
+    /// `offset` from the command stream.
+    pub fn update_buffer(&mut self, buffer: &Buffer, offset: u64, data: &[u8]) {
+        self.use_buffer(buffer, Access::TransferWrite);
+        self.flush_barriers();
+        // SAFETY: barrier above; the caller keeps the range inside the buffer
+        // and the size within vkCmdUpdateBuffer's limits.
+        unsafe {
+            self.device
+                .raw
+                .cmd_update_buffer(self.cmd, buffer.raw, offset, data)
         };
     }
 

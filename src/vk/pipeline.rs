@@ -339,6 +339,31 @@ impl ComputeKernel {
         Ok(())
     }
 
+    /// Like [`ComputeKernel::dispatch`], with the group counts read by the GPU
+    /// from `args` at `offset` (a `VkDispatchIndirectCommand`). The caller
+    /// declares `args` as [`crate::vk::Access::IndirectRead`].
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        pool: &DescriptorPool,
+        bindings: &[Binding<'_>],
+        push: &[u8],
+        args: &crate::vk::Buffer,
+        offset: u64,
+    ) -> Result<()> {
+        let set = pool.allocate(&self.layout, bindings)?;
+        self.pipeline.bind(cmd, set, push);
+        // SAFETY: recording with this compute pipeline and its set bound;
+        // `args` holds a dispatch command at `offset` (usage INDIRECT_BUFFER).
+        unsafe {
+            self.pipeline
+                .device
+                .raw
+                .cmd_dispatch_indirect(cmd, args.raw, offset)
+        };
+        Ok(())
+    }
+
     /// [`ComputeKernel::dispatch`] over `extent` with 8x8 work groups.
     pub fn dispatch_2d(
         &self,

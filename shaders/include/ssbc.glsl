@@ -1,0 +1,289 @@
+// Screen-space bias compensation: the pyramids and the residual integral
+// shared by every SSBC kernel. Mirrored by src/passes/ssbc.rs (SsbcPush).
+//
+// The pyramids live in storage buffers, level after level (level l of a
+// W x H pyramid is (W >> l) x (H >> l) texels; W and H are padded so every
+// level halves exactly, which also gives every texel four children):
+//   geo[]       what the traversal reads: mean position + slab, mean normal + sphere
+//   aux[]       summed area, pixels with geometry, continuity (pyramid build and
+//               evaluation points only)
+//   radiance[]  sum of A_y S_{k-1}(y) under the texel (rebuilt every step)
+//
+// Bindings 0..2 are the same in every kernel that includes this file.
+
+#ifndef SSBC_GLSL
+#define SSBC_GLSL
+
+#include "common.glsl"
+
+struct GeoTexel {
+    vec4 position_extent;     // xyz area-weighted mean position; w two halves (packHalf2x16,
+                              // rounded up): the radius of a sphere around the mean holding
+                              // every pixel position under the texel, and the half-thickness
+                              // of a slab along the mean normal holding them (< 0: no geometry)
+    vec4 normal_cone;         // xyz area-weighted mean of the unit normals (shorter than 1
+                              // where they spread); w cosine of the half-angle of a cone
+                              // around their mean direction holding every one of them
+};
+
+// (radius, thickness) of a texel.
+vec2 texel_extent(GeoTexel g) {
+    return unpackHalf2x16(floatBitsToUint(g.position_extent.w));
+}
+
+GeoTexel make_texel(vec3 position, float radius, float thickness, vec3 normal, float cone_cos) {
+    // Halves keep 11 bits: scale up by 2^-10 (and 1e-7 absolute for
+    // subnormals) so that the stored bounds still hold.
+    vec2 extent = vec2(radius, thickness);
+    if (thickness >= 0.0) extent = extent * (1.0 + 1.0 / 1024.0) + 1e-7;
+    return GeoTexel(vec4(position, uintBitsToFloat(packHalf2x16(extent))), vec4(normal, cone_cos));
+}
+
+struct GeoAux {
+    float area;               // summed world-space area A_y of the pixels under the texel
+    uint pixels;              // pixels with geometry under the texel
+    uint continuous;          // 1: one smooth surface (may stand for its pixels)
+    uint pad;
+};
+
+layout(set = 0, binding = 0) buffer Geo { GeoTexel geo[]; };
+layout(set = 0, binding = 1) buffer Aux { GeoAux aux[]; };
+layout(set = 0, binding = 2) buffer Radiance { vec4 radiance[]; };
+
+const uint MODE_HIERARCHICAL = 0u;
+const uint MODE_BRUTE = 1u;
+
+layout(push_constant) uniform SsbcPush {
+    vec4 camera_position;     // xyz eye; w pixel side s on the image plane at distance 1
+    vec4 camera_forward;      // xyz unit optical axis; w focal length in pixels (1 / s)
+    uvec2 size;               // image size
+    uvec2 pyramid_size;       // level 0 of the pyramids (padded)
+    uint levels;              // pyramid levels
+    uint level;               // level a pyramid build writes, or evaluation points are taken from
+    uint eval_level;          // coarsest level of evaluation points
+    uint mode;                // MODE_*
+    float bound;              // b [1/m^2]
+    float refine_ratio;       // refine a texel whose sphere radius exceeds this x its distance
+    float min_cos_view;       // lower clamp of cos(theta_view) in A_y
+    float max_normal_spread;  // continuous: |mean of unit normals| at least this
+    float max_thickness;      // continuous: slab half-thickness at most this x the radius
+    float texels_per_radius;  // evaluation texels wanted across the bounding radius 1/sqrt(b)
+    float nearest_fraction;   // interpolate over at most this x the distance to the nearest contributor
+    uint generation;          // evaluation points of this step carry this stamp
+    uint from_list;           // 1: work items come from a list; 0: every texel of `level`
+    uint pad0;
+    uint pad1;
+    uint pad2;
+} pc;
+
+// Texels of pyramid level l.
+ivec2 level_size(int l) {
+    return ivec2(pc.pyramid_size) >> l;
+}
+
+// Index of texel t of level l in the pyramid buffers. Level l (N / 4^l
+// texels, N = texels of level 0) starts at 2N - 2N / 2^l: each level gets a
+// slot twice its size, which keeps the offset a shift (no division in the
+// traversal's inner loop) for 2N texels in all.
+uint texel_index(ivec2 t, int l) {
+    uint n2 = 2u * pc.pyramid_size.x * pc.pyramid_size.y;
+    return n2 - (n2 >> l) + uint(t.y) * (pc.pyramid_size.x >> l) + uint(t.x);
+}
+
+// The pixel that is the evaluation point of texel t of level l: the one at
+// offset (2^(l-1), 2^(l-1)) in its block, a real surface point on a regular
+// grid (pixels between four points interpolate bilinearly).
+ivec2 eval_pixel(ivec2 t, int l) {
+    return (t << l) + ((1 << l) >> 1);
+}
+
+// Work lists (pixels or texels, packed x | y << 16) with the arguments of
+// the indirect dispatch that processes them, 64 items per work group.
+struct ListHeader {
+    uint dispatch_x;
+    uint dispatch_y;
+    uint dispatch_z;
+    uint count;
+};
+
+uint pack_item(ivec2 p) {
+    return uint(p.x) | (uint(p.y) << 16);
+}
+
+ivec2 unpack_item(uint v) {
+    return ivec2(v & 0xffffu, v >> 16);
+}
+
+// World-space area seen through a pixel at `position` with unit normal n:
+// A = t^2 Omega_px / max(cos theta_view, min_cos_view), Omega_px = s^2 cos^3(alpha).
+float pixel_area(vec3 position, vec3 n) {
+    vec3 v = position - pc.camera_position.xyz;
+    float t = length(v);
+    vec3 dir = v / t;
+    float cos_alpha = dot(dir, pc.camera_forward.xyz);
+    float s = pc.camera_position.w;
+    float cos_view = max(abs(dot(n, dir)), pc.min_cos_view);
+    return t * t * s * s * cos_alpha * cos_alpha * cos_alpha / cos_view;
+}
+
+// Conservative screen radius (pixels) of the sphere of radius r around x.
+float screen_radius(vec3 x, float r) {
+    vec3 v = x - pc.camera_position.xyz;
+    float z = dot(v, pc.camera_forward.xyz);
+    float cos_alpha = z / length(v);
+    float radius_px = float(max(pc.size.x, pc.size.y));
+    if (z - r > 1e-4) {
+        radius_px = min(radius_px, pc.camera_forward.w * r / ((z - r) * cos_alpha * cos_alpha) + 1.0);
+    }
+    return radius_px;
+}
+
+// max(G(x, y) - b, 0) with G = cos+(theta_x) cos+(theta_y) / |x - y|^2; d = y - x.
+// `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is then
+// the area-weighted mean of the cosines.
+float residual_g(vec3 nx, vec3 ny, vec3 d, float dist) {
+    vec3 w = d / dist;
+    float g = max(dot(nx, w), 0.0) * max(-dot(ny, w), 0.0) / (dist * dist);
+    return max(g - pc.bound, 0.0);
+}
+
+// Every texel of level 0 in the window (the reference).
+vec3 integrate_brute(vec3 x, vec3 nx, vec2 center, float radius_px, float r_world, inout uint count, inout float nearest) {
+    ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
+    ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(pc.size) - 1);
+    vec3 sum = vec3(0.0);
+    for (int py = lo.y; py <= hi.y; py++) {
+        for (int px = lo.x; px <= hi.x; px++) {
+            count++;
+            uint i = texel_index(ivec2(px, py), 0);
+            GeoTexel g = geo[i];
+            vec3 d = g.position_extent.xyz - x;
+            float d2 = dot(d, d);
+            if (texel_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
+                float contribution = residual_g(nx, g.normal_cone.xyz, d, sqrt(d2));
+                sum += contribution * radiance[i].rgb;
+                if (contribution > 0.0) nearest = min(nearest, sqrt(d2));
+            }
+        }
+    }
+    return sum;
+}
+
+// Largest cos(theta_y) = n_y . (x - y) / |x - y| over a texel whose normals
+// lie in a cone (cosine cone_cos) around the unit mean n, seen from x at
+// distance dist (> extent) in direction -d/dist: the angle between n and x - y
+// is at least A - B, A = angle(n, x - mean), B = cone + asin(extent / dist).
+float max_cos_y(vec3 n, float cone_cos, vec3 d, float dist, float extent) {
+    float sigma = extent / dist;
+    if (!(sigma < 1.0)) return 1.0;
+    float cos_s = sqrt(1.0 - sigma * sigma);
+    float sin_c = sqrt(max(1.0 - cone_cos * cone_cos, 0.0));
+    float cos_b = cone_cos * cos_s - sin_c * sigma;
+    if (cos_b <= 0.0) return 1.0;                     // B >= 90 degrees: no bound
+    float sin_b = sin_c * cos_s + cone_cos * sigma;
+    float cos_a = clamp(-dot(n, d) / dist, -1.0, 1.0);
+    if (cos_a >= cos_b) return 1.0;                   // A <= B
+    return cos_a * cos_b + sqrt(1.0 - cos_a * cos_a) * sin_b;  // cos(A - B)
+}
+
+// Top-down over the pyramid, from the texels of the coarsest level that is
+// about half the radius on screen ("roots"). Every texel read is counted. A
+// texel is
+//  - skipped if G cannot exceed b anywhere under it: G <= cos_x cos_y / d^2
+//    with d >= dist - radius, cos_x bounded by the bounding slab (it reaches
+//    at most `reach` in front of the receiver's tangent plane) and cos_y by
+//    the normal cone; a texel behind the tangent plane or facing away has
+//    G = 0;
+//  - refined into its four children (one level finer) if its bounding sphere
+//    is larger than refine_ratio x its distance;
+//  - otherwise added from its means: max(G - b, 0) * sum(A_y S(y)).
+// The walk is one flat loop without a stack (and without break/continue,
+// which lavapipe's SIMD loops have mishandled): the padded pyramid gives
+// every texel four children, visited in the order (0,0) (1,0) (0,1) (1,1);
+// after a texel comes its first child if refined, else its next sibling,
+// climbing first over every level where it was the fourth child.
+vec3 integrate_hierarchical(vec3 x, vec3 nx, vec2 center, float radius_px, float r_world, inout uint count, inout float nearest) {
+    int top = int(pc.levels) - 1;
+    int root_level = clamp(int(ceil(log2(max(radius_px, 1.0) * 0.5))), 0, top);
+    ivec2 lo = max(ivec2(floor(center - radius_px)) >> root_level, ivec2(0));
+    ivec2 hi = min(ivec2(ceil(center + radius_px)) >> root_level, level_size(root_level) - 1);
+    int roots_wide = hi.x - lo.x + 1;
+    int roots = roots_wide * (hi.y - lo.y + 1);
+    int root = 0;
+    ivec3 t = ivec3(lo, root_level);
+    vec3 sum = vec3(0.0);
+    while (root < roots) {
+        count++;
+        uint i = texel_index(t.xy, t.z);
+        GeoTexel g = geo[i];
+        vec2 extent = texel_extent(g);  // radius, thickness
+        bool refine = false;
+        if (extent.y >= 0.0) {
+            vec3 d = g.position_extent.xyz - x;
+            float dist = length(d);
+            float d_min = dist - extent.x;
+            vec3 ny = g.normal_cone.xyz;
+            float ny_len = length(ny);
+            vec3 axis = ny_len > 0.0 ? ny / ny_len : vec3(0.0);
+            float a = clamp(dot(nx, axis), -1.0, 1.0);
+            float reach = dot(nx, d) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
+            // A coplanar texel reaches 0 up to rounding of its normals (1e-3 of its extent).
+            bool contributes = reach > 1e-3 * extent.x && d_min < r_world;
+            if (contributes && d_min > 0.0) {
+                float g_max = min(1.0, reach / d_min) * max_cos_y(axis, g.normal_cone.w, d, dist, extent.x)
+                    / (d_min * d_min);
+                contributes = g_max > pc.bound;
+            }
+            if (contributes) {
+                refine = t.z > 0 && extent.x > pc.refine_ratio * dist;
+                if (!refine && dist > 1e-6) {
+                    sum += residual_g(nx, ny, d, dist) * radiance[i].rgb;
+                    nearest = min(nearest, max(d_min, 0.0));
+                }
+            }
+        }
+        if (refine) {
+            t = ivec3(t.xy * 2, t.z - 1);
+        } else {
+            // Levels where t is the fourth child: trailing ones of x & y.
+            int climb = min(findLSB(~(t.x & t.y)), root_level - t.z);
+            t = ivec3(t.xy >> climb, t.z + climb);
+            if (t.z == root_level) {
+                root++;
+                t = ivec3(lo + ivec2(root % roots_wide, root / roots_wide), root_level);
+            } else {
+                t.xy += (t.x & 1) == 0 ? ivec2(1, 0) : ivec2(-1, 1);
+            }
+        }
+    }
+    return sum;
+}
+
+// I(x) = sum_y max(G(x, y) - b, 0) A_y S_{k-1}(y) for a receiver at x with
+// unit normal nx seen at pixel coordinates `center`; the residual is
+// albedo(x) / pi * I(x). `count` is incremented for every texel read;
+// `nearest` becomes the distance to the nearest surface that contributed
+// (I varies on that scale).
+vec3 residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out float nearest) {
+    // G <= 1/d^2, so only |x - y| < 1/sqrt(b) can exceed b.
+    float r_world = inversesqrt(pc.bound);
+    nearest = r_world;
+    if (!(r_world > 0.0)) return vec3(0.0);
+    float radius_px = screen_radius(x, r_world);
+    if (pc.mode == MODE_BRUTE) return integrate_brute(x, nx, center, radius_px, r_world, count, nearest);
+    return integrate_hierarchical(x, nx, center, radius_px, r_world, count, nearest);
+}
+
+// An evaluation point (ssbc_eval.comp), one per texel of every level, in the
+// pyramid's layout: I(x) and texels read (w < 0: unusable), the distance to
+// the nearest contributing surface, and the generation of the step that
+// asked for it (points of other steps are stale).
+struct EvalPoint {
+    vec4 integral_reads;
+    float nearest;
+    uint generation;
+    uint pad0;
+    uint pad1;
+};
+
+#endif

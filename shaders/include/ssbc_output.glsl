@@ -1,0 +1,28 @@
+// What the SSBC resolve and fallback kernels share: their bindings (one
+// descriptor set layout for both) and how a pixel's residual is written.
+// Included after ssbc.glsl.
+
+#ifndef SSBC_OUTPUT_GLSL
+#define SSBC_OUTPUT_GLSL
+
+layout(set = 0, binding = 3) buffer EvalPoints { EvalPoint points[]; };
+layout(set = 0, binding = 4) readonly buffer PendingIn { ListHeader header; uint items[]; } pending_in;
+layout(set = 0, binding = 5) buffer PendingOut { ListHeader header; uint items[]; } pending_out;
+layout(set = 0, binding = 6) buffer Requests { ListHeader header; uint items[]; } requests;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 10, rgba32f) uniform readonly image2D previous;   // S0 + S1 + ... + S_{k-1}
+layout(set = 0, binding = 11, rgba32f) uniform writeonly image2D final_image;
+layout(set = 0, binding = 12, rgba32f) uniform writeonly image2D residual;  // S_k
+layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
+
+// S_k(p) = albedo / pi * I; final = previous + S_k; `reads`: the pixel's own.
+void write_residual(ivec2 p, vec3 integral, float reads) {
+    vec3 s = imageLoad(g_albedo, p).rgb / PI * integral;
+    imageStore(residual, p, vec4(s, 1.0));
+    imageStore(final_image, p, vec4(imageLoad(previous, p).rgb + s, 1.0));
+    imageStore(samples, p, vec4(reads));
+}
+
+#endif

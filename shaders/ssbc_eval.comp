@@ -1,0 +1,43 @@
+#version 460
+// SSBC evaluation points of level pc.level: the residual integral I(x) (see
+// ssbc.glsl) at the evaluation pixel of each texel, for every texel of the
+// level (pc.from_list = 0: the coarsest level) or for the texels the resolve
+// kernel asked for (pc.from_list = 1: finer levels, near what made
+// interpolation fail). A texel that is not one smooth surface, or where the
+// bounding radius spans fewer than pc.texels_per_radius of its texels on
+// screen, is unusable.
+#include "ssbc.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 3) buffer EvalPoints { EvalPoint points[]; };
+layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
+
+void main() {
+    int l = int(pc.level);
+    uint i = gl_GlobalInvocationID.x;
+    ivec2 size_l = level_size(l);
+    ivec2 t;
+    if (pc.from_list == 1u) {
+        if (i >= requests.header.count) return;
+        t = unpack_item(requests.items[i]);
+    } else {
+        if (i >= uint(size_l.x * size_l.y)) return;
+        t = ivec2(int(i) % size_l.x, int(i) / size_l.x);
+    }
+    uint index = texel_index(t, l);
+    ivec2 q = eval_pixel(t, l);
+    GeoTexel g = geo[texel_index(q, 0)];
+    vec3 x = g.position_extent.xyz;
+    float r_world = inversesqrt(pc.bound);
+    bool usable = aux[index].continuous == 1u
+        && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
+    if (!usable) {
+        points[index] = EvalPoint(vec4(0.0, 0.0, 0.0, -1.0), 0.0, pc.generation, 0u, 0u);
+        return;
+    }
+    uint count = 0u;
+    float nearest;
+    vec3 integral = residual_integral(x, g.normal_cone.xyz, vec2(q), count, nearest);
+    points[index] = EvalPoint(vec4(integral, float(count)), nearest, pc.generation, 0u, 0u);
+}

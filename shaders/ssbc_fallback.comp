@@ -1,0 +1,21 @@
+#version 460
+// SSBC fallback: the residual integral at the pixels no evaluation point can
+// stand for (at corners, contacts and silhouettes), each from its own
+// position and normal. Dispatched indirectly over the fallback list (bound
+// as pending_in).
+#include "ssbc.glsl"
+#include "ssbc_output.glsl"
+
+layout(local_size_x = 64) in;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pending_in.header.count) return;
+    ivec2 p = unpack_item(pending_in.items[i]);
+    vec3 x = imageLoad(g_position, p).xyz;
+    vec3 nx = imageLoad(g_normal, p).xyz;
+    uint count = 0u;
+    float nearest;
+    vec3 integral = residual_integral(x, nx, vec2(p), count, nearest);
+    write_residual(p, integral, float(count));
+}

@@ -1,0 +1,103 @@
+#version 460
+// SSBC resolve at level pc.level: a pixel interpolates I(x) bilinearly from
+// the four evaluation points of that level around it when every one (with a
+// non-zero weight) was usable and lies on the pixel's own smooth surface
+// (normals within ~18 degrees, the point within 0.1 x its distance of the
+// pixel's tangent plane) and close enough: within 1.5 / texels_per_radius of
+// the bounding radius, and within nearest_fraction of the distance from the
+// point to the nearest contributing surface (I(x) changes on that scale near
+// corners and contacts). Otherwise the pixel asks for the four points around
+// it one level finer and goes on the pending list for that level; at level 1
+// the pending list is the fallback list (the pixel is evaluated alone).
+// pc.from_list = 0: every pixel (the coarsest level); 1: the pending list.
+#include "ssbc.glsl"
+#include "ssbc_output.glsl"
+
+layout(local_size_x = 64) in;
+
+// Bilinear footprint of pixel p among the evaluation points of level l.
+void footprint(ivec2 p, int l, out ivec2 t0, out vec2 fraction) {
+    vec2 f = (vec2(p) - float((1 << l) >> 1)) / float(1 << l);
+    t0 = ivec2(floor(f));
+    fraction = f - vec2(t0);
+}
+
+float corner_weight(vec2 fraction, int k) {
+    return ((k & 1) == 1 ? fraction.x : 1.0 - fraction.x) * ((k >> 1) == 1 ? fraction.y : 1.0 - fraction.y);
+}
+
+void append(ivec2 p) {
+    uint slot = atomicAdd(pending_out.header.count, 1u);
+    pending_out.items[slot] = pack_item(p);
+    atomicMax(pending_out.header.dispatch_x, slot / 64u + 1u);
+}
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    ivec2 p;
+    if (pc.from_list == 1u) {
+        if (i >= pending_in.header.count) return;
+        p = unpack_item(pending_in.items[i]);
+    } else {
+        if (i >= pc.size.x * pc.size.y) return;
+        p = ivec2(int(i % pc.size.x), int(i / pc.size.x));
+    }
+    vec4 xp = imageLoad(g_position, p);
+    if (xp.w == 0.0) {
+        imageStore(residual, p, vec4(0.0));
+        imageStore(final_image, p, imageLoad(previous, p));
+        imageStore(samples, p, vec4(0.0));
+        return;
+    }
+    vec3 x = xp.xyz;
+    vec3 nx = imageLoad(g_normal, p).xyz;
+    int l = int(pc.level);
+    float t_cam = length(x - pc.camera_position.xyz);
+    float r_world = inversesqrt(pc.bound);
+    float max_spacing = 1.5 * r_world / pc.texels_per_radius;
+    bool ok = l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
+    ivec2 t0;
+    vec2 fraction;
+    footprint(p, l, t0, fraction);
+    ivec2 size_l = level_size(l);
+    vec3 integral = vec3(0.0);
+    for (int k = 0; k < 4 && ok; k++) {
+        ivec2 t = t0 + ivec2(k & 1, k >> 1);
+        float w = corner_weight(fraction, k);
+        if (w > 0.0) {
+            ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
+            if (ok) {
+                EvalPoint point = points[texel_index(t, l)];
+                GeoTexel g = geo[texel_index(eval_pixel(t, l), 0)];
+                vec3 n = g.normal_cone.xyz;
+                vec3 d = x - g.position_extent.xyz;
+                float dist = length(d);
+                ok = point.generation == pc.generation && point.integral_reads.w >= 0.0
+                    && dot(nx, n) >= 0.95 && abs(dot(n, d)) <= 0.1 * dist + 1e-5 * t_cam
+                    && dist <= min(max_spacing, pc.nearest_fraction * point.nearest);
+                integral += w * point.integral_reads.rgb;
+            }
+        }
+    }
+    if (ok) {
+        write_residual(p, integral, 0.0);
+        return;
+    }
+    if (l >= 2) {
+        // Ask for the points one level finer (each once per step).
+        footprint(p, l - 1, t0, fraction);
+        for (int k = 0; k < 4; k++) {
+            ivec2 t = t0 + ivec2(k & 1, k >> 1);
+            if (corner_weight(fraction, k) > 0.0 && all(greaterThanEqual(t, ivec2(0)))
+                && all(lessThan(t, level_size(l - 1)))) {
+                uint index = texel_index(t, l - 1);
+                if (atomicExchange(points[index].generation, pc.generation) != pc.generation) {
+                    uint slot = atomicAdd(requests.header.count, 1u);
+                    requests.items[slot] = pack_item(t);
+                    atomicMax(requests.header.dispatch_x, slot / 64u + 1u);
+                }
+            }
+        }
+    }
+    append(p);
+}

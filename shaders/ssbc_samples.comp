@@ -1,0 +1,26 @@
+#version 460
+// SSBC texels read per pixel: to each pixel's own reads (fallback) add its
+// share of every evaluation point of this step whose block it is in (the
+// point's reads divided by the block's pixels with geometry), so that the
+// image sums to every texel read in the step.
+#include "ssbc.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 3) readonly buffer EvalPoints { EvalPoint points[]; };
+layout(set = 0, binding = 4, r32f) uniform image2D samples;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(p), pc.size))) return;
+    if (aux[texel_index(p, 0)].pixels == 0u) return;
+    float reads = imageLoad(samples, p).x;
+    for (int l = 0; l <= int(pc.eval_level); l++) {
+        uint index = texel_index(p >> l, l);
+        EvalPoint point = points[index];
+        if (point.generation == pc.generation && point.integral_reads.w > 0.0) {
+            reads += point.integral_reads.w / float(aux[index].pixels);
+        }
+    }
+    imageStore(samples, p, vec4(reads));
+}
