@@ -155,7 +155,8 @@ pub struct Timings {
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Per-pass GPU time, in recording order.
+    /// Per-pass GPU time, in recording order. A name `pass/part` is a part of
+    /// the pass `pass` (timed inside it; not to be added to it).
     pub passes: Vec<PassTiming>,
     /// First to last timestamp of the frame.
     pub frame_gpu_ms: f64,
@@ -379,7 +380,7 @@ impl Renderer {
             direct_lighting: DirectLightingPass::new(&device)?,
             indirect_bounded: IndirectBoundedPass::new(&device)?,
             ssbc: SsbcPass::new(&device)?,
-            profiler: GpuProfiler::new(&device, 64, FRAME_SLOTS)?,
+            profiler: GpuProfiler::new(&device, 1024, FRAME_SLOTS)?,
             commands: (0..FRAME_SLOTS)
                 .map(|_| CommandPool::new(&device))
                 .collect::<Result<_>>()?,

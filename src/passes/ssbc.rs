@@ -467,8 +467,11 @@ impl SsbcPass {
                 &frame.residuals[step - 1]
             };
             push.generation = step as u32 + 1;
-            let scope = profiler.begin(rec.cmd, &format!("ssbc_step_{}", step + 1));
+            let name = format!("ssbc_step_{}", step + 1);
+            let scope = profiler.begin(rec.cmd, &name);
+            let sub = profiler.begin(rec.cmd, &format!("{name}/radiance_mips"));
             self.record_radiance_mips(rec, pool, term, &mut push, frame)?;
+            profiler.end(rec.cmd, sub);
             let step_out = StepOutput {
                 gbuffer,
                 previous,
@@ -476,7 +479,7 @@ impl SsbcPass {
                 residual: &frame.residuals[step],
                 samples: &frame.samples[step],
             };
-            self.record_residual(rec, pool, &step_out, &mut push, frame)?;
+            self.record_residual(rec, profiler, &name, pool, &step_out, &mut push, frame)?;
             rec.copy_buffer(&frame.fallback, 0, &frame.stats, 16 * step as u64, 16);
             profiler.end(rec.cmd, scope);
         }
@@ -528,9 +531,12 @@ impl SsbcPass {
     /// coarsest level; every pixel interpolates them or asks for finer ones
     /// and waits for the next level; at level 1 what is left is evaluated
     /// pixel by pixel (the fallback list). Then the samples image.
+    #[allow(clippy::too_many_arguments)]
     fn record_residual(
         &self,
         rec: &mut Recorder<'_>,
+        profiler: &mut GpuProfiler,
+        step_name: &str,
         pool: &DescriptorPool,
         out: &StepOutput<'_>,
         push: &mut SsbcPush,
@@ -543,13 +549,16 @@ impl SsbcPass {
         push.level = top;
         push.from_list = 0;
         let (w, h) = Self::level_extent(frame, top);
+        let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{top}"));
         self.record_eval(rec, pool, push, frame, [(w * h).div_ceil(64), 1, 1])?;
+        profiler.end(rec.cmd, sub);
         let mut pending_in = &frame.fallback; // unused while from_list == 0
         let mut pending_out = if top >= 2 {
             &frame.pending[0]
         } else {
             &frame.fallback
         };
+        let sub = profiler.begin(rec.cmd, &format!("{step_name}/resolve_{top}"));
         self.record_resolve(
             rec,
             pool,
@@ -559,11 +568,14 @@ impl SsbcPass {
             (pending_in, pending_out),
             Some([(pixels.0 * pixels.1).div_ceil(64), 1, 1]),
         )?;
+        profiler.end(rec.cmd, sub);
         // Finer levels: the points asked for, the pixels still pending.
         push.from_list = 1;
         for level in (1..top).rev() {
             push.level = level;
+            let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{level}"));
             self.record_eval(rec, pool, push, frame, [0; 3])?;
+            profiler.end(rec.cmd, sub);
             pending_in = pending_out;
             pending_out = if level == 1 {
                 &frame.fallback
@@ -572,9 +584,12 @@ impl SsbcPass {
             } else {
                 &frame.pending[0]
             };
+            let sub = profiler.begin(rec.cmd, &format!("{step_name}/resolve_{level}"));
             self.record_resolve(rec, pool, push, frame, out, (pending_in, pending_out), None)?;
+            profiler.end(rec.cmd, sub);
         }
         // The pixels no point could stand for.
+        let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
         Self::read_pyramids(rec, frame);
         out.declare(rec);
         rec.use_buffer(&frame.points, Access::ComputeRead);
@@ -593,7 +608,9 @@ impl SsbcPass {
             &frame.fallback,
             0,
         )?;
+        profiler.end(rec.cmd, sub);
         // Texels read per pixel.
+        let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
         Self::read_pyramids(rec, frame);
         rec.use_buffer(&frame.points, Access::ComputeRead);
         rec.use_image(out.samples, Access::ComputeWrite);
@@ -608,6 +625,7 @@ impl SsbcPass {
         .concat();
         self.samples
             .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(push), pixels)?;
+        profiler.end(rec.cmd, sub);
         Ok(())
     }
 
@@ -667,8 +685,9 @@ impl SsbcPass {
         rec.use_buffer(&frame.points, Access::ComputeWrite);
         if groups.is_none() {
             rec.use_buffer(pending_in, Access::IndirectRead);
-            rec.use_buffer(pending_in, Access::ComputeRead);
         }
+        // Bound (and so, for synchronization, read) even when unused.
+        rec.use_buffer(pending_in, Access::ComputeRead);
         rec.use_buffer(pending_out, Access::ComputeWrite);
         rec.use_buffer(&frame.requests, Access::ComputeWrite);
         rec.flush_barriers();
