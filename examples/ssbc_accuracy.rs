@@ -50,6 +50,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
                 let step = &f.timings.ssbc_steps[0];
+                if let Ok(dir) = std::env::var("SSBC_HEATMAP") {
+                    let counts = &f.samples[0];
+                    let max = counts.iter().copied().fold(1.0f32, f32::max).ln();
+                    let img = image::RgbImage::from_fn(f.width, f.height, |x, y| {
+                        let c = counts[(y * f.width + x) as usize];
+                        let t = (c.max(1.0).ln() / max).clamp(0.0, 1.0);
+                        image::Rgb([(255.0 * t) as u8, (255.0 * (1.0 - (2.0 * t - 1.0).abs())) as u8, (255.0 * (1.0 - t)) as u8])
+                    });
+                    img.save(format!("{dir}/{}-{}x{}-{}.png", scene.name, size.0, size.1, f.bound)).unwrap();
+                }
                 if std::env::var("SSBC_DEBUG").is_ok() {
                     debug_errors(scene, &f);
                 }

@@ -33,11 +33,11 @@ void main() {
     bool usable = aux[index].continuous == 1u
         && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
     if (!usable) {
-        points[index] = EvalPoint(vec4(0.0, 0.0, 0.0, -1.0), 0.0, pc.generation, 0u, 0u);
+        points[index] = EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u);
         return;
     }
     uint count = 0u;
     float nearest;
-    vec3 integral = residual_integral(x, g.normal_cone.xyz, vec2(q), count, nearest);
-    points[index] = EvalPoint(vec4(integral, float(count)), nearest, pc.generation, 0u, 0u);
+    Residual residual = residual_integral(x, g.normal_cone.xyz, vec2(q), count, nearest);
+    points[index] = EvalPoint(residual, float(count), nearest, pc.generation, 0u);
 }

@@ -16,6 +16,6 @@ void main() {
     vec3 nx = imageLoad(g_normal, p).xyz;
     uint count = 0u;
     float nearest;
-    vec3 integral = residual_integral(x, nx, vec2(p), count, nearest);
-    write_residual(p, integral, float(count));
+    Residual residual = residual_integral(x, nx, vec2(p), count, nearest);
+    write_residual(p, residual_at(residual, nx), float(count));
 }

@@ -1,9 +1,9 @@
 #version 460
-// SSBC resolve at level pc.level: a pixel interpolates I(x) bilinearly from
-// the four evaluation points of that level around it when every one (with a
-// non-zero weight) was usable and lies on the pixel's own smooth surface
-// (normals within ~18 degrees, the point within 0.1 x its distance of the
-// pixel's tangent plane) and close enough: within 1.5 / texels_per_radius of
+// SSBC resolve at level pc.level: a pixel interpolates the residual's linear
+// form bilinearly from the four evaluation points of that level around it,
+// and evaluates it for its own normal, when every point (with a non-zero
+// weight) was usable and lies on the pixel's own smooth surface (below) and
+// close enough: within 1.5 / texels_per_radius of
 // the bounding radius, and within nearest_fraction of the distance from the
 // point to the nearest contributing surface (I(x) changes on that scale near
 // corners and contacts). Otherwise the pixel asks for the four points around
@@ -14,6 +14,12 @@
 #include "ssbc_output.glsl"
 
 layout(local_size_x = 64) in;
+
+// Same smooth surface: normals within ~37 degrees (the residual is carried
+// linear in the normal, see Residual), and the point within 0.25 x its
+// distance of the pixel's tangent plane.
+const float MIN_NORMAL_COS = 0.8;
+const float MAX_PLANE = 0.25;
 
 // Bilinear footprint of pixel p among the evaluation points of level l.
 void footprint(ivec2 p, int l, out ivec2 t0, out vec2 fraction) {
@@ -60,7 +66,7 @@ void main() {
     vec2 fraction;
     footprint(p, l, t0, fraction);
     ivec2 size_l = level_size(l);
-    vec3 integral = vec3(0.0);
+    Residual blend = Residual(vec4(0.0), vec4(0.0), vec4(0.0));
     for (int k = 0; k < 4 && ok; k++) {
         ivec2 t = t0 + ivec2(k & 1, k >> 1);
         float w = corner_weight(fraction, k);
@@ -72,15 +78,17 @@ void main() {
                 vec3 n = g.normal_cone.xyz;
                 vec3 d = x - g.position_extent.xyz;
                 float dist = length(d);
-                ok = point.generation == pc.generation && point.integral_reads.w >= 0.0
-                    && dot(nx, n) >= 0.95 && abs(dot(n, d)) <= 0.1 * dist + 1e-5 * t_cam
+                ok = point.generation == pc.generation && point.reads >= 0.0
+                    && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
                     && dist <= min(max_spacing, pc.nearest_fraction * point.nearest);
-                integral += w * point.integral_reads.rgb;
+                blend.r += w * point.residual.r;
+                blend.g += w * point.residual.g;
+                blend.b += w * point.residual.b;
             }
         }
     }
     if (ok) {
-        write_residual(p, integral, 0.0);
+        write_residual(p, residual_at(blend, nx), 0.0);
         return;
     }
     if (l >= 2) {

@@ -18,8 +18,8 @@ void main() {
     for (int l = 0; l <= int(pc.eval_level); l++) {
         uint index = texel_index(p >> l, l);
         EvalPoint point = points[index];
-        if (point.generation == pc.generation && point.integral_reads.w > 0.0) {
-            reads += point.integral_reads.w / float(aux[index].pixels);
+        if (point.generation == pc.generation && point.reads > 0.0) {
+            reads += point.reads / float(aux[index].pixels);
         }
     }
     imageStore(samples, p, vec4(reads));

@@ -138,20 +138,46 @@ float screen_radius(vec3 x, float r) {
     return radius_px;
 }
 
-// max(G(x, y) - b, 0) with G = cos+(theta_x) cos+(theta_y) / |x - y|^2; d = y - x.
-// `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is then
-// the area-weighted mean of the cosines.
-float residual_g(vec3 nx, vec3 ny, vec3 d, float dist) {
+// The residual integral, kept linear in the receiver's normal: over the y
+// where G(x, y) > b,
+//   I_c(x) = sum max(G - b, 0) A_y S_c(y) = n_x . V_c - b C_c,
+//   V_c = sum (w cos(theta_y) / d^2) A_y S_c(y),  C_c = sum A_y S_c(y)
+// (w = (y - x) / d). Per colour channel c: xyz V_c, w C_c. A pixel whose
+// normal differs a little from an evaluation point's gets n . V - b C, right
+// to first order (the set where G > b moves only where G - b is near 0).
+struct Residual {
+    vec4 r;
+    vec4 g;
+    vec4 b;
+};
+
+// Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`) if G > b there.
+// `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is
+// then the area-weighted mean of the cosines. Returns whether it counted.
+bool accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 as) {
     vec3 w = d / dist;
-    float g = max(dot(nx, w), 0.0) * max(-dot(ny, w), 0.0) / (dist * dist);
-    return max(g - pc.bound, 0.0);
+    float cos_x = dot(nx, w);
+    float k = max(-dot(ny, w), 0.0) / (dist * dist);
+    if (!(cos_x * k > pc.bound)) return false;
+    vec3 wk = w * k;
+    acc.r += vec4(wk * as.r, as.r);
+    acc.g += vec4(wk * as.g, as.g);
+    acc.b += vec4(wk * as.b, as.b);
+    return true;
+}
+
+// I(x) for the normal n from the linear form.
+vec3 residual_at(Residual acc, vec3 n) {
+    return max(vec3(dot(n, acc.r.xyz) - pc.bound * acc.r.w,
+                    dot(n, acc.g.xyz) - pc.bound * acc.g.w,
+                    dot(n, acc.b.xyz) - pc.bound * acc.b.w), vec3(0.0));
 }
 
 // Every texel of level 0 in the window (the reference).
-vec3 integrate_brute(vec3 x, vec3 nx, vec2 center, float radius_px, float r_world, inout uint count, inout float nearest) {
+void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
+                     inout uint count, inout float nearest) {
     ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
     ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(pc.size) - 1);
-    vec3 sum = vec3(0.0);
     for (int py = lo.y; py <= hi.y; py++) {
         for (int px = lo.x; px <= hi.x; px++) {
             count++;
@@ -160,13 +186,12 @@ vec3 integrate_brute(vec3 x, vec3 nx, vec2 center, float radius_px, float r_worl
             vec3 d = g.position_extent.xyz - x;
             float d2 = dot(d, d);
             if (texel_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
-                float contribution = residual_g(nx, g.normal_cone.xyz, d, sqrt(d2));
-                sum += contribution * radiance[i].rgb;
-                if (contribution > 0.0) nearest = min(nearest, sqrt(d2));
+                if (accumulate(acc, nx, g.normal_cone.xyz, d, sqrt(d2), radiance[i].rgb)) {
+                    nearest = min(nearest, sqrt(d2));
+                }
             }
         }
     }
-    return sum;
 }
 
 // Largest cos(theta_y) = n_y . (x - y) / |x - y| over a texel whose normals
@@ -202,7 +227,8 @@ float max_cos_y(vec3 n, float cone_cos, vec3 d, float dist, float extent) {
 // every texel four children, visited in the order (0,0) (1,0) (0,1) (1,1);
 // after a texel comes its first child if refined, else its next sibling,
 // climbing first over every level where it was the fourth child.
-vec3 integrate_hierarchical(vec3 x, vec3 nx, vec2 center, float radius_px, float r_world, inout uint count, inout float nearest) {
+void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
+                            inout uint count, inout float nearest) {
     int top = int(pc.levels) - 1;
     int root_level = clamp(int(ceil(log2(max(radius_px, 1.0) * 0.5))), 0, top);
     ivec2 lo = max(ivec2(floor(center - radius_px)) >> root_level, ivec2(0));
@@ -211,7 +237,6 @@ vec3 integrate_hierarchical(vec3 x, vec3 nx, vec2 center, float radius_px, float
     int roots = roots_wide * (hi.y - lo.y + 1);
     int root = 0;
     ivec3 t = ivec3(lo, root_level);
-    vec3 sum = vec3(0.0);
     while (root < roots) {
         count++;
         uint i = texel_index(t.xy, t.z);
@@ -236,8 +261,7 @@ vec3 integrate_hierarchical(vec3 x, vec3 nx, vec2 center, float radius_px, float
             }
             if (contributes) {
                 refine = t.z > 0 && extent.x > pc.refine_ratio * dist;
-                if (!refine && dist > 1e-6) {
-                    sum += residual_g(nx, ny, d, dist) * radiance[i].rgb;
+                if (!refine && dist > 1e-6 && accumulate(acc, nx, ny, d, dist, radiance[i].rgb)) {
                     nearest = min(nearest, max(d_min, 0.0));
                 }
             }
@@ -256,34 +280,37 @@ vec3 integrate_hierarchical(vec3 x, vec3 nx, vec2 center, float radius_px, float
             }
         }
     }
-    return sum;
 }
 
-// I(x) = sum_y max(G(x, y) - b, 0) A_y S_{k-1}(y) for a receiver at x with
-// unit normal nx seen at pixel coordinates `center`; the residual is
-// albedo(x) / pi * I(x). `count` is incremented for every texel read;
-// `nearest` becomes the distance to the nearest surface that contributed
-// (I varies on that scale).
-vec3 residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out float nearest) {
+// The residual integral (see Residual) for a receiver at x with unit normal
+// nx seen at pixel coordinates `center`; the residual is albedo(x) / pi *
+// I(x). `count` is incremented for every texel read; `nearest` becomes the
+// distance to the nearest surface that contributed (I varies on that scale).
+Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out float nearest) {
+    Residual acc = Residual(vec4(0.0), vec4(0.0), vec4(0.0));
     // G <= 1/d^2, so only |x - y| < 1/sqrt(b) can exceed b.
     float r_world = inversesqrt(pc.bound);
     nearest = r_world;
-    if (!(r_world > 0.0)) return vec3(0.0);
+    if (!(r_world > 0.0)) return acc;
     float radius_px = screen_radius(x, r_world);
-    if (pc.mode == MODE_BRUTE) return integrate_brute(x, nx, center, radius_px, r_world, count, nearest);
-    return integrate_hierarchical(x, nx, center, radius_px, r_world, count, nearest);
+    if (pc.mode == MODE_BRUTE) {
+        integrate_brute(acc, x, nx, center, radius_px, r_world, count, nearest);
+    } else {
+        integrate_hierarchical(acc, x, nx, center, radius_px, r_world, count, nearest);
+    }
+    return acc;
 }
 
 // An evaluation point (ssbc_eval.comp), one per texel of every level, in the
-// pyramid's layout: I(x) and texels read (w < 0: unusable), the distance to
-// the nearest contributing surface, and the generation of the step that
-// asked for it (points of other steps are stale).
+// pyramid's layout: the residual's linear form, texels read (< 0: unusable),
+// the distance to the nearest contributing surface, and the generation of
+// the step that asked for it (points of other steps are stale).
 struct EvalPoint {
-    vec4 integral_reads;
+    Residual residual;
+    float reads;
     float nearest;
     uint generation;
-    uint pad0;
-    uint pad1;
+    uint pad;
 };
 
 #endif

@@ -68,9 +68,9 @@ impl Default for SsbcSettings {
             integration: Integration::Hierarchical,
             min_cos_view: 0.2,
             refine_ratio: 0.1,
-            max_normal_spread: 0.98,
-            max_thickness: 0.1,
-            texels_per_radius: 12.0,
+            max_normal_spread: 0.9,
+            max_thickness: 0.25,
+            texels_per_radius: 8.0,
             max_eval_level: 4,
             nearest_fraction: 0.25,
         }
@@ -222,7 +222,7 @@ fn pyramid_texels(size: (u32, u32)) -> u64 {
 /// Sizes of the GLSL structs, in bytes.
 const GEO_TEXEL_BYTES: u64 = 32;
 const VEC4_BYTES: u64 = 16;
-const EVAL_POINT_BYTES: u64 = 32;
+const EVAL_POINT_BYTES: u64 = 64;
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
 const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
 
