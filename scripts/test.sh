@@ -7,4 +7,4 @@ bash scripts/setup.sh
 # Force the CPU driver so results do not depend on whatever GPU is present.
 export VK_ICD_FILENAMES="${VK_ICD_FILENAMES:-$(ls /usr/share/vulkan/icd.d/lvp_icd.*.json | head -n 1)}"
 export LP_NUM_THREADS="${LP_NUM_THREADS:-2}"
-cargo test --locked "$@"
+cargo test --release --locked "$@"

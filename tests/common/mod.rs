@@ -3,6 +3,8 @@
 //! small scenes with known analytic answers.
 #![allow(dead_code)]
 
+pub mod ssbc_accuracy;
+
 use glam::{Mat4, Vec3};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::scene::{Camera, Light, LightKind, Scene};
