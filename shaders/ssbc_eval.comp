@@ -27,10 +27,10 @@ void main() {
     }
     uint index = texel_index(t, l);
     ivec2 q = eval_pixel(t, l);
-    GeoTexel g = geo[texel_index(q, 0)];
+    GeoCluster g = geo[texel_index(q, 0)].front;
     vec3 x = g.position_extent.xyz;
     float r_world = inversesqrt(pc.bound);
-    bool usable = aux[index].continuous == 1u
+    bool usable = (aux[index].flags & 1u) == 1u
         && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
     if (!usable) {
         points[index] = EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u);

@@ -1,20 +1,75 @@
 #version 460
 // SSBC geometry pyramid, one level per dispatch (pc.level).
 // Level 0 from the G-buffer: the pixel's world position and unit normal, and
-// the world-space area A_y seen through it. Level l from l-1: summed area,
-// area-weighted mean position and mean of the unit normals (left unnormalised:
-// its length says how much they spread, and cos(theta_y) against it is the
-// area-weighted mean cosine), a bounding sphere around the mean and a slab
-// along the mean normal that hold every pixel position below, and whether
-// the texel is one smooth surface ("continuous": all its pixels are geometry,
-// its normals agree and its slab is thin), which lets it stand for its pixels
-// as an evaluation point.
+// the world-space area A_y seen through it (one cluster). Level l from l-1:
+// the children's clusters (up to eight) sorted by depth and split at the
+// largest gap into a front and a back cluster; each gets the area-weighted
+// mean position and mean of the unit normals (left unnormalised: its length
+// says how much they spread, and cos(theta_y) against it is the
+// area-weighted mean cosine), a bounding sphere around the mean, a slab
+// along the mean normal and a cone around it that hold every pixel position
+// and normal of the cluster. The texel is "continuous" (one smooth surface
+// that may stand for its pixels as an evaluation point) if all its pixels
+// are geometry, all its children are continuous, and all its pixels taken
+// together have normals that agree and a thin slab.
 #include "ssbc.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
+
+// The clusters of the four children: 2k + c is cluster c of child k.
+GeoCluster members[8];
+float member_area[8];
+
+struct Merged {
+    GeoCluster cluster;
+    float area;
+    float normal_len;
+    float radius;
+    float thickness;
+};
+
+// Merges the member clusters whose bit is set in `mask`.
+Merged merge(uint mask) {
+    float area = 0.0;
+    vec3 position = vec3(0.0);
+    vec3 normal = vec3(0.0);
+    for (int j = 0; j < 8; j++) {
+        if ((mask & (1u << j)) != 0u && member_area[j] > 0.0) {
+            area += member_area[j];
+            position += member_area[j] * members[j].position_extent.xyz;
+            normal += member_area[j] * members[j].normal_cone.xyz;
+        }
+    }
+    if (!(area > 0.0)) return Merged(empty_cluster(), 0.0, 0.0, 0.0, -1.0);
+    position /= area;
+    normal /= area;
+    float normal_len = length(normal);
+    vec3 axis = normal_len > 0.0 ? normal / normal_len : vec3(0.0, 0.0, 1.0);
+    // A member's slab (along its own mean normal n_c) projected onto the
+    // axis adds |a| thickness_c + sqrt(1 - a^2) radius_c, with a = axis . n_c;
+    // its cone widens the merged one by the angle between the axes.
+    float radius = 0.0;
+    float thickness = 0.0;
+    float cone = 0.0;
+    for (int j = 0; j < 8; j++) {
+        if ((mask & (1u << j)) != 0u && member_area[j] > 0.0) {
+            vec3 offset = members[j].position_extent.xyz - position;
+            vec3 nc = members[j].normal_cone.xyz;
+            float nc_len = length(nc);
+            float a = nc_len > 0.0 ? clamp(dot(axis, nc) / nc_len, -1.0, 1.0) : 0.0;
+            vec2 extent = cluster_extent(members[j]);
+            radius = max(radius, length(offset) + extent.x);
+            thickness = max(thickness, abs(dot(axis, offset)) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x);
+            cone = max(cone, acos(a) + acos(clamp(members[j].normal_cone.w, -1.0, 1.0)));
+        }
+    }
+    // Rounding: widen the cone by 1e-3 rad.
+    GeoCluster cluster = make_cluster(position, radius, thickness, normal, cos(min(cone + 1e-3, PI)));
+    return Merged(cluster, area, normal_len, radius, thickness);
+}
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -29,57 +84,57 @@ void main() {
             n = imageLoad(g_normal, p).xyz;
         }
         bool geometry = position.w != 0.0;
-        geo[dst] = make_texel(position.xyz, 0.0, geometry ? 0.0 : -1.0, n, 1.0);
-        aux[dst] = GeoAux(geometry ? pixel_area(position.xyz, n) : 0.0, geometry ? 1u : 0u,
-                          geometry ? 1u : 0u, 0u);
+        geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), empty_cluster());
+        aux[dst] = GeoAux(geometry ? pixel_area(position.xyz, n) : 0.0, 0.0, geometry ? 1u : 0u,
+                          geometry ? 1u : 0u);
         return;
     }
-    GeoTexel child[4];
-    GeoAux child_aux[4];
-    float area = 0.0;
     uint pixels = 0u;
     bool continuous = true;
-    vec3 position = vec3(0.0);
-    vec3 normal = vec3(0.0);
+    float depth[8];
     for (int k = 0; k < 4; k++) {
         uint c = texel_index(p * 2 + ivec2(k & 1, k >> 1), level - 1);
-        child[k] = geo[c];
-        child_aux[k] = aux[c];
-        area += child_aux[k].area;
-        pixels += child_aux[k].pixels;
-        continuous = continuous && child_aux[k].continuous == 1u;
-        position += child_aux[k].area * child[k].position_extent.xyz;
-        normal += child_aux[k].area * child[k].normal_cone.xyz;
+        GeoTexel child = geo[c];
+        GeoAux child_aux = aux[c];
+        members[2 * k] = child.front;
+        members[2 * k + 1] = child.back;
+        member_area[2 * k] = child_aux.front_area;
+        member_area[2 * k + 1] = child_aux.back_area;
+        pixels += child_aux.pixels;
+        continuous = continuous && (child_aux.flags & 1u) == 1u;
     }
-    if (!(area > 0.0)) {
-        geo[dst] = make_texel(vec3(0.0), 0.0, -1.0, vec3(0.0), 1.0);
-        aux[dst] = GeoAux(0.0, 0u, 0u, 0u);
-        return;
+    // Split at the largest gap in depth between consecutive members.
+    uint present = 0u;
+    for (int j = 0; j < 8; j++) {
+        depth[j] = dot(members[j].position_extent.xyz - pc.camera_position.xyz, pc.camera_forward.xyz);
+        if (member_area[j] > 0.0) present |= 1u << j;
     }
-    position /= area;
-    normal /= area;
-    float normal_len = length(normal);
-    vec3 axis = normal_len > 0.0 ? normal / normal_len : vec3(0.0, 0.0, 1.0);
-    // A child's slab (along its own mean normal n_c) projected onto the axis
-    // adds |a| thickness_c + sqrt(1 - a^2) radius_c, with a = axis . n_c; its
-    // cone widens the texel's by the angle between the axes.
-    float radius = 0.0;
-    float thickness = 0.0;
-    float cone = 0.0;
-    for (int k = 0; k < 4; k++) {
-        if (child_aux[k].area > 0.0) {
-            vec3 offset = child[k].position_extent.xyz - position;
-            vec3 nc = child[k].normal_cone.xyz;
-            float nc_len = length(nc);
-            float a = nc_len > 0.0 ? clamp(dot(axis, nc) / nc_len, -1.0, 1.0) : 0.0;
-            vec2 extent = texel_extent(child[k]);
-            radius = max(radius, length(offset) + extent.x);
-            thickness = max(thickness, abs(dot(axis, offset)) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x);
-            cone = max(cone, acos(a) + acos(clamp(child[k].normal_cone.w, -1.0, 1.0)));
+    uint back_mask = 0u;
+    float largest_gap = 0.0;
+    for (int j = 0; j < 8; j++) {
+        // Gap from member j to the nearest member behind it.
+        float next = 3.4e38;
+        for (int i = 0; i < 8; i++) {
+            if ((present & (1u << i)) != 0u && depth[i] > depth[j]) next = min(next, depth[i]);
+        }
+        if ((present & (1u << j)) != 0u && next < 3.4e38 && next - depth[j] > largest_gap) {
+            largest_gap = next - depth[j];
+            back_mask = 0u;
+            for (int i = 0; i < 8; i++) {
+                if ((present & (1u << i)) != 0u && depth[i] > depth[j]) back_mask |= 1u << i;
+            }
         }
     }
-    continuous = continuous && normal_len >= pc.max_normal_spread && thickness <= pc.max_thickness * radius;
-    // Rounding: widen the cone by 1e-3 rad.
-    geo[dst] = make_texel(position, radius, thickness, normal, cos(min(cone + 1e-3, PI)));
-    aux[dst] = GeoAux(area, pixels, continuous ? 1u : 0u, 0u);
+    Merged whole = merge(present);
+    if (!(whole.area > 0.0)) {
+        geo[dst] = GeoTexel(empty_cluster(), empty_cluster());
+        aux[dst] = GeoAux(0.0, 0.0, 0u, 0u);
+        return;
+    }
+    Merged front = merge(present & ~back_mask);
+    Merged back = merge(back_mask);
+    continuous = continuous && whole.normal_len >= pc.max_normal_spread
+        && whole.thickness <= pc.max_thickness * whole.radius;
+    geo[dst] = GeoTexel(front.cluster, back.cluster);
+    aux[dst] = GeoAux(front.area, back.area, pixels, (continuous ? 1u : 0u) | (back_mask << 8));
 }

@@ -1,7 +1,9 @@
 #version 460
 // SSBC radiance pyramid of the term being compensated, S_{k-1}, one level
-// per dispatch (pc.level): level 0 holds A_y S_{k-1}(y) per pixel, level l
-// the sum of its four children, so a texel carries sum(A_y S(y)) under it.
+// per dispatch (pc.level): level 0 holds A_y S_{k-1}(y) per pixel (its one
+// cluster), level l sums its children's clusters into the cluster each was
+// grouped into (GeoAux.flags), so a cluster carries sum(A_y S(y)) over its
+// pixels.
 #include "ssbc.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -15,12 +17,24 @@ void main() {
     uint dst = texel_index(p, level);
     if (level == 0) {
         vec3 s = all(lessThan(uvec2(p), pc.size)) ? imageLoad(term, p).rgb : vec3(0.0);
-        radiance[dst] = vec4(aux[dst].area * s, 0.0);
+        radiance[2u * dst] = vec4(aux[dst].front_area * s, 0.0);
+        radiance[2u * dst + 1u] = vec4(0.0);
         return;
     }
-    vec3 sum = vec3(0.0);
+    uint back_mask = aux[dst].flags >> 8;
+    vec3 front = vec3(0.0);
+    vec3 back = vec3(0.0);
     for (int k = 0; k < 4; k++) {
-        sum += radiance[texel_index(p * 2 + ivec2(k & 1, k >> 1), level - 1)].rgb;
+        uint c = texel_index(p * 2 + ivec2(k & 1, k >> 1), level - 1);
+        for (int j = 0; j < 2; j++) {
+            vec3 s = radiance[2u * c + uint(j)].rgb;
+            if ((back_mask & (1u << (2 * k + j))) != 0u) {
+                back += s;
+            } else {
+                front += s;
+            }
+        }
     }
-    radiance[dst] = vec4(sum, 0.0);
+    radiance[2u * dst] = vec4(front, 0.0);
+    radiance[2u * dst + 1u] = vec4(back, 0.0);
 }

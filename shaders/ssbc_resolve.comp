@@ -74,7 +74,7 @@ void main() {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
                 EvalPoint point = points[texel_index(t, l)];
-                GeoTexel g = geo[texel_index(eval_pixel(t, l), 0)];
+                GeoCluster g = geo[texel_index(eval_pixel(t, l), 0)].front;
                 vec3 n = g.normal_cone.xyz;
                 vec3 d = x - g.position_extent.xyz;
                 float dist = length(d);

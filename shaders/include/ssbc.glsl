@@ -4,10 +4,16 @@
 // The pyramids live in storage buffers, level after level (level l of a
 // W x H pyramid is (W >> l) x (H >> l) texels; W and H are padded so every
 // level halves exactly, which also gives every texel four children):
-//   geo[]       what the traversal reads: mean position + slab, mean normal + sphere
-//   aux[]       summed area, pixels with geometry, continuity (pyramid build and
-//               evaluation points only)
-//   radiance[]  sum of A_y S_{k-1}(y) under the texel (rebuilt every step)
+//   geo[]       what the traversal reads: each texel's surface as two clusters
+//   aux[]       areas, pixels with geometry, continuity, how the children's
+//               clusters were grouped (pyramid builds and evaluation points only)
+//   radiance[]  sum of A_y S_{k-1}(y) per cluster (rebuilt every step)
+//
+// A texel's pixels are grouped by depth into a front and a back cluster
+// (split at the largest gap in depth between its children's clusters): at a
+// silhouette the two are the surfaces on either side of it, each compact,
+// so a texel far enough from x for both is added whole instead of being
+// refined down to single pixels along every silhouette.
 //
 // Bindings 0..2 are the same in every kernel that includes this file.
 
@@ -16,39 +22,49 @@
 
 #include "common.glsl"
 
-struct GeoTexel {
+struct GeoCluster {
     vec4 position_extent;     // xyz area-weighted mean position; w two halves (packHalf2x16,
                               // rounded up): the radius of a sphere around the mean holding
-                              // every pixel position under the texel, and the half-thickness
-                              // of a slab along the mean normal holding them (< 0: no geometry)
+                              // every pixel position of the cluster, and the half-thickness
+                              // of a slab along the mean normal holding them (< 0: empty)
     vec4 normal_cone;         // xyz area-weighted mean of the unit normals (shorter than 1
                               // where they spread); w cosine of the half-angle of a cone
                               // around their mean direction holding every one of them
 };
 
-// (radius, thickness) of a texel.
-vec2 texel_extent(GeoTexel g) {
+struct GeoTexel {
+    GeoCluster front;
+    GeoCluster back;
+};
+
+// (radius, thickness) of a cluster.
+vec2 cluster_extent(GeoCluster g) {
     return unpackHalf2x16(floatBitsToUint(g.position_extent.w));
 }
 
-GeoTexel make_texel(vec3 position, float radius, float thickness, vec3 normal, float cone_cos) {
+GeoCluster make_cluster(vec3 position, float radius, float thickness, vec3 normal, float cone_cos) {
     // Halves keep 11 bits: scale up by 2^-10 (and 1e-7 absolute for
     // subnormals) so that the stored bounds still hold.
     vec2 extent = vec2(radius, thickness);
     if (thickness >= 0.0) extent = extent * (1.0 + 1.0 / 1024.0) + 1e-7;
-    return GeoTexel(vec4(position, uintBitsToFloat(packHalf2x16(extent))), vec4(normal, cone_cos));
+    return GeoCluster(vec4(position, uintBitsToFloat(packHalf2x16(extent))), vec4(normal, cone_cos));
+}
+
+GeoCluster empty_cluster() {
+    return make_cluster(vec3(0.0), 0.0, -1.0, vec3(0.0), 1.0);
 }
 
 struct GeoAux {
-    float area;               // summed world-space area A_y of the pixels under the texel
+    float front_area;         // summed world-space area A_y of each cluster's pixels
+    float back_area;
     uint pixels;              // pixels with geometry under the texel
-    uint continuous;          // 1: one smooth surface (may stand for its pixels)
-    uint pad;
+    uint flags;               // bit 0: one smooth surface (may stand for its pixels);
+                              // bit 8 + 2k + c: cluster c of child k went to the back cluster
 };
 
 layout(set = 0, binding = 0) buffer Geo { GeoTexel geo[]; };
 layout(set = 0, binding = 1) buffer Aux { GeoAux aux[]; };
-layout(set = 0, binding = 2) buffer Radiance { vec4 radiance[]; };
+layout(set = 0, binding = 2) buffer Radiance { vec4 radiance[]; };  // two per texel: front, back
 
 const uint MODE_HIERARCHICAL = 0u;
 const uint MODE_BRUTE = 1u;
@@ -81,13 +97,15 @@ ivec2 level_size(int l) {
     return ivec2(pc.pyramid_size) >> l;
 }
 
-// Index of texel t of level l in the pyramid buffers. Level l (N / 4^l
-// texels, N = texels of level 0) starts at 2N - 2N / 2^l: each level gets a
-// slot twice its size, which keeps the offset a shift (no division in the
-// traversal's inner loop) for 2N texels in all.
+// Index of texel t of level l in the pyramid buffers. Level l starts after
+// N + N/4 + ... + N/4^(l-1) = (4N - 4 N/4^l) / 3 texels (N = texels of
+// level 0); the division by 3 is a multiply-high (exact below 2^32), which
+// keeps integer division out of the traversal's inner loop.
 uint texel_index(ivec2 t, int l) {
-    uint n2 = 2u * pc.pyramid_size.x * pc.pyramid_size.y;
-    return n2 - (n2 >> l) + uint(t.y) * (pc.pyramid_size.x >> l) + uint(t.x);
+    uint n = pc.pyramid_size.x * pc.pyramid_size.y;
+    uint high, low;
+    umulExtended(4u * n - 4u * (n >> (2 * l)), 0xaaaaaaabu, high, low);
+    return (high >> 1) + uint(t.y) * (pc.pyramid_size.x >> l) + uint(t.x);
 }
 
 // The pixel that is the evaluation point of texel t of level l: the one at
@@ -182,11 +200,11 @@ void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float rad
         for (int px = lo.x; px <= hi.x; px++) {
             count++;
             uint i = texel_index(ivec2(px, py), 0);
-            GeoTexel g = geo[i];
+            GeoCluster g = geo[i].front;  // a pixel is one cluster
             vec3 d = g.position_extent.xyz - x;
             float d2 = dot(d, d);
-            if (texel_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
-                if (accumulate(acc, nx, g.normal_cone.xyz, d, sqrt(d2), radiance[i].rgb)) {
+            if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
+                if (accumulate(acc, nx, g.normal_cone.xyz, d, sqrt(d2), radiance[2u * i].rgb)) {
                     nearest = min(nearest, sqrt(d2));
                 }
             }
@@ -211,17 +229,51 @@ float max_cos_y(vec3 n, float cone_cos, vec3 d, float dist, float extent) {
     return cos_a * cos_b + sqrt(1.0 - cos_a * cos_a) * sin_b;  // cos(A - B)
 }
 
+// What to do with one cluster (empty clusters are skipped):
+const int SKIP = 0;
+const int ADD = 1;
+const int REFINE = 2;
+
+// A cluster is skipped if G cannot exceed b anywhere in it: G <= cos_x cos_y
+// / d^2 with d >= dist - radius, cos_x bounded by the bounding slab (it
+// reaches at most `reach` in front of the receiver's tangent plane) and cos_y
+// by the normal cone; a cluster behind the tangent plane or facing away has
+// G = 0. It needs refining if its bounding sphere is larger than
+// refine_ratio x its distance; otherwise it can be added from its means.
+int classify(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
+    vec2 extent = cluster_extent(g);  // radius, thickness
+    if (extent.y < 0.0) return SKIP;
+    vec3 d = g.position_extent.xyz - x;
+    float dist = length(d);
+    float d_min = dist - extent.x;
+    vec3 ny = g.normal_cone.xyz;
+    float ny_len = length(ny);
+    vec3 axis = ny_len > 0.0 ? ny / ny_len : vec3(0.0);
+    float a = clamp(dot(nx, axis), -1.0, 1.0);
+    float reach = dot(nx, d) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
+    // A coplanar cluster reaches 0 up to rounding of its normals (1e-3 of its extent).
+    if (reach <= 1e-3 * extent.x || d_min >= r_world) return SKIP;
+    if (d_min > 0.0) {
+        float g_max = min(1.0, reach / d_min) * max_cos_y(axis, g.normal_cone.w, d, dist, extent.x)
+            / (d_min * d_min);
+        if (g_max <= pc.bound) return SKIP;
+    }
+    return level > 0 && extent.x > pc.refine_ratio * dist ? REFINE : ADD;
+}
+
+// Adds a cluster from its means: max(G - b, 0) * sum(A_y S(y)).
+void add_cluster(inout Residual acc, GeoCluster g, vec3 x, vec3 nx, vec3 as, inout float nearest) {
+    vec3 d = g.position_extent.xyz - x;
+    float dist = length(d);
+    if (dist > 1e-6 && accumulate(acc, nx, g.normal_cone.xyz, d, dist, as)) {
+        nearest = min(nearest, max(dist - cluster_extent(g).x, 0.0));
+    }
+}
+
 // Top-down over the pyramid, from the texels of the coarsest level that is
-// about half the radius on screen ("roots"). Every texel read is counted. A
-// texel is
-//  - skipped if G cannot exceed b anywhere under it: G <= cos_x cos_y / d^2
-//    with d >= dist - radius, cos_x bounded by the bounding slab (it reaches
-//    at most `reach` in front of the receiver's tangent plane) and cos_y by
-//    the normal cone; a texel behind the tangent plane or facing away has
-//    G = 0;
-//  - refined into its four children (one level finer) if its bounding sphere
-//    is larger than refine_ratio x its distance;
-//  - otherwise added from its means: max(G - b, 0) * sum(A_y S(y)).
+// about half the radius on screen ("roots"). Every texel read is counted.
+// A texel is refined into its four children (one level finer) if either of
+// its clusters needs refining; otherwise its clusters are added or skipped.
 // The walk is one flat loop without a stack (and without break/continue,
 // which lavapipe's SIMD loops have mishandled): the padded pyramid gives
 // every texel four children, visited in the order (0,0) (1,0) (0,1) (1,1);
@@ -241,30 +293,12 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
         count++;
         uint i = texel_index(t.xy, t.z);
         GeoTexel g = geo[i];
-        vec2 extent = texel_extent(g);  // radius, thickness
-        bool refine = false;
-        if (extent.y >= 0.0) {
-            vec3 d = g.position_extent.xyz - x;
-            float dist = length(d);
-            float d_min = dist - extent.x;
-            vec3 ny = g.normal_cone.xyz;
-            float ny_len = length(ny);
-            vec3 axis = ny_len > 0.0 ? ny / ny_len : vec3(0.0);
-            float a = clamp(dot(nx, axis), -1.0, 1.0);
-            float reach = dot(nx, d) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
-            // A coplanar texel reaches 0 up to rounding of its normals (1e-3 of its extent).
-            bool contributes = reach > 1e-3 * extent.x && d_min < r_world;
-            if (contributes && d_min > 0.0) {
-                float g_max = min(1.0, reach / d_min) * max_cos_y(axis, g.normal_cone.w, d, dist, extent.x)
-                    / (d_min * d_min);
-                contributes = g_max > pc.bound;
-            }
-            if (contributes) {
-                refine = t.z > 0 && extent.x > pc.refine_ratio * dist;
-                if (!refine && dist > 1e-6 && accumulate(acc, nx, ny, d, dist, radiance[i].rgb)) {
-                    nearest = min(nearest, max(d_min, 0.0));
-                }
-            }
+        int front = classify(g.front, x, nx, r_world, t.z);
+        int back = classify(g.back, x, nx, r_world, t.z);
+        bool refine = front == REFINE || back == REFINE;
+        if (!refine) {
+            if (front == ADD) add_cluster(acc, g.front, x, nx, radiance[2u * i].rgb, nearest);
+            if (back == ADD) add_cluster(acc, g.back, x, nx, radiance[2u * i + 1u].rgb, nearest);
         }
         if (refine) {
             t = ivec3(t.xy * 2, t.z - 1);

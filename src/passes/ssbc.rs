@@ -212,16 +212,17 @@ pub fn pyramid_levels(width: u32, height: u32) -> u32 {
     (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
 }
 
-/// Texel slots of a pyramid whose level 0 is `size` (padded so every level
-/// halves exactly): level l starts at 2N - 2N / 2^l (`texel_index` in
-/// ssbc.glsl), so all levels fit in 2N.
-fn pyramid_texels(size: (u32, u32)) -> u64 {
-    2 * size.0 as u64 * size.1 as u64
+/// Texels of all `levels` levels of a pyramid whose level 0 is `size`
+/// (padded so every level halves exactly; `texel_index` in ssbc.glsl).
+fn pyramid_texels(size: (u32, u32), levels: u32) -> u64 {
+    let n = size.0 as u64 * size.1 as u64;
+    (4 * n - 4 * (n >> (2 * levels))) / 3
 }
 
 /// Sizes of the GLSL structs, in bytes.
-const GEO_TEXEL_BYTES: u64 = 32;
-const VEC4_BYTES: u64 = 16;
+const GEO_TEXEL_BYTES: u64 = 64;
+const AUX_BYTES: u64 = 16;
+const RADIANCE_BYTES: u64 = 32;
 const EVAL_POINT_BYTES: u64 = 64;
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
 const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
@@ -327,7 +328,7 @@ impl SsbcPass {
             extent.0.div_ceil(align) * align,
             extent.1.div_ceil(align) * align,
         );
-        let texels = pyramid_texels(pyramid_size);
+        let texels = pyramid_texels(pyramid_size, levels);
         let storage = |name: &str, size: u64, extra: vk::BufferUsageFlags| {
             Buffer::new(
                 device,
@@ -359,8 +360,8 @@ impl SsbcPass {
             .collect::<Result<_>>()?;
         Ok(SsbcFrame {
             geo: storage("ssbc.pyramid.geometry", texels * GEO_TEXEL_BYTES, none)?,
-            aux: storage("ssbc.pyramid.aux", texels * VEC4_BYTES, none)?,
-            radiance: storage("ssbc.pyramid.radiance", texels * VEC4_BYTES, none)?,
+            aux: storage("ssbc.pyramid.aux", texels * AUX_BYTES, none)?,
+            radiance: storage("ssbc.pyramid.radiance", texels * RADIANCE_BYTES, none)?,
             points: storage(
                 "ssbc.eval_points",
                 texels * EVAL_POINT_BYTES,
