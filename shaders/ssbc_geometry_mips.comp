@@ -1,4 +1,5 @@
 #version 460
+#extension GL_EXT_control_flow_attributes : require
 // SSBC geometry pyramid, one level per dispatch (pc.level).
 // Level 0 from the G-buffer: the pixel's world position and unit normal, and
 // the world-space area A_y seen through it (one cluster). Level l from l-1:
@@ -36,7 +37,7 @@ Merged merge(uint mask) {
     float area = 0.0;
     vec3 position = vec3(0.0);
     vec3 normal = vec3(0.0);
-    for (int j = 0; j < 8; j++) {
+    [[unroll]] for (int j = 0; j < 8; j++) {
         if ((mask & (1u << j)) != 0u && member_area[j] > 0.0) {
             area += member_area[j];
             position += member_area[j] * members[j].position_extent.xyz;
@@ -54,7 +55,7 @@ Merged merge(uint mask) {
     float radius = 0.0;
     float thickness = 0.0;
     float cone = 0.0;
-    for (int j = 0; j < 8; j++) {
+    [[unroll]] for (int j = 0; j < 8; j++) {
         if ((mask & (1u << j)) != 0u && member_area[j] > 0.0) {
             vec3 offset = members[j].position_extent.xyz - position;
             vec3 nc = members[j].normal_cone.xyz;
@@ -92,7 +93,7 @@ void main() {
     uint pixels = 0u;
     bool continuous = true;
     float depth[8];
-    for (int k = 0; k < 4; k++) {
+    [[unroll]] for (int k = 0; k < 4; k++) {
         uint c = texel_index(p * 2 + ivec2(k & 1, k >> 1), level - 1);
         GeoTexel child = geo[c];
         GeoAux child_aux = aux[c];
@@ -105,22 +106,22 @@ void main() {
     }
     // Split at the largest gap in depth between consecutive members.
     uint present = 0u;
-    for (int j = 0; j < 8; j++) {
+    [[unroll]] for (int j = 0; j < 8; j++) {
         depth[j] = dot(members[j].position_extent.xyz - pc.camera_position.xyz, pc.camera_forward.xyz);
         if (member_area[j] > 0.0) present |= 1u << j;
     }
     uint back_mask = 0u;
     float largest_gap = 0.0;
-    for (int j = 0; j < 8; j++) {
+    [[unroll]] for (int j = 0; j < 8; j++) {
         // Gap from member j to the nearest member behind it.
         float next = 3.4e38;
-        for (int i = 0; i < 8; i++) {
+        [[unroll]] for (int i = 0; i < 8; i++) {
             if ((present & (1u << i)) != 0u && depth[i] > depth[j]) next = min(next, depth[i]);
         }
         if ((present & (1u << j)) != 0u && next < 3.4e38 && next - depth[j] > largest_gap) {
             largest_gap = next - depth[j];
             back_mask = 0u;
-            for (int i = 0; i < 8; i++) {
+            [[unroll]] for (int i = 0; i < 8; i++) {
                 if ((present & (1u << i)) != 0u && depth[i] > depth[j]) back_mask |= 1u << i;
             }
         }

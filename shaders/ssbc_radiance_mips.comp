@@ -1,4 +1,5 @@
 #version 460
+#extension GL_EXT_control_flow_attributes : require
 // SSBC radiance pyramid of the term being compensated, S_{k-1}, one level
 // per dispatch (pc.level): level 0 holds A_y S_{k-1}(y) per pixel (its one
 // cluster), level l sums its children's clusters into the cluster each was
@@ -24,9 +25,9 @@ void main() {
     uint back_mask = aux[dst].flags >> 8;
     vec3 front = vec3(0.0);
     vec3 back = vec3(0.0);
-    for (int k = 0; k < 4; k++) {
+    [[unroll]] for (int k = 0; k < 4; k++) {
         uint c = texel_index(p * 2 + ivec2(k & 1, k >> 1), level - 1);
-        for (int j = 0; j < 2; j++) {
+        [[unroll]] for (int j = 0; j < 2; j++) {
             vec3 s = radiance[2u * c + uint(j)].rgb;
             if ((back_mask & (1u << (2 * k + j))) != 0u) {
                 back += s;

@@ -242,21 +242,22 @@ const int REFINE = 2;
 // refine_ratio x its distance; otherwise it can be added from its means.
 int classify(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     vec2 extent = cluster_extent(g);  // radius, thickness
-    if (extent.y < 0.0) return SKIP;
     vec3 d = g.position_extent.xyz - x;
     float dist = length(d);
     float d_min = dist - extent.x;
+    if (extent.y < 0.0 || d_min >= r_world) return SKIP;
     vec3 ny = g.normal_cone.xyz;
     float ny_len = length(ny);
     vec3 axis = ny_len > 0.0 ? ny / ny_len : vec3(0.0);
     float a = clamp(dot(nx, axis), -1.0, 1.0);
     float reach = dot(nx, d) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
     // A coplanar cluster reaches 0 up to rounding of its normals (1e-3 of its extent).
-    if (reach <= 1e-3 * extent.x || d_min >= r_world) return SKIP;
+    if (reach <= 1e-3 * extent.x) return SKIP;
     if (d_min > 0.0) {
-        float g_max = min(1.0, reach / d_min) * max_cos_y(axis, g.normal_cone.w, d, dist, extent.x)
-            / (d_min * d_min);
+        // G <= cos_x / d_min^2 first; the cone's bound on cos_y only if that is not enough.
+        float g_max = min(1.0, reach / d_min) / (d_min * d_min);
         if (g_max <= pc.bound) return SKIP;
+        if (g_max * max_cos_y(axis, g.normal_cone.w, d, dist, extent.x) <= pc.bound) return SKIP;
     }
     return level > 0 && extent.x > pc.refine_ratio * dist ? REFINE : ADD;
 }
