@@ -1,16 +1,22 @@
 //! Per-pass GPU time from timestamp queries, reported as ratios within one
 //! run (machines are shared and noisy). Run with
-//! `cargo bench --bench passes` (add `-- --quick` for 512x384).
+//! `cargo bench --bench passes` (add `-- --quick` for 512x384, `--reps N` for
+//! the best of N warm frames per configuration; default 2).
+//!
+//! Every configuration is rendered once to warm up (pipelines, first touch of
+//! memory) and then `reps` times; the frame with the lowest GPU time is kept.
 //!
 //! Tables:
 //! 1. instant radiosity: per-pass GPU ms for cornell and tori, 256 and 1024 VPLs;
-//! 2. SSBC: frame GPU ms with 0..3 steps and each step's overhead relative
-//!    to the 0-step frame;
-//! 3. hierarchical vs brute-force integration: time and sample ratios (at a
+//! 2. SSBC: frame GPU ms with 0..3 steps, what a step adds over the 0-step
+//!    frame, texels read per pixel and GPU ns per texel read;
+//! 3. where one step's time goes (its parts);
+//! 4. hierarchical vs brute-force integration: time and texel ratios (at a
 //!    quarter of the resolution: brute force is quadratic in the radius).
 
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::Scene;
 
 fn pass_ms(f: &Frame, name: &str) -> f64 {
     f.timings
@@ -21,12 +27,37 @@ fn pass_ms(f: &Frame, name: &str) -> f64 {
         .sum()
 }
 
+/// The fastest of `reps` frames after one warm-up frame.
+fn measure(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    settings: &RenderSettings,
+    reps: usize,
+) -> Frame {
+    renderer.render(scene, settings).expect("warm-up frame");
+    (0..reps.max(1))
+        .map(|_| renderer.render(scene, settings).expect("frame"))
+        .min_by(|a, b| a.timings.frame_gpu_ms.total_cmp(&b.timings.frame_gpu_ms))
+        .expect("at least one frame")
+}
+
+fn geometry_pixels(f: &Frame) -> usize {
+    f.image.rgba.chunks_exact(4).filter(|p| p[3] != 0.0).count()
+}
+
 fn main() {
-    let quick = std::env::args().any(|a| a == "--quick");
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let reps: usize = args
+        .iter()
+        .position(|a| a == "--reps")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2);
     let (w, h) = if quick { (512, 384) } else { (1024, 768) };
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     let device = renderer.device().name().to_string();
-    println!("# ssbc benchmark on {device}, {w}x{h}\n");
+    println!("# ssbc benchmark on {device}, {w}x{h}, best of {reps} warm frames\n");
     let scenes = ["cornell", "tori"];
     let settings =
         |vpls: usize, steps: u32, integration: Integration, size: (u32, u32)| RenderSettings {
@@ -58,12 +89,12 @@ fn main() {
     for scene_name in scenes {
         let scene = ssbc::scene::load(scene_name).unwrap();
         for vpls in [256, 1024] {
-            let f = renderer
-                .render(
-                    &scene,
-                    &settings(vpls, 0, Integration::Hierarchical, (w, h)),
-                )
-                .unwrap();
+            let f = measure(
+                &mut renderer,
+                &scene,
+                &settings(vpls, 0, Integration::Hierarchical, (w, h)),
+                reps,
+            );
             let cells: Vec<String> = passes
                 .iter()
                 .map(|p| format!("{:.1}", pass_ms(&f, p)))
@@ -77,62 +108,94 @@ fn main() {
         }
     }
 
-    println!("\n## SSBC steps: frame GPU ms and overhead over the 0-step frame (256 VPLs)\n");
-    println!("| scene | 0 steps | 1 step | 2 steps | 3 steps | step 1 | step 2 | step 3 | samples/pixel (avg, max) |");
+    println!("\n## SSBC: frame GPU ms with K steps, and what a step adds to the 0-step frame\n");
+    println!(
+        "Per step = (frame with K steps - 0-step frame) / K, so it includes the geometry \
+         pyramid (built once per frame) spread over the steps. Texels: read per geometry \
+         pixel by step 1 (average, most of any one pixel); ns/texel: GPU ns of step 1 per \
+         texel read.\n"
+    );
+    println!("| scene | VPLs | K | frame ms | per step ms | per step / 0-step frame | texels/px avg | max | ns/texel |");
     println!("|---|---|---|---|---|---|---|---|---|");
+    let mut parts = Vec::new();
     for scene_name in scenes {
         let scene = ssbc::scene::load(scene_name).unwrap();
-        let frames: Vec<Frame> = (0..4)
-            .map(|k| {
-                renderer
-                    .render(&scene, &settings(256, k, Integration::Hierarchical, (w, h)))
-                    .unwrap()
-            })
-            .collect();
-        let base = frames[0].timings.frame_gpu_ms;
-        let f3 = &frames[3];
-        let step_overheads: Vec<String> = f3
-            .timings
-            .ssbc_steps
-            .iter()
-            .map(|s| {
-                format!(
-                    "{:.1}%",
-                    100.0 * (s.gpu_ms + pass_ms(f3, "ssbc_geometry_mips") / 3.0) / base
-                )
-            })
-            .collect();
-        let samples = &f3.timings.ssbc_steps[0];
+        for vpls in [256, 1024] {
+            let frames: Vec<Frame> = (0..4)
+                .map(|k| {
+                    measure(
+                        &mut renderer,
+                        &scene,
+                        &settings(vpls, k, Integration::Hierarchical, (w, h)),
+                        reps,
+                    )
+                })
+                .collect();
+            let base = frames[0].timings.frame_gpu_ms;
+            for (k, f) in frames.iter().enumerate() {
+                if k == 0 {
+                    println!("| {scene_name} | {vpls} | 0 | {base:.1} | — | — | — | — | — |");
+                    continue;
+                }
+                let per_step = (f.timings.frame_gpu_ms - base) / k as f64;
+                let step = &f.timings.ssbc_steps[0];
+                let reads = step.samples_per_pixel_avg * geometry_pixels(f) as f64;
+                println!(
+                    "| {scene_name} | {vpls} | {k} | {:.1} | {per_step:.1} | {:.0}% | {:.1} | {:.0} | {:.1} |",
+                    f.timings.frame_gpu_ms,
+                    100.0 * per_step / base,
+                    step.samples_per_pixel_avg,
+                    step.samples_per_pixel_max,
+                    step.gpu_ms * 1e6 / reads.max(1.0)
+                );
+            }
+            if vpls == 256 {
+                parts.push((scene_name, frames[1].clone()));
+            }
+        }
+    }
+
+    println!("\n## One step's parts (256 VPLs, K = 1): GPU ms\n");
+    for (scene_name, f) in &parts {
+        let cells: Vec<String> = std::iter::once(format!(
+            "ssbc_geometry_mips {:.1}",
+            pass_ms(f, "ssbc_geometry_mips")
+        ))
+        .chain(
+            f.timings
+                .passes
+                .iter()
+                .filter(|p| p.name.starts_with("ssbc_step_1/"))
+                .map(|p| format!("{} {:.1}", &p.name["ssbc_step_1/".len()..], p.gpu_ms)),
+        )
+        .collect();
+        let step = &f.timings.ssbc_steps[0];
         println!(
-            "| {scene_name} | {:.1} | {:.1} ({:+.1}%) | {:.1} ({:+.1}%) | {:.1} ({:+.1}%) | {} | {:.1}, {} |",
-            base,
-            frames[1].timings.frame_gpu_ms,
-            100.0 * (frames[1].timings.frame_gpu_ms / base - 1.0),
-            frames[2].timings.frame_gpu_ms,
-            100.0 * (frames[2].timings.frame_gpu_ms / base - 1.0),
-            f3.timings.frame_gpu_ms,
-            100.0 * (f3.timings.frame_gpu_ms / base - 1.0),
-            step_overheads.join(" | "),
-            samples.samples_per_pixel_avg,
-            samples.samples_per_pixel_max
+            "- {scene_name}: {}; evaluation points from level {}, {:.1}% of pixels evaluated alone",
+            cells.join(", "),
+            step.eval_level,
+            step.fallback_fraction * 100.0
         );
     }
 
     let (bw, bh) = (w / 4, h / 4);
     println!("\n## Hierarchical vs brute force, one step at {bw}x{bh}\n");
-    println!("| scene | hierarchical ms | brute ms | time ratio | samples/pixel hier | brute | sample ratio |");
+    println!("| scene | hierarchical ms | brute ms | time ratio | texels/px hier | brute | texel ratio |");
     println!("|---|---|---|---|---|---|---|");
     for scene_name in scenes {
         let scene = ssbc::scene::load(scene_name).unwrap();
-        let hier = renderer
-            .render(
-                &scene,
-                &settings(256, 1, Integration::Hierarchical, (bw, bh)),
-            )
-            .unwrap();
-        let brute = renderer
-            .render(&scene, &settings(256, 1, Integration::Brute, (bw, bh)))
-            .unwrap();
+        let hier = measure(
+            &mut renderer,
+            &scene,
+            &settings(256, 1, Integration::Hierarchical, (bw, bh)),
+            reps,
+        );
+        let brute = measure(
+            &mut renderer,
+            &scene,
+            &settings(256, 1, Integration::Brute, (bw, bh)),
+            reps,
+        );
         let (th, tb) = (
             hier.timings.ssbc_steps[0].gpu_ms,
             brute.timings.ssbc_steps[0].gpu_ms,

@@ -176,8 +176,17 @@ fn hierarchical_matches_brute_force() {
         }
     }
     drop(renderer);
-    assert_eq!(log.total(), 0, "validation reported {} message(s)", log.total());
-    assert!(failures.is_empty(), "beyond 2% / 1%:\n{}", failures.join("\n"));
+    assert_eq!(
+        log.total(),
+        0,
+        "validation reported {} message(s)",
+        log.total()
+    );
+    assert!(
+        failures.is_empty(),
+        "beyond 2% / 1%:\n{}",
+        failures.join("\n")
+    );
 }
 
 /// Mean RGB sum per corner region of the Cornell box: pixels within 20 cm of

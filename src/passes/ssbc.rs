@@ -250,7 +250,8 @@ impl SsbcPass {
         // Points, pending in, pending out, requests, G-buffer (3), previous
         // sum, final, residual, samples (ssbc_output.glsl).
         let output = [&[T::STORAGE_BUFFER; 4][..], &[T::STORAGE_IMAGE; 7]].concat();
-        let kernel = |spirv, own: &[T]| ComputeKernel::new(device, spirv, &with_pyramids(own), push);
+        let kernel =
+            |spirv, own: &[T]| ComputeKernel::new(device, spirv, &with_pyramids(own), push);
         Ok(Self {
             // G-buffer position and normal.
             geometry: kernel(shaders::SSBC_GEOMETRY_MIPS_COMP, &[T::STORAGE_IMAGE; 2])?,
@@ -306,7 +307,8 @@ impl SsbcPass {
         }
         let radius_px = bound.sqrt().recip() / (depth.max(1e-3) * camera.pixel_side);
         let texels = radius_px / settings.texels_per_radius;
-        if !(texels >= 2.0) {
+        // (NaN for a degenerate camera or bound: evaluate every pixel.)
+        if texels.is_nan() || texels < 2.0 {
             return 0;
         }
         (texels.log2().floor() as u32)
@@ -418,6 +420,7 @@ impl SsbcPass {
     }
 
     /// Records the geometry pyramid and every step; `s0` is `T Le + T_b L^`.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         rec: &mut Recorder<'_>,

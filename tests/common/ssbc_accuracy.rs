@@ -10,8 +10,15 @@ use ssbc::scene::{Camera, Light, LightKind, Scene};
 fn quad(s: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32) {
     let n = u.cross(v).normalize();
     let p = [corner, corner + u, corner + u + v, corner + v];
-    s.add_mesh(&p, &[n; 4], &[], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, material)
-        .expect("quad");
+    s.add_mesh(
+        &p,
+        &[n; 4],
+        &[],
+        &[0, 1, 2, 0, 2, 3],
+        Mat4::IDENTITY,
+        material,
+    )
+    .expect("quad");
 }
 
 /// An axis-aligned box on the floor (five visible faces and a bottom).
@@ -35,13 +42,53 @@ pub fn open_box() -> Scene {
     let white = s.add_material(Vec3::splat(0.8), None);
     let (w, h, d) = (3.0f32, 2.4f32, 2.5f32);
     let (x0, z0, z1) = (-w / 2.0, -d / 2.0, d / 2.0);
-    quad(&mut s, Vec3::new(x0, 0.0, z1), Vec3::X * w, -Vec3::Z * d, white); // floor
-    quad(&mut s, Vec3::new(x0, h, z0), Vec3::X * w, Vec3::Z * d, white); // ceiling
-    quad(&mut s, Vec3::new(x0, 0.0, z0), Vec3::X * w, Vec3::Y * h, white); // back
-    quad(&mut s, Vec3::new(x0, 0.0, z1), -Vec3::Z * d, Vec3::Y * h, white); // left
-    quad(&mut s, Vec3::new(-x0, 0.0, z0), Vec3::Z * d, Vec3::Y * h, white); // right
-    block(&mut s, Vec3::new(-1.1, 0.0, -0.9), Vec3::new(-0.4, 1.3, -0.3), white);
-    block(&mut s, Vec3::new(0.3, 0.0, -0.1), Vec3::new(1.0, 0.5, 0.6), white);
+    quad(
+        &mut s,
+        Vec3::new(x0, 0.0, z1),
+        Vec3::X * w,
+        -Vec3::Z * d,
+        white,
+    ); // floor
+    quad(
+        &mut s,
+        Vec3::new(x0, h, z0),
+        Vec3::X * w,
+        Vec3::Z * d,
+        white,
+    ); // ceiling
+    quad(
+        &mut s,
+        Vec3::new(x0, 0.0, z0),
+        Vec3::X * w,
+        Vec3::Y * h,
+        white,
+    ); // back
+    quad(
+        &mut s,
+        Vec3::new(x0, 0.0, z1),
+        -Vec3::Z * d,
+        Vec3::Y * h,
+        white,
+    ); // left
+    quad(
+        &mut s,
+        Vec3::new(-x0, 0.0, z0),
+        Vec3::Z * d,
+        Vec3::Y * h,
+        white,
+    ); // right
+    block(
+        &mut s,
+        Vec3::new(-1.1, 0.0, -0.9),
+        Vec3::new(-0.4, 1.3, -0.3),
+        white,
+    );
+    block(
+        &mut s,
+        Vec3::new(0.3, 0.0, -0.1),
+        Vec3::new(1.0, 0.5, 0.6),
+        white,
+    );
     s.lights.push(Light {
         kind: LightKind::Point,
         position: Vec3::new(0.2, h - 0.1, -0.2),
@@ -99,7 +146,12 @@ pub fn residual_vs_twin(
     stride: usize,
 ) -> (TwinComparison, Frame) {
     let frame = renderer.render(scene, settings).expect("render");
-    let layer = |name: &str| &frame.layer(name).unwrap_or_else(|| panic!("layer {name}")).rgba;
+    let layer = |name: &str| {
+        &frame
+            .layer(name)
+            .unwrap_or_else(|| panic!("layer {name}"))
+            .rgba
+    };
     let camera = scene.camera(settings.camera).expect("camera");
     let g = GBufferView {
         width: frame.width,
