@@ -110,13 +110,14 @@ fn main() {
 
     println!("\n## SSBC: frame GPU ms with K steps, and what a step adds to the 0-step frame\n");
     println!(
-        "Per step = (frame with K steps - 0-step frame) / K, so it includes the geometry \
-         pyramid (built once per frame) spread over the steps. Texels: read per geometry \
-         pixel by step 1 (average, most of any one pixel); ns/texel: GPU ns of step 1 per \
-         texel read.\n"
+        "SSBC ms: the geometry pyramid and the K steps, from the frame's own timestamps; \
+         per step / rest: (SSBC ms / K) over the rest of the same frame (robust to the \
+         machine's noise); per step / 0-step: (frame - 0-step frame) / K over the 0-step \
+         frame (two frames). Texels: read per geometry pixel by step 1 (average, most of \
+         any one pixel); ns/texel: GPU ns of step 1 per texel read.\n"
     );
-    println!("| scene | VPLs | K | frame ms | per step ms | per step / 0-step frame | texels/px avg | max | ns/texel |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | VPLs | K | frame ms | SSBC ms | per step / rest | per step / 0-step | texels/px avg | max | ns/texel |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut parts = Vec::new();
     for scene_name in scenes {
         let scene = ssbc::scene::load(scene_name).unwrap();

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs what is missing (Debian 12, as root) and renders the default
-# scene (the built-in Cornell box) to cornell.exr and cornell.png.
+# scene (the built-in Cornell box) to out/cornell.exr, out/cornell.png and
+# out/cornell-timings.json.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-cargo run --release --locked -- render cornell -o cornell.exr -o cornell.png --timings cornell-timings.json "$@"
+mkdir -p out
+cargo run --release --locked -- render cornell -o out/cornell.exr -o out/cornell.png --timings out/cornell-timings.json "$@"

@@ -126,16 +126,32 @@ void main() {
             }
         }
     }
-    Merged whole = merge(present);
-    if (!(whole.area > 0.0)) {
+    Merged front = merge(present & ~back_mask);
+    Merged back = merge(back_mask);
+    float area = front.area + back.area;
+    if (!(area > 0.0)) {
         geo[dst] = GeoTexel(empty_cluster(), empty_cluster());
         aux[dst] = GeoAux(0.0, 0.0, 0u, 0u);
         return;
     }
-    Merged front = merge(present & ~back_mask);
-    Merged back = merge(back_mask);
-    continuous = continuous && whole.normal_len >= pc.max_normal_spread
-        && whole.thickness <= pc.max_thickness * whole.radius;
+    // The texel taken whole, for continuity: its mean normal and a slab
+    // around its mean holding both clusters' slabs.
+    vec3 normal = (front.area * front.cluster.normal_cone.xyz + back.area * back.cluster.normal_cone.xyz) / area;
+    vec3 position = (front.area * front.cluster.position_extent.xyz + back.area * back.cluster.position_extent.xyz) / area;
+    float normal_len = length(normal);
+    vec3 axis = normal_len > 0.0 ? normal / normal_len : vec3(0.0, 0.0, 1.0);
+    float radius = 0.0;
+    float thickness = 0.0;
+    for (int c = 0; c < 2; c++) {
+        Merged part = c == 0 ? front : back;
+        if (part.area > 0.0) {
+            vec3 offset = part.cluster.position_extent.xyz - position;
+            float a = part.normal_len > 0.0 ? clamp(dot(axis, part.cluster.normal_cone.xyz) / part.normal_len, -1.0, 1.0) : 0.0;
+            radius = max(radius, length(offset) + part.radius);
+            thickness = max(thickness, abs(dot(axis, offset)) + abs(a) * part.thickness + sqrt(1.0 - a * a) * part.radius);
+        }
+    }
+    continuous = continuous && normal_len >= pc.max_normal_spread && thickness <= pc.max_thickness * radius;
     geo[dst] = GeoTexel(front.cluster, back.cluster);
     aux[dst] = GeoAux(front.area, back.area, pixels, (continuous ? 1u : 0u) | (back_mask << 8));
 }

@@ -23,6 +23,10 @@ pub enum Error {
          loader with `apt-get install mesa-vulkan-drivers libvulkan1` (or run scripts/setup.sh)"
     )]
     NoDevice(String),
+    /// No window could be opened (`ssbc view`): no display, or a window-system
+    /// library is missing (the message names it and its Debian package).
+    #[error("cannot open a window: {0}")]
+    WindowSystem(String),
     /// Validation was asked for but the layer is not installed.
     #[error(
         "validation requested but VK_LAYER_KHRONOS_validation is not installed \

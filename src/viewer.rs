@@ -113,11 +113,86 @@ struct Viewer {
     window: Option<Window>,
 }
 
+/// Run-time libraries winit loads for each window system, with the Debian
+/// package that ships each (scripts/setup.sh installs them all).
+const X11_LIBRARIES: [(&str, &str); 7] = [
+    ("libX11.so.6", "libx11-6"),
+    ("libX11-xcb.so.1", "libx11-xcb1"),
+    ("libxcb.so.1", "libxcb1"),
+    ("libXcursor.so.1", "libxcursor1"),
+    ("libXi.so.6", "libxi6"),
+    ("libxkbcommon.so.0", "libxkbcommon0"),
+    ("libxkbcommon-x11.so.0", "libxkbcommon-x11-0"),
+];
+const WAYLAND_LIBRARIES: [(&str, &str); 3] = [
+    ("libwayland-client.so.0", "libwayland-client0"),
+    ("libwayland-cursor.so.0", "libwayland-cursor0"),
+    ("libxkbcommon.so.0", "libxkbcommon0"),
+];
+
+/// Whether a shared library can be loaded.
+fn loadable(name: &str) -> bool {
+    // SAFETY: loading a system library runs its initialisers; these are the
+    // window-system libraries winit itself would load.
+    unsafe { libloading::Library::new(name) }.is_ok()
+}
+
+/// Why the event loop could not be created, in terms a user can act on.
+fn window_system_error(cause: &str) -> Error {
+    let var = |name: &str| std::env::var(name).ok().filter(|v| !v.is_empty());
+    Error::WindowSystem(diagnose_window_system(
+        var("WAYLAND_DISPLAY"),
+        var("DISPLAY"),
+        cause,
+        loadable,
+    ))
+}
+
+/// Which display was tried, and which libraries (with their Debian
+/// packages) `loadable` cannot load.
+fn diagnose_window_system(
+    wayland: Option<String>,
+    x11: Option<String>,
+    cause: &str,
+    loadable: impl Fn(&str) -> bool,
+) -> String {
+    if wayland.is_none() && x11.is_none() {
+        return "no display: neither WAYLAND_DISPLAY nor DISPLAY is set (`ssbc render` needs none)"
+            .into();
+    }
+    let mut missing = Vec::new();
+    let mut tried = Vec::new();
+    for (display, system, libraries) in [
+        (&wayland, "Wayland", &WAYLAND_LIBRARIES[..]),
+        (&x11, "X11", &X11_LIBRARIES[..]),
+    ] {
+        if let Some(display) = display {
+            tried.push(format!("{system} ({display})"));
+            missing.extend(libraries.iter().filter(|(lib, _)| !loadable(lib)));
+        }
+    }
+    missing.sort();
+    missing.dedup();
+    if missing.is_empty() {
+        return format!("{} failed: {cause}", tried.join(" and "));
+    }
+    let names: Vec<String> = missing
+        .iter()
+        .map(|(lib, package)| format!("{lib} (Debian package {package})"))
+        .collect();
+    let packages: Vec<&str> = missing.iter().map(|(_, package)| *package).collect();
+    format!(
+        "{} needs {}; install with `apt-get install {}` (or run scripts/setup.sh)",
+        tried.join(" and "),
+        names.join(", "),
+        packages.join(" ")
+    )
+}
+
 /// Runs the viewer until the window closes (or `frames` are done). Returns
 /// the number of validation messages.
 pub fn run(options: ViewOptions) -> Result<u32> {
-    let event_loop =
-        EventLoop::new().map_err(|e| Error::NoDevice(format!("no window system: {e}")))?;
+    let event_loop = EventLoop::new().map_err(|e| window_system_error(&e.to_string()))?;
     let mut scene = options.scene.clone();
     scene.ensure_light();
     let camera = scene.camera(options.settings.camera)?;
@@ -697,5 +772,48 @@ impl ApplicationHandler for Viewer {
         if let Some(w) = &self.window {
             w.request_redraw();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_library_is_named_with_its_package() {
+        let message = diagnose_window_system(None, Some(":95".into()), "os error", |lib| {
+            !matches!(lib, "libXcursor.so.1" | "libxkbcommon-x11.so.0")
+        });
+        assert!(
+            message.contains("libXcursor.so.1 (Debian package libxcursor1)")
+                && message.contains("libxkbcommon-x11.so.0 (Debian package libxkbcommon-x11-0)")
+                && message.contains("apt-get install libxcursor1 libxkbcommon-x11-0")
+                && message.contains("X11 (:95)"),
+            "{message}"
+        );
+        let error = Error::WindowSystem(message).to_string();
+        assert!(!error.contains("Vulkan"), "{error}");
+    }
+
+    #[test]
+    fn no_display_and_other_failures_say_so() {
+        let none = diagnose_window_system(None, None, "", |_| true);
+        assert!(
+            none.contains("neither WAYLAND_DISPLAY nor DISPLAY"),
+            "{none}"
+        );
+        let other = diagnose_window_system(Some("wayland-0".into()), None, "refused", |_| true);
+        assert_eq!(other, "Wayland (wayland-0) failed: refused");
+    }
+
+    #[test]
+    fn every_window_system_library_is_installed_here() {
+        // The machines the suite runs on went through scripts/setup.sh.
+        let missing: Vec<_> = X11_LIBRARIES
+            .iter()
+            .chain(&WAYLAND_LIBRARIES)
+            .filter(|(lib, _)| !loadable(lib))
+            .collect();
+        assert!(missing.is_empty(), "not loadable: {missing:?}");
     }
 }
