@@ -1,7 +1,8 @@
 //! The viewer under Xvfb on lavapipe: it opens a window, renders a few
 //! frames with validation on, and its screenshot is the image the headless
 //! renderer makes with the same settings. Skipped (with the reason printed)
-//! only when no X server can be started.
+//! only when Xvfb is not installed; an Xvfb that cannot start, or a display
+//! the viewer cannot open, fails the test and says why.
 
 mod common;
 
@@ -17,8 +18,14 @@ impl Drop for Xvfb {
     }
 }
 
+/// Why the X server is missing: not installed (skip) or broken (fail).
+enum NoServer {
+    NotInstalled(String),
+    Broken(String),
+}
+
 /// Starts Xvfb on a free display number.
-fn start_xvfb() -> Result<(Xvfb, String), String> {
+fn start_xvfb() -> Result<(Xvfb, String), NoServer> {
     for display in 90..120 {
         if std::path::Path::new(&format!("/tmp/.X11-unix/X{display}")).exists()
             || std::path::Path::new(&format!("/tmp/.X{display}-lock")).exists()
@@ -37,8 +44,11 @@ fn start_xvfb() -> Result<(Xvfb, String), String> {
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
-            .map_err(|e| {
-                format!("Xvfb not available ({e}); install xvfb (scripts/setup.sh does)")
+            .map_err(|e| match e.kind() {
+                std::io::ErrorKind::NotFound => NoServer::NotInstalled(format!(
+                    "Xvfb is not installed ({e}); install xvfb (scripts/setup.sh does)"
+                )),
+                _ => NoServer::Broken(format!("Xvfb could not be started: {e}")),
             })?;
         let server = Xvfb(child);
         let start = Instant::now();
@@ -48,19 +58,22 @@ fn start_xvfb() -> Result<(Xvfb, String), String> {
             }
             std::thread::sleep(Duration::from_millis(50));
         }
-        return Err("Xvfb did not start within 10 s".into());
+        return Err(NoServer::Broken(format!(
+            "Xvfb :{display} did not open its socket within 10 s"
+        )));
     }
-    Err("no free X display number".into())
+    Err(NoServer::Broken("no free X display number in :90..:119".into()))
 }
 
 #[test]
 fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     let (_server, display) = match start_xvfb() {
         Ok(s) => s,
-        Err(reason) => {
+        Err(NoServer::NotInstalled(reason)) => {
             eprintln!("SKIPPED viewer test: {reason}");
             return;
         }
+        Err(NoServer::Broken(reason)) => panic!("no X server for the viewer: {reason}"),
     };
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot");
