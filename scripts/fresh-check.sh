@@ -51,6 +51,11 @@ mount --make-rslave "$root/dev"
 # The newcomer's machine: Rust, gcc, g++, make, git.
 chroot "$root" /bin/bash -c "export DEBIAN_FRONTEND=noninteractive; apt-get update -q >/dev/null && \
   apt-get install -y -q --no-install-recommends gcc g++ make git ca-certificates libc6-dev >/dev/null"
+# Networks with an intercepting proxy: trust what the host trusts.
+if [ -f /etc/ssl/certs/ca-certificates.crt ]; then
+  mkdir -p "$root/etc/ssl/certs"
+  cp /etc/ssl/certs/ca-certificates.crt "$root/etc/ssl/certs/ca-certificates.crt"
+fi
 toolchain=$(rustc --print sysroot)
 mkdir -p "$root/opt/rust"
 cp -a "$toolchain/." "$root/opt/rust/"

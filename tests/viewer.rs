@@ -62,7 +62,9 @@ fn start_xvfb() -> Result<(Xvfb, String), NoServer> {
             "Xvfb :{display} did not open its socket within 10 s"
         )));
     }
-    Err(NoServer::Broken("no free X display number in :90..:119".into()))
+    Err(NoServer::Broken(
+        "no free X display number in :90..:119".into(),
+    ))
 }
 
 #[test]

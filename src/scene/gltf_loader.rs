@@ -6,6 +6,13 @@
 //! byte range out of range is an error, not a panic. Buffer and image URIs are
 //! resolved relative to the scene's folder and may not leave it (no absolute
 //! paths, no `..` escapes, no symlinks out, no `file:` URIs).
+//!
+//! Work and memory are bounded by the input: nodes must form trees (each
+//! visited once, so shared or cyclic children cannot blow up), and the loaded
+//! scene (vertices, indices, decoded textures) may take at most
+//! [`BUDGET_BASE`] + [`BUDGET_FACTOR`] x the bytes read (the file and the
+//! buffers and images it names), so a small hostile file cannot make a huge
+//! allocation. Textures are PNG or JPEG, at most 8192 texels a side.
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -23,6 +30,10 @@ const MAX_BYTES: u64 = 1 << 30;
 const MAX_DEPTH: usize = 256;
 /// Largest texture side after decoding.
 const MAX_TEXTURE_SIDE: u32 = 8192;
+/// The loaded scene may take this many bytes whatever the input's size...
+pub const BUDGET_BASE: u64 = 32 << 20;
+/// ...plus this many times the bytes read.
+pub const BUDGET_FACTOR: u64 = 64;
 
 /// Loads a glTF or GLB file. `camera` is unused here (cameras are all kept).
 pub fn load(path: &Path) -> Result<Scene> {
@@ -79,6 +90,7 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
         base,
         blob,
         buffers: Vec::new(),
+        input_bytes: std::cell::Cell::new(bytes.len() as u64),
     }
     .load()
 }
@@ -118,6 +130,8 @@ struct Loader<'a> {
     base: &'a Path,
     blob: Option<Vec<u8>>,
     buffers: Vec<Option<Vec<u8>>>,
+    /// Bytes read so far: the file and every external buffer and image.
+    input_bytes: std::cell::Cell<u64>,
 }
 
 fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
@@ -130,6 +144,28 @@ fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
 impl Loader<'_> {
     fn err(&self, m: impl Into<String>) -> Error {
         Error::scene(self.name, m)
+    }
+
+    /// Bytes the loaded scene may take (see the module documentation).
+    fn budget(&self) -> u64 {
+        BUDGET_BASE.saturating_add(BUDGET_FACTOR.saturating_mul(self.input_bytes.get()))
+    }
+
+    /// Fails if `scene` plus `more` bytes would exceed the budget.
+    fn check_budget(&self, scene: &Scene, more: u64) -> Result<()> {
+        let used = scene.memory_bytes().saturating_add(more);
+        if used > self.budget() {
+            return Err(self.err(format!(
+                "the scene would take {} MiB, more than {} MiB for {} bytes of input \
+                 ({} MiB + {}x the input)",
+                used >> 20,
+                self.budget() >> 20,
+                self.input_bytes.get(),
+                BUDGET_BASE >> 20,
+                BUDGET_FACTOR
+            )));
+        }
+        Ok(())
     }
 
     fn load(mut self) -> Result<Scene> {
@@ -184,13 +220,13 @@ impl Loader<'_> {
                     .collect()
             }
         };
-        let mut on_path = HashSet::new();
+        let mut visited = HashSet::new();
         for r in roots {
             self.node(
                 r,
                 Mat4::IDENTITY,
                 0,
-                &mut on_path,
+                &mut visited,
                 &mut scene,
                 &material_map,
                 default_material,
@@ -208,7 +244,7 @@ impl Loader<'_> {
         index: usize,
         parent: Mat4,
         depth: usize,
-        on_path: &mut HashSet<usize>,
+        visited: &mut HashSet<usize>,
         scene: &mut Scene,
         materials: &[u32],
         default_material: u32,
@@ -221,8 +257,12 @@ impl Loader<'_> {
         if depth > MAX_DEPTH {
             return Err(self.err(format!("node hierarchy deeper than {MAX_DEPTH}")));
         }
-        if !on_path.insert(index) {
-            return Err(self.err(format!("node {index} is its own ancestor (cycle)")));
+        // glTF nodes form disjoint trees: a node reached twice is shared or
+        // its own ancestor (visiting it again could repeat work without end).
+        if !visited.insert(index) {
+            return Err(self.err(format!(
+                "node {index} is reached twice (nodes must form trees; a cycle or a shared child)"
+            )));
         }
         let local = match node.matrix {
             Some(m) => Mat4::from_cols_array(&m),
@@ -275,13 +315,12 @@ impl Loader<'_> {
                 child.value(),
                 world,
                 depth + 1,
-                on_path,
+                visited,
                 scene,
                 materials,
                 default_material,
             )?;
         }
-        on_path.remove(&index);
         Ok(())
     }
 
@@ -414,6 +453,10 @@ impl Loader<'_> {
             if scene.triangle_count() + indices.len() / 3 > MAX_TRIANGLES {
                 return Err(self.err(format!("more than {MAX_TRIANGLES} triangles")));
             }
+            self.check_budget(
+                scene,
+                (positions.len() * std::mem::size_of::<super::Vertex>() + indices.len() * 4) as u64,
+            )?;
             scene.add_mesh(&positions, &normals, &uvs, &indices, world, material)?;
         }
         Ok(())
@@ -503,7 +546,10 @@ impl Loader<'_> {
         if len > MAX_BYTES {
             return Err(self.err(format!("'{uri}' is larger than {MAX_BYTES} bytes")));
         }
-        std::fs::read(&resolved).map_err(|e| Error::io(&resolved, e))
+        let bytes = std::fs::read(&resolved).map_err(|e| Error::io(&resolved, e))?;
+        self.input_bytes
+            .set(self.input_bytes.get().saturating_add(bytes.len() as u64));
+        Ok(bytes)
     }
 
     /// The byte range of buffer view `index` (checked), and its stride.
@@ -675,12 +721,48 @@ impl Loader<'_> {
                 )))
             }
         };
-        let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes))
+        let reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
+            .with_guessed_format()
+            .map_err(|e| self.err(format!("image {image_index}: {e}")))?;
+        if !matches!(
+            reader.format(),
+            Some(image::ImageFormat::Png | image::ImageFormat::Jpeg)
+        ) {
+            let declared = image
+                .mime_type
+                .as_ref()
+                .map(|m| m.0.clone())
+                .or_else(|| data_uri_media_type(image.uri.as_deref()?));
+            let what = match (sniff_image_format(&bytes), declared) {
+                (Some(f), _) => f.to_string(),
+                (None, Some(m)) => format!("'{m}' (not recognised from its bytes)"),
+                (None, None) => "of an unknown format".into(),
+            };
+            return Err(self.err(format!(
+                "image {image_index} is {what}; ssbc reads PNG and JPEG textures"
+            )));
+        }
+        // Dimensions first (from the header): nothing is allocated for an
+        // image that is too large or would exceed the scene's budget.
+        let (width, height) = reader
+            .into_dimensions()
+            .map_err(|e| self.err(format!("image {image_index} cannot be decoded: {e}")))?;
+        if width > MAX_TEXTURE_SIDE || height > MAX_TEXTURE_SIDE {
+            return Err(self.err(format!(
+                "image {image_index} is {width}x{height}; textures may be at most \
+                 {MAX_TEXTURE_SIDE} texels a side"
+            )));
+        }
+        let rgba_bytes = width as u64 * height as u64 * 4;
+        self.check_budget(scene, rgba_bytes)?;
+        let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
             .with_guessed_format()
             .map_err(|e| self.err(format!("image {image_index}: {e}")))?;
         let mut limits = image::Limits::default();
         limits.max_image_width = Some(MAX_TEXTURE_SIDE);
         limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+        // The decoder's own buffers: the image at its stored depth, then RGBA.
+        limits.max_alloc = Some(2 * rgba_bytes + (1 << 20));
         reader.limits(limits);
         let decoded = reader
             .decode()
@@ -695,6 +777,44 @@ impl Loader<'_> {
         slots[image_index] = Some(slot);
         Ok(slot)
     }
+}
+
+/// The media type of a `data:` URI, if any.
+fn data_uri_media_type(uri: &str) -> Option<String> {
+    let rest = uri.strip_prefix("data:")?;
+    let media = rest.split([';', ',']).next()?;
+    (!media.is_empty()).then(|| media.to_string())
+}
+
+/// Names common image formats from their first bytes (for the error).
+fn sniff_image_format(bytes: &[u8]) -> Option<&'static str> {
+    let starts = |magic: &[u8]| bytes.starts_with(magic);
+    let at = |offset: usize, magic: &[u8]| bytes.get(offset..offset + magic.len()) == Some(magic);
+    Some(if starts(b"\x89PNG") {
+        "PNG"
+    } else if starts(b"\xff\xd8\xff") {
+        "JPEG"
+    } else if starts(b"GIF8") {
+        "GIF"
+    } else if starts(b"RIFF") && at(8, b"WEBP") {
+        "WebP"
+    } else if starts(b"\xabKTX 2") {
+        "KTX2"
+    } else if starts(b"\xabKTX 1") {
+        "KTX"
+    } else if starts(b"DDS ") {
+        "DDS"
+    } else if starts(b"BM") {
+        "BMP"
+    } else if starts(b"II*\0") || starts(b"MM\0*") {
+        "TIFF"
+    } else if at(4, b"ftypavif") || at(4, b"ftypheic") {
+        "AVIF/HEIF"
+    } else if starts(b"sB") {
+        "Basis Universal"
+    } else {
+        return None;
+    })
 }
 
 /// Triangle list indices for a triangle list, strip or fan.

@@ -293,6 +293,13 @@ impl Scene {
         b
     }
 
+    /// Bytes the scene's vertices, indices and textures take.
+    pub fn memory_bytes(&self) -> u64 {
+        (self.vertices.len() * std::mem::size_of::<Vertex>()
+            + self.indices.len() * 4
+            + self.textures.iter().map(|t| t.rgba8.len()).sum::<usize>()) as u64
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
