@@ -266,6 +266,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     let config = RendererConfig {
         validation: args.common.validation(),
         device: args.common.device(),
+        ..Default::default()
     };
     let settings = args.common.settings();
     let mut renderer = Renderer::new(&config)?;

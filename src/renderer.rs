@@ -33,7 +33,7 @@ use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSet
 use crate::scene::Scene;
 use crate::vk::{
     Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector,
-    GpuProfiler, Image, Instance, PassTiming, ValidationLog,
+    GpuProfiler, Image, Instance, PassTiming, Validation, ValidationLog,
 };
 
 /// How to create the renderer.
@@ -41,6 +41,9 @@ use crate::vk::{
 pub struct RendererConfig {
     /// Enable the Khronos validation layer with synchronization validation.
     pub validation: bool,
+    /// Enable it with GPU-assisted validation instead (out-of-bounds
+    /// accesses in shaders; slow).
+    pub gpu_assisted_validation: bool,
     /// Which device to use.
     pub device: DeviceSelector,
 }
@@ -348,7 +351,12 @@ const MAX_ISM_POINTS: u64 = 1 << 26;
 impl Renderer {
     /// Creates the instance, device and every pipeline.
     pub fn new(config: &RendererConfig) -> Result<Self> {
-        let instance = Instance::new(config.validation, &[])?;
+        let mode = match (config.gpu_assisted_validation, config.validation) {
+            (true, _) => Validation::GpuAssisted,
+            (false, true) => Validation::Synchronization,
+            (false, false) => Validation::Off,
+        };
+        let instance = Instance::with_validation(mode, &[])?;
         let device = Device::new(instance, &config.device, &[])?;
         Self::with_device(device)
     }

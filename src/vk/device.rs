@@ -420,6 +420,15 @@ impl Device {
     /// Blocks until the submission with timeline `value` has finished, then
     /// destroys garbage that is no longer in use.
     pub fn wait(&self, value: u64) -> Result<()> {
+        if self.instance.validation_mode() == super::Validation::GpuAssisted {
+            // GPU-assisted validation (layer 1.3.239) loses track of timeline
+            // signals and times out in vkWaitSemaphores; idling the queue
+            // retires every submission for it.
+            // SAFETY: the queue is only used from the thread that owns the renderer.
+            unsafe { self.raw.queue_wait_idle(self.queue) }.vk("vkQueueWaitIdle")?;
+            self.collect_garbage();
+            return Ok(());
+        }
         let semaphores = [self.timeline];
         let values = [value];
         let info = vk::SemaphoreWaitInfo::default()
@@ -439,6 +448,13 @@ impl Device {
 
     /// Timeline value of the last finished submission.
     pub fn completed_submission(&self) -> u64 {
+        if self.instance.validation_mode() == super::Validation::GpuAssisted {
+            // See `wait`: ask the queue, not the semaphore.
+            // SAFETY: the queue is only used from the thread that owns the renderer.
+            if unsafe { self.raw.queue_wait_idle(self.queue) }.is_ok() {
+                return self.next_submission.load(Ordering::SeqCst) - 1;
+            }
+        }
         // SAFETY: valid timeline semaphore.
         unsafe { self.raw.get_semaphore_counter_value(self.timeline) }.unwrap_or(0)
     }

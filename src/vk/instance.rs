@@ -15,11 +15,13 @@ use crate::error::{Error, Result, VkResultExt};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
-/// Counts the warnings and errors the validation layer reported.
+/// Counts the warnings and errors the validation layer reported, and keeps
+/// the first [`ValidationLog::KEPT`] messages.
 #[derive(Debug, Default)]
 pub struct ValidationLog {
     warnings: AtomicU32,
     errors: AtomicU32,
+    messages: std::sync::Mutex<Vec<String>>,
 }
 
 impl ValidationLog {
@@ -35,10 +37,28 @@ impl ValidationLog {
     pub fn total(&self) -> u32 {
         self.warnings() + self.errors()
     }
+
+    /// Messages kept.
+    pub const KEPT: usize = 64;
+
+    /// The first warnings and errors, as the layer wrote them.
+    pub fn messages(&self) -> Vec<String> {
+        self.messages
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .clone()
+    }
+
+    fn keep(&self, message: &str) {
+        let mut kept = self.messages.lock().unwrap_or_else(|p| p.into_inner());
+        if kept.len() < Self::KEPT {
+            kept.push(message.to_string());
+        }
+    }
 }
 
-/// Called by the validation layer on its own threads; only touches atomics
-/// and stderr.
+/// Called by the validation layer on its own threads; only touches atomics,
+/// the log's mutex and stderr.
 unsafe extern "system" fn debug_callback(
     severity: vk::DebugUtilsMessageSeverityFlagsEXT,
     kind: vk::DebugUtilsMessageTypeFlagsEXT,
@@ -58,14 +78,30 @@ unsafe extern "system" fn debug_callback(
     };
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         log.errors.fetch_add(1, Ordering::SeqCst);
+        log.keep(&message);
         eprintln!("[vulkan validation error] {kind:?}: {message}");
     } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
         log.warnings.fetch_add(1, Ordering::SeqCst);
+        log.keep(&message);
         eprintln!("[vulkan validation warning] {kind:?}: {message}");
     } else {
         log::debug!("[vulkan] {message}");
     }
     vk::FALSE
+}
+
+/// What the Khronos validation layer checks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Validation {
+    /// No layer.
+    #[default]
+    Off,
+    /// The API rules and synchronization validation (hazards between
+    /// commands): what every GPU test runs with.
+    Synchronization,
+    /// The API rules and GPU-assisted validation: shaders are instrumented
+    /// to report out-of-bounds buffer and image accesses.
+    GpuAssisted,
 }
 
 /// An `ash` instance with its optional debug messenger.
@@ -76,6 +112,7 @@ pub struct Instance {
     pub raw: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation_log: Arc<ValidationLog>,
+    validation: Validation,
     /// False for a host engine's instance: never destroyed here.
     owned: bool,
 }
@@ -85,6 +122,17 @@ impl Instance {
     /// enables the Khronos layer with synchronization validation. Extra
     /// instance extensions (e.g. for surfaces) can be requested.
     pub fn new(validation: bool, extra_extensions: &[&CStr]) -> Result<Arc<Self>> {
+        let mode = if validation {
+            Validation::Synchronization
+        } else {
+            Validation::Off
+        };
+        Self::with_validation(mode, extra_extensions)
+    }
+
+    /// Like [`Instance::new`], choosing what the validation layer checks.
+    pub fn with_validation(mode: Validation, extra_extensions: &[&CStr]) -> Result<Arc<Self>> {
+        let validation = mode != Validation::Off;
         // SAFETY: loading the system Vulkan loader runs its initialisers; we
         // trust the installed loader like any Vulkan application must.
         let entry = unsafe { ash::Entry::load() }
@@ -112,9 +160,15 @@ impl Instance {
             .application_name(c"ssbc")
             .engine_name(c"ssbc")
             .api_version(vk::API_VERSION_1_3);
-        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let enabled_features: &[vk::ValidationFeatureEnableEXT] = match mode {
+            Validation::GpuAssisted => &[
+                vk::ValidationFeatureEnableEXT::GPU_ASSISTED,
+                vk::ValidationFeatureEnableEXT::GPU_ASSISTED_RESERVE_BINDING_SLOT,
+            ],
+            _ => &[vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION],
+        };
         let mut validation_features =
-            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(enabled_features);
         let user_data = Arc::as_ptr(&validation_log) as *mut c_void;
         let messenger_info = || {
             vk::DebugUtilsMessengerCreateInfoEXT::default()
@@ -178,6 +232,7 @@ impl Instance {
             raw,
             debug,
             validation_log,
+            validation: mode,
             owned: true,
         }))
     }
@@ -190,11 +245,17 @@ impl Instance {
             raw,
             debug: None,
             validation_log: Arc::default(),
+            validation: Validation::Off,
             owned: false,
         })
     }
 
-    /// Whether validation is on.
+    /// What the validation layer checks on this instance.
+    pub fn validation_mode(&self) -> Validation {
+        self.validation
+    }
+
+    /// Whether ssbc enabled the validation layer on this instance.
     pub fn validation_enabled(&self) -> bool {
         self.debug.is_some()
     }

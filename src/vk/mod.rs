@@ -24,7 +24,7 @@ pub use commands::{CommandPool, Recorder, TrackedImage};
 pub use descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 pub use device::{Device, DeviceSelector, HostDevice, RequiredFeatures};
 pub use image::{Image, ImageDesc, Sampler};
-pub use instance::{Instance, ValidationLog};
+pub use instance::{Instance, Validation, ValidationLog};
 pub use pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
 pub use profiler::{GpuProfiler, PassTiming};
 pub use swapchain::{BinarySemaphore, Swapchain, SwapchainImage};

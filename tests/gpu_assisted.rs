@@ -1,0 +1,163 @@
+//! Shaders checked for out-of-bounds accesses: the ISM and SSBC passes (and
+//! the rest of the frame) under GPU-assisted validation, which instruments
+//! every buffer and image access; a deliberately out-of-bounds kernel shows
+//! the check can fail. And no layer of a frame holds a NaN or an infinity.
+
+mod common;
+
+use ash::vk;
+use ssbc::passes::ssbc::Integration;
+use ssbc::renderer::{Bound, Renderer, RendererConfig};
+use ssbc::vk::{Binding, Buffer, ComputeKernel, DescriptorPool, Device, Instance, Validation};
+
+fn gpu_assisted_renderer() -> Renderer {
+    Renderer::new(&RendererConfig {
+        gpu_assisted_validation: true,
+        ..Default::default()
+    })
+    .expect("renderer with GPU-assisted validation")
+}
+
+#[test]
+fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
+    let mut renderer = gpu_assisted_renderer();
+    let log = renderer.validation_log();
+    let mut open_box = common::ssbc_accuracy::open_box();
+    open_box.ensure_light();
+    let scenes = [
+        ssbc::scene::builtin::cornell(),
+        ssbc::scene::builtin::tori(),
+        open_box,
+    ];
+    for scene in &scenes {
+        for (size, integration, bound) in [
+            ((96, 72), Integration::Hierarchical, Bound::Auto),
+            ((130, 98), Integration::Hierarchical, Bound::Value(2.0)),
+            ((40, 30), Integration::Brute, Bound::Auto),
+        ] {
+            let mut s = common::small(size.0, size.1);
+            s.vpl.count = 16;
+            s.points_per_vpl = 256;
+            s.ism_tile = 16;
+            s.shadow_map_size = 64;
+            s.bound = bound;
+            s.ssbc.steps = 2;
+            s.ssbc.integration = integration;
+            renderer.render(scene, &s).expect("render");
+        }
+    }
+    drop(renderer);
+    assert_eq!(
+        log.total(),
+        0,
+        "GPU-assisted validation reported {} message(s): {:?}",
+        log.total(),
+        log.messages()
+    );
+}
+
+/// A kernel that writes one element past the end of its buffer.
+const OUT_OF_BOUNDS: &str = r#"#version 460
+layout(local_size_x = 1) in;
+layout(set = 0, binding = 0) buffer Data { uint data[]; };
+void main() { data[data.length() + 7u] = 1u; }
+"#;
+
+#[test]
+fn gpu_assisted_validation_catches_an_out_of_bounds_write() {
+    let compiler = shaderc::Compiler::new().expect("shaderc");
+    let mut options = shaderc::CompileOptions::new().unwrap();
+    options.set_target_env(
+        shaderc::TargetEnv::Vulkan,
+        shaderc::EnvVersion::Vulkan1_2 as u32,
+    );
+    let spirv = compiler
+        .compile_into_spirv(
+            OUT_OF_BOUNDS,
+            shaderc::ShaderKind::Compute,
+            "oob.comp",
+            "main",
+            Some(&options),
+        )
+        .expect("compile");
+    let instance = Instance::with_validation(Validation::GpuAssisted, &[]).unwrap();
+    let log = instance.validation_log();
+    let device = Device::new(instance, &Default::default(), &[]).unwrap();
+    {
+        let kernel = ComputeKernel::new(
+            &device,
+            spirv.as_binary_u8(),
+            &[vk::DescriptorType::STORAGE_BUFFER],
+            0,
+        )
+        .unwrap();
+        let buffer = Buffer::new(
+            &device,
+            "oob",
+            16,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            gpu_allocator::MemoryLocation::GpuOnly,
+        )
+        .unwrap();
+        let pool = DescriptorPool::new(&device, &[kernel.set_layout()]).unwrap();
+        let mut commands = ssbc::vk::CommandPool::new(&device).unwrap();
+        let rec = commands.begin().unwrap();
+        kernel
+            .dispatch(
+                rec.cmd,
+                &pool,
+                &[Binding::StorageBuffer(&buffer)],
+                &[],
+                [1, 1, 1],
+            )
+            .unwrap();
+        let done = rec.submit().unwrap();
+        device.wait(done).unwrap();
+        device.wait_idle().unwrap();
+    }
+    drop(device);
+    let messages = log.messages();
+    assert!(
+        messages
+            .iter()
+            .any(|m| m.contains("out of bounds") || m.contains("OOB") || m.contains("outside")),
+        "the out-of-bounds write should be reported, got {messages:?}"
+    );
+}
+
+#[test]
+fn no_layer_holds_nan_or_infinity() {
+    let mut renderer = Renderer::new(&RendererConfig {
+        validation: true,
+        ..Default::default()
+    })
+    .unwrap();
+    let log = renderer.validation_log();
+    for scene in [
+        ssbc::scene::builtin::cornell(),
+        ssbc::scene::builtin::tori(),
+    ] {
+        let mut s = common::small(128, 96);
+        s.vpl.count = 64;
+        s.ssbc.steps = 3;
+        s.debug_readback = true;
+        let f = renderer.render(&scene, &s).unwrap();
+        for layer in std::iter::once(&f.image).chain(&f.layers) {
+            let bad = layer.rgba.iter().filter(|v| !v.is_finite()).count();
+            assert_eq!(
+                bad, 0,
+                "{}: {} non-finite values in {}",
+                scene.name, bad, layer.name
+            );
+        }
+        for (k, samples) in f.samples.iter().enumerate() {
+            assert!(
+                samples.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "samples_{}",
+                k + 1
+            );
+        }
+    }
+    drop(renderer);
+    assert_eq!(log.total(), 0);
+}
