@@ -135,15 +135,19 @@ fn main() {
             let base = frames[0].timings.frame_gpu_ms;
             for (k, f) in frames.iter().enumerate() {
                 if k == 0 {
-                    println!("| {scene_name} | {vpls} | 0 | {base:.1} | — | — | — | — | — |");
+                    println!("| {scene_name} | {vpls} | 0 | {base:.1} | — | — | — | — | — | — |");
                     continue;
                 }
+                let ssbc_ms = pass_ms(f, "ssbc_geometry_mips")
+                    + f.timings.ssbc_steps.iter().map(|s| s.gpu_ms).sum::<f64>();
+                let rest = f.timings.frame_gpu_ms - ssbc_ms;
                 let per_step = (f.timings.frame_gpu_ms - base) / k as f64;
                 let step = &f.timings.ssbc_steps[0];
                 let reads = step.samples_per_pixel_avg * geometry_pixels(f) as f64;
                 println!(
-                    "| {scene_name} | {vpls} | {k} | {:.1} | {per_step:.1} | {:.0}% | {:.1} | {:.0} | {:.1} |",
+                    "| {scene_name} | {vpls} | {k} | {:.1} | {ssbc_ms:.1} | {:.0}% | {:.0}% | {:.1} | {:.0} | {:.1} |",
                     f.timings.frame_gpu_ms,
+                    100.0 * ssbc_ms / k as f64 / rest,
                     100.0 * per_step / base,
                     step.samples_per_pixel_avg,
                     step.samples_per_pixel_max,
