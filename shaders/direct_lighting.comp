@@ -1,5 +1,6 @@
 #version 460
-// Deferred direct lighting T Le: every light, shadowed by its shadow map.
+// Deferred direct lighting T Le: every punctual light, shadowed by its
+// shadow map; plus Le, the radiance emissive surfaces send to the camera.
 #include "common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -11,6 +12,7 @@ layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D direct;
 layout(set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = 5) readonly buffer ShadowViews { ShadowView shadow_views[]; };
 layout(set = 0, binding = 6) uniform sampler2DArray shadow_maps;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_emission;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -29,7 +31,7 @@ void main() {
     }
     vec3 n = imageLoad(g_normal, pixel).xyz;
     vec3 albedo = imageLoad(g_albedo, pixel).rgb;
-    vec3 radiance = vec3(0.0);
+    vec3 radiance = imageLoad(g_emission, pixel).rgb;
     for (uint i = 0u; i < pc.light_count; i++) {
         radiance += direct_radiance(lights[i], position.xyz, n, albedo);
     }

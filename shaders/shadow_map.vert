@@ -1,12 +1,19 @@
 #version 460
-// Shadow map: depth only, one layer per draw.
+// Shadow map: depth, one layer per draw; uv and material for alpha masks.
 
 layout(location = 0) in vec3 in_position;
+layout(location = 2) in vec2 in_uv;
+layout(location = 3) in uint in_material;
 
 layout(push_constant) uniform Push {
     mat4 view_proj;
 } pc;
 
+layout(location = 0) out vec2 v_uv;
+layout(location = 1) flat out uint v_material;
+
 void main() {
+    v_uv = in_uv;
+    v_material = in_material;
     gl_Position = pc.view_proj * vec4(in_position, 1.0);
 }

@@ -1,5 +1,5 @@
-//! A scene uploaded to the GPU: vertex and index buffers, materials, the
-//! base-colour texture array, and lights.
+//! A scene uploaded to the GPU: vertex and index buffers, materials, and the
+//! two texture arrays (colour textures in sRGB, normal maps linear).
 
 use std::sync::Arc;
 
@@ -24,9 +24,11 @@ pub struct GpuScene {
     pub index_count: u32,
     /// `GpuMaterial` per material.
     pub materials: Buffer,
-    /// All base-colour textures, resized to one size, one layer each (sRGB).
-    pub textures: Image,
-    /// Bilinear, repeating sampler for `textures`.
+    /// Base-colour and emissive textures, resized to one size, one layer each (sRGB).
+    pub color_textures: Image,
+    /// Normal maps, resized to one size, one layer each (linear).
+    pub linear_textures: Image,
+    /// Nearest, clamped sampler (material.glsl filters and wraps by hand).
     pub texture_sampler: Sampler,
     /// Scene bounds.
     pub bounds: Bounds,
@@ -47,72 +49,142 @@ impl GpuScene {
             &scene.indices,
             vk::BufferUsageFlags::INDEX_BUFFER,
         )?;
-        let mats: Vec<GpuMaterial> = scene.materials.iter().map(GpuMaterial::new).collect();
+        // Which textures go to which array.
+        let mut as_color = vec![false; scene.textures.len()];
+        let mut as_linear = vec![false; scene.textures.len()];
+        for m in &scene.materials {
+            for t in [m.texture, m.emissive_texture.map(|t| t.index)]
+                .into_iter()
+                .flatten()
+            {
+                as_color[t] = true;
+            }
+            if let Some(t) = m.normal_texture {
+                as_linear[t.index] = true;
+            }
+        }
+        let layers = |used: &[bool]| -> Vec<i32> {
+            let mut next = 0;
+            used.iter()
+                .map(|&u| {
+                    if u {
+                        next += 1;
+                        next - 1
+                    } else {
+                        -1
+                    }
+                })
+                .collect()
+        };
+        let (color_layer, linear_layer) = (layers(&as_color), layers(&as_linear));
+        let mats: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial::new(m, &color_layer, &linear_layer))
+            .collect();
         let materials = Buffer::with_data(
             device,
             "materials",
             &mats,
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-
-        // One array layer per texture, all resized to the largest size.
-        let (w, h) = scene
-            .textures
-            .iter()
-            .fold((1, 1), |(w, h), t| (w.max(t.width), h.max(t.height)));
-        let (w, h) = (w.min(MAX_TEXTURE_SIDE), h.min(MAX_TEXTURE_SIDE));
-        let layers = scene.textures.len().max(1) as u32;
-        let mut texels = Vec::with_capacity((w * h * 4 * layers) as usize);
-        if scene.textures.is_empty() {
-            texels.extend([255u8; 4]);
-        }
-        for t in &scene.textures {
-            if (t.width, t.height) == (w, h) {
-                texels.extend_from_slice(&t.rgba8);
-            } else {
-                let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone())
-                    .expect("texture size matches its data");
-                let resized =
-                    image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
-                texels.extend_from_slice(resized.as_raw());
-            }
-        }
-        let textures = Image::new(
+        let color_textures = upload_array(
             device,
-            "base_color_textures",
-            ImageDesc {
-                format: vk::Format::R8G8B8A8_SRGB,
-                width: w,
-                height: h,
-                layers,
-                mip_levels: 1,
-                usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
-                array: true,
-            },
+            pool,
+            "color_textures",
+            vk::Format::R8G8B8A8_SRGB,
+            scene
+                .textures
+                .iter()
+                .zip(&as_color)
+                .filter(|(_, &u)| u)
+                .map(|(t, _)| t),
         )?;
-        let staging = Buffer::new(
+        let linear_textures = upload_array(
             device,
-            "texture_staging",
-            texels.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
+            pool,
+            "linear_textures",
+            vk::Format::R8G8B8A8_UNORM,
+            scene
+                .textures
+                .iter()
+                .zip(&as_linear)
+                .filter(|(_, &u)| u)
+                .map(|(t, _)| t),
         )?;
-        staging.write(0, &texels)?;
-        let mut rec = pool.begin()?;
-        rec.copy_buffer_to_image(&staging, &textures, (w, h), layers);
-        let done = rec.submit()?;
-        device.wait(done)?;
-
-        let texture_sampler =
-            Sampler::new(device, vk::Filter::LINEAR, vk::SamplerAddressMode::REPEAT)?;
+        let texture_sampler = Sampler::new(
+            device,
+            vk::Filter::NEAREST,
+            vk::SamplerAddressMode::CLAMP_TO_EDGE,
+        )?;
         Ok(Self {
             vertices,
             indices,
             index_count: scene.indices.len() as u32,
             materials,
-            textures,
+            color_textures,
+            linear_textures,
             texture_sampler,
             bounds: scene.bounds(),
         })
     }
+}
+
+/// Uploads `textures` as the layers of one array (all resized to the
+/// largest size, at most [`MAX_TEXTURE_SIDE`]; one white texel if none).
+fn upload_array<'a>(
+    device: &Arc<Device>,
+    pool: &mut CommandPool,
+    name: &str,
+    format: vk::Format,
+    textures: impl Iterator<Item = &'a crate::scene::Texture> + Clone,
+) -> Result<Image> {
+    let (w, h) = textures
+        .clone()
+        .fold((1, 1), |(w, h), t| (w.max(t.width), h.max(t.height)));
+    let (w, h) = (w.min(MAX_TEXTURE_SIDE), h.min(MAX_TEXTURE_SIDE));
+    let mut texels = Vec::new();
+    let mut layers = 0u32;
+    for t in textures {
+        layers += 1;
+        if (t.width, t.height) == (w, h) {
+            texels.extend_from_slice(&t.rgba8);
+        } else {
+            let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone())
+                .expect("texture size matches its data");
+            let resized =
+                image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
+            texels.extend_from_slice(resized.as_raw());
+        }
+    }
+    if layers == 0 {
+        layers = 1;
+        texels.extend([255u8; 4]);
+    }
+    let image = Image::new(
+        device,
+        name,
+        ImageDesc {
+            format,
+            width: w,
+            height: h,
+            layers,
+            mip_levels: 1,
+            usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+            array: true,
+        },
+    )?;
+    let staging = Buffer::new(
+        device,
+        "texture_staging",
+        texels.len() as u64,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::CpuToGpu,
+    )?;
+    staging.write(0, &texels)?;
+    let mut rec = pool.begin()?;
+    rec.copy_buffer_to_image(&staging, &image, (w, h), layers);
+    let done = rec.submit()?;
+    device.wait(done)?;
+    Ok(image)
 }

@@ -3,7 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
 
-use crate::scene::{Light, LightKind, Material};
+use crate::scene::{AlphaMode, Light, LightKind, Material, TextureSampler, Wrap};
 
 /// `GpuLight` in common.glsl.
 #[repr(C)]
@@ -63,18 +63,60 @@ impl ShadowView {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuMaterial {
-    /// Linear albedo factor.
+    /// Linear albedo factor (rgb), alpha factor (a).
     pub base_color: [f32; 4],
-    /// x texture-array layer or -1.
-    pub texture: [i32; 4],
+    /// Emitted radiance (rgb), alpha cutoff (w; < 0: opaque).
+    pub emission_cutoff: [f32; 4],
+    /// Layers of the base-colour and emissive textures (colour array) and of
+    /// the normal map (linear array), -1 for none; w bit 0: double-sided.
+    pub textures: [i32; 4],
+    /// Sampler of each texture (see [`sampler_bits`]).
+    pub samplers: [i32; 4],
+    /// x: normal-map scale.
+    pub normal: [f32; 4],
+}
+
+/// A sampler as material.glsl reads it: bits 0-1 wrap s, 2-3 wrap t
+/// (0 repeat, 1 clamp, 2 mirror), bit 4 nearest.
+pub fn sampler_bits(s: TextureSampler) -> i32 {
+    let wrap = |w: Wrap| match w {
+        Wrap::Repeat => 0,
+        Wrap::ClampToEdge => 1,
+        Wrap::MirroredRepeat => 2,
+    };
+    wrap(s.wrap_s) | (wrap(s.wrap_t) << 2) | ((s.nearest as i32) << 4)
 }
 
 impl GpuMaterial {
-    /// Packs a scene material.
-    pub fn new(m: &Material) -> Self {
+    /// Packs a scene material; `color_layer[t]` and `linear_layer[t]` are the
+    /// layers of scene texture t in the two arrays (-1 if it is not there).
+    pub fn new(m: &Material, color_layer: &[i32], linear_layer: &[i32]) -> Self {
+        let layer =
+            |map: &[i32], t: Option<usize>| t.and_then(|t| map.get(t).copied()).unwrap_or(-1);
+        let cutoff = match m.alpha {
+            AlphaMode::Opaque => -1.0,
+            AlphaMode::Mask(c) => c,
+        };
         Self {
             base_color: m.base_color.into(),
-            texture: [m.texture.map(|t| t as i32).unwrap_or(-1), 0, 0, 0],
+            emission_cutoff: m.emission.extend(cutoff).into(),
+            textures: [
+                layer(color_layer, m.texture),
+                layer(color_layer, m.emissive_texture.map(|t| t.index)),
+                layer(linear_layer, m.normal_texture.map(|t| t.index)),
+                m.double_sided as i32,
+            ],
+            samplers: [
+                sampler_bits(m.sampler),
+                m.emissive_texture
+                    .map(|t| sampler_bits(t.sampler))
+                    .unwrap_or(0),
+                m.normal_texture
+                    .map(|t| sampler_bits(t.sampler))
+                    .unwrap_or(0),
+                0,
+            ],
+            normal: [m.normal_scale, 0.0, 0.0, 0.0],
         }
     }
 }
@@ -129,7 +171,13 @@ mod tests {
         );
         check(
             "GpuMaterial",
-            &["base_color", "texture"],
+            &[
+                "base_color",
+                "emission_cutoff",
+                "textures",
+                "samplers",
+                "normal",
+            ],
             std::mem::size_of::<super::GpuMaterial>(),
         );
     }

@@ -48,8 +48,9 @@ struct ReferenceArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = 64)]
     spp: u32,
-    /// Maximum indirect bounces (0 = direct light only); matches the GPU's --bounces.
-    #[arg(long, default_value_t = 4)]
+    /// Most indirect bounces (0 = direct light only). Russian roulette ends
+    /// paths; this is a safety net (a low value biases the image).
+    #[arg(long, default_value_t = ssbc::cpu::vpl::DEFAULT_BOUNCES)]
     bounces: u32,
     /// Seed.
     #[arg(long, default_value_t = 0)]
@@ -148,8 +149,9 @@ struct SceneOptions {
     /// Number of VPLs wanted (0 switches indirect light off).
     #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_count)]
     vpls: usize,
-    /// Maximum diffuse bounces of a light path (VPLs per path), at least 1.
-    #[arg(long, default_value_t = 4)]
+    /// Most diffuse hits of a light path, at least 1. Russian roulette ends
+    /// paths; this is a safety net (a low value biases the image).
+    #[arg(long, default_value_t = ssbc::cpu::vpl::DEFAULT_BOUNCES)]
     bounces: u32,
     /// Seed of the low-discrepancy light-path sequence.
     #[arg(long, default_value_t = 0)]

@@ -572,6 +572,7 @@ impl Renderer {
             &settings.ssbc,
         );
         let mut layouts: Vec<&DescriptorSetLayout> = vec![
+            self.shadow_maps.set_layout(),
             self.gbuffer.set_layout(),
             self.direct_lighting.set_layout(),
             self.indirect_bounded.set_layout(),
@@ -633,7 +634,7 @@ impl Renderer {
         let mut rec = self.commands[slot].begin()?;
         self.profiler.begin_frame(rec.cmd, slot);
         self.shadow_maps
-            .record(&mut rec, &mut self.profiler, &gpu_scene, &shadows);
+            .record(&mut rec, &mut self.profiler, &pool, &gpu_scene, &shadows)?;
         if ism.vpl_count > 0 {
             self.ism.record(&mut rec, &mut self.profiler, &pool, &ism)?;
         }

@@ -109,6 +109,9 @@ fn closed_box_bounce_orders_scale_by_the_albedo() {
             normal: n,
             geometric_normal: n,
             albedo: Vec3::splat(rho),
+            emission: Vec3::ZERO,
+            front: true,
+            double_sided: true,
         };
         for (k, o) in orders.iter_mut().enumerate() {
             *o += reference.path_radiance(&s, i, 0, k as u32, k as u32).x as f64;

@@ -24,10 +24,16 @@ struct ShadowView {
     vec4 params;              // x near, y far, z 1 = orthographic, w texel size at unit distance (or absolute, ortho)
 };
 
-// Lambertian material.
+// Lambertian material, possibly emissive, alpha-masked, normal-mapped
+// (material.glsl evaluates it).
 struct GpuMaterial {
-    vec4 base_color;          // linear albedo factor
-    ivec4 texture;            // x texture-array layer or -1
+    vec4 base_color;          // rgb linear albedo factor, a alpha factor
+    vec4 emission_cutoff;     // rgb emitted radiance W/(m^2 sr), w alpha cutoff (< 0: opaque)
+    ivec4 textures;           // layers: x base colour, y emissive (colour array), z normal map
+                              // (linear array); -1: none; w bit 0: double-sided
+    ivec4 samplers;           // x, y, z: sampler of each texture (bits 0-1 wrap s,
+                              // 2-3 wrap t: 0 repeat, 1 clamp, 2 mirror; bit 4 nearest)
+    vec4 normal;              // x normal-map scale
 };
 
 #endif

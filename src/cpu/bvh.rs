@@ -1,16 +1,19 @@
 //! Ray casting against the scene's triangles with a BVH from `obvhs`
-//! (compressed wide BVH8), plus surface interactions at hits.
+//! (compressed wide BVH8), plus surface interactions at hits. Alpha-masked
+//! materials are tested at every candidate hit, so rays pass through their
+//! cut-out parts like the GPU's rasterised passes.
 
 use std::time::Duration;
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
-use crate::scene::{Scene, Texture};
+use super::shading;
+use crate::scene::{AlphaMode, Scene, Texture, TextureSampler};
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug)]
@@ -28,18 +31,44 @@ pub struct Hit {
 pub struct Surface {
     /// World position.
     pub position: Vec3,
-    /// Interpolated shading normal, flipped to the side `toward` came from.
+    /// Shading normal (interpolated, normal-mapped), flipped to the side
+    /// `toward` came from.
     pub normal: Vec3,
     /// Geometric normal, on the same side as `normal`.
     pub geometric_normal: Vec3,
     /// Linear albedo (base colour x texture).
     pub albedo: Vec3,
+    /// Radiance emitted towards `toward` (W/(m² sr)); zero seen from behind
+    /// a one-sided emitter.
+    pub emission: Vec3,
+    /// Whether `toward` is on the front side (where the vertex normals point).
+    pub front: bool,
+    /// Whether the material is seen from both sides.
+    pub double_sided: bool,
+}
+
+/// A texture an alpha-masked material uses (only its alpha is kept).
+struct AlphaTexture {
+    width: u32,
+    height: u32,
+    rgba8: Vec<u8>,
+}
+
+/// What decides whether a point of a masked triangle exists.
+struct Mask {
+    cutoff: f32,
+    alpha_factor: f32,
+    texture: Option<(usize, TextureSampler)>,
 }
 
 /// A BVH over every triangle of a scene.
 pub struct SceneBvh {
     bvh: CwBvh,
     triangles: Vec<Triangle>,
+    /// Per triangle: its mask (index into `masks`) and its vertices' UVs.
+    masked: Vec<Option<(u32, [Vec2; 3])>>,
+    masks: Vec<Mask>,
+    alpha_textures: Vec<AlphaTexture>,
 }
 
 /// Relative offset used to leave surfaces without self-intersection.
@@ -65,16 +94,94 @@ impl SceneBvh {
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
-        Self { bvh, triangles }
+        // Alpha masks: the materials that have one, and the alpha of their textures.
+        let mut alpha_textures = Vec::new();
+        let mut texture_slot = std::collections::HashMap::new();
+        let mut mask_of_material = vec![None; scene.materials.len()];
+        let mut masks = Vec::new();
+        for (i, m) in scene.materials.iter().enumerate() {
+            if let AlphaMode::Mask(cutoff) = m.alpha {
+                let texture = m.texture.map(|t| {
+                    let slot = *texture_slot.entry(t).or_insert_with(|| {
+                        let tex: &Texture = &scene.textures[t];
+                        alpha_textures.push(AlphaTexture {
+                            width: tex.width,
+                            height: tex.height,
+                            rgba8: tex
+                                .rgba8
+                                .chunks_exact(4)
+                                .flat_map(|c| [0, 0, 0, c[3]])
+                                .collect(),
+                        });
+                        alpha_textures.len() - 1
+                    });
+                    (slot, m.sampler)
+                });
+                mask_of_material[i] = Some(masks.len() as u32);
+                masks.push(Mask {
+                    cutoff,
+                    alpha_factor: m.base_color.w,
+                    texture,
+                });
+            }
+        }
+        let masked = scene
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let v = |k: usize| &scene.vertices[t[k] as usize];
+                mask_of_material[v(0).material as usize]
+                    .map(|mask| (mask, [0, 1, 2].map(|k| Vec2::from(v(k).uv))))
+            })
+            .collect();
+        Self {
+            bvh,
+            triangles,
+            masked,
+            masks,
+            alpha_textures,
+        }
     }
 
-    /// Closest hit along `origin + t * dir` for t in (tmin, tmax).
+    /// Whether triangle `t` exists at the point `p` of it (alpha mask).
+    fn exists(&self, t: usize, p: Vec3) -> bool {
+        let Some((mask, uvs)) = &self.masked[t] else {
+            return true;
+        };
+        let mask = &self.masks[*mask as usize];
+        let alpha = match mask.texture {
+            None => mask.alpha_factor,
+            Some((slot, sampler)) => {
+                let b = barycentric(&self.triangles[t], p);
+                let uv = uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y;
+                let tex = &self.alpha_textures[slot];
+                mask.alpha_factor
+                    * shading::sample_rgba8(tex.width, tex.height, &tex.rgba8, sampler, uv, false).w
+            }
+        };
+        alpha >= mask.cutoff
+    }
+
+    /// Distance to a candidate hit of triangle `id` that exists there.
+    fn candidate(&self, r: &Ray, id: usize) -> f32 {
+        let t = self.bvh.primitive_indices[id] as usize;
+        let d = self.triangles[t].intersect(r);
+        if d.is_finite() && self.masked[t].is_some() {
+            let p = Vec3::from(r.origin + r.direction * d);
+            if !self.exists(t, p) {
+                return f32::INFINITY;
+            }
+        }
+        d
+    }
+
+    /// The closest hit along `dir` (unit) from `origin` within (tmin, tmax).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
         let ray = Ray::new(origin.into(), robust_direction(dir), tmin, tmax);
         let mut hit = RayHit::none();
-        let found = self.bvh.ray_traverse(ray, &mut hit, |r, id| {
-            self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
-        });
+        let found = self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| self.candidate(r, id));
         if !found {
             return None;
         }
@@ -88,8 +195,23 @@ impl SceneBvh {
         })
     }
 
-    /// Whether anything blocks the segment between `a` and `b` (endpoints excluded
-    /// by a small relative margin).
+    /// The closest hit the camera sees: like [`SceneBvh::intersect`], but
+    /// one-sided surfaces seen from behind are passed through (as the
+    /// G-buffer culls them).
+    pub fn intersect_camera(&self, scene: &Scene, origin: Vec3, dir: Vec3) -> Option<Hit> {
+        let mut tmin = 0.0;
+        for _ in 0..64 {
+            let hit = self.intersect(origin, dir, tmin, f32::INFINITY)?;
+            let s = self.surface(scene, &hit, -dir);
+            if s.front || s.double_sided {
+                return Some(hit);
+            }
+            tmin = hit.t + RAY_EPSILON * (1.0 + hit.t);
+        }
+        None
+    }
+
+    /// Whether the segment from `a` to `b` is blocked.
     pub fn occluded(&self, a: Vec3, b: Vec3) -> bool {
         let d = b - a;
         let len = d.length();
@@ -99,13 +221,13 @@ impl SceneBvh {
         let dir = d / len;
         let eps = RAY_EPSILON * (1.0 + len);
         let ray = Ray::new(a.into(), robust_direction(dir), eps, len - eps);
-        !self.bvh.ray_traverse_miss(ray, |r, id| {
-            self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
-        })
+        !self
+            .bvh
+            .ray_traverse_miss(ray, |r, id| self.candidate(r, id))
     }
 
-    /// The surface at `hit`, with normals facing `toward` (a direction from the
-    /// surface, e.g. back along the incoming ray).
+    /// The surface at `hit`, seen from direction `toward` (unit, pointing
+    /// away from the surface).
     pub fn surface(&self, scene: &Scene, hit: &Hit, toward: Vec3) -> Surface {
         let t = &scene.indices[hit.triangle as usize * 3..hit.triangle as usize * 3 + 3];
         let v = |k: usize| &scene.vertices[t[k] as usize];
@@ -115,32 +237,41 @@ impl SceneBvh {
         let n = |k: usize| Vec3::from(v(k).normal);
         let position = p(0) * b0 + p(1) * u + p(2) * w;
         let mut geometric_normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
-        let mut normal = (n(0) * b0 + n(1) * u + n(2) * w)
+        let interpolated = (n(0) * b0 + n(1) * u + n(2) * w)
             .try_normalize()
             .unwrap_or(geometric_normal);
+        let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * u + Vec2::from(v(2).uv) * w;
+        let tangent = Vec4::from(v(0).tangent) * b0
+            + Vec4::from(v(1).tangent) * u
+            + Vec4::from(v(2).tangent) * w;
+        let material = &scene.materials[v(0).material as usize];
+        let front = interpolated.dot(toward) >= 0.0;
+        let mut normal = shading::shading_normal(scene, material, uv, interpolated, tangent);
         if geometric_normal.dot(toward) < 0.0 {
             geometric_normal = -geometric_normal;
         }
-        if normal.dot(toward) < 0.0 {
+        if !front {
             normal = -normal;
         }
-        let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * u + Vec2::from(v(2).uv) * w;
-        let material = &scene.materials[v(0).material as usize];
-        let mut albedo = material.base_color.truncate();
-        if let Some(tex) = material.texture {
-            albedo *= sample_bilinear(&scene.textures[tex], uv);
-        }
+        let albedo = shading::base_color(scene, material, uv).truncate();
+        let emission = if front || material.double_sided {
+            shading::emission(scene, material, uv)
+        } else {
+            Vec3::ZERO
+        };
         Surface {
             position,
             normal,
             geometric_normal,
             albedo,
+            emission,
+            front,
+            double_sided: material.double_sided,
         }
     }
 }
 
-/// Replaces exact zeros in a direction by a tiny value: the wide BVH's slab
-/// test computes 0 x inf = NaN for axis-parallel rays on flat boxes.
+/// A ray direction without exact zeros (the BVH's slab test divides by them).
 fn robust_direction(d: Vec3) -> Vec3A {
     let fix = |c: f32| if c == 0.0 { 1e-20 } else { c };
     Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
@@ -159,37 +290,6 @@ fn barycentric(t: &Triangle, p: Vec3) -> Vec2 {
     let v = (d22 * dp1 - d12 * dp2) / denom;
     let w = (d11 * dp2 - d12 * dp1) / denom;
     Vec2::new(v, w)
-}
-
-/// sRGB-decoded, bilinearly filtered, repeating texture lookup (as the GPU's
-/// sRGB format and linear sampler do).
-pub fn sample_bilinear(tex: &Texture, uv: Vec2) -> Vec3 {
-    let decode = |c: u8| {
-        let s = c as f32 / 255.0;
-        if s <= 0.04045 {
-            s / 12.92
-        } else {
-            ((s + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let (w, h) = (tex.width as i64, tex.height as i64);
-    let x = uv.x * w as f32 - 0.5;
-    let y = uv.y * h as f32 - 0.5;
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let texel = |xi: i64, yi: i64| {
-        let (xi, yi) = (xi.rem_euclid(w), yi.rem_euclid(h));
-        let i = ((yi * w + xi) * 4) as usize;
-        Vec3::new(
-            decode(tex.rgba8[i]),
-            decode(tex.rgba8[i + 1]),
-            decode(tex.rgba8[i + 2]),
-        )
-    };
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
-    let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
-    top.lerp(bottom, fy)
 }
 
 #[cfg(test)]

@@ -1,10 +1,13 @@
 //! CPU-side light transport, no Vulkan: ray casting against a BVH, VPL
 //! distribution by light tracing, scene point sampling for imperfect shadow
-//! maps, and low-discrepancy sampling.
+//! maps, materials (textures, alpha masks, emission, normal maps), emitters,
+//! and low-discrepancy sampling.
 
 pub mod bvh;
+pub mod emitters;
 pub mod points;
 pub mod reference;
 pub mod sampling;
+pub mod shading;
 pub mod ssbc;
 pub mod vpl;

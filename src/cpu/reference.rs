@@ -13,6 +13,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bvh::{SceneBvh, Surface, RAY_EPSILON};
+use super::emitters::Emitters;
 use super::sampling::{cosine_hemisphere, hash64};
 use super::vpl::{self, bounded_radiance, Vpl, VplSettings};
 use crate::error::{Error, Result};
@@ -41,7 +42,8 @@ pub struct ReferenceSettings {
     pub camera: Option<usize>,
     /// Samples per pixel.
     pub spp: u32,
-    /// Maximum indirect bounces (0 = direct light only).
+    /// Most indirect bounces (0 = direct light only): a safety net, Russian
+    /// roulette ends paths.
     pub bounces: u32,
     /// Seed.
     pub seed: u64,
@@ -60,7 +62,7 @@ impl Default for ReferenceSettings {
             height: 768,
             camera: None,
             spp: 64,
-            bounces: 4,
+            bounces: super::vpl::DEFAULT_BOUNCES,
             seed: 0,
             method: Method::PathTrace,
             vpl: VplSettings::default(),
@@ -100,6 +102,7 @@ pub struct Reference<'a> {
     settings: ReferenceSettings,
     vpls: Vec<Vpl>,
     scene_radius: f32,
+    emitters: Emitters,
 }
 
 /// Offset from a surface along its geometric normal, scaled to the scene.
@@ -147,6 +150,7 @@ impl<'a> Reference<'a> {
             scene_radius: scene.bounds().radius(),
             settings,
             vpls,
+            emitters: Emitters::new(scene),
         })
     }
 
@@ -194,6 +198,30 @@ impl<'a> Reference<'a> {
         s.albedo / std::f32::consts::PI * e
     }
 
+    /// Direct light from emissive triangles leaving `s`: one point sampled
+    /// on them in proportion to power (next-event estimation).
+    fn direct_emitters(&self, s: &Surface, rng: &mut Rng) -> Vec3 {
+        let u = glam::Vec4::new(rng.next(), rng.next(), rng.next(), rng.next());
+        let Some(e) = self.emitters.sample(self.scene, u) else {
+            return Vec3::ZERO;
+        };
+        let d = e.position - s.position;
+        let d2 = d.length_squared();
+        if d2 < 1e-12 {
+            return Vec3::ZERO;
+        }
+        let dir = d / d2.sqrt();
+        let (cos_x, cos_e) = (s.normal.dot(dir), -e.normal.dot(dir));
+        if cos_x <= 0.0 || cos_e <= 0.0 || s.geometric_normal.dot(dir) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let target = e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
+        if self.bvh.occluded(offset(s), target) {
+            return Vec3::ZERO;
+        }
+        s.albedo / std::f32::consts::PI * e.radiance * (cos_x * cos_e / d2 / e.pdf_area)
+    }
+
     /// The clamped VPL sum at `s` with exact visibility.
     fn vpl_sum(&self, s: &Surface) -> Vec3 {
         let origin = offset(s);
@@ -228,7 +256,10 @@ impl<'a> Reference<'a> {
         let mut radiance = Vec3::ZERO;
         for bounce in 0..=max_bounce {
             if bounce >= min_bounce {
-                radiance += throughput * self.direct(&surface);
+                // Emitters hit by a bounce are not counted: next-event
+                // estimation covers them.
+                radiance +=
+                    throughput * (self.direct(&surface) + self.direct_emitters(&surface, &mut rng));
             }
             if bounce == max_bounce {
                 break;
@@ -288,20 +319,24 @@ impl<'a> Reference<'a> {
         let dir = self.camera.pixel_ray(x as f32, y as f32, w, h);
         let Some(hit) = self
             .bvh
-            .intersect(self.camera.position, dir, 0.0, f32::INFINITY)
+            .intersect_camera(self.scene, self.camera.position, dir)
         else {
             return Vec3::ZERO;
         };
         let s = self.bvh.surface(self.scene, &hit, -dir);
         let pixel = (y * w + x) as u64;
-        match self.settings.method {
-            Method::PathTrace => self.path_radiance(&s, pixel, sample, 0, self.settings.bounces),
-            Method::Vpl => self.direct(&s) + self.vpl_sum(&s),
-            Method::KolligKeller => {
-                let mut rng = Rng::new(self.settings.seed ^ 0x4B4B, pixel, sample);
-                self.kollig_keller(&s, &mut rng, 0)
+        // Emitters seen by the camera show their own radiance.
+        s.emission
+            + match self.settings.method {
+                Method::PathTrace => {
+                    self.path_radiance(&s, pixel, sample, 0, self.settings.bounces)
+                }
+                Method::Vpl => self.direct(&s) + self.vpl_sum(&s),
+                Method::KolligKeller => {
+                    let mut rng = Rng::new(self.settings.seed ^ 0x4B4B, pixel, sample);
+                    self.kollig_keller(&s, &mut rng, 0)
+                }
             }
-        }
     }
 
     /// Renders `spp` passes (fewer if `stop` is raised between passes),
@@ -333,7 +368,7 @@ impl<'a> Reference<'a> {
             .map(|i| {
                 let dir = self.camera.pixel_ray((i % w) as f32, (i / w) as f32, w, h);
                 self.bvh
-                    .intersect(self.camera.position, dir, 0.0, f32::INFINITY)
+                    .intersect_camera(self.scene, self.camera.position, dir)
                     .is_some()
             })
             .collect();

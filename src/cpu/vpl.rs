@@ -1,10 +1,15 @@
 //! VPL distribution by light tracing (Keller 1997): paths leave the lights
-//! with their share of the emitted power, deposit a VPL at every diffuse hit,
-//! and continue by cosine sampling with Russian roulette by albedo.
+//! (punctual lights and emissive triangles) with their share of the emitted
+//! power, deposit a VPL at every diffuse hit, and continue by cosine sampling
+//! with Russian roulette by albedo, which is what ends them (the bounce
+//! limit is only a safety net). A path from an emitter first deposits a VPL
+//! on the emitter itself ("bounce 0", albedo 1): its clamped contribution
+//! near the fixture is what SSBC gives back.
 
 use glam::{Vec2, Vec3};
 
 use super::bvh::{SceneBvh, RAY_EPSILON};
+use super::emitters::{luminance, Emitters};
 use super::sampling::{cosine_hemisphere, uniform_cone, uniform_disk, uniform_sphere, Halton};
 use crate::error::{Error, Result};
 use crate::scene::{Light, LightKind, Scene};
@@ -16,11 +21,12 @@ pub struct Vpl {
     pub position: Vec3,
     /// Unit normal on the side the light arrived from.
     pub normal: Vec3,
-    /// Linear albedo at z_i (f_r(z_i) = albedo / pi).
+    /// Linear albedo at z_i (f_r(z_i) = albedo / pi); 1 on an emitter.
     pub albedo: Vec3,
-    /// Flux Phi_i (W) the path carried into z_i.
+    /// Flux Phi_i (W) the path carried into z_i (on an emitter: the flux it
+    /// leaves with).
     pub flux: Vec3,
-    /// Bounce at which it was deposited (1 = first hit from the light).
+    /// Bounce at which it was deposited (0 = on an emitter, 1 = first hit).
     pub bounce: u32,
 }
 
@@ -29,7 +35,8 @@ pub struct Vpl {
 pub struct VplSettings {
     /// Number of VPLs wanted (paths are traced until there are this many).
     pub count: usize,
-    /// Maximum number of diffuse hits per path (>= 1).
+    /// Most diffuse hits per path (>= 1): a safety net, Russian roulette
+    /// ends paths (an explicit lower limit biases the result).
     pub bounces: u32,
     /// Seed of the low-discrepancy sequence.
     pub seed: u64,
@@ -39,11 +46,16 @@ impl Default for VplSettings {
     fn default() -> Self {
         Self {
             count: 256,
-            bounces: 4,
+            bounces: DEFAULT_BOUNCES,
             seed: 0,
         }
     }
 }
+
+/// The default limit on a light path's diffuse hits: high enough that
+/// Russian roulette ends practically every path first (albedo 0.8 leaves
+/// 0.8^64 = 6e-7 of the light beyond it).
+pub const DEFAULT_BOUNCES: u32 = 64;
 
 /// The VPLs and how many light paths were started to make them.
 #[derive(Clone, Debug, Default)]
@@ -75,10 +87,6 @@ pub fn light_power(light: &Light, scene_radius: f32) -> Vec3 {
     }
 }
 
-fn luminance(c: Vec3) -> f32 {
-    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
-}
-
 /// Distributes about `settings.count` VPLs over `scene`. Stops early (with
 /// fewer VPLs) if 64 x `count` paths produce too few (e.g. lights facing away).
 pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result<VplSet> {
@@ -88,18 +96,21 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         ));
     }
     let mut set = VplSet::default();
-    if settings.count == 0 || scene.lights.is_empty() {
+    let emitters = Emitters::new(scene);
+    if settings.count == 0 || (scene.lights.is_empty() && emitters.is_empty()) {
         return Ok(set);
     }
     let bounds = scene.bounds();
     let radius = bounds.radius().max(1e-3);
-    let powers: Vec<f32> = scene
+    // Sources: every punctual light, then the emitters as one.
+    let mut powers: Vec<f32> = scene
         .lights
         .iter()
         .map(|l| luminance(light_power(l, radius)).max(0.0))
         .collect();
+    powers.push(luminance(emitters.power()).max(0.0));
     let total: f32 = powers.iter().sum();
-    if total <= 0.0 {
+    if total.is_nan() || total <= 0.0 {
         return Ok(set);
     }
     let halton = Halton::new(settings.seed);
@@ -108,9 +119,9 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     let mut path = 0u64;
     while raw.len() < settings.count && path < max_paths {
         let s = |d: usize| halton.sample(path, d);
-        // Choose a light in proportion to its power.
+        // Choose a source in proportion to its power.
         let mut pick = s(0) * total;
-        let mut li = scene.lights.len() - 1;
+        let mut li = powers.len() - 1;
         for (i, p) in powers.iter().enumerate() {
             if pick < *p {
                 li = i;
@@ -118,72 +129,81 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             }
             pick -= p;
         }
-        let light = &scene.lights[li];
         let p_light = powers[li] / total;
         let u1 = Vec2::new(s(1), s(2));
         let u2 = Vec2::new(s(3), s(4));
-        let (origin, dir, mut flux) = match light.kind {
-            LightKind::Point => (
-                light.position,
-                uniform_sphere(u1),
-                light_power(light, radius),
-            ),
-            LightKind::Spot { outer_cone, .. } => {
-                let cos_max = outer_cone.cos();
-                let dir = uniform_cone(light.direction, cos_max, u1);
-                let pdf = 1.0 / (2.0 * std::f32::consts::PI * (1.0 - cos_max));
-                (
+        let (origin, dir, mut flux) = if li == scene.lights.len() {
+            // An emissive triangle: a point in proportion to power, a VPL on
+            // it, then a cosine-distributed direction (pdf cos/pi, so the
+            // path's flux is pi Le / pdf_area / p_light).
+            let Some(e) = emitters.sample(scene, glam::Vec4::new(s(1), s(2), s(3), s(4))) else {
+                path += 1;
+                continue;
+            };
+            let flux = e.radiance * std::f32::consts::PI / (e.pdf_area * p_light);
+            raw.push(Vpl {
+                position: e.position,
+                normal: e.normal,
+                albedo: Vec3::ONE,
+                flux,
+                bounce: 0,
+            });
+            let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
+            let origin =
+                e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
+            path += 1;
+            trace_path(
+                scene,
+                bvh,
+                settings,
+                &halton,
+                path - 1,
+                origin,
+                dir,
+                flux,
+                &mut raw,
+            );
+            continue;
+        } else {
+            let light = &scene.lights[li];
+            match light.kind {
+                LightKind::Point => (
                     light.position,
-                    dir,
-                    light.intensity * light.spot_factor(dir) / pdf,
-                )
-            }
-            LightKind::Directional => {
-                let (t, b) = super::sampling::basis(light.direction);
-                let d = uniform_disk(u2) * radius;
-                let origin = bounds.center() - light.direction * (2.0 * radius) + t * d.x + b * d.y;
-                (origin, light.direction, light_power(light, radius))
+                    uniform_sphere(u1),
+                    light_power(light, radius),
+                ),
+                LightKind::Spot { outer_cone, .. } => {
+                    let cos_max = outer_cone.cos();
+                    let dir = uniform_cone(light.direction, cos_max, u1);
+                    let pdf = 1.0 / (2.0 * std::f32::consts::PI * (1.0 - cos_max));
+                    (
+                        light.position,
+                        dir,
+                        light.intensity * light.spot_factor(dir) / pdf,
+                    )
+                }
+                LightKind::Directional => {
+                    let (t, b) = super::sampling::basis(light.direction);
+                    let d = uniform_disk(u2) * radius;
+                    let origin =
+                        bounds.center() - light.direction * (2.0 * radius) + t * d.x + b * d.y;
+                    (origin, light.direction, light_power(light, radius))
+                }
             }
         };
         flux /= p_light;
         path += 1;
-
-        let (mut origin, mut dir) = (origin, dir);
-        for bounce in 1..=settings.bounces {
-            let Some(hit) = bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY) else {
-                break;
-            };
-            let surf = bvh.surface(scene, &hit, -dir);
-            raw.push(Vpl {
-                position: surf.position,
-                normal: surf.normal,
-                albedo: surf.albedo,
-                flux,
-                bounce,
-            });
-            if bounce == settings.bounces {
-                break;
-            }
-            // Russian roulette with survival probability max(albedo).
-            let dim = 5 + 3 * (bounce as usize - 1);
-            let survive = surf.albedo.max_element().min(1.0);
-            if survive <= 0.0 || halton.sample(path - 1, dim) >= survive {
-                break;
-            }
-            flux *= surf.albedo / survive;
-            dir = cosine_hemisphere(
-                surf.normal,
-                Vec2::new(
-                    halton.sample(path - 1, dim + 1),
-                    halton.sample(path - 1, dim + 2),
-                ),
-            );
-            if dir.dot(surf.geometric_normal) <= 0.0 {
-                break;
-            }
-            origin = surf.position
-                + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
-        }
+        trace_path(
+            scene,
+            bvh,
+            settings,
+            &halton,
+            path - 1,
+            origin,
+            dir,
+            flux,
+            &mut raw,
+        );
     }
     set.paths = path;
     let norm = 1.0 / path.max(1) as f32;
@@ -195,6 +215,60 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         })
         .collect();
     Ok(set)
+}
+
+/// Follows light path `path` from `origin` along `dir` carrying `flux`: a
+/// VPL at every diffuse hit, Russian roulette by albedo, cosine-sampled
+/// bounces (Halton dimensions from 7 on, 3 per bounce).
+#[allow(clippy::too_many_arguments)]
+fn trace_path(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    settings: &VplSettings,
+    halton: &Halton,
+    path: u64,
+    mut origin: Vec3,
+    mut dir: Vec3,
+    mut flux: Vec3,
+    out: &mut Vec<Vpl>,
+) {
+    for bounce in 1..=settings.bounces {
+        if out.len() >= settings.count {
+            return;
+        }
+        let Some(hit) = bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY) else {
+            return;
+        };
+        let surf = bvh.surface(scene, &hit, -dir);
+        // The VPL emits around the geometric normal (a normal map shades,
+        // it does not tilt the surface that reflects).
+        out.push(Vpl {
+            position: surf.position,
+            normal: surf.geometric_normal,
+            albedo: surf.albedo,
+            flux,
+            bounce,
+        });
+        if bounce == settings.bounces {
+            return;
+        }
+        // Russian roulette with survival probability max(albedo).
+        let dim = 7 + 3 * (bounce as usize - 1);
+        let survive = surf.albedo.max_element().min(1.0);
+        if survive <= 0.0 || halton.sample(path, dim) >= survive {
+            return;
+        }
+        flux *= surf.albedo / survive;
+        dir = cosine_hemisphere(
+            surf.normal,
+            Vec2::new(halton.sample(path, dim + 1), halton.sample(path, dim + 2)),
+        );
+        if dir.dot(surf.geometric_normal) <= 0.0 {
+            return;
+        }
+        origin = surf.position
+            + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
+    }
 }
 
 /// Bounded VPL lighting at one surface point, the CPU twin of the GPU's

@@ -1,4 +1,7 @@
-//! Deferred direct lighting `T Le`: every light, shadowed by its shadow maps.
+//! Deferred direct lighting `T Le` from every punctual light, shadowed by its
+//! shadow maps, plus the radiance emissive surfaces send to the camera
+//! (`Le`, from the G-buffer). Light from emissive surfaces onto others comes
+//! from the VPLs on them (bounce 0) and SSBC.
 
 use std::sync::Arc;
 
@@ -38,6 +41,7 @@ impl DirectLightingPass {
             T::STORAGE_BUFFER,         // lights
             T::STORAGE_BUFFER,         // shadow views
             T::COMBINED_IMAGE_SAMPLER, // shadow maps
+            T::STORAGE_IMAGE,          // g_emission
         ];
         Ok(Self {
             kernel: ComputeKernel::new(
@@ -71,6 +75,7 @@ impl DirectLightingPass {
     ) -> Result<()> {
         let scope = profiler.begin(rec.cmd, "direct_lighting");
         gbuffer.read_in_compute(rec);
+        rec.use_image(&gbuffer.emission, Access::ComputeRead);
         rec.use_image(&shadows.depth, Access::ComputeSampled);
         rec.use_buffer(&shadows.lights, Access::ComputeRead);
         rec.use_buffer(&shadows.views, Access::ComputeRead);
@@ -90,6 +95,7 @@ impl DirectLightingPass {
             Binding::StorageBuffer(&shadows.lights),
             Binding::StorageBuffer(&shadows.views),
             Binding::sampled(&shadows.depth, &self.shadow_sampler),
+            Binding::storage(&gbuffer.emission),
         ];
         self.kernel
             .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))?;

@@ -1,5 +1,7 @@
-//! G-buffer: world position, camera-facing normal and linear albedo per pixel,
-//! rasterized at pixel centres.
+//! G-buffer: world position, camera-facing shading normal (normal-mapped),
+//! linear albedo and emitted radiance per pixel, rasterized at pixel centres.
+//! Alpha-masked texels are discarded, one-sided surfaces seen from behind
+//! are culled.
 
 use std::sync::Arc;
 
@@ -25,6 +27,8 @@ pub struct GBuffer {
     pub normal: Image,
     /// rgb linear albedo.
     pub albedo: Image,
+    /// rgb radiance emitted towards the camera (W/(m² sr)).
+    pub emission: Image,
     /// Depth buffer.
     pub depth: Image,
 }
@@ -45,6 +49,7 @@ impl GBuffer {
             position: color("gbuffer_position")?,
             normal: color("gbuffer_normal")?,
             albedo: color("gbuffer_albedo")?,
+            emission: color("gbuffer_emission")?,
             depth: Image::new(
                 device,
                 "gbuffer_depth",
@@ -104,6 +109,7 @@ impl GBufferPass {
             &[
                 vk::DescriptorType::STORAGE_BUFFER,
                 vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
             ],
             vk::ShaderStageFlags::FRAGMENT,
         )?;
@@ -118,8 +124,9 @@ impl GBufferPass {
                     (1, vk::Format::R32G32B32_SFLOAT, 12),
                     (2, vk::Format::R32G32_SFLOAT, 24),
                     (3, vk::Format::R32_UINT, 32),
+                    (4, vk::Format::R32G32B32A32_SFLOAT, 36),
                 ],
-                color_formats: &[GBUFFER_FORMAT; 3],
+                color_formats: &[GBUFFER_FORMAT; 4],
                 depth_format: vk::Format::D32_SFLOAT,
                 depth_bias: (0.0, 0.0),
             },
@@ -145,15 +152,18 @@ impl GBufferPass {
             &self.layout,
             &[
                 Binding::StorageBuffer(&scene.materials),
-                Binding::sampled(&scene.textures, &scene.texture_sampler),
+                Binding::sampled(&scene.color_textures, &scene.texture_sampler),
+                Binding::sampled(&scene.linear_textures, &scene.texture_sampler),
             ],
         )?;
         let scope = profiler.begin(rec.cmd, "gbuffer");
         for target in gbuffer.targets() {
             rec.use_image(target, Access::ColorAttachmentWrite);
         }
+        rec.use_image(&gbuffer.emission, Access::ColorAttachmentWrite);
         rec.use_image(&gbuffer.depth, Access::DepthAttachmentWrite);
-        rec.use_image(&scene.textures, Access::FragmentSampled);
+        rec.use_image(&scene.color_textures, Access::FragmentSampled);
+        rec.use_image(&scene.linear_textures, Access::FragmentSampled);
         rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
         rec.use_buffer(&scene.indices, Access::VertexInput);
@@ -166,6 +176,7 @@ impl GBufferPass {
                 gbuffer.position.view,
                 gbuffer.normal.view,
                 gbuffer.albedo.view,
+                gbuffer.emission.view,
             ],
             gbuffer.depth.view,
         );

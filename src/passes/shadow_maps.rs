@@ -1,6 +1,7 @@
 //! Shadow maps for direct light: six 90° perspective faces for a point light,
 //! one perspective map for a spot light, one orthographic map fitted to the
 //! scene for a directional light. All layers live in one depth array image.
+//! Alpha-masked texels cast no shadow (the fragment shader discards them).
 
 use std::sync::Arc;
 
@@ -13,11 +14,14 @@ use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
 use crate::shaders;
 use crate::vk::{
-    Access, Buffer, Device, GpuProfiler, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder,
+    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler,
+    GraphicsDesc, Image, ImageDesc, Pipeline, Recorder,
 };
 
-/// The depth-only pipeline (created once).
+/// The depth pipeline (created once) and its descriptor layout (materials
+/// and colour textures, for alpha masks).
 pub struct ShadowMapPass {
+    layout: DescriptorSetLayout,
     pipeline: Pipeline,
 }
 
@@ -90,23 +94,40 @@ pub fn light_views(light: &Light, bounds: &Bounds, resolution: u32) -> Vec<(Mat4
 }
 
 impl ShadowMapPass {
-    /// Creates the depth-only pipeline.
+    /// Creates the depth pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
+        let layout = DescriptorSetLayout::new(
+            device,
+            &[
+                vk::DescriptorType::STORAGE_BUFFER,
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            ],
+            vk::ShaderStageFlags::FRAGMENT,
+        )?;
         let pipeline = Pipeline::graphics(
             device,
             &GraphicsDesc {
                 vertex: shaders::SHADOW_MAP_VERT,
-                fragment: None,
+                fragment: Some(shaders::SHADOW_MAP_FRAG),
                 vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
-                attributes: &[(0, vk::Format::R32G32B32_SFLOAT, 0)],
+                attributes: &[
+                    (0, vk::Format::R32G32B32_SFLOAT, 0),
+                    (2, vk::Format::R32G32_SFLOAT, 24),
+                    (3, vk::Format::R32_UINT, 32),
+                ],
                 color_formats: &[],
                 depth_format: vk::Format::D32_SFLOAT,
                 depth_bias: (0.0, 0.0),
             },
-            &[],
+            &[&layout],
             64,
         )?;
-        Ok(Self { pipeline })
+        Ok(Self { layout, pipeline })
+    }
+
+    /// The descriptor layout (for sizing pools).
+    pub fn set_layout(&self) -> &DescriptorSetLayout {
+        &self.layout
     }
 
     /// Allocates the shadow maps of `lights` at `resolution` texels per side.
@@ -173,11 +194,21 @@ impl ShadowMapPass {
         &self,
         rec: &mut Recorder<'_>,
         profiler: &mut GpuProfiler,
+        pool: &DescriptorPool,
         scene: &GpuScene,
         maps: &ShadowMaps,
-    ) {
+    ) -> Result<()> {
+        let set = pool.allocate(
+            &self.layout,
+            &[
+                Binding::StorageBuffer(&scene.materials),
+                Binding::sampled(&scene.color_textures, &scene.texture_sampler),
+            ],
+        )?;
         let scope = profiler.begin(rec.cmd, "shadow_maps");
         rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
+        rec.use_image(&scene.color_textures, Access::FragmentSampled);
+        rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
         rec.use_buffer(&scene.indices, Access::VertexInput);
         rec.flush_barriers();
@@ -190,12 +221,11 @@ impl ShadowMapPass {
                 &[],
                 maps.depth.layer_views[layer],
             );
+            self.pipeline
+                .bind(rec.cmd, set, bytemuck::bytes_of(&view_proj.to_cols_array()));
             // SAFETY: recording inside the rendering scope begun above.
             unsafe {
                 let d = &rec.device.raw;
-                d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline.raw);
-                self.pipeline
-                    .push(rec.cmd, bytemuck::bytes_of(&view_proj.to_cols_array()));
                 d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
                 d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
                 d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
@@ -203,5 +233,6 @@ impl ShadowMapPass {
             }
         }
         profiler.end(rec.cmd, scope);
+        Ok(())
     }
 }

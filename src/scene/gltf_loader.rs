@@ -179,19 +179,9 @@ impl Loader<'_> {
         // Textures are decoded on demand, once each.
         let mut texture_slots: Vec<Option<usize>> = vec![None; self.root.images.len()];
         let mut material_map = Vec::new();
-        for m in &self.root.materials {
-            let pbr = &m.pbr_metallic_roughness;
-            let texture = match &pbr.base_color_texture {
-                Some(info) => {
-                    Some(self.texture(info.index.value(), &mut scene, &mut texture_slots)?)
-                }
-                None => None,
-            };
-            let f = pbr.base_color_factor.0;
-            scene.materials.push(super::Material {
-                base_color: Vec4::from(f),
-                texture,
-            });
+        for (i, m) in self.root.materials.iter().enumerate() {
+            let material = self.material(i, m, &mut scene, &mut texture_slots)?;
+            scene.materials.push(material);
             material_map.push((scene.materials.len() - 1) as u32);
         }
         let default_material = scene.add_material(Vec3::splat(0.8), None);
@@ -236,6 +226,136 @@ impl Loader<'_> {
             return Err(self.err("the scene has no triangles"));
         }
         Ok(scene)
+    }
+
+    /// Material `index`: base colour, emission (factor x strength, and
+    /// texture), normal map, alpha mode and sidedness, each texture with its
+    /// sampler. Values glTF forbids are errors.
+    fn material(
+        &mut self,
+        index: usize,
+        m: &json::Material,
+        scene: &mut Scene,
+        slots: &mut [Option<usize>],
+    ) -> Result<super::Material> {
+        let pbr = &m.pbr_metallic_roughness;
+        let base_color = Vec4::from(pbr.base_color_factor.0);
+        if !base_color.is_finite() || base_color.min_element() < 0.0 {
+            return Err(self.err(format!(
+                "material {index}: baseColorFactor {base_color} is negative or not finite"
+            )));
+        }
+        let (texture, sampler) = match &pbr.base_color_texture {
+            Some(info) => {
+                let t = self.texture_ref(info.index.value(), scene, slots)?;
+                (Some(t.index), t.sampler)
+            }
+            None => (None, super::TextureSampler::default()),
+        };
+        let strength = m
+            .extensions
+            .as_ref()
+            .and_then(|e| e.emissive_strength.as_ref())
+            .map(|s| s.emissive_strength.0)
+            .unwrap_or(1.0);
+        if !(strength.is_finite() && strength >= 0.0) {
+            return Err(self.err(format!(
+                "material {index}: KHR_materials_emissive_strength {strength} must be a finite number >= 0"
+            )));
+        }
+        let factor = Vec3::from(m.emissive_factor.0);
+        if !factor.is_finite() || factor.min_element() < 0.0 {
+            return Err(self.err(format!(
+                "material {index}: emissiveFactor {factor} is negative or not finite"
+            )));
+        }
+        let emissive_texture = match &m.emissive_texture {
+            Some(info) => Some(self.texture_ref(info.index.value(), scene, slots)?),
+            None => None,
+        };
+        let (normal_texture, normal_scale) = match &m.normal_texture {
+            Some(n) => {
+                if !n.scale.is_finite() {
+                    return Err(self.err(format!(
+                        "material {index}: normal texture scale {} is not finite",
+                        n.scale
+                    )));
+                }
+                (
+                    Some(self.texture_ref(n.index.value(), scene, slots)?),
+                    n.scale,
+                )
+            }
+            None => (None, 1.0),
+        };
+        use json::material::AlphaMode as A;
+        let alpha = match checked(&m.alpha_mode) {
+            Some(A::Opaque) => super::AlphaMode::Opaque,
+            Some(A::Mask) => {
+                let cutoff = m.alpha_cutoff.map(|c| c.0).unwrap_or(0.5);
+                if !(0.0..=1.0).contains(&cutoff) {
+                    return Err(self.err(format!(
+                        "material {index}: alphaCutoff {cutoff} is outside [0, 1]"
+                    )));
+                }
+                super::AlphaMode::Mask(cutoff)
+            }
+            // Blending is not supported: a cutoff at 0.5 keeps the opaque parts.
+            Some(A::Blend) => super::AlphaMode::Mask(0.5),
+            None => return Err(self.err(format!("material {index}: invalid alphaMode"))),
+        };
+        Ok(super::Material {
+            base_color,
+            texture,
+            sampler,
+            emission: factor * strength,
+            emissive_texture,
+            normal_texture,
+            normal_scale,
+            alpha,
+            double_sided: m.double_sided,
+        })
+    }
+
+    /// Texture `index`: its image (decoded once) and its sampler.
+    fn texture_ref(
+        &mut self,
+        index: usize,
+        scene: &mut Scene,
+        slots: &mut [Option<usize>],
+    ) -> Result<super::TextureRef> {
+        let image = self.texture(index, scene, slots)?;
+        let t = &self.root.textures[index];
+        let sampler = match t.sampler {
+            None => super::TextureSampler::default(),
+            Some(s) => {
+                let s = self.root.samplers.get(s.value()).ok_or_else(|| {
+                    self.err(format!(
+                        "texture {index}: sampler {} out of range",
+                        s.value()
+                    ))
+                })?;
+                use json::texture::{MagFilter, WrappingMode as W};
+                let wrap = |w: &Checked<W>| match checked(w) {
+                    Some(W::ClampToEdge) => Ok(super::Wrap::ClampToEdge),
+                    Some(W::MirroredRepeat) => Ok(super::Wrap::MirroredRepeat),
+                    Some(W::Repeat) => Ok(super::Wrap::Repeat),
+                    None => Err(self.err(format!("texture {index}: invalid wrap mode"))),
+                };
+                super::TextureSampler {
+                    wrap_s: wrap(&s.wrap_s)?,
+                    wrap_t: wrap(&s.wrap_t)?,
+                    nearest: matches!(
+                        s.mag_filter.as_ref().and_then(checked),
+                        Some(MagFilter::Nearest)
+                    ),
+                }
+            }
+        };
+        Ok(super::TextureRef {
+            index: image,
+            sampler,
+        })
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -426,8 +546,17 @@ impl Loader<'_> {
                     .collect(),
                 None => Vec::new(),
             };
+            let tangents: Vec<Vec4> = match attr(Semantic::Tangents) {
+                Some(a) => self
+                    .read_floats(a, 4)?
+                    .chunks_exact(4)
+                    .map(Vec4::from_slice)
+                    .collect(),
+                None => Vec::new(),
+            };
             if !normals.is_empty() && normals.len() != positions.len()
                 || !uvs.is_empty() && uvs.len() != positions.len()
+                || !tangents.is_empty() && tangents.len() != positions.len()
             {
                 return Err(self.err(format!(
                     "mesh {index} primitive {pi}: attribute counts differ"
@@ -457,7 +586,9 @@ impl Loader<'_> {
                 scene,
                 (positions.len() * std::mem::size_of::<super::Vertex>() + indices.len() * 4) as u64,
             )?;
-            scene.add_mesh(&positions, &normals, &uvs, &indices, world, material)?;
+            scene.add_mesh_with_tangents(
+                &positions, &normals, &uvs, &tangents, &indices, world, material,
+            )?;
         }
         Ok(())
     }

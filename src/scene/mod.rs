@@ -1,5 +1,6 @@
-//! The renderer's scene: world-space triangles, Lambertian materials,
-//! punctual lights in radiometric units, and cameras. No Vulkan here.
+//! The renderer's scene: world-space triangles, Lambertian materials (with
+//! emission, alpha masks and normal maps), punctual lights in radiometric
+//! units, and cameras. No Vulkan here.
 //!
 //! Scenes come from glTF ([`gltf_loader`]), from the built-in generators
 //! ([`builtin`]), or from a host engine's own data through [`Scene::add_mesh`]
@@ -12,7 +13,7 @@ use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use crate::error::{Error, Result};
 
-/// One vertex in world space, as uploaded to the GPU (36 bytes).
+/// One vertex in world space, as uploaded to the GPU (52 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Vertex {
@@ -20,19 +21,106 @@ pub struct Vertex {
     pub position: [f32; 3],
     /// World-space unit normal.
     pub normal: [f32; 3],
-    /// Texture coordinate of the base-colour texture.
+    /// Texture coordinate (every texture of the material uses this set).
     pub uv: [f32; 2],
     /// Index into [`Scene::materials`].
     pub material: u32,
+    /// World-space unit tangent (xyz, along +u) and the handedness of the
+    /// bitangent (w = ±1), for normal maps; zero without one.
+    pub tangent: [f32; 4],
 }
 
-/// A Lambertian material.
+/// How texture coordinates outside [0, 1] wrap (glTF sampler wrap modes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Wrap {
+    /// Repeat.
+    #[default]
+    Repeat,
+    /// Clamp to the edge texel.
+    ClampToEdge,
+    /// Repeat, mirrored every other time.
+    MirroredRepeat,
+}
+
+/// How a texture is sampled: wrap per axis, and nearest or bilinear
+/// filtering (glTF's magnification filter; there are no mipmaps).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TextureSampler {
+    /// Wrap along u.
+    pub wrap_s: Wrap,
+    /// Wrap along v.
+    pub wrap_t: Wrap,
+    /// Nearest-texel filtering instead of bilinear.
+    pub nearest: bool,
+}
+
+/// A texture as a material uses it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Scene::textures`].
+    pub index: usize,
+    /// How it is sampled.
+    pub sampler: TextureSampler,
+}
+
+/// Which parts of a surface exist (glTF alpha modes).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Everywhere.
+    #[default]
+    Opaque,
+    /// Where base-colour alpha (factor x texture) is at least the cutoff;
+    /// glTF's BLEND is read as a mask at 0.5.
+    Mask(f32),
+}
+
+/// A Lambertian material, possibly emissive.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
-    /// Linear base colour (albedo) factor; alpha is ignored.
+    /// Linear base colour (albedo) factor; alpha scales the texture's alpha
+    /// for [`AlphaMode::Mask`].
     pub base_color: Vec4,
     /// Index into [`Scene::textures`] of an sRGB base-colour texture.
     pub texture: Option<usize>,
+    /// How `texture` is sampled.
+    pub sampler: TextureSampler,
+    /// Emitted radiance (W/(m² sr)): glTF `emissiveFactor` x
+    /// `KHR_materials_emissive_strength`, multiplied by the emissive texture.
+    pub emission: Vec3,
+    /// sRGB emissive texture.
+    pub emissive_texture: Option<TextureRef>,
+    /// Tangent-space normal map (linear).
+    pub normal_texture: Option<TextureRef>,
+    /// Scale of the normal map's x and y.
+    pub normal_scale: f32,
+    /// Which parts of the surface exist.
+    pub alpha: AlphaMode,
+    /// Seen (and emitting) from both sides. One-sided surfaces are culled for
+    /// the camera when seen from behind and emit only from the front; light
+    /// transport treats every surface as a two-sided occluder.
+    pub double_sided: bool,
+}
+
+impl Material {
+    /// A two-sided, opaque, non-emissive material.
+    pub fn diffuse(base_color: Vec3, texture: Option<usize>) -> Self {
+        Self {
+            base_color: base_color.extend(1.0),
+            texture,
+            sampler: TextureSampler::default(),
+            emission: Vec3::ZERO,
+            emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            alpha: AlphaMode::Opaque,
+            double_sided: true,
+        }
+    }
+
+    /// Whether the material emits light.
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
 }
 
 /// An 8-bit sRGB RGBA texture.
@@ -197,22 +285,37 @@ impl Scene {
         }
     }
 
-    /// Adds a material and returns its index.
+    /// Adds a two-sided, opaque, non-emissive material and returns its index.
     pub fn add_material(&mut self, base_color: Vec3, texture: Option<usize>) -> u32 {
-        self.materials.push(Material {
-            base_color: base_color.extend(1.0),
-            texture,
-        });
+        self.materials.push(Material::diffuse(base_color, texture));
         (self.materials.len() - 1) as u32
     }
 
     /// Adds a triangle mesh given in object space, transformed by `transform`.
     /// `normals` may be empty (flat normals are computed), `uvs` may be empty.
+    /// Tangents are generated if the material has a normal map.
     pub fn add_mesh(
         &mut self,
         positions: &[Vec3],
         normals: &[Vec3],
         uvs: &[[f32; 2]],
+        indices: &[u32],
+        transform: Mat4,
+        material: u32,
+    ) -> Result<()> {
+        self.add_mesh_with_tangents(positions, normals, uvs, &[], indices, transform, material)
+    }
+
+    /// [`Scene::add_mesh`] with per-vertex tangents (xyz along +u, w the
+    /// bitangent's handedness), as glTF's TANGENT; empty: generated when the
+    /// material has a normal map.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_mesh_with_tangents(
+        &mut self,
+        positions: &[Vec3],
+        normals: &[Vec3],
+        uvs: &[[f32; 2]],
+        tangents: &[Vec4],
         indices: &[u32],
         transform: Mat4,
         material: u32,
@@ -223,6 +326,7 @@ impl Scene {
         }
         if !normals.is_empty() && normals.len() != positions.len()
             || !uvs.is_empty() && uvs.len() != positions.len()
+            || !tangents.is_empty() && tangents.len() != positions.len()
         {
             return bad("attribute counts differ from the position count");
         }
@@ -232,40 +336,79 @@ impl Scene {
                 positions.len()
             ));
         }
-        if material as usize >= self.materials.len() {
+        let Some(mat) = self.materials.get(material as usize) else {
             return bad(&format!("material {material} does not exist"));
-        }
+        };
         if self.indices.len() / 3 + indices.len() / 3 > MAX_TRIANGLES {
             return bad(&format!("more than {MAX_TRIANGLES} triangles"));
         }
-        let normal_matrix = Mat3::from_mat4(transform).inverse().transpose();
+        let wants_tangents = mat.normal_texture.is_some();
+        let linear = Mat3::from_mat4(transform);
+        let normal_matrix = linear.inverse().transpose();
+        // A mirroring transform flips the bitangent's handedness.
+        let handedness = if linear.determinant() < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
         let world = |p: Vec3| transform.transform_point3(p);
+        let world_tangent = |t: Vec4| {
+            let xyz = (linear * t.truncate()).normalize_or_zero();
+            xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
+        };
+        let uv = |i: usize| uvs.get(i).copied().unwrap_or([0.0; 2]);
         if normals.is_empty() {
             // Flat normals: unshare vertices, one normal per triangle.
             for tri in indices.chunks_exact(3) {
                 let p: Vec<Vec3> = tri.iter().map(|&i| world(positions[i as usize])).collect();
                 let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                let uvt = [
+                    uv(tri[0] as usize),
+                    uv(tri[1] as usize),
+                    uv(tri[2] as usize),
+                ];
+                let generated = if wants_tangents && tangents.is_empty() {
+                    triangle_tangent(&[p[0], p[1], p[2]], &uvt, n)
+                } else {
+                    Vec4::ZERO
+                };
                 let base = self.vertices.len() as u32;
                 for (k, &i) in tri.iter().enumerate() {
-                    let uv = uvs.get(i as usize).copied().unwrap_or([0.0; 2]);
+                    let tangent = match tangents.get(i as usize) {
+                        Some(&t) => world_tangent(t),
+                        None => generated,
+                    };
                     self.vertices.push(Vertex {
                         position: p[k].into(),
                         normal: n.into(),
-                        uv,
+                        uv: uvt[k],
                         material,
+                        tangent: tangent.into(),
                     });
                 }
                 self.indices.extend([base, base + 1, base + 2]);
             }
         } else {
             let base = self.vertices.len() as u32;
-            for (i, p) in positions.iter().enumerate() {
-                let n = (normal_matrix * normals[i]).normalize_or_zero();
+            let world_normals: Vec<Vec3> = normals
+                .iter()
+                .map(|&n| (normal_matrix * n).normalize_or_zero())
+                .collect();
+            let world_positions: Vec<Vec3> = positions.iter().map(|&p| world(p)).collect();
+            let vertex_tangents: Vec<Vec4> = if !tangents.is_empty() {
+                tangents.iter().map(|&t| world_tangent(t)).collect()
+            } else if wants_tangents {
+                vertex_tangents(&world_positions, &world_normals, uvs, indices)
+            } else {
+                vec![Vec4::ZERO; positions.len()]
+            };
+            for i in 0..positions.len() {
                 self.vertices.push(Vertex {
-                    position: world(*p).into(),
-                    normal: n.into(),
-                    uv: uvs.get(i).copied().unwrap_or([0.0; 2]),
+                    position: world_positions[i].into(),
+                    normal: world_normals[i].into(),
+                    uv: uv(i),
                     material,
+                    tangent: vertex_tangents[i].into(),
                 });
             }
             self.indices.extend(indices.iter().map(|i| i + base));
@@ -364,8 +507,96 @@ impl Scene {
                 ));
             }
         }
+        for (i, m) in self.materials.iter().enumerate() {
+            let bad = |what: String| Err(Error::scene(&self.name, format!("material {i}: {what}")));
+            if !m.base_color.is_finite() || m.base_color.min_element() < 0.0 {
+                return bad("base colour is negative or not finite".into());
+            }
+            if !m.emission.is_finite() || m.emission.min_element() < 0.0 {
+                return bad(format!("emission {} is negative or not finite", m.emission));
+            }
+            if let AlphaMode::Mask(c) = m.alpha {
+                if !(0.0..=1.0).contains(&c) {
+                    return bad(format!("alpha cutoff {c} is outside [0, 1]"));
+                }
+            }
+            if !m.normal_scale.is_finite() {
+                return bad("normal scale is not finite".into());
+            }
+            let textures = [
+                m.texture,
+                m.emissive_texture.map(|t| t.index),
+                m.normal_texture.map(|t| t.index),
+            ];
+            if let Some(t) = textures
+                .into_iter()
+                .flatten()
+                .find(|&t| t >= self.textures.len())
+            {
+                return bad(format!("texture {t} does not exist"));
+            }
+        }
         Ok(())
     }
+}
+
+/// The tangent (along +u) of a triangle, orthogonal to `n`, with the
+/// bitangent's handedness in w; zero where the UVs are degenerate.
+fn triangle_tangent(p: &[Vec3; 3], uv: &[[f32; 2]; 3], n: Vec3) -> Vec4 {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let (du1, dv1) = (uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]);
+    let (du2, dv2) = (uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]);
+    let det = du1 * dv2 - du2 * dv1;
+    if det.abs() < 1e-12 {
+        return Vec4::ZERO;
+    }
+    let t = (e1 * dv2 - e2 * dv1) / det;
+    let b = (e2 * du1 - e1 * du2) / det;
+    let t = (t - n * n.dot(t)).normalize_or_zero();
+    let w = if n.cross(t).dot(b) < 0.0 { -1.0 } else { 1.0 };
+    t.extend(w)
+}
+
+/// Per-vertex tangents: triangle tangents (weighted by area through the
+/// unnormalised UV derivatives) summed per vertex and made orthogonal to its
+/// normal.
+fn vertex_tangents(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    uvs: &[[f32; 2]],
+    indices: &[u32],
+) -> Vec<Vec4> {
+    let mut t_sum = vec![Vec3::ZERO; positions.len()];
+    let mut b_sum = vec![Vec3::ZERO; positions.len()];
+    let uv = |i: usize| uvs.get(i).copied().unwrap_or([0.0; 2]);
+    for tri in indices.chunks_exact(3) {
+        let [a, b, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+        let (e1, e2) = (positions[b] - positions[a], positions[c] - positions[a]);
+        let (du1, dv1) = (uv(b)[0] - uv(a)[0], uv(b)[1] - uv(a)[1]);
+        let (du2, dv2) = (uv(c)[0] - uv(a)[0], uv(c)[1] - uv(a)[1]);
+        let det = du1 * dv2 - du2 * dv1;
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let t = (e1 * dv2 - e2 * dv1) / det;
+        let bt = (e2 * du1 - e1 * du2) / det;
+        for v in [a, b, c] {
+            t_sum[v] += t;
+            b_sum[v] += bt;
+        }
+    }
+    (0..positions.len())
+        .map(|i| {
+            let n = normals[i];
+            let t = (t_sum[i] - n * n.dot(t_sum[i])).normalize_or_zero();
+            let w = if n.cross(t).dot(b_sum[i]) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            t.extend(w)
+        })
+        .collect()
 }
 
 /// Loads a scene: a built-in name ([`builtin::NAMES`]) or a `.gltf`/`.glb` path.

@@ -1,0 +1,144 @@
+//! Emissive triangles as area lights: their power, and points on them
+//! sampled in proportion to it (for light paths and next-event estimation).
+//!
+//! A triangle of emitted radiance Le (W/(m² sr), Lambertian) and area A
+//! emits pi Le A watts from each emitting side (the front, or both sides if
+//! its material is double-sided). With an emissive texture, Le is averaged
+//! over the triangle from a fixed set of points for the power (which only
+//! steers the sampling); the radiance at the sampled point is exact.
+
+use glam::{Vec2, Vec3, Vec4};
+
+use super::shading;
+use crate::scene::Scene;
+
+/// A point sampled on an emitter.
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterSample {
+    /// Position.
+    pub position: Vec3,
+    /// Unit normal of the emitting side.
+    pub normal: Vec3,
+    /// Emitted radiance there (W/(m² sr)).
+    pub radiance: Vec3,
+    /// Probability density of this (point, side) per unit area, including
+    /// the choice of the triangle and of the side.
+    pub pdf_area: f32,
+}
+
+/// Every emitting triangle with its power.
+#[derive(Clone, Debug, Default)]
+pub struct Emitters {
+    /// Triangle index, area, emitting sides (1 or 2).
+    triangles: Vec<(u32, f32, u32)>,
+    /// Power (W, rgb) per triangle.
+    power: Vec<Vec3>,
+    /// Cumulative luminance of the power.
+    cdf: Vec<f32>,
+}
+
+/// Luminance weights (Rec. 709).
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+impl Emitters {
+    /// Finds the emissive triangles of `scene`.
+    pub fn new(scene: &Scene) -> Self {
+        let mut e = Self::default();
+        let mut total = 0.0f32;
+        for t in 0..scene.triangle_count() {
+            let idx = &scene.indices[t * 3..t * 3 + 3];
+            let v = |k: usize| &scene.vertices[idx[k] as usize];
+            let material = &scene.materials[v(0).material as usize];
+            if !material.is_emissive() {
+                continue;
+            }
+            let p = |k: usize| Vec3::from(v(k).position);
+            let area = 0.5 * (p(1) - p(0)).cross(p(2) - p(0)).length();
+            if area.is_nan() || area <= 0.0 {
+                continue;
+            }
+            // Mean radiance over the triangle from 16 stratified points.
+            let mean = if material.emissive_texture.is_some() {
+                let mut sum = Vec3::ZERO;
+                for i in 0..16 {
+                    let u = Vec2::new((i % 4) as f32 + 0.5, (i / 4) as f32 + 0.5) / 4.0;
+                    let (b1, b2) = uniform_triangle(u);
+                    let uv = Vec2::from(v(0).uv) * (1.0 - b1 - b2)
+                        + Vec2::from(v(1).uv) * b1
+                        + Vec2::from(v(2).uv) * b2;
+                    sum += shading::emission(scene, material, uv);
+                }
+                sum / 16.0
+            } else {
+                material.emission
+            };
+            let sides = if material.double_sided { 2 } else { 1 };
+            let power = mean * std::f32::consts::PI * area * sides as f32;
+            let weight = luminance(power).max(0.0);
+            if weight <= 0.0 {
+                continue;
+            }
+            total += weight;
+            e.triangles.push((t as u32, area, sides));
+            e.power.push(power);
+            e.cdf.push(total);
+        }
+        e
+    }
+
+    /// No emitters.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Total power (W, rgb).
+    pub fn power(&self) -> Vec3 {
+        self.power.iter().sum()
+    }
+
+    /// A point on an emitter: triangle by power (`u.x` picks it), uniform
+    /// on it (`u.yz`), a side (`u.w`, for double-sided ones).
+    pub fn sample(&self, scene: &Scene, u: Vec4) -> Option<EmitterSample> {
+        let total = *self.cdf.last()?;
+        let target = u.x * total;
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
+        let p_triangle = (self.cdf[i] - if i > 0 { self.cdf[i - 1] } else { 0.0 }) / total;
+        let (t, area, sides) = self.triangles[i];
+        let idx = &scene.indices[t as usize * 3..t as usize * 3 + 3];
+        let v = |k: usize| &scene.vertices[idx[k] as usize];
+        let (b1, b2) = uniform_triangle(Vec2::new(u.y, u.z));
+        let b0 = 1.0 - b1 - b2;
+        let p = |k: usize| Vec3::from(v(k).position);
+        let position = p(0) * b0 + p(1) * b1 + p(2) * b2;
+        let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * b1 + Vec2::from(v(2).uv) * b2;
+        let material = &scene.materials[v(0).material as usize];
+        // The front is where the vertex normals point (as the G-buffer sees it).
+        let mut normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
+        let interpolated = Vec3::from(v(0).normal) * b0
+            + Vec3::from(v(1).normal) * b1
+            + Vec3::from(v(2).normal) * b2;
+        if normal.dot(interpolated) < 0.0 {
+            normal = -normal;
+        }
+        if sides == 2 && u.w >= 0.5 {
+            normal = -normal;
+        }
+        Some(EmitterSample {
+            position,
+            normal,
+            radiance: shading::emission(scene, material, uv),
+            pdf_area: p_triangle / (area * sides as f32),
+        })
+    }
+}
+
+/// Barycentrics (of vertices 1 and 2) of a uniform point on a triangle.
+pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
+    let su = u.x.sqrt();
+    (su * (1.0 - u.y), su * u.y)
+}
