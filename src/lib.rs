@@ -19,7 +19,7 @@
 //! for pass in &frame.timings.passes {
 //!     println!("{}: {:.2} ms", pass.name, pass.gpu_ms);
 //! }
-//! ssbc::output::write_image(&frame, "out.exr".as_ref(), true, 1.0)?;
+//! ssbc::output::write_image(&frame, "out.exr".as_ref(), true, None)?;
 //! # Ok(()) }
 //! ```
 //!

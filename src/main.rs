@@ -176,9 +176,11 @@ struct SceneOptions {
     /// Lower clamp of cos(view angle) in the pixel area A_y (grazing views).
     #[arg(long, default_value_t = 0.2)]
     min_cos_view: f32,
-    /// Exposure multiplier for PNG output.
-    #[arg(long, default_value_t = 1.0)]
-    exposure: f32,
+    /// Exposure of PNG output (and of the viewer). Default: chosen from the
+    /// image (middle grey at its log-average luminance) for PNGs, 1 in the
+    /// viewer.
+    #[arg(long)]
+    exposure: Option<f32>,
     /// Enable Vulkan validation (also: SSBC_VALIDATION=1); any message makes the exit status non-zero.
     #[arg(long)]
     validate: bool,
@@ -263,6 +265,13 @@ impl SceneOptions {
 }
 
 fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
+    if let Some(e) = args.common.exposure {
+        if !(e.is_finite() && e > 0.0) {
+            return Err(ssbc::Error::InvalidParameter(format!(
+                "--exposure {e} must be a positive number"
+            )));
+        }
+    }
     let mut scene = ssbc::scene::load(&args.common.scene)?;
     scene.ensure_light();
     let config = RendererConfig {
@@ -393,7 +402,7 @@ fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
         settings: args.common.settings(),
         validation: args.common.validation(),
         device: args.common.device(),
-        exposure: args.common.exposure,
+        exposure: args.common.exposure.unwrap_or(1.0),
         frames: args.frames,
         screenshot: args.screenshot,
     })

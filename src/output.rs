@@ -16,9 +16,15 @@ fn output_err(path: &Path, message: impl ToString) -> Error {
     }
 }
 
-/// Writes `frame` to `path`: `.exr` (with the component layers when
-/// `with_layers`) or `.png` (exposure-scaled, clamped, sRGB-encoded).
-pub fn write_image(frame: &Frame, path: &Path, with_layers: bool, exposure: f32) -> Result<()> {
+/// Writes `frame` to `path`: `.exr` (linear, with the component layers when
+/// `with_layers`) or `.png` (tonemapped: `exposure`, or one chosen from the
+/// image when None, then a filmic curve; see [`write_png_tonemapped`]).
+pub fn write_image(
+    frame: &Frame,
+    path: &Path,
+    with_layers: bool,
+    exposure: Option<f32>,
+) -> Result<()> {
     match path
         .extension()
         .and_then(|e| e.to_str())
@@ -29,7 +35,9 @@ pub fn write_image(frame: &Frame, path: &Path, with_layers: bool, exposure: f32)
             let extra: &[Layer] = if with_layers { &frame.layers } else { &[] };
             write_exr(path, frame.width, frame.height, &frame.image, extra)
         }
-        Some("png") => write_png(path, frame.width, frame.height, &frame.image.rgba, exposure),
+        Some("png") => {
+            write_png_tonemapped(path, frame.width, frame.height, &frame.image.rgba, exposure)
+        }
         _ => Err(output_err(path, "output must end in .exr or .png")),
     }
 }
@@ -75,12 +83,65 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// Writes linear RGBA radiance as an 8-bit sRGB PNG (scaled by `exposure`, clamped).
+/// Writes linear RGBA radiance as an 8-bit sRGB PNG, scaled by `exposure`
+/// and clamped (what the viewer shows).
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[f32], exposure: f32) -> Result<()> {
     let bytes: Vec<u8> = rgba
         .chunks_exact(4)
         .flat_map(|p| {
             let q = |v: f32| (srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8;
+            [q(p[0]), q(p[1]), q(p[2])]
+        })
+        .collect();
+    image::save_buffer(path, &bytes, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| output_err(path, e))
+}
+
+/// The exposure that maps the log-average luminance of the pixels with
+/// geometry (alpha > 0; all pixels if none) to the middle grey 0.18
+/// (Reinhard et al. 2002's key value).
+pub fn auto_exposure(rgba: &[f32]) -> f32 {
+    let luminance = |p: &[f32]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+    let mut geometry: Vec<&[f32]> = rgba.chunks_exact(4).filter(|p| p[3] > 0.0).collect();
+    if geometry.is_empty() {
+        geometry = rgba.chunks_exact(4).collect();
+    }
+    let n = geometry.len().max(1) as f64;
+    let log_sum: f64 = geometry
+        .iter()
+        .map(|p| (1e-6 + luminance(p).max(0.0) as f64).ln())
+        .filter(|v| v.is_finite())
+        .sum();
+    let average = (log_sum / n).exp();
+    if average > 1e-5 && average.is_finite() {
+        (0.18 / average) as f32
+    } else {
+        1.0
+    }
+}
+
+/// The filmic curve of the PNG output (Narkowicz's fit of ACES): maps
+/// [0, inf) to [0, 1) with a toe and a soft shoulder, so highlights roll off
+/// instead of clipping.
+pub fn filmic(x: f32) -> f32 {
+    let x = x.max(0.0);
+    ((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
+}
+
+/// Writes linear RGBA radiance as an 8-bit sRGB PNG: scaled by `exposure`
+/// (None: [`auto_exposure`]), then [`filmic`]. The EXR output stays linear.
+pub fn write_png_tonemapped(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgba: &[f32],
+    exposure: Option<f32>,
+) -> Result<()> {
+    let exposure = exposure.unwrap_or_else(|| auto_exposure(rgba));
+    let bytes: Vec<u8> = rgba
+        .chunks_exact(4)
+        .flat_map(|p| {
+            let q = |v: f32| (srgb_encode(filmic(v * exposure)) * 255.0 + 0.5) as u8;
             [q(p[0]), q(p[1]), q(p[2])]
         })
         .collect();

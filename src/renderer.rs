@@ -239,7 +239,8 @@ pub struct Frame {
     /// The final image (linear radiance).
     pub image: Layer,
     /// Component layers (`direct`, `indirect_bounded`, `residual_k`, and with
-    /// debug readback `gbuffer_position`, `gbuffer_normal`, `gbuffer_albedo`).
+    /// debug readback `gbuffer_position`, `gbuffer_normal`, `gbuffer_albedo`,
+    /// `gbuffer_emission`).
     pub layers: Vec<Layer>,
     /// Per-pass GPU timings.
     pub timings: Timings,
@@ -451,6 +452,22 @@ impl Renderer {
                 "--points-per-vpl must be at least 1".into(),
             ));
         }
+        // Every ISM point is 16 bytes in one storage buffer.
+        let max_range = self.device.limits().max_storage_buffer_range as u64;
+        let points = settings.vpl.count as u64 * settings.points_per_vpl as u64;
+        if points * 16 > max_range {
+            return Err(Error::InvalidParameter(format!(
+                "{} VPLs x {} points per VPL need {} MiB of ISM points; this device's storage \
+                 buffers hold at most {} MiB (maxStorageBufferRange): use fewer VPLs or points",
+                settings.vpl.count,
+                settings.points_per_vpl,
+                (points * 16) >> 20,
+                max_range >> 20
+            )));
+        }
+        if settings.ssbc.steps > 0 {
+            crate::passes::ssbc::check_size(&self.device, settings.width, settings.height)?;
+        }
         if settings.vpl.count as u64 * settings.points_per_vpl as u64 > MAX_ISM_POINTS {
             return Err(Error::InvalidParameter(format!(
                 "{} VPLs x {} points per VPL exceeds {MAX_ISM_POINTS} ISM points",
@@ -600,6 +617,7 @@ impl Renderer {
             outputs.push(("gbuffer_position".into(), &gbuffer.position));
             outputs.push(("gbuffer_normal".into(), &gbuffer.normal));
             outputs.push(("gbuffer_albedo".into(), &gbuffer.albedo));
+            outputs.push(("gbuffer_emission".into(), &gbuffer.emission));
         }
         if gpu_layer.is_some() {
             outputs.clear(); // nothing is read back

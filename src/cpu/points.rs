@@ -1,10 +1,13 @@
 //! Scene point sampling for imperfect shadow maps: points distributed over all
 //! triangles in proportion to area, a separate low-discrepancy subset per VPL.
+//! Cut-out parts of alpha-masked materials get no points (they cast no
+//! shadow).
 
 use glam::{Vec2, Vec3};
 
 use super::sampling::Halton;
-use crate::scene::Scene;
+use super::shading;
+use crate::scene::{AlphaMode, Scene};
 
 /// Points for every VPL, `points_per_vpl` each, stored consecutively.
 #[derive(Clone, Debug)]
@@ -39,14 +42,45 @@ pub fn sample_points(
     let halton = Halton::new(seed ^ 0x15A);
     let count = vpl_count * points_per_vpl;
     let mut positions = Vec::with_capacity(count);
-    for k in 0..count as u64 {
+    let masked = scene
+        .materials
+        .iter()
+        .any(|m| matches!(m.alpha, AlphaMode::Mask(_)));
+    // Points on cut-out texels are drawn again (up to 16 draws per point).
+    let mut k = 0u64;
+    while positions.len() < count && k < 16 * count as u64 {
         let target = halton.sample(k, 0) as f64 * total;
         let t = cdf.partition_point(|&c| c < target).min(cdf.len() - 1);
         let (a, b, c) = tri(t);
         let u = Vec2::new(halton.sample(k, 1), halton.sample(k, 2));
+        k += 1;
         let su = u.x.sqrt();
-        let p = a * (1.0 - su) + b * (su * (1.0 - u.y)) + c * (su * u.y);
+        let (w1, w2) = (su * (1.0 - u.y), su * u.y);
+        if masked {
+            let i = &scene.indices[t * 3..t * 3 + 3];
+            let v = |n: usize| &scene.vertices[i[n] as usize];
+            let material = &scene.materials[v(0).material as usize];
+            let uv = Vec2::from(v(0).uv) * (1.0 - w1 - w2)
+                + Vec2::from(v(1).uv) * w1
+                + Vec2::from(v(2).uv) * w2;
+            if !shading::opaque(scene, material, uv) {
+                continue;
+            }
+        }
+        let p = a * (1.0 - w1 - w2) + b * w1 + c * w2;
         positions.push([p.x, p.y, p.z, 1.0]);
+    }
+    // A scene almost entirely cut out: repeat the points found (every VPL
+    // block must be full), or a vertex if there were none.
+    let found = positions.len();
+    for i in found..count {
+        let p = if found > 0 {
+            positions[i % found]
+        } else {
+            let (a, _, _) = tri(0);
+            [a.x, a.y, a.z, 1.0]
+        };
+        positions.push(p);
     }
     // Consecutive Halton points are well spread, so each VPL's block of
     // consecutive points is itself a good area sampling.

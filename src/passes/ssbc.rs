@@ -207,6 +207,39 @@ struct SsbcPush {
     pad: [u32; 3],
 }
 
+/// Level 0 of the pyramids for an image (padded so that every level halves
+/// exactly) and the number of levels.
+fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
+    let levels = pyramid_levels(width, height);
+    let align = 1u32 << (levels - 1);
+    (
+        (
+            width.div_ceil(align) * align,
+            height.div_ceil(align) * align,
+        ),
+        levels,
+    )
+}
+
+/// Fails with a clear message if SSBC's largest storage buffer (the
+/// evaluation points, 64 bytes per texel of every pyramid level) exceeds
+/// what the device can bind (maxStorageBufferRange; 128 MiB on lavapipe,
+/// which allows about 1400x1050).
+pub fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
+    let (size, levels) = pyramid_layout(width, height);
+    let largest = pyramid_texels(size, levels) * EVAL_POINT_BYTES.max(GEO_TEXEL_BYTES);
+    let max = device.limits().max_storage_buffer_range as u64;
+    if largest > max {
+        return Err(Error::InvalidParameter(format!(
+            "SSBC at {width}x{height} needs {} MiB storage buffers; this device binds at most \
+             {} MiB (maxStorageBufferRange): render smaller or with --steps 0",
+            largest >> 20,
+            max >> 20
+        )));
+    }
+    Ok(())
+}
+
 /// Pyramid levels for an image: down to about 2 texels on the short side.
 pub fn pyramid_levels(width: u32, height: u32) -> u32 {
     (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
@@ -323,13 +356,8 @@ impl SsbcPass {
         extent: (u32, u32),
         steps: u32,
     ) -> Result<SsbcFrame> {
-        let levels = pyramid_levels(extent.0, extent.1);
-        // Pad level 0 so every level halves exactly (padding has no geometry).
-        let align = 1u32 << (levels - 1);
-        let pyramid_size = (
-            extent.0.div_ceil(align) * align,
-            extent.1.div_ceil(align) * align,
-        );
+        // Level 0 padded so every level halves exactly (padding has no geometry).
+        let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
         let texels = pyramid_texels(pyramid_size, levels);
         let storage = |name: &str, size: u64, extra: vk::BufferUsageFlags| {
             Buffer::new(
