@@ -229,12 +229,11 @@ fn an_emissive_panel_is_the_rooms_light() {
     for (i, e) in emission.chunks_exact(4).enumerate() {
         if e[0] > 0.0 {
             panel_pixels += 1;
-            for c in 0..3 {
+            for (c, &le) in e[..3].iter().enumerate() {
                 let v = f.image.rgba[i * 4 + c];
                 assert!(
-                    (v - e[c]).abs() <= 1e-4 * e[c],
-                    "panel pixel {i}: {v} vs Le {}",
-                    e[c]
+                    (v - le).abs() <= 1e-4 * le,
+                    "panel pixel {i}: {v} vs Le {le}"
                 );
             }
             assert_eq!(&e[..3], &[12.0, 11.0, 9.0]);
@@ -677,7 +676,7 @@ fn the_default_png_is_exposed_from_the_image_and_not_clipped() {
         .collect();
     let clipped = geometry
         .iter()
-        .filter(|&&i| png.as_raw()[i * 3..i * 3 + 3].iter().any(|&c| c == 255))
+        .filter(|&&i| png.as_raw()[i * 3..i * 3 + 3].contains(&255))
         .count();
     let mean: f64 = geometry
         .iter()
