@@ -162,7 +162,7 @@ fn quad_bin() -> Vec<u8> {
 fn document(buffer: Value, bin_len: usize, mode: u32, image: Value, with_scenes: bool) -> Value {
     let mut doc = json!({
         "asset": {"version": "2.0"},
-        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"],
         "extensions": {"KHR_lights_punctual": {"lights": [
             {"type": "point", "intensity": 5.0, "color": [1.0, 0.9, 0.8]},
             {"type": "spot", "intensity": 3.0, "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}}
@@ -179,10 +179,17 @@ fn document(buffer: Value, bin_len: usize, mode: u32, image: Value, with_scenes:
             "attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2},
             "indices": 3, "material": 0, "mode": mode
         }]}],
-        "materials": [{"pbrMetallicRoughness": {
-            "baseColorFactor": [0.8, 0.7, 0.6, 1.0], "baseColorTexture": {"index": 0}
-        }}],
-        "textures": [{"source": 0}],
+        "materials": [{
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [0.8, 0.7, 0.6, 1.0], "baseColorTexture": {"index": 0}
+            },
+            "emissiveFactor": [1.0, 0.5, 0.2], "emissiveTexture": {"index": 0},
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 3.0}},
+            "normalTexture": {"index": 0, "scale": 0.8},
+            "alphaMode": "MASK", "alphaCutoff": 0.4, "doubleSided": false
+        }],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{"wrapS": 33071, "wrapT": 33648, "magFilter": 9728}],
         "images": [image],
         "accessors": [
             {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",

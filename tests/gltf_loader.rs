@@ -194,3 +194,101 @@ fn base_color_texture_is_sampled_in_the_render() {
         );
     }
 }
+
+/// A 2x2 PNG as a data URI.
+fn png_uri() -> String {
+    let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([128, 128, 255, 200]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    use base64::Engine as _;
+    format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(out.into_inner())
+    )
+}
+
+/// The quad with material 0 given as JSON, and the usual texture set.
+fn quad_with_material(material: &str) -> String {
+    let (bin, _) = quad_buffer(2);
+    quad_gltf(
+        Some(&data_uri(&bin)),
+        bin.len(),
+        5123,
+        Some(0),
+        &format!(
+            r#","materials":[{material}],
+"textures":[{{"source":0}},{{"source":0,"sampler":0}},{{"source":0,"sampler":1}}],
+"samplers":[{{"wrapS":33071,"wrapT":33648,"magFilter":9728}},{{}}],
+"images":[{{"uri":"{}"}}],
+"extensionsUsed":["KHR_materials_emissive_strength"]"#,
+            png_uri()
+        ),
+    )
+}
+
+#[test]
+fn emission_alpha_normal_maps_and_samplers_are_read() {
+    use ssbc::scene::{AlphaMode, Wrap};
+    let dir = tempfile::tempdir().unwrap();
+    let json = quad_with_material(
+        r#"{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,0.5],"baseColorTexture":{"index":1}},
+"emissiveFactor":[1,0.5,0.25],"emissiveTexture":{"index":2},
+"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":40}},
+"normalTexture":{"index":0,"scale":0.5},"alphaMode":"MASK","alphaCutoff":0.3,"doubleSided":true}"#,
+    );
+    let scene = load_str(dir.path(), "m.gltf", json.as_bytes()).unwrap();
+    let m = &scene.materials[0];
+    assert_eq!(m.emission, Vec3::new(40.0, 20.0, 10.0), "factor x strength");
+    assert_eq!(m.alpha, AlphaMode::Mask(0.3));
+    assert!(m.double_sided);
+    assert_eq!(m.normal_scale, 0.5);
+    assert_eq!(m.sampler.wrap_s, Wrap::ClampToEdge);
+    assert_eq!(m.sampler.wrap_t, Wrap::MirroredRepeat);
+    assert!(m.sampler.nearest);
+    let emissive = m.emissive_texture.unwrap();
+    assert_eq!(emissive.sampler.wrap_s, Wrap::Repeat);
+    assert!(!emissive.sampler.nearest);
+    // One image decoded once, used three times.
+    assert_eq!(scene.textures.len(), 1);
+    // Tangents were generated for the normal map, along +u.
+    let t = scene.vertices[0].tangent;
+    assert!((Vec3::new(t[0], t[1], t[2]).length() - 1.0).abs() < 1e-5 && t[3].abs() == 1.0);
+    // BLEND reads as a mask at 0.5; the glTF default is one-sided.
+    let json = quad_with_material(r#"{"alphaMode":"BLEND"}"#);
+    let m = &load_str(dir.path(), "b.gltf", json.as_bytes())
+        .unwrap()
+        .materials[0];
+    assert_eq!(m.alpha, AlphaMode::Mask(0.5));
+    assert!(!m.double_sided);
+}
+
+#[test]
+fn bad_material_values_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    for (material, expected) in [
+        (
+            r#"{"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":-2}}}"#,
+            "emissive_strength",
+        ),
+        (
+            r#"{"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":1e39}}}"#,
+            "emissive",
+        ),
+        (r#"{"emissiveFactor":[1,-1,1]}"#, "emissiveFactor"),
+        (
+            r#"{"emissiveFactor":[1,1,1],"emissiveTexture":{"index":7}}"#,
+            "texture index 7",
+        ),
+        (
+            r#"{"alphaMode":"MASK","alphaCutoff":1.5}"#,
+            "alphaCutoff 1.5",
+        ),
+        (r#"{"normalTexture":{"index":9}}"#, "texture index 9"),
+    ] {
+        let json = quad_with_material(material);
+        let e = load_str(dir.path(), "bad.gltf", json.as_bytes())
+            .expect_err(material)
+            .to_string();
+        assert!(e.contains(expected) && !e.contains('\n'), "{material}: {e}");
+    }
+}
