@@ -1,10 +1,11 @@
 //! Per-pass GPU time from timestamp queries, reported as ratios within one
 //! run (machines are shared and noisy). Run with
-//! `cargo bench --bench passes` (add `-- --quick` for 512x384, `--reps N` for
-//! the best of N warm frames per configuration; default 2).
+//! `cargo bench --bench passes` (add `-- --quick` for 512x384, `--frames N`
+//! for the median of N warm frames per configuration; default 3).
 //!
-//! Every configuration is rendered once to warm up (pipelines, first touch of
-//! memory) and then `reps` times; the frame with the lowest GPU time is kept.
+//! Every configuration is measured as `ssbc render --frames N` does
+//! ([`ssbc::profile::render_frames`]): one warm-up frame (pipelines, first
+//! touch of memory), then N frames; the tables give medians.
 //!
 //! Tables:
 //! 1. instant radiosity: per-pass GPU ms for cornell and tori, 256 and 1024 VPLs;
@@ -15,30 +16,47 @@
 //!    quarter of the resolution: brute force is quadratic in the radius).
 
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
+use ssbc::profile::{render_frames, FrameStats};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::Scene;
 
-fn pass_ms(f: &Frame, name: &str) -> f64 {
+fn stats(f: &Frame) -> &FrameStats {
     f.timings
-        .passes
-        .iter()
-        .filter(|p| p.name == name)
-        .map(|p| p.gpu_ms)
-        .sum()
+        .stats
+        .as_ref()
+        .expect("measured with render_frames")
 }
 
-/// The fastest of `reps` frames after one warm-up frame.
+/// Median GPU ms of the pass `name` (0 if it did not run).
+fn pass_ms(f: &Frame, name: &str) -> f64 {
+    stats(f)
+        .passes
+        .iter()
+        .find(|p| p.name == name)
+        .map_or(0.0, |p| p.gpu_ms.median)
+}
+
+/// Median GPU ms of the whole frame.
+fn frame_ms(f: &Frame) -> f64 {
+    stats(f)
+        .frame_gpu_ms
+        .expect("this benchmark needs GPU timestamps")
+        .median
+}
+
+/// Median GPU ms of SSBC step `k` (1-based).
+fn step_ms(f: &Frame, k: usize) -> f64 {
+    pass_ms(f, &format!("ssbc_step_{k}"))
+}
+
+/// One warm-up frame, then `frames` frames (medians in the stats).
 fn measure(
     renderer: &mut Renderer,
     scene: &Scene,
     settings: &RenderSettings,
-    reps: usize,
+    frames: u32,
 ) -> Frame {
-    renderer.render(scene, settings).expect("warm-up frame");
-    (0..reps.max(1))
-        .map(|_| renderer.render(scene, settings).expect("frame"))
-        .min_by(|a, b| a.timings.frame_gpu_ms.total_cmp(&b.timings.frame_gpu_ms))
-        .expect("at least one frame")
+    render_frames(renderer, scene, settings, frames, None).expect("frames")
 }
 
 fn geometry_pixels(f: &Frame) -> usize {
@@ -48,16 +66,16 @@ fn geometry_pixels(f: &Frame) -> usize {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "--quick");
-    let reps: usize = args
+    let reps: u32 = args
         .iter()
-        .position(|a| a == "--reps")
+        .position(|a| a == "--frames")
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
-        .unwrap_or(2);
+        .unwrap_or(3);
     let (w, h) = if quick { (512, 384) } else { (1024, 768) };
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     let device = renderer.device().name().to_string();
-    println!("# ssbc benchmark on {device}, {w}x{h}, best of {reps} warm frames\n");
+    println!("# ssbc benchmark on {device}, {w}x{h}, median of {reps} warm frames\n");
     let scenes = ["cornell", "tori"];
     let settings =
         |vpls: usize, steps: u32, integration: Integration, size: (u32, u32)| RenderSettings {
@@ -103,7 +121,7 @@ fn main() {
                 "| {scene_name} | {} | {} | {:.1} |",
                 f.timings.vpl_count,
                 cells.join(" | "),
-                f.timings.frame_gpu_ms
+                frame_ms(&f)
             );
         }
     }
@@ -132,26 +150,26 @@ fn main() {
                     )
                 })
                 .collect();
-            let base = frames[0].timings.frame_gpu_ms;
+            let base = frame_ms(&frames[0]);
             for (k, f) in frames.iter().enumerate() {
                 if k == 0 {
                     println!("| {scene_name} | {vpls} | 0 | {base:.1} | — | — | — | — | — | — |");
                     continue;
                 }
-                let ssbc_ms = pass_ms(f, "ssbc_geometry_mips")
-                    + f.timings.ssbc_steps.iter().map(|s| s.gpu_ms).sum::<f64>();
-                let rest = f.timings.frame_gpu_ms - ssbc_ms;
-                let per_step = (f.timings.frame_gpu_ms - base) / k as f64;
+                let ssbc_ms =
+                    pass_ms(f, "ssbc_geometry_mips") + (1..=k).map(|j| step_ms(f, j)).sum::<f64>();
+                let rest = frame_ms(f) - ssbc_ms;
+                let per_step = (frame_ms(f) - base) / k as f64;
                 let step = &f.timings.ssbc_steps[0];
                 let reads = step.samples_per_pixel_avg * geometry_pixels(f) as f64;
                 println!(
                     "| {scene_name} | {vpls} | {k} | {:.1} | {ssbc_ms:.1} | {:.0}% | {:.0}% | {:.1} | {:.0} | {:.1} |",
-                    f.timings.frame_gpu_ms,
+                    frame_ms(f),
                     100.0 * ssbc_ms / k as f64 / rest,
                     100.0 * per_step / base,
                     step.samples_per_pixel_avg,
                     step.samples_per_pixel_max,
-                    step.gpu_ms * 1e6 / reads.max(1.0)
+                    step_ms(f, 1) * 1e6 / reads.max(1.0)
                 );
             }
             if vpls == 256 {
@@ -167,11 +185,11 @@ fn main() {
             pass_ms(f, "ssbc_geometry_mips")
         ))
         .chain(
-            f.timings
+            stats(f)
                 .passes
                 .iter()
                 .filter(|p| p.name.starts_with("ssbc_step_1/"))
-                .map(|p| format!("{} {:.1}", &p.name["ssbc_step_1/".len()..], p.gpu_ms)),
+                .map(|p| format!("{} {:.1}", &p.name["ssbc_step_1/".len()..], p.gpu_ms.median)),
         )
         .collect();
         let step = &f.timings.ssbc_steps[0];
@@ -201,10 +219,7 @@ fn main() {
             &settings(256, 1, Integration::Brute, (bw, bh)),
             reps,
         );
-        let (th, tb) = (
-            hier.timings.ssbc_steps[0].gpu_ms,
-            brute.timings.ssbc_steps[0].gpu_ms,
-        );
+        let (th, tb) = (step_ms(&hier, 1), step_ms(&brute, 1));
         let (sh, sb) = (
             hier.timings.ssbc_steps[0].samples_per_pixel_avg,
             brute.timings.ssbc_steps[0].samples_per_pixel_avg,

@@ -62,7 +62,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let c = ssbc::compare::compare(&frame.image.rgba, &truth)?;
             println!(
                 "| {name} | {label} | {:.4} | {:.4} | {:.0} ms GPU |",
-                c.rel_mse, c.mean_ratio, frame.timings.frame_gpu_ms
+                c.rel_mse,
+                c.mean_ratio,
+                frame.timings.frame_gpu_ms.unwrap_or(f64::NAN)
             );
         }
     }

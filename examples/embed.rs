@@ -314,7 +314,7 @@ pub fn run(validation: bool) -> Result<EmbedReport, Box<dyn std::error::Error>> 
             mean_radiance: rgb.iter().sum::<f32>() / rgb.len() as f32,
             passes: frame
                 .timings
-                .passes
+                .timed_passes()
                 .iter()
                 .map(|p| (p.name.clone(), p.gpu_ms))
                 .collect(),

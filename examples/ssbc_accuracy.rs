@@ -55,7 +55,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     }
                 }
                 if std::env::var("SSBC_PARTS").is_ok() {
-                    for p in f.timings.passes.iter().filter(|p| p.name.contains('/')) {
+                    for p in f
+                        .timings
+                        .timed_passes()
+                        .iter()
+                        .filter(|p| p.name.contains('/'))
+                    {
                         eprintln!("    {:<28} {:>9.1} ms", p.name, p.gpu_ms);
                     }
                 }
@@ -93,7 +98,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     step.samples_per_pixel_max,
                     step.fallback_fraction * 100.0,
                     step.eval_level,
-                    step.gpu_ms
+                    step.gpu_ms.unwrap_or(f64::NAN)
                 );
             }
         }

@@ -39,13 +39,13 @@ impl GpuScene {
     pub fn upload(device: &Arc<Device>, pool: &mut CommandPool, scene: &Scene) -> Result<Self> {
         let vertices = Buffer::with_data(
             device,
-            "vertices",
+            "scene.vertices",
             &scene.vertices,
             vk::BufferUsageFlags::VERTEX_BUFFER,
         )?;
         let indices = Buffer::with_data(
             device,
-            "indices",
+            "scene.indices",
             &scene.indices,
             vk::BufferUsageFlags::INDEX_BUFFER,
         )?;
@@ -84,14 +84,14 @@ impl GpuScene {
             .collect();
         let materials = Buffer::with_data(
             device,
-            "materials",
+            "scene.materials",
             &mats,
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let color_textures = upload_array(
             device,
             pool,
-            "color_textures",
+            "scene.color_textures",
             vk::Format::R8G8B8A8_SRGB,
             scene
                 .textures
@@ -103,7 +103,7 @@ impl GpuScene {
         let linear_textures = upload_array(
             device,
             pool,
-            "linear_textures",
+            "scene.linear_textures",
             vk::Format::R8G8B8A8_UNORM,
             scene
                 .textures
@@ -116,7 +116,8 @@ impl GpuScene {
             device,
             vk::Filter::NEAREST,
             vk::SamplerAddressMode::CLAMP_TO_EDGE,
-        )?;
+        )?
+        .named("scene.texture_sampler");
         Ok(Self {
             vertices,
             indices,
@@ -176,7 +177,7 @@ fn upload_array<'a>(
     )?;
     let staging = Buffer::new(
         device,
-        "texture_staging",
+        "scene.texture_staging",
         texels.len() as u64,
         vk::BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::CpuToGpu,

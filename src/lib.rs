@@ -16,7 +16,7 @@
 //! let mut settings = ssbc::RenderSettings { width: 640, height: 480, ..Default::default() };
 //! settings.ssbc.steps = 2; // K steps of bias compensation
 //! let frame = renderer.render(&scene, &settings)?;
-//! for pass in &frame.timings.passes {
+//! for pass in frame.timings.timed_passes() {
 //!     println!("{}: {:.2} ms", pass.name, pass.gpu_ms);
 //! }
 //! ssbc::output::write_image(&frame, "out.exr".as_ref(), true, None)?;
@@ -45,6 +45,7 @@ pub mod gpu_scene;
 pub mod gpu_types;
 pub mod output;
 pub mod passes;
+pub mod profile;
 pub mod renderer;
 pub mod scene;
 pub mod viewer;

@@ -210,6 +210,16 @@ struct RenderArgs {
     /// Write per-pass GPU timings as JSON.
     #[arg(long, value_name = "FILE.json")]
     timings: Option<PathBuf>,
+
+    /// Render one warm-up frame and then N frames of the same image; report
+    /// min / median / max GPU ms per pass (stderr and the timings JSON).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    frames: Option<u32>,
+
+    /// Write a Chrome trace-event file (Perfetto, chrome://tracing): GPU
+    /// passes and CPU stages of every frame rendered.
+    #[arg(long, value_name = "FILE.json")]
+    trace: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -282,9 +292,29 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     let settings = args.common.settings();
     let mut renderer = Renderer::new(&config)?;
     let log = renderer.validation_log();
-    let frame = renderer.render(&scene, &settings);
+    let mut trace = args
+        .trace
+        .as_ref()
+        .map(|_| ssbc::profile::ChromeTrace::new());
+    let frame = match args.frames {
+        Some(n) => {
+            ssbc::profile::render_frames(&mut renderer, &scene, &settings, n, trace.as_mut())
+        }
+        None => renderer.render(&scene, &settings).inspect(|f| {
+            if let Some(trace) = trace.as_mut() {
+                trace.add_frame(&f.timings);
+            }
+        }),
+    };
     drop(renderer);
     let mut frame = frame?;
+    if frame.timings.frame_gpu_ms.is_none() {
+        log::warn!("the device's queue has no timestamps: GPU timings are null");
+    }
+    if let (Some(path), Some(trace)) = (&args.trace, &trace) {
+        trace.write(path)?;
+        log::info!("wrote {}", path.display());
+    }
     if let Some(name) = &args.output_layer {
         let layer = frame.layer(name).cloned().ok_or_else(|| {
             let names: Vec<&str> = frame.layers.iter().map(|l| l.name.as_str()).collect();
@@ -303,6 +333,9 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         ssbc::output::write_timings(&frame, path)?;
     }
     eprint!("{}", ssbc::output::timings_table(&frame));
+    if let Some(stats) = &frame.timings.stats {
+        eprint!("{}", stats.table());
+    }
     Ok(log.total())
 }
 

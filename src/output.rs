@@ -159,10 +159,15 @@ pub fn write_timings(frame: &Frame, path: &Path) -> Result<()> {
 pub fn timings_table(frame: &Frame) -> String {
     let t = &frame.timings;
     let mut s = format!("GPU timings on {} at {}x{}\n", t.device, t.width, t.height);
-    for p in &t.passes {
-        s += &format!("  {:<24} {:>10.3} ms\n", p.name, p.gpu_ms);
+    match (&t.passes, t.frame_gpu_ms) {
+        (Some(passes), Some(frame_ms)) => {
+            for p in passes {
+                s += &format!("  {:<24} {:>10.3} ms\n", p.name, p.gpu_ms);
+            }
+            s += &format!("  {:<24} {:>10.3} ms\n", "frame", frame_ms);
+        }
+        _ => s += "  (no GPU timestamps: passes were not timed)\n",
     }
-    s += &format!("  {:<24} {:>10.3} ms\n", "frame", t.frame_gpu_ms);
     for (k, step) in t.ssbc_steps.iter().enumerate() {
         s += &format!(
             "  ssbc step {}: {:.1} samples/pixel on average, {:.0} at most (eval level {}, {:.1}% of pixels evaluated alone)\n",

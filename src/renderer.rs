@@ -12,7 +12,6 @@
 //! passes whose outputs it reads and whose inputs it writes.
 
 use std::sync::Arc;
-use std::time::Instant;
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -30,10 +29,11 @@ use crate::passes::indirect_bounded::IndirectBoundedPass;
 use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
 use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSettings};
+use crate::profile::{monotonic_ns, CpuSpan, FrameStats};
 use crate::scene::Scene;
 use crate::vk::{
     Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector,
-    GpuProfiler, Image, Instance, PassTiming, Validation, ValidationLog,
+    GpuFrameTimes, GpuProfiler, Image, Instance, PassTiming, Validation, ValidationLog,
 };
 
 /// How to create the renderer.
@@ -46,6 +46,9 @@ pub struct RendererConfig {
     pub gpu_assisted_validation: bool,
     /// Which device to use.
     pub device: DeviceSelector,
+    /// Do not time passes with timestamp queries (timings are then absent,
+    /// as on a queue without timestamps; labels and names stay).
+    pub no_gpu_timestamps: bool,
 }
 
 /// The clamping bound b of the geometry term (1/m²).
@@ -134,8 +137,9 @@ pub struct CpuTimings {
 /// Per-step SSBC figures.
 #[derive(Clone, Debug, Serialize)]
 pub struct SsbcStepTiming {
-    /// GPU time of the step (radiance mips, residual, accumulation).
-    pub gpu_ms: f64,
+    /// GPU time of the step (radiance mips, residual, accumulation; None
+    /// without timestamps).
+    pub gpu_ms: Option<f64>,
     /// Texels read per geometry pixel, on average: every texel read by an
     /// evaluation point (shared among the pixels under it) or by a pixel
     /// evaluated alone, divided by the geometry pixels.
@@ -159,12 +163,25 @@ pub struct Timings {
     /// Image height.
     pub height: u32,
     /// Per-pass GPU time, in recording order. A name `pass/part` is a part of
-    /// the pass `pass` (timed inside it; not to be added to it).
-    pub passes: Vec<PassTiming>,
-    /// First to last timestamp of the frame.
-    pub frame_gpu_ms: f64,
+    /// the pass `pass` (timed inside it; not to be added to it). None (JSON
+    /// `null`) when the device's queue has no timestamps.
+    pub passes: Option<Vec<PassTiming>>,
+    /// First to last timestamp of the frame (None without timestamps).
+    pub frame_gpu_ms: Option<f64>,
+    /// Statistics over several frames ([`crate::profile::render_frames`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stats: Option<FrameStats>,
     /// CPU stages (ms).
     pub cpu_ms: CpuTimings,
+    /// CPU stages of the frame on CLOCK_MONOTONIC (for traces).
+    #[serde(skip)]
+    pub cpu_spans: Vec<CpuSpan>,
+    /// When the frame was submitted (ns, CLOCK_MONOTONIC).
+    #[serde(skip)]
+    pub submit_ns: u64,
+    /// The frame's first GPU timestamp on CLOCK_MONOTONIC, when calibrated.
+    #[serde(skip)]
+    pub gpu_start_ns: Option<u64>,
     /// VPLs used.
     pub vpl_count: usize,
     /// Light paths traced to make them.
@@ -179,6 +196,21 @@ pub struct Timings {
     pub integration: Integration,
     /// Per-step SSBC figures.
     pub ssbc_steps: Vec<SsbcStepTiming>,
+}
+
+impl Timings {
+    /// The timed passes (empty without timestamps).
+    pub fn timed_passes(&self) -> &[PassTiming] {
+        self.passes.as_deref().unwrap_or(&[])
+    }
+
+    /// GPU milliseconds of the pass `name`, if it ran and was timed.
+    pub fn pass_ms(&self, name: &str) -> Option<f64> {
+        self.timed_passes()
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| p.gpu_ms)
+    }
 }
 
 /// The ISM atlas, read back for diagnostics.
@@ -322,10 +354,6 @@ fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
-fn ms_since(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
-}
-
 /// Frames that may be in flight at once (each has its command pool and
 /// timestamp queries).
 pub const FRAME_SLOTS: usize = 2;
@@ -335,9 +363,9 @@ pub const FRAME_SLOTS: usize = 2;
 pub struct GpuSubmission {
     /// Timeline value that signals the frame is done (see [`Renderer::output_image`]).
     pub value: u64,
-    /// Per-pass timings and frame time of the previous frame that used this
-    /// frame slot, read without waiting (None for a slot's first frame).
-    pub previous_timings: Option<(Vec<PassTiming>, f64)>,
+    /// GPU times of the previous frame that used this frame slot, read
+    /// without waiting (None for a slot's first frame or without timestamps).
+    pub previous_timings: Option<GpuFrameTimes>,
 }
 
 /// What a frame returns: everything read back, or a GPU submission.
@@ -359,7 +387,7 @@ impl Renderer {
         };
         let instance = Instance::with_validation(mode, &[])?;
         let device = Device::new(instance, &config.device, &[])?;
-        Self::with_device(device)
+        Self::with_device_and_timing(device, !config.no_gpu_timestamps)
     }
 
     /// Creates every pipeline on an existing device: one ssbc made
@@ -381,6 +409,15 @@ impl Renderer {
     /// # Ok(()) }
     /// ```
     pub fn with_device(device: Arc<Device>) -> Result<Self> {
+        Self::with_device_and_timing(device, true)
+    }
+
+    /// As [`Renderer::with_device`]; `timestamps` false leaves passes
+    /// untimed (labelled only).
+    pub fn with_device_and_timing(device: Arc<Device>, timestamps: bool) -> Result<Self> {
+        if device.profiling().timestamp_valid_bits == 0 && timestamps {
+            log::warn!("the device's queue has no timestamps: GPU timings will be absent (null)");
+        }
         let validation_log = device.instance.validation_log();
         Ok(Self {
             shadow_maps: ShadowMapPass::new(&device)?,
@@ -389,9 +426,13 @@ impl Renderer {
             direct_lighting: DirectLightingPass::new(&device)?,
             indirect_bounded: IndirectBoundedPass::new(&device)?,
             ssbc: SsbcPass::new(&device)?,
-            profiler: GpuProfiler::new(&device, 1024, FRAME_SLOTS)?,
+            profiler: GpuProfiler::new(&device, 1024, FRAME_SLOTS, timestamps)?,
             commands: (0..FRAME_SLOTS)
-                .map(|_| CommandPool::new(&device))
+                .map(|slot| {
+                    let pool = CommandPool::new(&device)?;
+                    pool.name(&format!("frame slot {slot}"));
+                    Ok(pool)
+                })
                 .collect::<Result<_>>()?,
             slot_done: [0; FRAME_SLOTS],
             frame_index: 0,
@@ -523,7 +564,7 @@ impl Renderer {
         self.frame_index += 1;
         self.device.wait(self.slot_done[slot])?;
         let previous_timings = if self.profiler.has_frame(slot) {
-            Some(self.profiler.resolve(slot)?)
+            self.profiler.resolve(slot)?
         } else {
             None
         };
@@ -536,24 +577,28 @@ impl Renderer {
         let bound = settings.bound.resolve(diagonal);
 
         // CPU: light tracing and ISM points.
-        let mut cpu_ms = CpuTimings::default();
-        let t = Instant::now();
-        let bvh = SceneBvh::new(scene);
-        cpu_ms.bvh_build = ms_since(t);
-        let t = Instant::now();
-        let vpl_set = vpl::generate(scene, &bvh, &settings.vpl)?;
-        cpu_ms.vpl_generation = ms_since(t);
-        let t = Instant::now();
-        let points = sample_points(
-            scene,
-            vpl_set.vpls.len(),
-            settings.points_per_vpl as usize,
-            settings.vpl.seed,
-        );
-        cpu_ms.point_sampling = ms_since(t);
+        let mut spans = Vec::new();
+        let bvh = CpuSpan::time(&mut spans, "bvh_build", || SceneBvh::new(scene));
+        let vpl_set = CpuSpan::time(&mut spans, "vpl_generation", || {
+            vpl::generate(scene, &bvh, &settings.vpl)
+        })?;
+        let points = CpuSpan::time(&mut spans, "point_sampling", || {
+            sample_points(
+                scene,
+                vpl_set.vpls.len(),
+                settings.points_per_vpl as usize,
+                settings.vpl.seed,
+            )
+        });
+        let cpu_ms = CpuTimings {
+            bvh_build: spans[0].ms(),
+            vpl_generation: spans[1].ms(),
+            point_sampling: spans[2].ms(),
+        };
         let gpu_vpls: Vec<GpuVpl> = vpl_set.vpls.iter().map(GpuVpl::new).collect();
 
         // GPU resources of this frame.
+        let resources_start = monotonic_ns();
         let gpu_scene = GpuScene::upload(&device, &mut self.commands[slot], scene)?;
         let shadows =
             self.shadow_maps
@@ -571,9 +616,9 @@ impl Renderer {
                 vk::ImageUsageFlags::empty(),
             )
         };
-        let direct = layer_image("direct")?;
-        let indirect = layer_image("indirect_bounded")?;
-        let s0 = layer_image("s0")?;
+        let direct = layer_image("lighting.direct")?;
+        let indirect = layer_image("lighting.indirect_bounded")?;
+        let s0 = layer_image("ssbc.s0")?;
         let steps = settings.ssbc.steps;
         let ssbc = self.ssbc.prepare(&device, (w, h), steps)?;
         let ssbc_camera = SsbcCamera {
@@ -597,6 +642,7 @@ impl Renderer {
         layouts.extend(self.ism.set_layouts(settings.ism_tile));
         layouts.extend(self.ssbc.set_layouts((w, h), steps, eval_level));
         let pool = DescriptorPool::new(&device, &layouts)?;
+        pool.name("frame descriptor pool");
 
         // Near and far planes enclose the scene's bounding sphere.
         let far = (camera.position - bounds.center()).length() + bounds.radius() * 1.05;
@@ -632,6 +678,7 @@ impl Renderer {
         let readback: Vec<Buffer> = images
             .iter()
             .map(|img| {
+                let name = format!("readback.{}", img.name());
                 let texel = if img.desc.format == vk::Format::R32G32B32A32_SFLOAT {
                     16
                 } else {
@@ -640,7 +687,7 @@ impl Renderer {
                 let size = img.desc.width as u64 * img.desc.height as u64 * texel;
                 Buffer::new(
                     &device,
-                    "readback",
+                    &name,
                     size,
                     vk::BufferUsageFlags::TRANSFER_DST,
                     MemoryLocation::GpuToCpu,
@@ -648,7 +695,14 @@ impl Renderer {
             })
             .collect::<Result<_>>()?;
 
+        spans.push(CpuSpan {
+            name: "upload_and_resources".into(),
+            start_ns: resources_start,
+            duration_ns: monotonic_ns().saturating_sub(resources_start),
+        });
+
         // Record the frame.
+        let record_start = monotonic_ns();
         let mut rec = self.commands[slot].begin()?;
         self.profiler.begin_frame(rec.cmd, slot);
         self.shadow_maps
@@ -707,7 +761,14 @@ impl Renderer {
             rec.use_buffer(buffer, Access::HostRead);
         }
         rec.flush_barriers();
+        let submit_ns = monotonic_ns();
+        spans.push(CpuSpan {
+            name: "record".into(),
+            start_ns: record_start,
+            duration_ns: submit_ns.saturating_sub(record_start),
+        });
         let done = rec.submit()?;
+        self.profiler.submitted(slot);
         self.slot_done[slot] = done;
         if let Some(layer) = gpu_layer {
             // Keep the asked-for image; everything else is dropped into the
@@ -731,10 +792,16 @@ impl Renderer {
                 previous_timings,
             }));
         }
+        let wait_start = monotonic_ns();
         device.wait(done)?;
+        spans.push(CpuSpan {
+            name: "wait_for_gpu".into(),
+            start_ns: wait_start,
+            duration_ns: monotonic_ns().saturating_sub(wait_start),
+        });
 
         // Read back.
-        let (passes, frame_gpu_ms) = self.profiler.resolve(slot)?;
+        let gpu_times = self.profiler.resolve(slot)?;
         let mut layers = Vec::new();
         for ((name, _), buffer) in outputs.iter().zip(&readback) {
             layers.push(Layer {
@@ -765,11 +832,10 @@ impl Renderer {
 
             let name = format!("ssbc_step_{}", k + 1);
             ssbc_steps.push(SsbcStepTiming {
-                gpu_ms: passes
-                    .iter()
-                    .find(|p| p.name == name)
-                    .map(|p| p.gpu_ms)
-                    .unwrap_or(0.0),
+                gpu_ms: gpu_times
+                    .as_ref()
+                    .and_then(|t| t.passes.iter().find(|p| p.name == name))
+                    .map(|p| p.gpu_ms),
                 samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>()
                     / on_geometry.len().max(1) as f64,
                 samples_per_pixel_max: on_geometry.iter().fold(0.0, |m, &c| m.max(c as f64)),
@@ -803,9 +869,13 @@ impl Renderer {
                 device: device.name().to_string(),
                 width: w,
                 height: h,
-                passes,
-                frame_gpu_ms,
+                frame_gpu_ms: gpu_times.as_ref().map(|t| t.frame_ms),
+                gpu_start_ns: gpu_times.as_ref().and_then(|t| t.start_monotonic_ns),
+                passes: gpu_times.map(|t| t.passes),
+                stats: None,
                 cpu_ms,
+                cpu_spans: spans,
+                submit_ns,
                 vpl_count: vpl_set.vpls.len(),
                 light_paths: vpl_set.paths,
                 ism_tile: settings.ism_tile,

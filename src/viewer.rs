@@ -429,7 +429,16 @@ impl Viewer {
                 .as_ref()
                 .expect("allocated above")
                 .write(0, &bytes)?;
-            Some((frame.timings.passes.clone(), frame.timings.frame_gpu_ms))
+            frame
+                .timings
+                .passes
+                .clone()
+                .zip(frame.timings.frame_gpu_ms)
+                .map(|(passes, frame_ms)| crate::vk::GpuFrameTimes {
+                    passes,
+                    frame_ms,
+                    start_monotonic_ns: frame.timings.gpu_start_ns,
+                })
         } else {
             gpu.renderer
                 .render_to_gpu(&scene, &self.options.settings, &layer)?
@@ -498,7 +507,10 @@ impl Viewer {
             gpu.swapchain.recreate(wanted)?;
         }
 
-        if let Some((passes, frame_ms)) = timings {
+        if let Some(crate::vk::GpuFrameTimes {
+            passes, frame_ms, ..
+        }) = timings
+        {
             for p in &passes {
                 let e = self.timings.entry(p.name.clone()).or_insert(p.gpu_ms);
                 *e = 0.8 * *e + 0.2 * p.gpu_ms;

@@ -256,7 +256,7 @@ fn layers_go_into_named_exr_channels() {
         .as_array()
         .unwrap()
         .iter()
-        .all(|p| p["gpu_ms"].as_f64().unwrap() > 0.0));
+        .all(|p| p["gpu_ms"].as_f64().unwrap() > 0.0 && p["start_ms"].as_f64().unwrap() >= 0.0));
     for key in [
         "vpl_count",
         "ism_tile",

@@ -13,7 +13,9 @@
 //!
 //! The suite runs 5,000 cases. A longer run:
 //! `SSBC_FUZZ_CASES=1000000 SSBC_FUZZ_SEED=7 cargo test --release --test fuzz_loader -- --nocapture`
-//! (`SSBC_FUZZ_SHOW=text` prints the cases whose error contains `text`).
+//! (`SSBC_FUZZ_SHOW=text` prints the cases whose error contains `text`;
+//! `SSBC_FUZZ_REPLAY=N` skips to case N and writes each case it loads to the
+//! temp folder, to turn a finding into a regression test).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -416,7 +418,10 @@ fn mutate(doc: &mut Value, rng: &mut Rng, png: &[u8]) -> String {
             let target = at(doc, &path);
             if let Value::Array(a) = target {
                 if let Some(first) = a.first().cloned() {
-                    let n = [2, 50, 5000][rng.below(3)];
+                    // Bounded in bytes: repeats of repeats would otherwise
+                    // grow the case itself without bound.
+                    let size = serde_json::to_vec(&first).map_or(1, |v| v.len().max(1));
+                    let n = [2, 50, 5000][rng.below(3)].min((4 << 20) / size);
                     a.extend(std::iter::repeat_n(first, n));
                 }
             }
@@ -578,6 +583,11 @@ fn fuzz(
     let mut rng = Rng(seed_value);
     let mut findings = Vec::new();
     let external = 4096; // the folder's files a case may read
+                         // SSBC_FUZZ_REPLAY=N generates cases 0..N without loading them, then
+                         // writes case N (and later ones) to the temp folder before loading it.
+    let replay: Option<u64> = std::env::var("SSBC_FUZZ_REPLAY")
+        .ok()
+        .and_then(|v| v.parse().ok());
     for case in 0..cases {
         let seed = &seeds[rng.below(seeds.len())];
         let mut doc = seed.doc.clone();
@@ -590,6 +600,14 @@ fn fuzz(
         }
         let description = format!("case {case} (seed {seed_value}): {}", what.join("; "));
         let _ = progress.send(description.clone());
+        if let Some(dump) = replay {
+            if case < dump {
+                continue;
+            }
+            let path = std::env::temp_dir().join(format!("ssbc-fuzz-{seed_value}-{case}.gltf"));
+            std::fs::write(&path, &bytes).expect("write the replayed case");
+            eprintln!("{description}\n    written to {}", path.display());
+        }
         LARGEST.with(|l| l.set(0));
         TRACK.with(|t| t.set(true));
         let start = Instant::now();

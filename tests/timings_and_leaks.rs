@@ -11,32 +11,40 @@ fn every_pass_is_timed_and_fits_in_the_frame() {
     scene.ensure_light();
     let frame = common::render_validated(&scene, &common::small(128, 96));
     let t = &frame.timings;
-    let names: Vec<&str> = t.passes.iter().map(|p| p.name.as_str()).collect();
+    let passes = t.passes.as_ref().expect("lavapipe has timestamps");
+    let frame_ms = t.frame_gpu_ms.expect("lavapipe has timestamps");
+    let names: Vec<&str> = passes.iter().map(|p| p.name.as_str()).collect();
     for expected in ["shadow_maps", "gbuffer", "direct_lighting"] {
         assert!(
             names.contains(&expected),
             "pass {expected} missing from {names:?}"
         );
     }
-    for p in &t.passes {
+    for p in passes {
         assert!(p.gpu_ms > 0.0, "pass {} has gpu_ms {}", p.name, p.gpu_ms);
+        // Each pass lies inside the frame (timestamps are placed, not only
+        // differenced).
+        assert!(
+            p.start_ms >= 0.0 && p.start_ms + p.gpu_ms <= frame_ms + 1e-6,
+            "pass {} at {}..{} ms outside the frame's {frame_ms} ms",
+            p.name,
+            p.start_ms,
+            p.start_ms + p.gpu_ms
+        );
     }
-    let sum: f64 = t
-        .passes
-        .iter()
-        .filter(|p| !p.name.contains('/'))
-        .map(|p| p.gpu_ms)
-        .sum();
-    assert!(
-        sum <= t.frame_gpu_ms,
-        "passes sum {sum} > frame {}",
-        t.frame_gpu_ms
-    );
-    assert!(
-        t.frame_gpu_ms < 60_000.0,
-        "implausible frame time {}",
-        t.frame_gpu_ms
-    );
+    // Top-level passes follow each other.
+    let top: Vec<_> = passes.iter().filter(|p| !p.name.contains('/')).collect();
+    for w in top.windows(2) {
+        assert!(
+            w[1].start_ms >= w[0].start_ms + w[0].gpu_ms - 1e-6,
+            "{} starts before {} ends",
+            w[1].name,
+            w[0].name
+        );
+    }
+    let sum: f64 = top.iter().map(|p| p.gpu_ms).sum();
+    assert!(sum <= frame_ms, "passes sum {sum} > frame {frame_ms}");
+    assert!(frame_ms < 60_000.0, "implausible frame time {frame_ms}");
 }
 
 /// The safety net itself: a leaked buffer is reported by validation when the

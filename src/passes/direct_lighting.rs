@@ -49,12 +49,14 @@ impl DirectLightingPass {
                 shaders::DIRECT_LIGHTING_COMP,
                 &bindings,
                 std::mem::size_of::<Push>(),
-            )?,
+            )?
+            .named("direct_lighting"),
             shadow_sampler: Sampler::new(
                 device,
                 vk::Filter::NEAREST,
                 vk::SamplerAddressMode::CLAMP_TO_EDGE,
-            )?,
+            )?
+            .named("shadow_maps.sampler"),
         })
     }
 

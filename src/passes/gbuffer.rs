@@ -46,13 +46,13 @@ impl GBuffer {
             )
         };
         Ok(Self {
-            position: color("gbuffer_position")?,
-            normal: color("gbuffer_normal")?,
-            albedo: color("gbuffer_albedo")?,
-            emission: color("gbuffer_emission")?,
+            position: color("gbuffer.position")?,
+            normal: color("gbuffer.normal")?,
+            albedo: color("gbuffer.albedo")?,
+            emission: color("gbuffer.emission")?,
             depth: Image::new(
                 device,
-                "gbuffer_depth",
+                "gbuffer.depth",
                 ImageDesc::new_2d(
                     vk::Format::D32_SFLOAT,
                     extent.0,
@@ -133,6 +133,8 @@ impl GBufferPass {
             &[&layout],
             std::mem::size_of::<Push>() as u32,
         )?;
+        pipeline.name("gbuffer");
+        layout.name("gbuffer set layout");
         Ok(Self { layout, pipeline })
     }
 

@@ -47,7 +47,8 @@ impl IndirectBoundedPass {
             shaders::INDIRECT_BOUNDED_COMP,
             &bindings,
             std::mem::size_of::<Push>(),
-        )?;
+        )?
+        .named("indirect_bounded");
         Ok(Self { kernel })
     }
 

@@ -74,14 +74,16 @@ impl IsmPass {
                 shaders::ISM_SPLAT_COMP,
                 &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
                 std::mem::size_of::<SplatPush>(),
-            )?,
+            )?
+            .named("ism_splat"),
             // Splat target, source level, destination level.
             pullpush: ComputeKernel::new(
                 device,
                 shaders::ISM_PULLPUSH_COMP,
                 &[T::STORAGE_IMAGE; 3],
                 std::mem::size_of::<PullPushPush>(),
-            )?,
+            )?
+            .named("ism_pullpush"),
         })
     }
 
@@ -129,7 +131,7 @@ impl IsmPass {
         let levels = tile.trailing_zeros() + 1;
         let splat_target = Image::new(
             device,
-            "ism_splat",
+            "ism.splat_target",
             ImageDesc::new_2d(
                 vk::Format::R32_UINT,
                 w,
@@ -139,7 +141,7 @@ impl IsmPass {
         )?;
         let pyramid = Image::new(
             device,
-            "ism_pyramid",
+            "ism.atlas",
             ImageDesc {
                 format: vk::Format::R32_SFLOAT,
                 width: w,
@@ -172,7 +174,7 @@ impl IsmPass {
             )?,
             points: Buffer::with_data(
                 device,
-                "ism_points",
+                "ism.points",
                 &point_data,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,

@@ -122,6 +122,8 @@ impl ShadowMapPass {
             &[&layout],
             64,
         )?;
+        pipeline.name("shadow_maps");
+        layout.name("shadow_maps set layout");
         Ok(Self { layout, pipeline })
     }
 
@@ -148,7 +150,7 @@ impl ShadowMapPass {
         let layers = views.len().max(1) as u32;
         let depth = Image::new(
             device,
-            "shadow_maps",
+            "shadow_maps.depth",
             ImageDesc {
                 format: vk::Format::D32_SFLOAT,
                 width: resolution,
@@ -174,13 +176,13 @@ impl ShadowMapPass {
             depth,
             views: Buffer::with_data(
                 device,
-                "shadow_views",
+                "shadow_maps.views",
                 &packed,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
             lights: Buffer::with_data(
                 device,
-                "lights",
+                "scene.lights",
                 &gpu_lights_buf,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,

@@ -287,18 +287,22 @@ impl SsbcPass {
             |spirv, own: &[T]| ComputeKernel::new(device, spirv, &with_pyramids(own), push);
         Ok(Self {
             // G-buffer position and normal.
-            geometry: kernel(shaders::SSBC_GEOMETRY_MIPS_COMP, &[T::STORAGE_IMAGE; 2])?,
+            geometry: kernel(shaders::SSBC_GEOMETRY_MIPS_COMP, &[T::STORAGE_IMAGE; 2])?
+                .named("ssbc_geometry_mips"),
             // The term S_{k-1}.
-            radiance: kernel(shaders::SSBC_RADIANCE_MIPS_COMP, &[T::STORAGE_IMAGE])?,
+            radiance: kernel(shaders::SSBC_RADIANCE_MIPS_COMP, &[T::STORAGE_IMAGE])?
+                .named("ssbc_radiance_mips"),
             // Points, requests.
-            eval: kernel(shaders::SSBC_EVAL_COMP, &[T::STORAGE_BUFFER; 2])?,
-            resolve: kernel(shaders::SSBC_RESOLVE_COMP, &output)?,
-            fallback: kernel(shaders::SSBC_FALLBACK_COMP, &output)?,
+            eval: kernel(shaders::SSBC_EVAL_COMP, &[T::STORAGE_BUFFER; 2])?
+                .named("ssbc_residual_eval"),
+            resolve: kernel(shaders::SSBC_RESOLVE_COMP, &output)?.named("ssbc_residual_resolve"),
+            fallback: kernel(shaders::SSBC_FALLBACK_COMP, &output)?.named("ssbc_residual_fallback"),
             // Points, samples.
             samples: kernel(
                 shaders::SSBC_SAMPLES_COMP,
                 &[T::STORAGE_BUFFER, T::STORAGE_IMAGE],
-            )?,
+            )?
+            .named("ssbc_samples"),
         })
     }
 
@@ -383,10 +387,15 @@ impl SsbcPass {
             super::storage_image(device, &name, format, extent, vk::ImageUsageFlags::empty())
         };
         let residuals = (1..=steps)
-            .map(|k| image(format!("residual_{k}"), vk::Format::R32G32B32A32_SFLOAT))
+            .map(|k| {
+                image(
+                    format!("ssbc.residual_{k}"),
+                    vk::Format::R32G32B32A32_SFLOAT,
+                )
+            })
             .collect::<Result<_>>()?;
         let samples = (1..=steps)
-            .map(|k| image(format!("samples_{k}"), vk::Format::R32_SFLOAT))
+            .map(|k| image(format!("ssbc.samples_{k}"), vk::Format::R32_SFLOAT))
             .collect::<Result<_>>()?;
         Ok(SsbcFrame {
             geo: storage("ssbc.pyramid.geometry", texels * GEO_TEXEL_BYTES, none)?,
@@ -409,7 +418,7 @@ impl SsbcPass {
             )?,
             residuals,
             samples,
-            final_image: image("final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
+            final_image: image("ssbc.final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
             levels,
             pyramid_size,
         })

@@ -69,6 +69,7 @@ impl Buffer {
             state: Cell::new(ResourceState::default()),
         };
         bound.vk("vkBindBufferMemory")?;
+        device.set_name(raw, name);
         Ok(buffer)
     }
 

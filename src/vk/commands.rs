@@ -60,6 +60,13 @@ pub struct CommandPool {
 }
 
 impl CommandPool {
+    /// Names the pool and its command buffer (see [`Device::set_name`]).
+    pub fn name(&self, name: &str) {
+        self.device
+            .set_name(self.raw, &format!("{name} command pool"));
+        self.device.set_name(self.cmd, &format!("{name} commands"));
+    }
+
     /// Creates the pool on the device's queue family.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         let info = vk::CommandPoolCreateInfo::default()

@@ -50,6 +50,11 @@ impl DescriptorSetLayout {
             types: types.to_vec(),
         })
     }
+
+    /// Names the layout (see [`Device::set_name`]).
+    pub fn name(&self, name: &str) {
+        self.device.set_name(self.raw, name);
+    }
 }
 
 impl Drop for DescriptorSetLayout {
@@ -66,6 +71,11 @@ pub struct DescriptorPool {
 }
 
 impl DescriptorPool {
+    /// Names the pool (see [`Device::set_name`]).
+    pub fn name(&self, name: &str) {
+        self.device.set_name(self.raw, name);
+    }
+
     /// A pool with room for one set of each of `layouts` (list a layout
     /// twice for two sets).
     pub fn new(device: &Arc<Device>, layouts: &[&DescriptorSetLayout]) -> Result<Self> {

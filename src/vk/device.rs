@@ -113,6 +113,55 @@ pub struct Device {
     next_submission: AtomicU64,
     garbage: Mutex<Vec<(u64, Garbage)>>,
     owns_device: bool,
+    /// Object names and command labels (None without VK_EXT_debug_utils:
+    /// then naming and labelling cost nothing).
+    debug_utils: Option<ash::ext::debug_utils::Device>,
+    /// Optional capabilities for profiling.
+    profiling: ProfilingSupport,
+    /// GPU/CPU clock pairs (VK_EXT_calibrated_timestamps with the device and
+    /// CLOCK_MONOTONIC domains).
+    calibration: Option<ash::ext::calibrated_timestamps::Device>,
+}
+
+/// What the device offers for profiling (each optional).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ProfilingSupport {
+    /// Valid bits of the queue's timestamps (0: no timestamps; ssbc's timings
+    /// are then absent).
+    pub timestamp_valid_bits: u32,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period_ns: f32,
+    /// `pipelineStatisticsQuery` is enabled (compute invocations per pass).
+    pub pipeline_statistics: bool,
+    /// GPU timestamps can be placed on CLOCK_MONOTONIC
+    /// (VK_EXT_calibrated_timestamps).
+    pub calibrated_timestamps: bool,
+}
+
+/// Whether VK_EXT_calibrated_timestamps on `pd` relates the device clock to
+/// CLOCK_MONOTONIC (the clock ssbc's CPU trace events use).
+fn calibrates_to_monotonic(instance: &Instance, pd: vk::PhysicalDevice) -> bool {
+    if !cfg!(unix)
+        || !has_device_extension(&instance.raw, pd, ash::ext::calibrated_timestamps::NAME)
+    {
+        return false;
+    }
+    let ext = ash::ext::calibrated_timestamps::Instance::new(&instance.entry, &instance.raw);
+    // SAFETY: the extension is offered by `pd`, enumerated from this instance.
+    let domains =
+        unsafe { ext.get_physical_device_calibrateable_time_domains(pd) }.unwrap_or_default();
+    domains.contains(&vk::TimeDomainEXT::DEVICE)
+        && domains.contains(&vk::TimeDomainEXT::CLOCK_MONOTONIC)
+}
+
+fn has_device_extension(instance: &ash::Instance, pd: vk::PhysicalDevice, name: &CStr) -> bool {
+    // SAFETY: `pd` was enumerated from this instance.
+    unsafe { instance.enumerate_device_extension_properties(pd) }
+        .map(|exts| {
+            exts.iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+        })
+        .unwrap_or(false)
 }
 
 fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
@@ -150,7 +199,7 @@ fn unsuitable_reason(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option
         return Some(format!("missing features {}", missing.join(", ")));
     }
     if queue_family_index(instance, pd).is_none() {
-        return Some("no graphics+compute queue with timestamps".into());
+        return Some("no graphics+compute queue".into());
     }
     None
 }
@@ -158,13 +207,16 @@ fn unsuitable_reason(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option
 fn queue_family_index(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Option<u32> {
     // SAFETY: valid physical device.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
-    families
+    let usable = |f: &&vk::QueueFamilyProperties| {
+        f.queue_flags
+            .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+    };
+    // A family with timestamps if there is one (timings need them).
+    let with_timestamps = families
         .iter()
-        .position(|f| {
-            f.queue_flags
-                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
-                && f.timestamp_valid_bits > 0
-        })
+        .position(|f| usable(&f) && f.timestamp_valid_bits > 0);
+    with_timestamps
+        .or_else(|| families.iter().position(|f| usable(&f)))
         .map(|i| i as u32)
 }
 
@@ -219,14 +271,22 @@ impl Device {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let ext_ptrs: Vec<*const i8> = extra_extensions.iter().map(|e| e.as_ptr()).collect();
+        let mut ext_ptrs: Vec<*const i8> = extra_extensions.iter().map(|e| e.as_ptr()).collect();
+        // Optional profiling features, enabled when offered.
+        let calibrated = calibrates_to_monotonic(&instance, physical);
+        if calibrated {
+            ext_ptrs.push(ash::ext::calibrated_timestamps::NAME.as_ptr());
+        }
+        // SAFETY: valid physical device.
+        let offered = unsafe { instance.raw.get_physical_device_features(physical) };
+        let statistics = offered.pipeline_statistics_query == vk::TRUE;
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .timeline_semaphore(true)
             .host_query_reset(true);
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .synchronization2(true)
             .dynamic_rendering(true);
-        let base = vk::PhysicalDeviceFeatures::default();
+        let base = vk::PhysicalDeviceFeatures::default().pipeline_statistics_query(statistics);
         let create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&ext_ptrs)
@@ -245,7 +305,7 @@ impl Device {
             (queue_family, 0),
             properties,
             name,
-            true,
+            (true, statistics, calibrated),
         )
     }
 
@@ -282,12 +342,6 @@ impl Device {
                         host.queue_family
                     ));
                 }
-                if f.timestamp_valid_bits == 0 {
-                    problems.push(format!(
-                        "queue family {} has no timestamps",
-                        host.queue_family
-                    ));
-                }
                 if host.queue_index >= f.queue_count {
                     problems.push(format!("queue index {} out of range", host.queue_index));
                 }
@@ -300,6 +354,8 @@ impl Device {
             )));
         }
         let name = device_name(&properties);
+        // Pipeline statistics and calibrated timestamps are not used on a
+        // host's device: ssbc cannot know whether the host enabled them.
         Self::from_parts(
             instance,
             host.physical,
@@ -307,7 +363,7 @@ impl Device {
             (host.queue_family, host.queue_index),
             properties,
             name,
-            false,
+            (false, false, false),
         )
     }
 
@@ -318,7 +374,7 @@ impl Device {
         (queue_family, queue_index): (u32, u32),
         properties: vk::PhysicalDeviceProperties,
         name: String,
-        owns_device: bool,
+        (owns_device, pipeline_statistics, calibrated): (bool, bool, bool),
     ) -> Result<Arc<Self>> {
         // SAFETY: the family was created with at least `queue_index + 1` queues.
         let queue = unsafe { raw.get_device_queue(queue_family, queue_index) };
@@ -336,7 +392,24 @@ impl Device {
         let sem_info = vk::SemaphoreCreateInfo::default().push_next(&mut type_info);
         // SAFETY: timeline semaphores were enabled on this device.
         let timeline = unsafe { raw.create_semaphore(&sem_info, None) }.vk("vkCreateSemaphore")?;
-        Ok(Arc::new(Self {
+        let debug_utils = instance
+            .debug_utils_enabled()
+            .then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let calibration =
+            calibrated.then(|| ash::ext::calibrated_timestamps::Device::new(&instance.raw, &raw));
+        // SAFETY: valid instance and physical device.
+        let families = unsafe {
+            instance
+                .raw
+                .get_physical_device_queue_family_properties(physical)
+        };
+        let profiling = ProfilingSupport {
+            timestamp_valid_bits: families[queue_family as usize].timestamp_valid_bits,
+            timestamp_period_ns: properties.limits.timestamp_period,
+            pipeline_statistics,
+            calibrated_timestamps: calibrated,
+        };
+        let device = Arc::new(Self {
             instance,
             physical,
             raw,
@@ -349,7 +422,68 @@ impl Device {
             next_submission: AtomicU64::new(1),
             garbage: Mutex::new(Vec::new()),
             owns_device,
-        }))
+            debug_utils,
+            profiling,
+            calibration,
+        });
+        device.set_name(device.timeline, "ssbc.timeline");
+        Ok(device)
+    }
+
+    /// Names a Vulkan object for validation messages and capture tools
+    /// (RenderDoc, Nsight); nothing happens without VK_EXT_debug_utils.
+    pub fn set_name(&self, handle: impl vk::Handle, name: &str) {
+        let Some(debug_utils) = &self.debug_utils else {
+            return;
+        };
+        let Ok(name) = std::ffi::CString::new(name) else {
+            return;
+        };
+        let info = vk::DebugUtilsObjectNameInfoEXT::default()
+            .object_handle(handle)
+            .object_name(&name);
+        // SAFETY: `handle` is a live object of this device; a failure only
+        // loses a name.
+        let _ = unsafe { debug_utils.set_debug_utils_object_name(&info) };
+    }
+
+    /// Opens a labelled region in a command buffer (nothing without debug utils).
+    pub fn begin_label(&self, cmd: vk::CommandBuffer, name: &str) {
+        let Some(debug_utils) = &self.debug_utils else {
+            return;
+        };
+        // (Always open the region: end_label closes one.)
+        let name = std::ffi::CString::new(name).unwrap_or_else(|_| c"(unnamed)".into());
+        let label = vk::DebugUtilsLabelEXT::default().label_name(&name);
+        // SAFETY: `cmd` is recording on this device.
+        unsafe { debug_utils.cmd_begin_debug_utils_label(cmd, &label) };
+    }
+
+    /// Closes the region [`Device::begin_label`] opened.
+    pub fn end_label(&self, cmd: vk::CommandBuffer) {
+        if let Some(debug_utils) = &self.debug_utils {
+            // SAFETY: `cmd` is recording with a label region open.
+            unsafe { debug_utils.cmd_end_debug_utils_label(cmd) };
+        }
+    }
+
+    /// What the device offers for profiling.
+    pub fn profiling(&self) -> ProfilingSupport {
+        self.profiling
+    }
+
+    /// A simultaneous (device timestamp, CLOCK_MONOTONIC ns) pair, when the
+    /// device supports calibrated timestamps.
+    pub fn calibrated_timestamps(&self) -> Option<(u64, u64)> {
+        let calibration = self.calibration.as_ref()?;
+        let infos = [
+            vk::CalibratedTimestampInfoEXT::default().time_domain(vk::TimeDomainEXT::DEVICE),
+            vk::CalibratedTimestampInfoEXT::default()
+                .time_domain(vk::TimeDomainEXT::CLOCK_MONOTONIC),
+        ];
+        // SAFETY: both domains were reported calibrateable for this device.
+        let (values, _deviation) = unsafe { calibration.get_calibrated_timestamps(&infos) }.ok()?;
+        Some((values[0], values[1]))
     }
 
     /// Device name as the driver reports it.

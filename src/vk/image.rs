@@ -61,6 +61,8 @@ pub struct Image {
     /// One 2D view per array layer (mip 0), for rendering into a layer.
     pub layer_views: Vec<vk::ImageView>,
     pub(crate) state: Cell<ResourceState>,
+    /// Its debug name (`gbuffer.normal`, ...).
+    name: String,
 }
 
 fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
@@ -71,6 +73,11 @@ fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
 }
 
 impl Image {
+    /// The debug name it was created with.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
     /// Creates the image in device memory, with its views.
     pub fn new(device: &Arc<Device>, name: &str, desc: ImageDesc) -> Result<Self> {
         let limits = device.limits();
@@ -146,6 +153,7 @@ impl Image {
             mip_views: Vec::new(),
             layer_views: Vec::new(),
             state: Cell::new(ResourceState::default()),
+            name: name.to_string(),
         };
         // SAFETY: memory allocated for this image's requirements.
         let bound = unsafe {
@@ -158,15 +166,19 @@ impl Image {
 
         let array = desc.layers > 1 || desc.array;
         image.view = image.create_view(0, desc.mip_levels, 0, desc.layers, array)?;
+        device.set_name(image.raw, name);
+        device.set_name(image.view, &format!("{name} view"));
         if desc.mip_levels > 1 {
             for level in 0..desc.mip_levels {
                 let v = image.create_view(level, 1, 0, desc.layers, array)?;
+                device.set_name(v, &format!("{name} mip {level}"));
                 image.mip_views.push(v);
             }
         }
         if array {
             for layer in 0..desc.layers {
                 let v = image.create_view(0, 1, layer, 1, false)?;
+                device.set_name(v, &format!("{name} layer {layer}"));
                 image.layer_views.push(v);
             }
         }
@@ -263,6 +275,12 @@ impl Sampler {
             device: device.clone(),
             raw,
         })
+    }
+
+    /// Names the sampler (see [`Device::set_name`]).
+    pub fn named(self, name: &str) -> Self {
+        self.device.set_name(self.raw, name);
+        self
     }
 }
 

@@ -113,6 +113,8 @@ pub struct Instance {
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     validation_log: Arc<ValidationLog>,
     validation: Validation,
+    /// VK_EXT_debug_utils is enabled (names and labels can be set).
+    debug_utils: bool,
     /// False for a host engine's instance: never destroyed here.
     owned: bool,
 }
@@ -152,8 +154,21 @@ impl Instance {
                 return Err(Error::NoValidationLayer);
             }
             layers.push(VALIDATION_LAYER.as_ptr());
-            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
             extensions.push(ash::ext::validation_features::NAME.as_ptr());
+        }
+        // Debug utils (object names and command labels for captures and
+        // validation messages) whenever the loader offers it.
+        // SAFETY: plain enumeration on a loaded entry.
+        let debug_utils = validation
+            || unsafe { entry.enumerate_instance_extension_properties(None) }
+                .map(|exts| {
+                    exts.iter().any(|e| {
+                        e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME)
+                    })
+                })
+                .unwrap_or(false);
+        if debug_utils {
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
         }
 
         let app_info = vk::ApplicationInfo::default()
@@ -233,6 +248,7 @@ impl Instance {
             debug,
             validation_log,
             validation: mode,
+            debug_utils,
             owned: true,
         }))
     }
@@ -246,6 +262,7 @@ impl Instance {
             debug: None,
             validation_log: Arc::default(),
             validation: Validation::Off,
+            debug_utils: false,
             owned: false,
         })
     }
@@ -253,6 +270,12 @@ impl Instance {
     /// What the validation layer checks on this instance.
     pub fn validation_mode(&self) -> Validation {
         self.validation
+    }
+
+    /// Whether VK_EXT_debug_utils is enabled (ssbc then names its objects
+    /// and labels its passes).
+    pub fn debug_utils_enabled(&self) -> bool {
+        self.debug_utils
     }
 
     /// Whether ssbc enabled the validation layer on this instance.

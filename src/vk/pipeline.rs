@@ -269,6 +269,13 @@ impl Pipeline {
         self.push(cmd, push);
     }
 
+    /// Names the pipeline `<name> pipeline` and its layout.
+    pub fn name(&self, name: &str) {
+        self.device.set_name(self.raw, &format!("{name} pipeline"));
+        self.device
+            .set_name(self.layout, &format!("{name} pipeline layout"));
+    }
+
     /// Pushes constants (no-op for an empty slice).
     pub fn push(&self, cmd: vk::CommandBuffer, push: &[u8]) {
         if push.is_empty() {
@@ -310,6 +317,14 @@ impl ComputeKernel {
         let layout = DescriptorSetLayout::new(device, bindings, vk::ShaderStageFlags::COMPUTE)?;
         let pipeline = Pipeline::compute(device, spirv, &[&layout], push_size as u32)?;
         Ok(Self { layout, pipeline })
+    }
+
+    /// Names the pipeline `<name> pipeline`, its layout and its descriptor
+    /// set layout (see [`Device::set_name`]).
+    pub fn named(self, name: &str) -> Self {
+        self.layout.name(&format!("{name} set layout"));
+        self.pipeline.name(name);
+        self
     }
 
     /// The descriptor set layout (for sizing a frame's pool).

@@ -1,5 +1,9 @@
 //! GPU timing with timestamp queries: one pair of timestamps around each
-//! pass, resolved after the frame's submission has finished.
+//! pass, resolved when the frame's slot comes round again (or when the
+//! caller has waited for the frame). Each pass is also a debug-utils label
+//! region with the same name, so captures (RenderDoc, Nsight) and the
+//! timings use one set of pass names; and, where the device supports
+//! pipeline statistics, top-level passes count their shader invocations.
 
 use std::sync::Arc;
 
@@ -12,23 +16,62 @@ use crate::error::{Error, Result, VkResultExt};
 /// GPU time of one pass.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct PassTiming {
-    /// Pass name (e.g. `gbuffer`, `direct_lighting`).
+    /// Pass name (e.g. `gbuffer`, `direct_lighting`; `pass/part` for a part
+    /// timed inside `pass`).
     pub name: String,
     /// Milliseconds between the pass's two timestamps.
     pub gpu_ms: f64,
+    /// Milliseconds from the frame's first timestamp to the pass's first.
+    pub start_ms: f64,
+    /// Compute-shader invocations in the pass (top-level passes, where the
+    /// device supports pipeline statistics queries).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compute_invocations: Option<u64>,
+    /// Fragment-shader invocations in the pass (as above).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fragment_invocations: Option<u64>,
 }
 
-/// A query pool with room for `capacity` passes in each of several frame
+/// One frame's GPU times.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuFrameTimes {
+    /// Per-pass times in recording order.
+    pub passes: Vec<PassTiming>,
+    /// First to last timestamp of the frame (ms).
+    pub frame_ms: f64,
+    /// The frame's first timestamp on CLOCK_MONOTONIC (ns), when the device
+    /// calibrates its clock against it (VK_EXT_calibrated_timestamps).
+    pub start_monotonic_ns: Option<u64>,
+}
+
+/// Per-slot bookkeeping.
+#[derive(Clone, Default)]
+struct SlotState {
+    /// Pass names recorded, and each one's pipeline-statistics query.
+    scopes: Vec<(String, Option<u32>)>,
+    /// Pipeline-statistics queries begun.
+    statistics_used: u32,
+    /// The frame was submitted (its queries will be written).
+    submitted: bool,
+    /// (device timestamp, CLOCK_MONOTONIC ns) taken when the frame ended.
+    calibration: Option<(u64, u64)>,
+}
+
+/// Query pools with room for `capacity` passes in each of several frame
 /// slots, so a frame's timestamps can be read when its slot comes round
 /// again, without waiting.
 pub struct GpuProfiler {
     device: Arc<Device>,
-    pool: vk::QueryPool,
+    /// Timestamp queries (None: the queue has no timestamps or timing is off).
+    timestamps: Option<vk::QueryPool>,
+    /// Pipeline-statistics queries (None where unsupported).
+    statistics: Option<vk::QueryPool>,
     capacity: u32,
-    /// Pass names recorded in each slot.
-    names: Vec<Vec<String>>,
+    slots: Vec<SlotState>,
     /// The slot being recorded.
     current: usize,
+    /// An open scope holds the statistics query (queries of one type cannot nest).
+    statistics_open: bool,
     period_ns: f64,
     valid_mask: u64,
 }
@@ -37,22 +80,59 @@ pub struct GpuProfiler {
 #[must_use]
 pub struct PassScope(u32);
 
+/// Pipeline statistics ssbc reads, in the order Vulkan writes them (by bit).
+const STATISTICS: vk::QueryPipelineStatisticFlags = vk::QueryPipelineStatisticFlags::from_raw(
+    vk::QueryPipelineStatisticFlags::FRAGMENT_SHADER_INVOCATIONS.as_raw()
+        | vk::QueryPipelineStatisticFlags::COMPUTE_SHADER_INVOCATIONS.as_raw(),
+);
+
 impl GpuProfiler {
-    /// A pool for up to `capacity` passes per frame in each of `slots` slots.
-    pub fn new(device: &Arc<Device>, capacity: u32, slots: usize) -> Result<Self> {
-        let info = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count((capacity * 2 + 2) * slots as u32);
-        // SAFETY: valid create info.
-        let pool = unsafe { device.raw.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
-        // SAFETY: valid instance and physical device.
-        let families = unsafe {
-            device
-                .instance
-                .raw
-                .get_physical_device_queue_family_properties(device.physical)
+    /// Pools for up to `capacity` passes per frame in each of `slots` slots.
+    /// With `timestamps` false (or a queue without timestamps) passes are
+    /// still labelled, but not timed.
+    pub fn new(
+        device: &Arc<Device>,
+        capacity: u32,
+        slots: usize,
+        timestamps: bool,
+    ) -> Result<Self> {
+        let support = device.profiling();
+        let per_slot = capacity * 2 + 2;
+        let timestamps = if timestamps && support.timestamp_valid_bits > 0 {
+            let info = vk::QueryPoolCreateInfo::default()
+                .query_type(vk::QueryType::TIMESTAMP)
+                .query_count(per_slot * slots as u32);
+            // SAFETY: valid create info.
+            let pool =
+                unsafe { device.raw.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
+            device.set_name(pool, "ssbc.profiler.timestamps");
+            Some(pool)
+        } else {
+            None
         };
-        let bits = families[device.queue_family as usize].timestamp_valid_bits;
+        let statistics = if support.pipeline_statistics && timestamps.is_some() {
+            let info = vk::QueryPoolCreateInfo::default()
+                .query_type(vk::QueryType::PIPELINE_STATISTICS)
+                .pipeline_statistics(STATISTICS)
+                .query_count(capacity * slots as u32);
+            // SAFETY: valid create info; pipelineStatisticsQuery is enabled.
+            let pool = unsafe { device.raw.create_query_pool(&info, None) };
+            match pool.vk("vkCreateQueryPool") {
+                Ok(pool) => {
+                    device.set_name(pool, "ssbc.profiler.pipeline_statistics");
+                    Some(pool)
+                }
+                Err(e) => {
+                    if let Some(t) = timestamps {
+                        device.defer_destroy(Garbage::QueryPool(t));
+                    }
+                    return Err(e);
+                }
+            }
+        } else {
+            None
+        };
+        let bits = support.timestamp_valid_bits;
         let valid_mask = if bits >= 64 {
             u64::MAX
         } else {
@@ -60,16 +140,23 @@ impl GpuProfiler {
         };
         Ok(Self {
             device: device.clone(),
-            pool,
+            timestamps,
+            statistics,
             capacity,
-            names: vec![Vec::new(); slots],
+            slots: vec![SlotState::default(); slots],
             current: 0,
-            period_ns: device.properties.limits.timestamp_period as f64,
+            statistics_open: false,
+            period_ns: support.timestamp_period_ns as f64,
             valid_mask,
         })
     }
 
-    /// First query of `slot`.
+    /// Whether passes are timed (false: timings are absent).
+    pub fn timed(&self) -> bool {
+        self.timestamps.is_some()
+    }
+
+    /// First timestamp query of `slot`.
     fn base(&self, slot: usize) -> u32 {
         slot as u32 * (self.capacity * 2 + 2)
     }
@@ -78,102 +165,181 @@ impl GpuProfiler {
     /// the frame's first timestamp. The slot's previous frame must be done.
     pub fn begin_frame(&mut self, cmd: vk::CommandBuffer, slot: usize) {
         self.current = slot;
-        self.names[slot].clear();
+        self.slots[slot] = SlotState::default();
+        self.statistics_open = false;
         let base = self.base(slot);
-        // SAFETY: hostQueryReset is enabled; the caller waited for the slot's
-        // previous submission, so no pending work uses these queries.
-        unsafe {
-            self.device
-                .raw
-                .reset_query_pool(self.pool, base, self.capacity * 2 + 2);
-            self.device.raw.cmd_write_timestamp2(
-                cmd,
-                vk::PipelineStageFlags2::ALL_COMMANDS,
-                self.pool,
-                base,
-            );
+        if let Some(pool) = self.timestamps {
+            // SAFETY: hostQueryReset is enabled; the caller waited for the
+            // slot's previous submission, so no pending work uses these queries.
+            unsafe {
+                self.device
+                    .raw
+                    .reset_query_pool(pool, base, self.capacity * 2 + 2);
+                self.device.raw.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    pool,
+                    base,
+                );
+            }
+        }
+        if let Some(pool) = self.statistics {
+            // SAFETY: as above.
+            unsafe {
+                self.device
+                    .raw
+                    .reset_query_pool(pool, slot as u32 * self.capacity, self.capacity)
+            };
         }
     }
 
-    /// Writes the start timestamp of a pass.
+    /// Opens a pass: a label region and its start timestamp (and, for an
+    /// outermost pass, a pipeline-statistics query).
     pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &str) -> PassScope {
-        let index = self.names[self.current].len() as u32;
+        self.device.begin_label(cmd, name);
+        let state = &mut self.slots[self.current];
+        let index = state.scopes.len() as u32;
         assert!(
             index < self.capacity,
             "GpuProfiler capacity {} exceeded",
             self.capacity
         );
-        self.names[self.current].push(name.to_string());
-        // SAFETY: query index inside the pool, reset this frame.
-        unsafe {
-            self.device.raw.cmd_write_timestamp2(
-                cmd,
-                vk::PipelineStageFlags2::ALL_COMMANDS,
-                self.pool,
-                self.base(self.current) + 2 + index * 2,
-            )
-        };
+        let mut statistics_query = None;
+        if let Some(pool) = self.statistics.filter(|_| !self.statistics_open) {
+            let query = self.current as u32 * self.capacity + state.statistics_used;
+            state.statistics_used += 1;
+            self.statistics_open = true;
+            statistics_query = Some(query);
+            // SAFETY: the query was reset this frame; no other statistics
+            // query is active in this command buffer.
+            unsafe {
+                self.device
+                    .raw
+                    .cmd_begin_query(cmd, pool, query, vk::QueryControlFlags::empty())
+            };
+        }
+        state.scopes.push((name.to_string(), statistics_query));
+        if let Some(pool) = self.timestamps {
+            // SAFETY: query index inside the pool, reset this frame.
+            unsafe {
+                self.device.raw.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    pool,
+                    self.base(self.current) + 2 + index * 2,
+                )
+            };
+        }
         PassScope(index)
     }
 
-    /// Writes the end timestamp of a pass.
+    /// Closes a pass: its end timestamp, statistics query and label region.
     pub fn end(&mut self, cmd: vk::CommandBuffer, scope: PassScope) {
-        // SAFETY: as in begin.
-        unsafe {
-            self.device.raw.cmd_write_timestamp2(
-                cmd,
-                vk::PipelineStageFlags2::ALL_COMMANDS,
-                self.pool,
-                self.base(self.current) + 3 + scope.0 * 2,
-            )
-        };
+        if let Some(pool) = self.timestamps {
+            // SAFETY: as in begin.
+            unsafe {
+                self.device.raw.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    pool,
+                    self.base(self.current) + 3 + scope.0 * 2,
+                )
+            };
+        }
+        let query = self.slots[self.current].scopes[scope.0 as usize].1;
+        if let (Some(pool), Some(query)) = (self.statistics, query) {
+            // SAFETY: the query was begun in this command buffer by `begin`.
+            unsafe { self.device.raw.cmd_end_query(cmd, pool, query) };
+            self.statistics_open = false;
+        }
+        self.device.end_label(cmd);
     }
 
-    /// Writes the frame's last timestamp.
+    /// Writes the frame's last timestamp and pairs the device clock with
+    /// the CPU's (where calibrated timestamps are supported).
     pub fn end_frame(&mut self, cmd: vk::CommandBuffer) {
         let query = self.base(self.current) + 1;
-        // SAFETY: the slot's second query is reserved for the frame end.
-        unsafe {
-            self.device.raw.cmd_write_timestamp2(
-                cmd,
-                vk::PipelineStageFlags2::ALL_COMMANDS,
-                self.pool,
-                query,
-            )
-        };
+        if let Some(pool) = self.timestamps {
+            // SAFETY: the slot's second query is reserved for the frame end.
+            unsafe {
+                self.device.raw.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    pool,
+                    query,
+                )
+            };
+        }
+        self.slots[self.current].calibration = self.device.calibrated_timestamps();
     }
 
-    /// Whether `slot` holds a recorded frame.
+    /// Marks the slot's frame as submitted: only then are its queries read
+    /// (a frame abandoned by an error before submission leaves none).
+    pub fn submitted(&mut self, slot: usize) {
+        self.slots[slot].submitted = true;
+    }
+
+    /// Whether `slot` holds a submitted frame.
     pub fn has_frame(&self, slot: usize) -> bool {
-        !self.names[slot].is_empty()
+        self.slots[slot].submitted && !self.slots[slot].scopes.is_empty()
     }
 
-    /// Reads `slot`'s timestamps and returns the per-pass times and the whole
-    /// frame's time in milliseconds. Waits if the frame has not finished;
-    /// once its submission is known done this returns at once.
-    pub fn resolve(&self, slot: usize) -> Result<(Vec<PassTiming>, f64)> {
-        let count = 2 + self.names[slot].len() * 2;
+    /// Reads `slot`'s queries: per-pass times and the frame's time, or None
+    /// when passes are not timed. Waits if the frame has not finished; once
+    /// its submission is known done this returns at once.
+    pub fn resolve(&self, slot: usize) -> Result<Option<GpuFrameTimes>> {
+        let Some(pool) = self.timestamps else {
+            return Ok(None);
+        };
+        let state = &self.slots[slot];
+        if !state.submitted {
+            return Err(Error::InvalidParameter(
+                "GpuProfiler::resolve on a frame that was not submitted".into(),
+            ));
+        }
+        let count = 2 + state.scopes.len() * 2;
         let mut raw = vec![0u64; count];
         // SAFETY: the queries 0..count were written by the submitted frame.
         unsafe {
             self.device.raw.get_query_pool_results(
-                self.pool,
+                pool,
                 self.base(slot),
                 &mut raw,
                 vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
             )
         }
         .vk("vkGetQueryPoolResults")?;
-        let to_ms = |a: u64, b: u64| {
-            let delta = b.wrapping_sub(a) & self.valid_mask;
-            delta as f64 * self.period_ns * 1e-6
-        };
-        let passes = self.names[slot]
+        let mut statistics = vec![[0u64; 2]; state.statistics_used as usize];
+        if let (Some(stats_pool), false) = (self.statistics, statistics.is_empty()) {
+            // SAFETY: the first `statistics_used` queries of the slot were
+            // begun and ended by the submitted frame.
+            unsafe {
+                self.device.raw.get_query_pool_results(
+                    stats_pool,
+                    slot as u32 * self.capacity,
+                    &mut statistics,
+                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                )
+            }
+            .vk("vkGetQueryPoolResults")?;
+        }
+        let ticks = |a: u64, b: u64| b.wrapping_sub(a) & self.valid_mask;
+        let to_ms = |a: u64, b: u64| ticks(a, b) as f64 * self.period_ns * 1e-6;
+        let base = slot as u32 * self.capacity;
+        let passes = state
+            .scopes
             .iter()
             .enumerate()
-            .map(|(i, name)| PassTiming {
-                name: name.clone(),
-                gpu_ms: to_ms(raw[2 + 2 * i], raw[3 + 2 * i]),
+            .map(|(i, (name, query))| {
+                let counts = query.map(|q| statistics[(q - base) as usize]);
+                PassTiming {
+                    name: name.clone(),
+                    gpu_ms: to_ms(raw[2 + 2 * i], raw[3 + 2 * i]),
+                    start_ms: to_ms(raw[0], raw[2 + 2 * i]),
+                    // Results come in bit order: fragment, then compute.
+                    fragment_invocations: counts.map(|c| c[0]),
+                    compute_invocations: counts.map(|c| c[1]),
+                }
             })
             .collect();
         if raw[1] < raw[0] && self.valid_mask == u64::MAX {
@@ -182,12 +348,29 @@ impl GpuProfiler {
                 result: vk::Result::ERROR_UNKNOWN,
             });
         }
-        Ok((passes, to_ms(raw[0], raw[1])))
+        // The frame's start on CLOCK_MONOTONIC: the calibration pair was
+        // taken after recording, so the start is normally later than the
+        // pair's device tick; both directions are handled.
+        let start_monotonic_ns = state.calibration.map(|(gpu, cpu)| {
+            let ahead = ticks(gpu, raw[0]);
+            if ahead <= self.valid_mask / 2 {
+                cpu + (ahead as f64 * self.period_ns) as u64
+            } else {
+                cpu.saturating_sub((ticks(raw[0], gpu) as f64 * self.period_ns) as u64)
+            }
+        });
+        Ok(Some(GpuFrameTimes {
+            passes,
+            frame_ms: to_ms(raw[0], raw[1]),
+            start_monotonic_ns,
+        }))
     }
 }
 
 impl Drop for GpuProfiler {
     fn drop(&mut self) {
-        self.device.defer_destroy(Garbage::QueryPool(self.pool));
+        for pool in [self.timestamps, self.statistics].into_iter().flatten() {
+            self.device.defer_destroy(Garbage::QueryPool(pool));
+        }
     }
 }

@@ -1,0 +1,349 @@
+//! Measuring frames: warm-frame statistics (min / median / max per pass over
+//! N frames after a warm-up frame) and a Chrome trace-event file with one
+//! track for the GPU passes and one for the CPU stages.
+//!
+//! Trace times are on CLOCK_MONOTONIC, the clock VK_EXT_calibrated_timestamps
+//! pairs the device's timestamps with; without calibration a frame's GPU
+//! track starts at its submission, and the file says so in its metadata.
+
+use std::path::Path;
+
+use serde::Serialize;
+use serde_json::{json, Value};
+
+use crate::error::{Error, Result};
+use crate::renderer::{Frame, RenderSettings, Renderer, Timings};
+use crate::scene::Scene;
+
+/// Nanoseconds on CLOCK_MONOTONIC (on other systems: since the first call).
+pub fn monotonic_ns() -> u64 {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid out-pointer; CLOCK_MONOTONIC always exists.
+        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+        ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+    }
+    #[cfg(not(unix))]
+    {
+        static EPOCH: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+        EPOCH
+            .get_or_init(std::time::Instant::now)
+            .elapsed()
+            .as_nanos() as u64
+    }
+}
+
+/// A CPU stage of a frame, on [`monotonic_ns`].
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct CpuSpan {
+    /// Stage name (`bvh_build`, `vpl_generation`, ...).
+    pub name: String,
+    /// Start (ns, CLOCK_MONOTONIC).
+    pub start_ns: u64,
+    /// Duration (ns).
+    pub duration_ns: u64,
+}
+
+impl CpuSpan {
+    /// Times `f` as the stage `name`, appending the span to `spans`.
+    pub fn time<T>(spans: &mut Vec<CpuSpan>, name: &str, f: impl FnOnce() -> T) -> T {
+        let start_ns = monotonic_ns();
+        let value = f();
+        spans.push(CpuSpan {
+            name: name.into(),
+            start_ns,
+            duration_ns: monotonic_ns().saturating_sub(start_ns),
+        });
+        value
+    }
+
+    /// Duration in milliseconds.
+    pub fn ms(&self) -> f64 {
+        self.duration_ns as f64 * 1e-6
+    }
+}
+
+/// Minimum, median and maximum of one quantity over the measured frames.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Spread {
+    /// Smallest value.
+    pub min: f64,
+    /// Median (the mean of the two middle values for an even count).
+    pub median: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Spread {
+    /// The spread of `values` (None when empty).
+    pub fn of(values: &[f64]) -> Option<Spread> {
+        if values.is_empty() {
+            return None;
+        }
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Some(Spread {
+            min: v[0],
+            median,
+            max: v[n - 1],
+        })
+    }
+}
+
+/// One pass's GPU milliseconds over the measured frames.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct PassStats {
+    /// Pass name (as in [`crate::vk::PassTiming`]).
+    pub name: String,
+    /// GPU milliseconds.
+    pub gpu_ms: Spread,
+}
+
+/// Statistics over N warm frames (the warm-up frame excluded).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FrameStats {
+    /// Frames measured.
+    pub frames: usize,
+    /// Whole-frame GPU milliseconds (None without timestamps).
+    pub frame_gpu_ms: Option<Spread>,
+    /// Per-pass GPU milliseconds, in recording order (empty without timestamps).
+    pub passes: Vec<PassStats>,
+    /// CPU stages' milliseconds, in order.
+    pub cpu_ms: Vec<PassStats>,
+}
+
+impl FrameStats {
+    /// Statistics of `frames` (all rendered with the same settings).
+    pub fn of(frames: &[Timings]) -> FrameStats {
+        let frame_ms: Vec<f64> = frames.iter().filter_map(|t| t.frame_gpu_ms).collect();
+        let per_name = |names: Vec<String>, value: &dyn Fn(&Timings, &str) -> Option<f64>| {
+            names
+                .into_iter()
+                .filter_map(|name| {
+                    let values: Vec<f64> = frames.iter().filter_map(|t| value(t, &name)).collect();
+                    Spread::of(&values).map(|gpu_ms| PassStats { name, gpu_ms })
+                })
+                .collect::<Vec<_>>()
+        };
+        let first = frames.first();
+        let pass_names = first
+            .and_then(|t| t.passes.as_ref())
+            .map(|p| p.iter().map(|p| p.name.clone()).collect())
+            .unwrap_or_default();
+        let cpu_names = first
+            .map(|t| t.cpu_spans.iter().map(|s| s.name.clone()).collect())
+            .unwrap_or_default();
+        FrameStats {
+            frames: frames.len(),
+            frame_gpu_ms: Spread::of(&frame_ms),
+            passes: per_name(pass_names, &|t, name| {
+                t.passes
+                    .as_ref()?
+                    .iter()
+                    .find(|p| p.name == name)
+                    .map(|p| p.gpu_ms)
+            }),
+            cpu_ms: per_name(cpu_names, &|t, name| {
+                t.cpu_spans.iter().find(|s| s.name == name).map(CpuSpan::ms)
+            }),
+        }
+    }
+
+    /// A printable table (ms).
+    pub fn table(&self) -> String {
+        let mut s = format!(
+            "GPU ms over {} frames after one warm-up frame (min / median / max)\n",
+            self.frames
+        );
+        let row = |s: &mut String, name: &str, v: &Spread| {
+            s.push_str(&format!(
+                "  {name:<32} {:>10.3} {:>10.3} {:>10.3}\n",
+                v.min, v.median, v.max
+            ));
+        };
+        for p in &self.passes {
+            row(&mut s, &p.name, &p.gpu_ms);
+        }
+        match &self.frame_gpu_ms {
+            Some(f) => row(&mut s, "frame", f),
+            None => s.push_str("  (no GPU timestamps on this device)\n"),
+        }
+        s.push_str("CPU ms\n");
+        for p in &self.cpu_ms {
+            row(&mut s, &p.name, &p.gpu_ms);
+        }
+        s
+    }
+}
+
+/// A Chrome trace-event file (opens in Perfetto and chrome://tracing): a
+/// GPU track of passes and a CPU track of stages, frame after frame.
+#[derive(Default)]
+pub struct ChromeTrace {
+    events: Vec<Value>,
+    /// Frames whose GPU track was placed by calibrated timestamps.
+    calibrated: usize,
+    frames: usize,
+    /// Earliest time in the trace (ns), subtracted from every event.
+    origin: Option<u64>,
+}
+
+const PID: u32 = 1;
+const GPU_TID: u32 = 1;
+const CPU_TID: u32 = 2;
+
+impl ChromeTrace {
+    /// An empty trace.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds one frame's CPU stages and GPU passes.
+    pub fn add_frame(&mut self, timings: &Timings) {
+        let frame = self.frames;
+        self.frames += 1;
+        let span = |name: &str, tid: u32, start_ns: u64, dur_ns: f64, args: Value| {
+            json!({
+                "name": name, "cat": if tid == GPU_TID { "gpu" } else { "cpu" },
+                "ph": "X", "pid": PID, "tid": tid,
+                "ts": start_ns as f64 * 1e-3, "dur": dur_ns * 1e-3, "args": args,
+            })
+        };
+        for s in &timings.cpu_spans {
+            self.note_time(s.start_ns);
+            self.events.push(span(
+                &s.name,
+                CPU_TID,
+                s.start_ns,
+                s.duration_ns as f64,
+                json!({ "frame": frame }),
+            ));
+        }
+        let (Some(passes), Some(frame_ms)) = (&timings.passes, timings.frame_gpu_ms) else {
+            return;
+        };
+        let start = match timings.gpu_start_ns {
+            Some(ns) => {
+                self.calibrated += 1;
+                ns
+            }
+            None => timings.submit_ns,
+        };
+        self.note_time(start);
+        self.events.push(span(
+            &format!("frame {frame}"),
+            GPU_TID,
+            start,
+            frame_ms * 1e6,
+            json!({ "frame": frame }),
+        ));
+        for p in passes {
+            let mut args = json!({ "frame": frame, "gpu_ms": p.gpu_ms });
+            if let Some(n) = p.compute_invocations {
+                args["compute_invocations"] = json!(n);
+            }
+            if let Some(n) = p.fragment_invocations {
+                args["fragment_invocations"] = json!(n);
+            }
+            self.events.push(span(
+                &p.name,
+                GPU_TID,
+                start + (p.start_ms * 1e6) as u64,
+                p.gpu_ms * 1e6,
+                args,
+            ));
+        }
+    }
+
+    fn note_time(&mut self, ns: u64) {
+        self.origin = Some(self.origin.map_or(ns, |o| o.min(ns)));
+    }
+
+    /// The trace as JSON (times in µs from the earliest event).
+    pub fn to_json(&self) -> Value {
+        let origin_us = self.origin.unwrap_or(0) as f64 * 1e-3;
+        let mut events: Vec<Value> = self
+            .events
+            .iter()
+            .cloned()
+            .map(|mut e| {
+                let ts = e["ts"].as_f64().unwrap_or(0.0) - origin_us;
+                e["ts"] = json!(ts);
+                e
+            })
+            .collect();
+        for (tid, name) in [(GPU_TID, "GPU passes"), (CPU_TID, "CPU stages")] {
+            events.push(json!({
+                "name": "thread_name", "ph": "M", "pid": PID, "tid": tid,
+                "args": { "name": name },
+            }));
+        }
+        events.push(json!({
+            "name": "process_name", "ph": "M", "pid": PID, "args": { "name": "ssbc" },
+        }));
+        let alignment = if self.frames > 0 && self.calibrated == self.frames {
+            "calibrated: GPU timestamps placed on CLOCK_MONOTONIC with VK_EXT_calibrated_timestamps"
+        } else if self.calibrated == 0 {
+            "submission: no calibrated timestamps; each frame's GPU track starts when it was submitted"
+        } else {
+            "mixed: some frames calibrated, the others aligned at submission"
+        };
+        json!({
+            "traceEvents": events,
+            "displayTimeUnit": "ms",
+            "metadata": { "ssbc.clock_alignment": alignment, "ssbc.frames": self.frames },
+        })
+    }
+
+    /// Writes the trace to `path`.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string(&self.to_json()).map_err(|e| Error::Output {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        std::fs::write(path, text).map_err(|e| Error::io(path, e))
+    }
+}
+
+/// Renders one warm-up frame, then `frames` more of the same scene and
+/// settings; returns the last frame with [`Timings::stats`] filled in over
+/// the `frames` measured ones. Every frame (warm-up included, marked as
+/// frame 0) goes into `trace` when given.
+pub fn render_frames(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    settings: &RenderSettings,
+    frames: u32,
+    mut trace: Option<&mut ChromeTrace>,
+) -> Result<Frame> {
+    if frames == 0 {
+        return Err(Error::InvalidParameter(
+            "--frames must be at least 1".into(),
+        ));
+    }
+    let mut measured = Vec::with_capacity(frames as usize);
+    let mut last = None;
+    for i in 0..=frames {
+        let frame = renderer.render(scene, settings)?;
+        if let Some(trace) = trace.as_deref_mut() {
+            trace.add_frame(&frame.timings);
+        }
+        if i > 0 {
+            measured.push(frame.timings.clone());
+        }
+        last = Some(frame);
+    }
+    let mut frame = last.expect("at least one frame");
+    frame.timings.stats = Some(FrameStats::of(&measured));
+    Ok(frame)
+}
