@@ -33,7 +33,7 @@ fn pass_ms(f: &Frame, name: &str) -> f64 {
         .passes
         .iter()
         .find(|p| p.name == name)
-        .map_or(0.0, |p| p.gpu_ms.median)
+        .map_or(0.0, |p| p.ms.median)
 }
 
 /// Median GPU ms of the whole frame.
@@ -189,7 +189,7 @@ fn main() {
                 .passes
                 .iter()
                 .filter(|p| p.name.starts_with("ssbc_step_1/"))
-                .map(|p| format!("{} {:.1}", &p.name["ssbc_step_1/".len()..], p.gpu_ms.median)),
+                .map(|p| format!("{} {:.1}", &p.name["ssbc_step_1/".len()..], p.ms.median)),
         )
         .collect();
         let step = &f.timings.ssbc_steps[0];

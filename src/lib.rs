@@ -47,7 +47,9 @@ pub mod output;
 pub mod passes;
 pub mod profile;
 pub mod renderer;
+pub mod resident;
 pub mod scene;
+#[cfg(feature = "viewer")]
 pub mod viewer;
 pub mod vk;
 

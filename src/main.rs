@@ -428,6 +428,14 @@ fn compare(args: CompareArgs) -> Result<u32, ssbc::Error> {
     Ok(0)
 }
 
+#[cfg(not(feature = "viewer"))]
+fn view(_: ViewArgs) -> Result<u32, ssbc::Error> {
+    Err(ssbc::Error::InvalidParameter(
+        "this ssbc was built without the `viewer` feature (cargo build --features viewer)".into(),
+    ))
+}
+
+#[cfg(feature = "viewer")]
 fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
     let scene = ssbc::scene::load(&args.common.scene)?;
     ssbc::viewer::run(ssbc::viewer::ViewOptions {

@@ -100,13 +100,13 @@ impl Spread {
     }
 }
 
-/// One pass's GPU milliseconds over the measured frames.
+/// One pass's (or CPU stage's) milliseconds over the measured frames.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct PassStats {
-    /// Pass name (as in [`crate::vk::PassTiming`]).
+    /// Pass name (as in [`crate::vk::PassTiming`]) or CPU stage name.
     pub name: String,
-    /// GPU milliseconds.
-    pub gpu_ms: Spread,
+    /// Milliseconds (GPU for passes, CPU for stages).
+    pub ms: Spread,
 }
 
 /// Statistics over N warm frames (the warm-up frame excluded).
@@ -131,7 +131,7 @@ impl FrameStats {
                 .into_iter()
                 .filter_map(|name| {
                     let values: Vec<f64> = frames.iter().filter_map(|t| value(t, &name)).collect();
-                    Spread::of(&values).map(|gpu_ms| PassStats { name, gpu_ms })
+                    Spread::of(&values).map(|ms| PassStats { name, ms })
                 })
                 .collect::<Vec<_>>()
         };
@@ -172,7 +172,7 @@ impl FrameStats {
             ));
         };
         for p in &self.passes {
-            row(&mut s, &p.name, &p.gpu_ms);
+            row(&mut s, &p.name, &p.ms);
         }
         match &self.frame_gpu_ms {
             Some(f) => row(&mut s, "frame", f),
@@ -180,7 +180,7 @@ impl FrameStats {
         }
         s.push_str("CPU ms\n");
         for p in &self.cpu_ms {
-            row(&mut s, &p.name, &p.gpu_ms);
+            row(&mut s, &p.name, &p.ms);
         }
         s
     }

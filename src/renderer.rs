@@ -29,7 +29,14 @@ use crate::passes::indirect_bounded::IndirectBoundedPass;
 use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
 use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSettings};
+use crate::cpu::points::IsmPoints;
+use crate::cpu::vpl::VplSet;
+use crate::passes::ism::Ism;
+use crate::passes::shadow_maps::ShadowMaps;
+use crate::passes::ssbc::SsbcFrame;
 use crate::profile::{monotonic_ns, CpuSpan, FrameStats};
+use crate::resident::{next_version, ResidentScene, SceneVersions};
+use crate::scene::Bounds;
 use crate::scene::Scene;
 use crate::vk::{
     Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector,
@@ -306,16 +313,153 @@ pub struct Renderer {
     indirect_bounded: IndirectBoundedPass,
     ssbc: SsbcPass,
     profiler: GpuProfiler,
+    /// Each frame slot's resources, reused while they fit.
+    slots: Vec<FrameSlot>,
+    /// The scene's CPU products and GPU copy, kept while it is unchanged.
+    scene_cache: Option<SceneCache>,
     /// One command pool per frame slot.
     commands: Vec<CommandPool>,
     /// Timeline value of each slot's last submission.
     slot_done: [u64; FRAME_SLOTS],
     /// Frames started so far (picks the slot).
     frame_index: u64,
-    /// The last frame's final image and the timeline value that finished it.
-    output: Option<(Image, u64)>,
+    /// Which image of which slot the last frame handed over, and the
+    /// timeline value that finished it.
+    output: Option<FrameOutput>,
+    /// A pass after which the next frame fails (tests of recovery).
+    fault: Option<String>,
     device: Arc<Device>,
     validation_log: Arc<ValidationLog>,
+}
+
+/// The image a frame handed over.
+struct FrameOutput {
+    slot: usize,
+    layer: String,
+    done: u64,
+}
+
+/// VPLs traced for one version of the lights and one set of settings.
+struct VplCache {
+    key: (u64, VplSettings),
+    set: VplSet,
+    gpu: Vec<GpuVpl>,
+    /// Changes whenever the VPLs do (slots compare it with what they hold).
+    version: u64,
+}
+
+/// ISM points for one VPL count, points per VPL and seed.
+struct PointsCache {
+    key: (usize, u32, u64),
+    points: IsmPoints,
+    version: u64,
+}
+
+/// What is kept while the scene's surfaces do not change.
+struct SceneCache {
+    /// The versions the cache was built from (geometry and materials) and
+    /// last used with (lights, camera).
+    versions: SceneVersions,
+    bounds: Bounds,
+    bvh: SceneBvh,
+    gpu_scene: GpuScene,
+    vpls: Option<VplCache>,
+    points: Option<PointsCache>,
+}
+
+/// Screen-size images of a slot: the G-buffer, the lighting layers and SSBC's.
+struct Targets {
+    key: (u32, u32, u32),
+    gbuffer: GBuffer,
+    direct: Image,
+    indirect: Image,
+    s0: Image,
+    ssbc: SsbcFrame,
+}
+
+/// One frame slot's resources, each with the key of what it was made for.
+#[derive(Default)]
+struct FrameSlot {
+    /// Keyed by the (lights, geometry) versions written into them.
+    shadows: Option<((u64, u64), ShadowMaps)>,
+    /// Keyed by (VPL version, points version, far plane bits, tile).
+    ism: Option<((u64, u64, u32, u32), Ism)>,
+    targets: Option<Targets>,
+    /// Keyed by (width, height, steps, deepest eval level, ISM tile).
+    pool: Option<((u32, u32, u32, u32, u32), DescriptorPool)>,
+    /// One host-visible buffer per image read back, named as the layer.
+    readback: Option<Vec<(String, Buffer)>>,
+}
+
+impl FrameSlot {
+    /// The images a read-back frame copies to the host, with their layer
+    /// names: the final image first, then the layers, the per-step sample
+    /// counts and (for diagnostics) the G-buffer and the ISM atlas.
+    fn readback_images(&self, debug: bool) -> Vec<(String, &Image)> {
+        let (Some(t), Some((_, ism))) = (&self.targets, &self.ism) else {
+            return Vec::new();
+        };
+        let mut v: Vec<(String, &Image)> = vec![
+            ("final".into(), t.final_image()),
+            ("direct".into(), &t.direct),
+            ("indirect_bounded".into(), &t.indirect),
+        ];
+        for (k, r) in t.ssbc.residuals.iter().enumerate() {
+            v.push((format!("residual_{}", k + 1), r));
+        }
+        if debug {
+            v.push(("gbuffer_position".into(), &t.gbuffer.position));
+            v.push(("gbuffer_normal".into(), &t.gbuffer.normal));
+            v.push(("gbuffer_albedo".into(), &t.gbuffer.albedo));
+            v.push(("gbuffer_emission".into(), &t.gbuffer.emission));
+        }
+        for (k, img) in t.ssbc.samples.iter().enumerate() {
+            v.push((format!("samples_{}", k + 1), img));
+        }
+        if debug {
+            v.push(("ism_atlas".into(), &ism.pyramid));
+        }
+        v
+    }
+}
+
+impl Targets {
+    /// The final image: SSBC's sum, or S0 without steps.
+    fn final_image(&self) -> &Image {
+        if self.key.2 > 0 {
+            &self.ssbc.final_image
+        } else {
+            &self.s0
+        }
+    }
+
+    /// The image of a GPU layer name (`final`, `direct`, ...).
+    fn layer(&self, layer: &str) -> Option<&Image> {
+        match layer {
+            "final" => Some(self.final_image()),
+            "direct" => Some(&self.direct),
+            "indirect_bounded" => Some(&self.indirect),
+            _ => {
+                let k: usize = layer.strip_prefix("residual_")?.parse().ok()?;
+                self.ssbc.residuals.get(k.checked_sub(1)?)
+            }
+        }
+    }
+}
+
+/// Bytes of a tightly packed host copy of `image`'s first level.
+fn readback_size(image: &Image) -> u64 {
+    let texel = if image.desc.format == vk::Format::R32G32B32A32_SFLOAT {
+        16
+    } else {
+        4
+    };
+    image.desc.width as u64 * image.desc.height as u64 * texel
+}
+
+/// Milliseconds of the CPU stage `name` (0 if it did not run this frame).
+fn span_ms(spans: &[CpuSpan], name: &str) -> f64 {
+    spans.iter().find(|s| s.name == name).map_or(0.0, CpuSpan::ms)
 }
 
 /// The last frame's final image, left on the GPU for a host engine. Valid
@@ -436,6 +580,9 @@ impl Renderer {
                 .collect::<Result<_>>()?,
             slot_done: [0; FRAME_SLOTS],
             frame_index: 0,
+            slots: (0..FRAME_SLOTS).map(|_| FrameSlot::default()).collect(),
+            scene_cache: None,
+            fault: None,
             device,
             validation_log,
             output: None,
@@ -445,21 +592,23 @@ impl Renderer {
     /// The last frame's final image, on the GPU, with its layout and the
     /// timeline semaphore value to wait for (None before the first frame).
     pub fn output_image(&self) -> Option<GpuImage> {
-        self.output.as_ref().map(|(image, value)| GpuImage {
+        let done = self.output.as_ref()?.done;
+        self.output().map(|image| GpuImage {
             image: image.raw,
             view: image.view,
             format: image.desc.format,
             extent: (image.desc.width, image.desc.height),
             layout: image.state.get().layout,
             semaphore: self.device.timeline(),
-            value: *value,
+            value: done,
         })
     }
 
     /// The last frame's output image as a tracked [`Image`] (for in-crate
     /// consumers that record their own commands on the same queue).
     pub(crate) fn output(&self) -> Option<&Image> {
-        self.output.as_ref().map(|(image, _)| image)
+        let out = self.output.as_ref()?;
+        self.slots[out.slot].targets.as_ref()?.layer(&out.layer)
     }
 
     /// The device.
@@ -519,8 +668,31 @@ impl Renderer {
     }
 
     /// Renders `scene` and reads the result back (waits for the GPU).
+    /// Immediate mode: nothing about the scene is assumed to persist, so
+    /// its BVH, VPLs, points and GPU copy are rebuilt (images, buffers and
+    /// descriptor pools are still reused while the size and settings fit).
+    /// See [`Renderer::render_resident`] for frames that redo only what changed.
     pub fn render(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Frame> {
-        match self.run(scene, settings, None)? {
+        self.read_back(scene, SceneVersions::fresh(), settings)
+    }
+
+    /// Renders a [`ResidentScene`] and reads the result back, redoing only
+    /// the work its changes since the last frame require.
+    pub fn render_resident(
+        &mut self,
+        scene: &ResidentScene,
+        settings: &RenderSettings,
+    ) -> Result<Frame> {
+        self.read_back(scene.scene(), scene.versions(), settings)
+    }
+
+    fn read_back(
+        &mut self,
+        scene: &Scene,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+    ) -> Result<Frame> {
+        match self.run(scene, versions, settings, None)? {
             Outcome::Frame(frame) => Ok(*frame),
             Outcome::Gpu(_) => unreachable!("no GPU layer was asked for"),
         }
@@ -537,6 +709,27 @@ impl Renderer {
         settings: &RenderSettings,
         layer: &str,
     ) -> Result<GpuSubmission> {
+        self.submit_to_gpu(scene, SceneVersions::fresh(), settings, layer)
+    }
+
+    /// [`Renderer::render_to_gpu`] for a [`ResidentScene`]: only what changed
+    /// is redone (a camera move: the screen-space passes only).
+    pub fn render_resident_to_gpu(
+        &mut self,
+        scene: &ResidentScene,
+        settings: &RenderSettings,
+        layer: &str,
+    ) -> Result<GpuSubmission> {
+        self.submit_to_gpu(scene.scene(), scene.versions(), settings, layer)
+    }
+
+    fn submit_to_gpu(
+        &mut self,
+        scene: &Scene,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+        layer: &str,
+    ) -> Result<GpuSubmission> {
         let steps = settings.ssbc.steps as usize;
         let known = matches!(layer, "final" | "direct" | "indirect_bounded")
             || layer
@@ -546,15 +739,24 @@ impl Renderer {
         if !known {
             return Err(Error::InvalidParameter(format!("no GPU layer '{layer}'")));
         }
-        match self.run(scene, settings, Some(layer))? {
+        match self.run(scene, versions, settings, Some(layer))? {
             Outcome::Gpu(submission) => Ok(submission),
             Outcome::Frame(_) => unreachable!("a GPU layer was asked for"),
         }
     }
 
+    /// Makes the next frame fail after recording `pass` (`shadow_maps`,
+    /// `ism`, `gbuffer`, `indirect_bounded` or `ssbc`), before submission:
+    /// for tests that a failed frame leaves the renderer usable.
+    #[doc(hidden)]
+    pub fn inject_fault_after(&mut self, pass: &str) {
+        self.fault = Some(pass.to_string());
+    }
+
     fn run(
         &mut self,
         scene: &Scene,
+        versions: SceneVersions,
         settings: &RenderSettings,
         gpu_layer: Option<&str>,
     ) -> Result<Outcome> {
@@ -568,59 +770,282 @@ impl Renderer {
         } else {
             None
         };
+        let result = self.frame(scene, versions, settings, gpu_layer, slot, previous_timings);
+        if result.is_err() {
+            // Whatever was recorded was never submitted, but the resources'
+            // tracked states say otherwise: forget them, and the scene's
+            // GPU copy, so the next frame starts from known states.
+            self.slots[slot] = FrameSlot::default();
+            self.scene_cache = None;
+            if self.output.as_ref().is_some_and(|o| o.slot == slot) {
+                self.output = None;
+            }
+        }
+        result
+    }
+
+    /// Brings the scene cache up to `versions`: BVH and GPU copy when
+    /// geometry or materials changed, VPLs when lights did too, ISM points
+    /// when geometry, materials or their count changed.
+    fn update_scene(
+        &mut self,
+        scene: &Scene,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+        slot: usize,
+        spans: &mut Vec<CpuSpan>,
+    ) -> Result<()> {
+        let same_surfaces = |c: &SceneCache| {
+            c.versions.geometry == versions.geometry && c.versions.materials == versions.materials
+        };
+        if !self.scene_cache.as_ref().is_some_and(same_surfaces) {
+            scene.validate()?;
+            self.scene_cache = None;
+            let bvh = CpuSpan::time(spans, "bvh_build", || SceneBvh::new(scene));
+            let gpu_scene = CpuSpan::time(spans, "scene_upload", || {
+                GpuScene::upload(&self.device, &mut self.commands[slot], scene)
+            })?;
+            self.scene_cache = Some(SceneCache {
+                versions,
+                bounds: scene.bounds(),
+                bvh,
+                gpu_scene,
+                vpls: None,
+                points: None,
+            });
+        }
+        let cache = self.scene_cache.as_mut().expect("built above");
+        cache.versions.lights = versions.lights;
+        cache.versions.camera = versions.camera;
+        let vpl_key = (versions.lights, settings.vpl.clone());
+        if !cache.vpls.as_ref().is_some_and(|v| v.key == vpl_key) {
+            let set = CpuSpan::time(spans, "vpl_generation", || {
+                vpl::generate(scene, &cache.bvh, &settings.vpl)
+            })?;
+            cache.vpls = Some(VplCache {
+                gpu: set.vpls.iter().map(GpuVpl::new).collect(),
+                set,
+                key: vpl_key,
+                version: next_version(),
+            });
+        }
+        let vpl_count = cache.vpls.as_ref().expect("traced above").set.vpls.len();
+        let points_key = (vpl_count, settings.points_per_vpl, settings.vpl.seed);
+        if !cache.points.as_ref().is_some_and(|p| p.key == points_key) {
+            let points = CpuSpan::time(spans, "point_sampling", || {
+                sample_points(
+                    scene,
+                    vpl_count,
+                    settings.points_per_vpl as usize,
+                    settings.vpl.seed,
+                )
+            });
+            cache.points = Some(PointsCache {
+                points,
+                key: points_key,
+                version: next_version(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Brings the slot's resources up to `settings` and the scene cache:
+    /// allocates only what is missing or no longer fits, and rewrites the
+    /// host-visible inputs (lights, shadow views, VPLs, points) only when
+    /// they changed since the slot last used them.
+    fn update_slot(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        slot: usize,
+        readback: bool,
+    ) -> Result<()> {
+        let device = self.device.clone();
+        let cache = self.scene_cache.as_ref().expect("scene cache built");
         let (w, h) = (settings.width, settings.height);
-        scene.validate()?;
+        let diagonal = 2.0 * cache.bounds.radius();
+        let frame = &mut self.slots[slot];
+
+        // Shadow maps: the lights' views depend on the lights and the bounds.
+        let lights_key = (cache.versions.lights, cache.versions.geometry);
+        let lights = &scene.lights;
+        let shadows_current = frame.shadows.as_ref().is_some_and(|(key, _)| *key == lights_key);
+        if !shadows_current {
+            let updated = match frame.shadows.as_mut() {
+                Some((_, maps)) => self.shadow_maps.update(
+                    maps,
+                    lights,
+                    &cache.bounds,
+                    settings.shadow_map_size,
+                )?,
+                None => false,
+            };
+            if updated {
+                frame.shadows.as_mut().expect("updated").0 = lights_key;
+            } else {
+                let maps = self.shadow_maps.prepare(
+                    &device,
+                    lights,
+                    &cache.bounds,
+                    settings.shadow_map_size,
+                )?;
+                frame.shadows = Some((lights_key, maps));
+            }
+        } else if frame
+            .shadows
+            .as_ref()
+            .is_some_and(|(_, m)| m.depth.desc.width != settings.shadow_map_size)
+        {
+            let maps =
+                self.shadow_maps
+                    .prepare(&device, lights, &cache.bounds, settings.shadow_map_size)?;
+            frame.shadows = Some((lights_key, maps));
+        }
+
+        // ISM atlas and its inputs.
+        let vpls = cache.vpls.as_ref().expect("VPLs traced");
+        let points = cache.points.as_ref().expect("points sampled");
+        let ism_key = (vpls.version, points.version, diagonal.to_bits(), settings.ism_tile);
+        if !frame.ism.as_ref().is_some_and(|(key, _)| *key == ism_key) {
+            let updated = match frame.ism.as_mut() {
+                Some((_, ism)) => self.ism.update(
+                    ism,
+                    &vpls.gpu,
+                    &points.points,
+                    settings.ism_tile,
+                    diagonal,
+                )?,
+                None => false,
+            };
+            if updated {
+                frame.ism.as_mut().expect("updated").0 = ism_key;
+            } else {
+                let ism = self.ism.prepare(
+                    &device,
+                    &vpls.gpu,
+                    &points.points,
+                    settings.ism_tile,
+                    diagonal,
+                )?;
+                frame.ism = Some((ism_key, ism));
+            }
+        }
+
+        // Screen-size targets.
+        let steps = settings.ssbc.steps;
+        let targets_key = (w, h, steps);
+        if !frame.targets.as_ref().is_some_and(|t| t.key == targets_key) {
+            frame.targets = None; // free the old ones first
+            let layer_image = |name: &str| {
+                crate::passes::storage_image(
+                    &device,
+                    name,
+                    vk::Format::R32G32B32A32_SFLOAT,
+                    (w, h),
+                    vk::ImageUsageFlags::empty(),
+                )
+            };
+            frame.targets = Some(Targets {
+                key: targets_key,
+                gbuffer: GBuffer::new(&device, (w, h))?,
+                direct: layer_image("lighting.direct")?,
+                indirect: layer_image("lighting.indirect_bounded")?,
+                s0: layer_image("ssbc.s0")?,
+                ssbc: self.ssbc.prepare(&device, (w, h), steps)?,
+            });
+            frame.readback = None;
+        }
+
+        // The descriptor pool, sized for the deepest evaluation level the
+        // settings allow (the level follows the camera).
+        let targets = frame.targets.as_ref().expect("allocated above");
+        let max_eval = settings
+            .ssbc
+            .max_eval_level
+            .min(targets.ssbc.levels().saturating_sub(1));
+        let pool_key = (w, h, steps, max_eval, settings.ism_tile);
+        if !frame.pool.as_ref().is_some_and(|(key, _)| *key == pool_key) {
+            let mut layouts: Vec<&DescriptorSetLayout> = vec![
+                self.shadow_maps.set_layout(),
+                self.gbuffer.set_layout(),
+                self.direct_lighting.set_layout(),
+                self.indirect_bounded.set_layout(),
+            ];
+            layouts.extend(self.ism.set_layouts(settings.ism_tile));
+            layouts.extend(self.ssbc.set_layouts((w, h), steps, max_eval));
+            let pool = DescriptorPool::new(&device, &layouts)?;
+            pool.name(&format!("frame slot {slot} descriptor pool"));
+            frame.pool = Some((pool_key, pool));
+        } else {
+            frame.pool.as_ref().expect("checked").1.reset()?;
+        }
+
+        // Readback buffers (only for frames read back to the host).
+        if readback {
+            let images = frame.readback_images(settings.debug_readback);
+            let sizes: Vec<u64> = images.iter().map(|(_, img)| readback_size(img)).collect();
+            if !frame.readback.as_ref().is_some_and(|r| {
+                r.iter().map(|(_, b)| b.size).collect::<Vec<_>>() == sizes
+            }) {
+                let buffers = images
+                    .iter()
+                    .map(|(name, img)| {
+                        Buffer::new(
+                            &device,
+                            &format!("readback.{}", img.name()),
+                            readback_size(img),
+                            vk::BufferUsageFlags::TRANSFER_DST,
+                            MemoryLocation::GpuToCpu,
+                        )
+                        .map(|b| (name.clone(), b))
+                    })
+                    .collect::<Result<Vec<_>>>()?;
+                frame.readback = Some(buffers);
+            }
+        }
+        Ok(())
+    }
+
+    fn frame(
+        &mut self,
+        scene: &Scene,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+        gpu_layer: Option<&str>,
+        slot: usize,
+        previous_timings: Option<GpuFrameTimes>,
+    ) -> Result<Outcome> {
+        let (w, h) = (settings.width, settings.height);
         let camera = scene.camera(settings.camera)?;
         let device = self.device.clone();
-        let bounds = scene.bounds();
-        let diagonal = 2.0 * bounds.radius();
-        let bound = settings.bound.resolve(diagonal);
 
-        // CPU: light tracing and ISM points.
+        // CPU work and GPU resources that changed.
         let mut spans = Vec::new();
-        let bvh = CpuSpan::time(&mut spans, "bvh_build", || SceneBvh::new(scene));
-        let vpl_set = CpuSpan::time(&mut spans, "vpl_generation", || {
-            vpl::generate(scene, &bvh, &settings.vpl)
-        })?;
-        let points = CpuSpan::time(&mut spans, "point_sampling", || {
-            sample_points(
-                scene,
-                vpl_set.vpls.len(),
-                settings.points_per_vpl as usize,
-                settings.vpl.seed,
-            )
+        self.update_scene(scene, versions, settings, slot, &mut spans)?;
+        let resources_start = monotonic_ns();
+        self.update_slot(scene, settings, slot, gpu_layer.is_none())?;
+        spans.push(CpuSpan {
+            name: "slot_resources".into(),
+            start_ns: resources_start,
+            duration_ns: monotonic_ns().saturating_sub(resources_start),
         });
         let cpu_ms = CpuTimings {
-            bvh_build: spans[0].ms(),
-            vpl_generation: spans[1].ms(),
-            point_sampling: spans[2].ms(),
+            bvh_build: span_ms(&spans, "bvh_build"),
+            vpl_generation: span_ms(&spans, "vpl_generation"),
+            point_sampling: span_ms(&spans, "point_sampling"),
         };
-        let gpu_vpls: Vec<GpuVpl> = vpl_set.vpls.iter().map(GpuVpl::new).collect();
 
-        // GPU resources of this frame.
-        let resources_start = monotonic_ns();
-        let gpu_scene = GpuScene::upload(&device, &mut self.commands[slot], scene)?;
-        let shadows =
-            self.shadow_maps
-                .prepare(&device, &scene.lights, &bounds, settings.shadow_map_size)?;
-        let ism = self
-            .ism
-            .prepare(&device, &gpu_vpls, &points, settings.ism_tile, diagonal)?;
-        let gbuffer = GBuffer::new(&device, (w, h))?;
-        let layer_image = |name: &str| {
-            crate::passes::storage_image(
-                &device,
-                name,
-                vk::Format::R32G32B32A32_SFLOAT,
-                (w, h),
-                vk::ImageUsageFlags::empty(),
-            )
-        };
-        let direct = layer_image("lighting.direct")?;
-        let indirect = layer_image("lighting.indirect_bounded")?;
-        let s0 = layer_image("ssbc.s0")?;
+        let cache = self.scene_cache.as_ref().expect("scene cache built");
+        let frame = &self.slots[slot];
+        let (shadows, ism) = (
+            &frame.shadows.as_ref().expect("prepared").1,
+            &frame.ism.as_ref().expect("prepared").1,
+        );
+        let t = frame.targets.as_ref().expect("prepared");
+        let pool = &frame.pool.as_ref().expect("prepared").1;
+        let bounds = cache.bounds;
+        let bound = settings.bound.resolve(2.0 * bounds.radius());
         let steps = settings.ssbc.steps;
-        let ssbc = self.ssbc.prepare(&device, (w, h), steps)?;
         let ssbc_camera = SsbcCamera {
             position: camera.position,
             forward: camera.forward,
@@ -630,135 +1055,87 @@ impl Renderer {
             &ssbc_camera,
             (bounds.center() - camera.position).dot(camera.forward),
             bound,
-            ssbc.levels(),
+            t.ssbc.levels(),
             &settings.ssbc,
         );
-        let mut layouts: Vec<&DescriptorSetLayout> = vec![
-            self.shadow_maps.set_layout(),
-            self.gbuffer.set_layout(),
-            self.direct_lighting.set_layout(),
-            self.indirect_bounded.set_layout(),
-        ];
-        layouts.extend(self.ism.set_layouts(settings.ism_tile));
-        layouts.extend(self.ssbc.set_layouts((w, h), steps, eval_level));
-        let pool = DescriptorPool::new(&device, &layouts)?;
-        pool.name("frame descriptor pool");
-
         // Near and far planes enclose the scene's bounding sphere.
         let far = (camera.position - bounds.center()).length() + bounds.radius() * 1.05;
         let near = (far * 1e-4).max(1e-4);
         let view_proj = camera.projection(w as f32 / h as f32, near, far) * camera.view();
 
-        // What to read back.
-        let final_image = if steps > 0 { &ssbc.final_image } else { &s0 };
-        let mut outputs: Vec<(String, &Image)> = vec![
-            ("final".into(), final_image),
-            ("direct".into(), &direct),
-            ("indirect_bounded".into(), &indirect),
-        ];
-        for (k, r) in ssbc.residuals.iter().enumerate() {
-            outputs.push((format!("residual_{}", k + 1), r));
-        }
-        if settings.debug_readback {
-            outputs.push(("gbuffer_position".into(), &gbuffer.position));
-            outputs.push(("gbuffer_normal".into(), &gbuffer.normal));
-            outputs.push(("gbuffer_albedo".into(), &gbuffer.albedo));
-            outputs.push(("gbuffer_emission".into(), &gbuffer.emission));
-        }
-        if gpu_layer.is_some() {
-            outputs.clear(); // nothing is read back
-        }
-        let mut images: Vec<&Image> = outputs.iter().map(|o| o.1).collect();
-        if gpu_layer.is_none() {
-            images.extend(ssbc.samples.iter());
-            if settings.debug_readback {
-                images.push(&ism.pyramid);
-            }
-        }
-        let readback: Vec<Buffer> = images
-            .iter()
-            .map(|img| {
-                let name = format!("readback.{}", img.name());
-                let texel = if img.desc.format == vk::Format::R32G32B32A32_SFLOAT {
-                    16
-                } else {
-                    4
-                };
-                let size = img.desc.width as u64 * img.desc.height as u64 * texel;
-                Buffer::new(
-                    &device,
-                    &name,
-                    size,
-                    vk::BufferUsageFlags::TRANSFER_DST,
-                    MemoryLocation::GpuToCpu,
-                )
-            })
-            .collect::<Result<_>>()?;
-
-        spans.push(CpuSpan {
-            name: "upload_and_resources".into(),
-            start_ns: resources_start,
-            duration_ns: monotonic_ns().saturating_sub(resources_start),
-        });
-
         // Record the frame.
         let record_start = monotonic_ns();
         let mut rec = self.commands[slot].begin()?;
+        let faults = &mut self.fault;
+        let mut checkpoint = |pass: &str| match faults.take_if(|f| f == pass) {
+            Some(f) => Err(Error::InvalidParameter(format!(
+                "injected fault after {f} (a test of recovery)"
+            ))),
+            None => Ok(()),
+        };
         self.profiler.begin_frame(rec.cmd, slot);
         self.shadow_maps
-            .record(&mut rec, &mut self.profiler, &pool, &gpu_scene, &shadows)?;
+            .record(&mut rec, &mut self.profiler, pool, &cache.gpu_scene, shadows)?;
+        checkpoint("shadow_maps")?;
         if ism.vpl_count > 0 {
-            self.ism.record(&mut rec, &mut self.profiler, &pool, &ism)?;
+            self.ism.record(&mut rec, &mut self.profiler, pool, ism)?;
         }
+        checkpoint("ism")?;
         self.gbuffer.record(
             &mut rec,
             &mut self.profiler,
-            &pool,
-            &gpu_scene,
-            &gbuffer,
+            pool,
+            &cache.gpu_scene,
+            &t.gbuffer,
             view_proj,
             camera.position,
         )?;
+        checkpoint("gbuffer")?;
         self.direct_lighting.record(
             &mut rec,
             &mut self.profiler,
-            &pool,
-            &gbuffer,
-            &shadows,
-            &direct,
+            pool,
+            &t.gbuffer,
+            shadows,
+            &t.direct,
         )?;
         self.indirect_bounded.record(
             &mut rec,
             &mut self.profiler,
-            &pool,
-            &gbuffer,
-            &direct,
-            &ism,
+            pool,
+            &t.gbuffer,
+            &t.direct,
+            ism,
             bound,
-            &indirect,
-            &s0,
+            &t.indirect,
+            &t.s0,
         )?;
+        checkpoint("indirect_bounded")?;
         if steps > 0 {
             self.ssbc.record(
                 &mut rec,
                 &mut self.profiler,
-                &pool,
-                &gbuffer,
-                &s0,
+                pool,
+                &t.gbuffer,
+                &t.s0,
                 &SsbcInputs {
                     camera: &ssbc_camera,
                     bound,
                     eval_level,
                     settings: &settings.ssbc,
                 },
-                &ssbc,
+                &t.ssbc,
             )?;
         }
+        checkpoint("ssbc")?;
         self.profiler.end_frame(rec.cmd);
-        rec.use_buffer(&ssbc.stats, Access::HostRead);
-        for (image, buffer) in images.iter().zip(&readback) {
-            rec.copy_image_to_buffer(image, buffer);
-            rec.use_buffer(buffer, Access::HostRead);
+        rec.use_buffer(&t.ssbc.stats, Access::HostRead);
+        let images = frame.readback_images(settings.debug_readback);
+        if let Some(buffers) = frame.readback.as_ref().filter(|_| gpu_layer.is_none()) {
+            for ((_, image), (_, buffer)) in images.iter().zip(buffers) {
+                rec.copy_image_to_buffer(image, buffer);
+                rec.use_buffer(buffer, Access::HostRead);
+            }
         }
         rec.flush_barriers();
         let submit_ns = monotonic_ns();
@@ -771,22 +1148,11 @@ impl Renderer {
         self.profiler.submitted(slot);
         self.slot_done[slot] = done;
         if let Some(layer) = gpu_layer {
-            // Keep the asked-for image; everything else is dropped into the
-            // device's deferred-destruction queue until `done` has passed.
-            let mut residuals = ssbc.residuals;
-            let image = match layer {
-                "final" if steps > 0 => ssbc.final_image,
-                "final" => s0,
-                "direct" => direct,
-                "indirect_bounded" => indirect,
-                _ => {
-                    let k: usize = layer["residual_".len()..]
-                        .parse()
-                        .expect("checked by render_to_gpu");
-                    residuals.swap_remove(k - 1)
-                }
-            };
-            self.output = Some((image, done));
+            self.output = Some(FrameOutput {
+                slot,
+                layer: layer.to_string(),
+                done,
+            });
             return Ok(Outcome::Gpu(GpuSubmission {
                 value: done,
                 previous_timings,
@@ -802,64 +1168,75 @@ impl Renderer {
 
         // Read back.
         let gpu_times = self.profiler.resolve(slot)?;
+        let frame = &self.slots[slot];
+        let t = frame.targets.as_ref().expect("prepared");
+        let ism = &frame.ism.as_ref().expect("prepared").1;
+        let cache = self.scene_cache.as_ref().expect("scene cache built");
+        let buffers = frame.readback.as_ref().expect("allocated for readback");
         let mut layers = Vec::new();
-        for ((name, _), buffer) in outputs.iter().zip(&readback) {
-            layers.push(Layer {
-                name: name.clone(),
-                rgba: buffer.read::<f32>()?,
-            });
+        let mut samples = Vec::new();
+        let mut ism_depth = None;
+        for (name, buffer) in buffers {
+            if let Some(k) = name.strip_prefix("samples_") {
+                debug_assert_eq!(k.parse::<usize>().ok(), Some(samples.len() + 1));
+                samples.push(buffer.read::<f32>()?);
+            } else if name == "ism_atlas" {
+                ism_depth = Some(buffer.read::<f32>()?);
+            } else {
+                layers.push(Layer {
+                    name: name.clone(),
+                    rgba: buffer.read::<f32>()?,
+                });
+            }
         }
         let image = layers.remove(0);
-        let mut ssbc_steps = Vec::new();
-        let mut samples = Vec::new();
-        let fallback_counts = ssbc.fallback_counts()?;
+        let fallback_counts = t.ssbc.fallback_counts()?;
         let geometry: Vec<bool> = layers[0]
             .rgba
             .chunks_exact(4)
             .map(|p| p[3] != 0.0)
             .collect();
-        for (k, buffer) in readback[outputs.len()..outputs.len() + steps as usize]
+        let ssbc_steps = samples
             .iter()
             .enumerate()
-        {
-            let counts: Vec<f32> = buffer.read()?;
-            let on_geometry: Vec<f32> = counts
-                .iter()
-                .zip(&geometry)
-                .filter(|(_, g)| **g)
-                .map(|(c, _)| *c)
-                .collect();
-
-            let name = format!("ssbc_step_{}", k + 1);
-            ssbc_steps.push(SsbcStepTiming {
-                gpu_ms: gpu_times
-                    .as_ref()
-                    .and_then(|t| t.passes.iter().find(|p| p.name == name))
-                    .map(|p| p.gpu_ms),
-                samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>()
-                    / on_geometry.len().max(1) as f64,
-                samples_per_pixel_max: on_geometry.iter().fold(0.0, |m, &c| m.max(c as f64)),
-                eval_level,
-                fallback_fraction: fallback_counts.get(k).copied().unwrap_or(0) as f64
-                    / on_geometry.len().max(1) as f64,
-            });
-            samples.push(counts);
-        }
-        let ism_readback = if settings.debug_readback {
-            Some(IsmReadback {
-                width: ism.pyramid.desc.width,
-                height: ism.pyramid.desc.height,
-                tile: ism.tile,
-                tiles_per_row: ism.tiles_per_row,
-                far: ism.far,
-                depth: readback.last().expect("ism readback").read()?,
-                point_radius: ism.point_radius,
+            .map(|(k, counts)| {
+                let on_geometry: Vec<f32> = counts
+                    .iter()
+                    .zip(&geometry)
+                    .filter(|(_, g)| **g)
+                    .map(|(c, _)| *c)
+                    .collect();
+                let name = format!("ssbc_step_{}", k + 1);
+                SsbcStepTiming {
+                    gpu_ms: gpu_times
+                        .as_ref()
+                        .and_then(|t| t.passes.iter().find(|p| p.name == name))
+                        .map(|p| p.gpu_ms),
+                    samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>()
+                        / on_geometry.len().max(1) as f64,
+                    samples_per_pixel_max: on_geometry.iter().fold(0.0, |m, &c| m.max(c as f64)),
+                    eval_level,
+                    fallback_fraction: fallback_counts.get(k).copied().unwrap_or(0) as f64
+                        / on_geometry.len().max(1) as f64,
+                }
             })
-        } else {
-            None
-        };
+            .collect();
+        let ism_readback = ism_depth.map(|depth| IsmReadback {
+            width: ism.pyramid.desc.width,
+            height: ism.pyramid.desc.height,
+            tile: ism.tile,
+            tiles_per_row: ism.tiles_per_row,
+            far: ism.far,
+            depth,
+            point_radius: ism.point_radius,
+        });
+        let vpl_set = &cache.vpls.as_ref().expect("VPLs traced").set;
         // Keep the final image for the host (see `output_image`).
-        self.output = Some((if steps > 0 { ssbc.final_image } else { s0 }, done));
+        self.output = Some(FrameOutput {
+            slot,
+            layer: "final".into(),
+            done,
+        });
         Ok(Outcome::Frame(Box::new(Frame {
             width: w,
             height: h,
@@ -888,7 +1265,7 @@ impl Renderer {
                 integration: settings.ssbc.integration,
                 ssbc_steps,
             },
-            vpls: vpl_set.vpls,
+            vpls: vpl_set.vpls.clone(),
             bound,
             ism: ism_readback,
             samples,

@@ -28,6 +28,7 @@ use winit::window::{Window, WindowId};
 
 use crate::error::{Error, Result, VkResultExt};
 use crate::renderer::{Bound, Frame, RenderSettings, Renderer};
+use crate::resident::ResidentScene;
 use crate::scene::{Camera, Scene};
 use crate::vk::{
     Access, BinarySemaphore, Binding, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device,
@@ -94,6 +95,11 @@ struct PresentPush {
 
 struct Viewer {
     options: ViewOptions,
+    /// The scene kept between frames: camera and light moves only mark
+    /// what changed (no clone, no BVH, no upload per frame).
+    resident: ResidentScene,
+    /// The scene's bounding-sphere radius (m).
+    radius: f32,
     camera: Camera,
     layer: usize,
     saved_steps: u32,
@@ -193,12 +199,20 @@ fn diagnose_window_system(
 /// the number of validation messages.
 pub fn run(options: ViewOptions) -> Result<u32> {
     let event_loop = EventLoop::new().map_err(|e| window_system_error(&e.to_string()))?;
-    let mut scene = options.scene.clone();
+    let mut options = options;
+    // The scene moves into the resident scene (the viewer keeps no copy).
+    let mut scene = std::mem::replace(&mut options.scene, Scene::new("(resident)"));
     scene.ensure_light();
     let camera = scene.camera(options.settings.camera)?;
     let saved_steps = options.settings.ssbc.steps.max(1);
+    let radius = scene.bounds().radius();
+    let mut resident = ResidentScene::new(scene)?;
+    resident.set_camera(camera.clone());
+    options.settings.camera = Some(0);
     let mut viewer = Viewer {
-        options: ViewOptions { scene, ..options },
+        options,
+        resident,
+        radius,
         camera,
         layer: 0,
         saved_steps,
@@ -382,9 +396,9 @@ impl Viewer {
         let bgra = gpu.swapchain.format == vk::Format::B8G8R8A8_UNORM;
         self.options.settings.width = extent.width;
         self.options.settings.height = extent.height;
-        let mut scene = self.options.scene.clone();
-        scene.cameras.insert(0, self.camera.clone());
-        self.options.settings.camera = Some(0);
+        if self.resident.scene().cameras.first() != Some(&self.camera) {
+            self.resident.set_camera(self.camera.clone());
+        }
         // This frame slot's previous frame must be done before its commands,
         // semaphore and display image are reused; the other slot runs on.
         let slot_index = (gpu.frames % gpu.slots.len() as u64) as usize;
@@ -395,7 +409,9 @@ impl Viewer {
         // previous frame, read without waiting), or, for the samples heat
         // map, read back and uploaded.
         let timings = if layer == "samples_1" {
-            let frame = gpu.renderer.render(&scene, &self.options.settings)?;
+            let frame = gpu
+                .renderer
+                .render_resident(&self.resident, &self.options.settings)?;
             let exposure = self.options.exposure;
             let heat = Self::heat_map(&frame);
             let bytes: Vec<u8> = heat
@@ -441,7 +457,7 @@ impl Viewer {
                 })
         } else {
             gpu.renderer
-                .render_to_gpu(&scene, &self.options.settings, &layer)?
+                .render_resident_to_gpu(&self.resident, &self.options.settings, &layer)?
                 .previous_timings
         };
 
@@ -528,7 +544,7 @@ impl Viewer {
                 self.options
                     .settings
                     .bound
-                    .resolve(2.0 * self.options.scene.bounds().radius()),
+                    .resolve(2.0 * self.radius),
                 self.timings.get("frame").copied().unwrap_or(0.0)
             );
             if let Some(w) = &self.window {
@@ -541,7 +557,7 @@ impl Viewer {
 
     /// Moves the camera by the held keys.
     fn fly(&mut self, dt: f32) {
-        let speed = self.options.scene.bounds().radius() * 0.5 * dt;
+        let speed = self.radius * 0.5 * dt;
         let right = self.camera.forward.cross(self.camera.up).normalize();
         for key in &self.held {
             if let Key::Character(c) = key {
@@ -564,11 +580,10 @@ impl Viewer {
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
-        let mut scene = self.options.scene.clone();
-        scene.cameras.insert(0, self.camera.clone());
-        let mut settings = self.options.settings.clone();
-        settings.camera = Some(0);
-        let frame = gpu.renderer.render(&scene, &settings)?;
+        self.resident.set_camera(self.camera.clone());
+        let frame = gpu
+            .renderer
+            .render_resident(&self.resident, &self.options.settings)?;
         let rgba = self.shown(&frame);
         let layer = crate::renderer::Layer {
             name: "shown".into(),
@@ -641,7 +656,7 @@ impl Viewer {
 
     fn key(&mut self, key: Key, event_loop: &ActiveEventLoop) -> Result<()> {
         let s = &mut self.options.settings;
-        let radius = self.options.scene.bounds().radius();
+        let radius = self.radius;
         let light_step = radius * 0.05;
         match &key {
             Key::Named(NamedKey::Escape) => event_loop.exit(),
@@ -682,9 +697,12 @@ impl Viewer {
     }
 
     fn move_light(&mut self, delta: Vec3) {
-        // The VPLs follow: the renderer traces them anew every frame.
-        if let Some(light) = self.options.scene.lights.first_mut() {
+        // The VPLs follow: the renderer traces them again for the new light.
+        if let Some(mut light) = self.resident.scene().lights.first().cloned() {
             light.position += delta;
+            if let Err(e) = self.resident.set_light(0, light) {
+                log::warn!("light not moved: {e}");
+            }
         }
     }
 

@@ -3,6 +3,7 @@
 //! renderer makes with the same settings. Skipped (with the reason printed)
 //! only when Xvfb is not installed; an Xvfb that cannot start, or a display
 //! the viewer cannot open, fails the test and says why.
+#![cfg(feature = "viewer")]
 
 mod common;
 

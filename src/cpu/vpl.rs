@@ -31,7 +31,7 @@ pub struct Vpl {
 }
 
 /// Light-tracing parameters.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct VplSettings {
     /// Number of VPLs wanted (paths are traced until there are this many).
     pub count: usize,

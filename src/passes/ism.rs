@@ -99,6 +99,36 @@ impl IsmPass {
         v
     }
 
+    /// Rewrites `ism`'s VPLs and points in place (no allocation) when their
+    /// counts and the tile match; false when it must be prepared anew. The
+    /// atlas's previous frame must be done.
+    pub fn update(
+        &self,
+        ism: &mut Ism,
+        vpls: &[GpuVpl],
+        points: &IsmPoints,
+        tile: u32,
+        far: f32,
+    ) -> Result<bool> {
+        let points_per_vpl = (points.positions.len() / vpls.len().max(1)) as u32;
+        if ism.tile != tile
+            || ism.vpl_count != vpls.len() as u32
+            || ism.points_per_vpl != points_per_vpl
+            || (points.positions.len().max(1) * 16) as u64 != ism.points.size
+        {
+            return Ok(false);
+        }
+        if !vpls.is_empty() {
+            ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
+        }
+        if !points.positions.is_empty() {
+            ism.points.write(0, bytemuck::cast_slice(&points.positions))?;
+        }
+        ism.far = far;
+        ism.point_radius = points.point_radius;
+        Ok(true)
+    }
+
     /// Allocates the atlas for `vpls` with `tile`-texel tiles.
     pub fn prepare(
         &self,

@@ -132,6 +132,41 @@ impl ShadowMapPass {
         &self.layout
     }
 
+    /// Rewrites `maps` for `lights` in place (no allocation) when their
+    /// views fit its layers; false when `maps` must be prepared anew. The
+    /// maps' previous frame must be done.
+    pub fn update(
+        &self,
+        maps: &mut ShadowMaps,
+        lights: &[Light],
+        bounds: &Bounds,
+        resolution: u32,
+    ) -> Result<bool> {
+        let mut gpu_lights = Vec::new();
+        let mut views = Vec::new();
+        for light in lights {
+            let lv = light_views(light, bounds, resolution);
+            gpu_lights.push(GpuLight::new(light, views.len() as u32, lv.len() as u32));
+            views.extend(lv);
+        }
+        if views.len().max(1) as u32 != maps.depth.desc.layers
+            || resolution != maps.depth.desc.width
+            || lights.len().max(1) * std::mem::size_of::<GpuLight>() != maps.lights.size as usize
+        {
+            return Ok(false);
+        }
+        let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
+        if !packed.is_empty() {
+            maps.views.write(0, bytemuck::cast_slice(&packed))?;
+        }
+        if !gpu_lights.is_empty() {
+            maps.lights.write(0, bytemuck::cast_slice(&gpu_lights))?;
+        }
+        maps.light_count = lights.len() as u32;
+        maps.view_proj = views.iter().map(|v| v.0).collect();
+        Ok(true)
+    }
+
     /// Allocates the shadow maps of `lights` at `resolution` texels per side.
     pub fn prepare(
         &self,

@@ -70,6 +70,7 @@ impl Buffer {
         };
         bound.vk("vkBindBufferMemory")?;
         device.set_name(raw, name);
+        device.count_resource();
         Ok(buffer)
     }
 

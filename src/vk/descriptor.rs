@@ -95,10 +95,23 @@ impl DescriptorPool {
         // SAFETY: valid create info.
         let raw = unsafe { device.raw.create_descriptor_pool(&info, None) }
             .vk("vkCreateDescriptorPool")?;
+        device.count_resource();
         Ok(Self {
             device: device.clone(),
             raw,
         })
+    }
+
+    /// Frees every set allocated from the pool (the sets' last use must be
+    /// done: a frame slot resets its pool after waiting for its previous frame).
+    pub fn reset(&self) -> Result<()> {
+        // SAFETY: no set of this pool is in use by pending work (see above).
+        unsafe {
+            self.device
+                .raw
+                .reset_descriptor_pool(self.raw, vk::DescriptorPoolResetFlags::empty())
+        }
+        .vk("vkResetDescriptorPool")
     }
 
     /// Allocates one set of `layout` and writes `bindings` (in binding order).

@@ -118,6 +118,9 @@ pub struct Device {
     debug_utils: Option<ash::ext::debug_utils::Device>,
     /// Optional capabilities for profiling.
     profiling: ProfilingSupport,
+    /// Buffers, images and descriptor pools created so far (a frame that
+    /// reuses its resources adds none).
+    resources_created: AtomicU64,
     /// GPU/CPU clock pairs (VK_EXT_calibrated_timestamps with the device and
     /// CLOCK_MONOTONIC domains).
     calibration: Option<ash::ext::calibrated_timestamps::Device>,
@@ -425,6 +428,7 @@ impl Device {
             debug_utils,
             profiling,
             calibration,
+            resources_created: AtomicU64::new(0),
         });
         device.set_name(device.timeline, "ssbc.timeline");
         Ok(device)
@@ -465,6 +469,17 @@ impl Device {
             // SAFETY: `cmd` is recording with a label region open.
             unsafe { debug_utils.cmd_end_debug_utils_label(cmd) };
         }
+    }
+
+    /// Buffers, images and descriptor pools ssbc has created on this device
+    /// so far (for checking that frames allocate nothing).
+    pub fn resources_created(&self) -> u64 {
+        self.resources_created.load(Ordering::Relaxed)
+    }
+
+    /// Counts one created resource (see [`Device::resources_created`]).
+    pub(crate) fn count_resource(&self) {
+        self.resources_created.fetch_add(1, Ordering::Relaxed);
     }
 
     /// What the device offers for profiling.

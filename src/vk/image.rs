@@ -167,6 +167,7 @@ impl Image {
         let array = desc.layers > 1 || desc.array;
         image.view = image.create_view(0, desc.mip_levels, 0, desc.layers, array)?;
         device.set_name(image.raw, name);
+        device.count_resource();
         device.set_name(image.view, &format!("{name} view"));
         if desc.mip_levels > 1 {
             for level in 0..desc.mip_levels {

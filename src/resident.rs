@@ -1,0 +1,149 @@
+//! A scene that stays resident between frames: the host edits it through
+//! small calls that mark what changed, and [`crate::Renderer::render_resident`]
+//! redoes only the work those changes require.
+//!
+//! | change | redone |
+//! |---|---|
+//! | camera | the screen-space passes (nothing on the CPU) |
+//! | lights | VPL tracing, shadow-map and ISM data, the passes |
+//! | materials | GPU scene copy, BVH (alpha masks), VPLs, ISM points |
+//! | geometry ([`ResidentScene::edit`]) | everything |
+//!
+//! Nothing else is rebuilt, and the renderer's images, buffers and
+//! descriptor pools are reused until the size or settings change.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::error::{Error, Result};
+use crate::scene::{Camera, Light, Material, Scene};
+
+static NEXT_VERSION: AtomicU64 = AtomicU64::new(1);
+
+/// A version number unique in the process (so versions of different scenes
+/// never compare equal).
+pub(crate) fn next_version() -> u64 {
+    NEXT_VERSION.fetch_add(1, Ordering::Relaxed)
+}
+
+/// Versions of a scene's parts: a part's version changes whenever it does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SceneVersions {
+    /// Vertices, indices, textures.
+    pub geometry: u64,
+    /// Materials.
+    pub materials: u64,
+    /// Lights.
+    pub lights: u64,
+    /// Cameras.
+    pub camera: u64,
+}
+
+impl SceneVersions {
+    /// Fresh versions for every part (nothing cached matches).
+    pub fn fresh() -> Self {
+        Self {
+            geometry: next_version(),
+            materials: next_version(),
+            lights: next_version(),
+            camera: next_version(),
+        }
+    }
+}
+
+/// A scene kept between frames, with change tracking.
+pub struct ResidentScene {
+    scene: Scene,
+    versions: SceneVersions,
+}
+
+impl ResidentScene {
+    /// Takes `scene` (validated here once, not every frame).
+    pub fn new(scene: Scene) -> Result<Self> {
+        scene.validate()?;
+        Ok(Self {
+            scene,
+            versions: SceneVersions::fresh(),
+        })
+    }
+
+    /// The scene as it is now.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The current versions (what a renderer compares with its caches).
+    pub fn versions(&self) -> SceneVersions {
+        self.versions
+    }
+
+    /// Replaces the camera frames use (the scene's first camera).
+    pub fn set_camera(&mut self, camera: Camera) {
+        match self.scene.cameras.first_mut() {
+            Some(c) => *c = camera,
+            None => self.scene.cameras.push(camera),
+        }
+        self.versions.camera = next_version();
+    }
+
+    /// Replaces light `index` (position, direction, intensity, kind).
+    pub fn set_light(&mut self, index: usize, light: Light) -> Result<()> {
+        let count = self.scene.lights.len();
+        let slot = self.scene.lights.get_mut(index).ok_or_else(|| {
+            Error::InvalidParameter(format!("no light {index} (the scene has {count})"))
+        })?;
+        *slot = light;
+        self.check_lights()?;
+        self.versions.lights = next_version();
+        Ok(())
+    }
+
+    /// Replaces every light.
+    pub fn set_lights(&mut self, lights: Vec<Light>) -> Result<()> {
+        let old = std::mem::replace(&mut self.scene.lights, lights);
+        if let Err(e) = self.check_lights() {
+            self.scene.lights = old;
+            return Err(e);
+        }
+        self.versions.lights = next_version();
+        Ok(())
+    }
+
+    fn check_lights(&self) -> Result<()> {
+        for (i, l) in self.scene.lights.iter().enumerate() {
+            let finite = l.position.is_finite() && l.direction.is_finite() && l.intensity.is_finite();
+            if !finite || l.intensity.min_element() < 0.0 {
+                return Err(Error::InvalidParameter(format!(
+                    "light {i} has a non-finite or negative value"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Replaces material `index` (parameters and texture references; the
+    /// textures themselves are geometry: see [`ResidentScene::edit`]).
+    pub fn set_material(&mut self, index: usize, material: Material) -> Result<()> {
+        let count = self.scene.materials.len();
+        let slot = self.scene.materials.get_mut(index).ok_or_else(|| {
+            Error::InvalidParameter(format!("no material {index} (the scene has {count})"))
+        })?;
+        let old = std::mem::replace(slot, material);
+        if let Err(e) = self.scene.validate() {
+            self.scene.materials[index] = old;
+            return Err(e);
+        }
+        self.versions.materials = next_version();
+        Ok(())
+    }
+
+    /// Any other change (vertices, indices, textures, object transforms
+    /// baked into vertices): everything is redone on the next frame. The
+    /// scene is validated after `f`; on an error it is left as `f` made it
+    /// but every part is marked changed, and frames refuse it until fixed.
+    pub fn edit<T>(&mut self, f: impl FnOnce(&mut Scene) -> T) -> Result<T> {
+        let value = f(&mut self.scene);
+        self.versions = SceneVersions::fresh();
+        self.scene.validate()?;
+        Ok(value)
+    }
+}

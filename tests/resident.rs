@@ -1,0 +1,199 @@
+//! A resident scene: frames redo only what the host's changes require, reuse
+//! every resource, give the same images as immediate-mode frames, and a
+//! frame that fails half-way leaves the renderer usable.
+
+mod common;
+
+use glam::{Vec3, Vec4};
+use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::resident::ResidentScene;
+use ssbc::scene::{Camera, Scene};
+
+fn settings() -> RenderSettings {
+    let mut s = common::small(64, 48);
+    s.vpl.count = 32;
+    s.points_per_vpl = 128;
+    s.ism_tile = 16;
+    s.shadow_map_size = 128;
+    s.ssbc.steps = 2;
+    s
+}
+
+fn validated() -> Renderer {
+    Renderer::new(&RendererConfig {
+        validation: true,
+        ..Default::default()
+    })
+    .expect("renderer")
+}
+
+fn cornell() -> Scene {
+    let mut scene = ssbc::scene::builtin::cornell();
+    scene.ensure_light();
+    scene
+}
+
+/// CPU stages the frame ran.
+fn stages(frame: &Frame) -> Vec<&str> {
+    frame
+        .timings
+        .cpu_spans
+        .iter()
+        .map(|s| s.name.as_str())
+        .collect()
+}
+
+/// Largest difference between two frames' final images, relative to the
+/// brightest value.
+fn max_relative_difference(a: &Frame, b: &Frame) -> f32 {
+    let peak = b.image.rgba.iter().fold(0f32, |m, &v| m.max(v.abs()));
+    a.image
+        .rgba
+        .iter()
+        .zip(&b.image.rgba)
+        .fold(0f32, |m, (x, y)| m.max((x - y).abs()))
+        / peak.max(1e-12)
+}
+
+fn moved_camera(scene: &Scene) -> Camera {
+    let mut camera = scene.camera(None).unwrap();
+    camera.position += Vec3::new(0.15, -0.05, -0.3);
+    camera
+}
+
+#[test]
+fn frames_redo_only_what_changed_and_allocate_nothing() {
+    let mut renderer = validated();
+    let log = renderer.validation_log();
+    // Immediate-mode frames for comparison come from a second renderer (an
+    // immediate frame replaces the renderer's scene cache).
+    let mut immediate_renderer = validated();
+    let mut resident = ResidentScene::new(cornell()).unwrap();
+    let s = settings();
+    // One frame per slot creates every resource.
+    let first = renderer.render_resident(&resident, &s).unwrap();
+    for stage in ["bvh_build", "scene_upload", "vpl_generation", "point_sampling"] {
+        assert!(stages(&first).contains(&stage), "{stage} missing from {:?}", stages(&first));
+    }
+    renderer.render_resident(&resident, &s).unwrap();
+    let created = renderer.device().resources_created();
+
+    // Nothing changed: no CPU stage but recording and the wait.
+    let same = renderer.render_resident(&resident, &s).unwrap();
+    let cpu_work = ["bvh_build", "scene_upload", "vpl_generation", "point_sampling"];
+    for stage in cpu_work {
+        assert!(!stages(&same).contains(&stage), "unchanged frame ran {stage}");
+    }
+    assert!(max_relative_difference(&same, &first) == 0.0);
+
+    // A camera move: still none; the image is the immediate-mode image.
+    resident.set_camera(moved_camera(resident.scene()));
+    let moved = renderer.render_resident(&resident, &s).unwrap();
+    for stage in cpu_work {
+        assert!(!stages(&moved).contains(&stage), "camera move ran {stage}");
+    }
+    let immediate = immediate_renderer.render(resident.scene(), &s).unwrap();
+    let d = max_relative_difference(&moved, &immediate);
+    assert!(d < 1e-5, "camera-moved frame differs from immediate mode by {d}");
+    assert!(max_relative_difference(&moved, &first) > 1e-3, "the camera did not move");
+
+    // A light move: VPLs again, but no BVH, upload or points.
+    let mut light = resident.scene().lights[0].clone();
+    light.position += Vec3::new(0.2, -0.1, 0.1);
+    resident.set_light(0, light.clone()).unwrap();
+    let relit = renderer.render_resident(&resident, &s).unwrap();
+    assert!(stages(&relit).contains(&"vpl_generation"));
+    for stage in ["bvh_build", "scene_upload", "point_sampling"] {
+        assert!(!stages(&relit).contains(&stage), "light move ran {stage}");
+    }
+    let immediate = immediate_renderer.render(resident.scene(), &s).unwrap();
+    let d = max_relative_difference(&relit, &immediate);
+    assert!(d < 1e-5, "relit frame differs from immediate mode by {d}");
+
+    // Resident frames create nothing after the first one in each slot.
+    let before = renderer.device().resources_created();
+    for i in 0..6 {
+        let mut c = moved_camera(resident.scene());
+        c.position.x += 0.01 * i as f32;
+        resident.set_camera(c);
+        light.position.y -= 0.01;
+        resident.set_light(0, light.clone()).unwrap();
+        renderer.render_resident(&resident, &s).unwrap();
+    }
+    assert_eq!(
+        renderer.device().resources_created(),
+        before,
+        "frames with camera and light changes created resources"
+    );
+    assert_eq!(renderer.device().resources_created(), created);
+    drop(renderer);
+    drop(immediate_renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+#[test]
+fn material_and_geometry_edits_are_picked_up() {
+    let mut renderer = validated();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(cornell()).unwrap();
+    let s = settings();
+    let before = renderer.render_resident(&resident, &s).unwrap();
+    let mut m = resident.scene().materials[0].clone();
+    m.base_color *= Vec4::new(0.5, 0.5, 0.5, 1.0);
+    resident.set_material(0, m).unwrap();
+    let after = renderer.render_resident(&resident, &s).unwrap();
+    assert!(stages(&after).contains(&"scene_upload"));
+    let immediate = renderer.render(resident.scene(), &s).unwrap();
+    assert!(max_relative_difference(&after, &immediate) < 1e-5);
+    assert!(max_relative_difference(&after, &before) > 1e-3);
+
+    // A bad edit is refused with an error, and the renderer carries on.
+    let mut bad = resident.scene().materials[0].clone();
+    bad.base_color = Vec4::splat(f32::NAN);
+    assert!(resident.set_material(0, bad).is_err());
+    let light = resident.scene().lights[0].clone();
+    assert!(resident.set_light(99, light).is_err());
+    resident
+        .edit(|scene| {
+            for v in &mut scene.vertices {
+                v.position[1] += 0.5;
+            }
+        })
+        .unwrap();
+    let lifted = renderer.render_resident(&resident, &s).unwrap();
+    assert!(stages(&lifted).contains(&"bvh_build"));
+    let immediate = renderer.render(resident.scene(), &s).unwrap();
+    assert!(max_relative_difference(&lifted, &immediate) < 1e-5);
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+/// A frame that fails after any pass has been recorded (but before it is
+/// submitted) returns the error, and the next frame is right and clean.
+#[test]
+fn a_failed_frame_leaves_the_renderer_usable() {
+    let mut renderer = validated();
+    let log = renderer.validation_log();
+    let resident = ResidentScene::new(cornell()).unwrap();
+    let s = settings();
+    let reference = renderer.render_resident(&resident, &s).unwrap();
+    for pass in ["shadow_maps", "ism", "gbuffer", "indirect_bounded", "ssbc"] {
+        renderer.inject_fault_after(pass);
+        let err = renderer
+            .render_resident(&resident, &s)
+            .expect_err("the injected fault");
+        assert!(err.to_string().contains(pass), "{err}");
+        // Twice, so both frame slots come round after the failure.
+        for _ in 0..2 {
+            let next = renderer.render_resident(&resident, &s).unwrap();
+            let d = max_relative_difference(&next, &reference);
+            assert!(d < 1e-6, "after a fault in {pass}: differs by {d}");
+        }
+        // And on the GPU path, two frames in flight.
+        renderer
+            .render_resident_to_gpu(&resident, &s, "final")
+            .unwrap();
+    }
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
