@@ -45,6 +45,7 @@ pub mod gpu_scene;
 pub mod gpu_types;
 pub mod output;
 pub mod passes;
+pub mod postprocess;
 pub mod profile;
 pub mod renderer;
 pub mod resident;

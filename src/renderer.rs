@@ -19,6 +19,8 @@ use serde::Serialize;
 
 use crate::cpu::bvh::SceneBvh;
 use crate::cpu::points::sample_points;
+use crate::cpu::points::IsmPoints;
+use crate::cpu::vpl::VplSet;
 use crate::cpu::vpl::{self, Vpl, VplSettings};
 use crate::error::{Error, Result};
 use crate::gpu_scene::GpuScene;
@@ -26,14 +28,12 @@ use crate::gpu_types::GpuVpl;
 use crate::passes::direct_lighting::DirectLightingPass;
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::indirect_bounded::IndirectBoundedPass;
+use crate::passes::ism::Ism;
 use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
-use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSettings};
-use crate::cpu::points::IsmPoints;
-use crate::cpu::vpl::VplSet;
-use crate::passes::ism::Ism;
 use crate::passes::shadow_maps::ShadowMaps;
 use crate::passes::ssbc::SsbcFrame;
+use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSettings};
 use crate::profile::{monotonic_ns, CpuSpan, FrameStats};
 use crate::resident::{next_version, ResidentScene, SceneVersions};
 use crate::scene::Bounds;
@@ -377,6 +377,10 @@ struct Targets {
     ssbc: SsbcFrame,
 }
 
+/// (width, height, steps, deepest evaluation level, ISM tile): what a
+/// slot's descriptor pool is sized for.
+type PoolKey = (u32, u32, u32, u32, u32);
+
 /// One frame slot's resources, each with the key of what it was made for.
 #[derive(Default)]
 struct FrameSlot {
@@ -386,7 +390,7 @@ struct FrameSlot {
     ism: Option<((u64, u64, u32, u32), Ism)>,
     targets: Option<Targets>,
     /// Keyed by (width, height, steps, deepest eval level, ISM tile).
-    pool: Option<((u32, u32, u32, u32, u32), DescriptorPool)>,
+    pool: Option<(PoolKey, DescriptorPool)>,
     /// One host-visible buffer per image read back, named as the layer.
     readback: Option<Vec<(String, Buffer)>>,
 }
@@ -459,7 +463,10 @@ fn readback_size(image: &Image) -> u64 {
 
 /// Milliseconds of the CPU stage `name` (0 if it did not run this frame).
 fn span_ms(spans: &[CpuSpan], name: &str) -> f64 {
-    spans.iter().find(|s| s.name == name).map_or(0.0, CpuSpan::ms)
+    spans
+        .iter()
+        .find(|s| s.name == name)
+        .map_or(0.0, CpuSpan::ms)
 }
 
 /// The last frame's final image, left on the GPU for a host engine. Valid
@@ -831,7 +838,7 @@ impl Renderer {
         }
         let vpl_count = cache.vpls.as_ref().expect("traced above").set.vpls.len();
         let points_key = (vpl_count, settings.points_per_vpl, settings.vpl.seed);
-        if !cache.points.as_ref().is_some_and(|p| p.key == points_key) {
+        if cache.points.as_ref().is_none_or(|p| p.key != points_key) {
             let points = CpuSpan::time(spans, "point_sampling", || {
                 sample_points(
                     scene,
@@ -869,7 +876,10 @@ impl Renderer {
         // Shadow maps: the lights' views depend on the lights and the bounds.
         let lights_key = (cache.versions.lights, cache.versions.geometry);
         let lights = &scene.lights;
-        let shadows_current = frame.shadows.as_ref().is_some_and(|(key, _)| *key == lights_key);
+        let shadows_current = frame
+            .shadows
+            .as_ref()
+            .is_some_and(|(key, _)| *key == lights_key);
         if !shadows_current {
             let updated = match frame.shadows.as_mut() {
                 Some((_, maps)) => self.shadow_maps.update(
@@ -896,25 +906,30 @@ impl Renderer {
             .as_ref()
             .is_some_and(|(_, m)| m.depth.desc.width != settings.shadow_map_size)
         {
-            let maps =
-                self.shadow_maps
-                    .prepare(&device, lights, &cache.bounds, settings.shadow_map_size)?;
+            let maps = self.shadow_maps.prepare(
+                &device,
+                lights,
+                &cache.bounds,
+                settings.shadow_map_size,
+            )?;
             frame.shadows = Some((lights_key, maps));
         }
 
         // ISM atlas and its inputs.
         let vpls = cache.vpls.as_ref().expect("VPLs traced");
         let points = cache.points.as_ref().expect("points sampled");
-        let ism_key = (vpls.version, points.version, diagonal.to_bits(), settings.ism_tile);
-        if !frame.ism.as_ref().is_some_and(|(key, _)| *key == ism_key) {
+        let ism_key = (
+            vpls.version,
+            points.version,
+            diagonal.to_bits(),
+            settings.ism_tile,
+        );
+        if frame.ism.as_ref().is_none_or(|(key, _)| *key != ism_key) {
             let updated = match frame.ism.as_mut() {
-                Some((_, ism)) => self.ism.update(
-                    ism,
-                    &vpls.gpu,
-                    &points.points,
-                    settings.ism_tile,
-                    diagonal,
-                )?,
+                Some((_, ism)) => {
+                    self.ism
+                        .update(ism, &vpls.gpu, &points.points, settings.ism_tile, diagonal)?
+                }
                 None => false,
             };
             if updated {
@@ -934,7 +949,7 @@ impl Renderer {
         // Screen-size targets.
         let steps = settings.ssbc.steps;
         let targets_key = (w, h, steps);
-        if !frame.targets.as_ref().is_some_and(|t| t.key == targets_key) {
+        if frame.targets.as_ref().is_none_or(|t| t.key != targets_key) {
             frame.targets = None; // free the old ones first
             let layer_image = |name: &str| {
                 crate::passes::storage_image(
@@ -964,7 +979,7 @@ impl Renderer {
             .max_eval_level
             .min(targets.ssbc.levels().saturating_sub(1));
         let pool_key = (w, h, steps, max_eval, settings.ism_tile);
-        if !frame.pool.as_ref().is_some_and(|(key, _)| *key == pool_key) {
+        if frame.pool.as_ref().is_none_or(|(key, _)| *key != pool_key) {
             let mut layouts: Vec<&DescriptorSetLayout> = vec![
                 self.shadow_maps.set_layout(),
                 self.gbuffer.set_layout(),
@@ -984,9 +999,11 @@ impl Renderer {
         if readback {
             let images = frame.readback_images(settings.debug_readback);
             let sizes: Vec<u64> = images.iter().map(|(_, img)| readback_size(img)).collect();
-            if !frame.readback.as_ref().is_some_and(|r| {
-                r.iter().map(|(_, b)| b.size).collect::<Vec<_>>() == sizes
-            }) {
+            if frame
+                .readback
+                .as_ref()
+                .is_none_or(|r| r.iter().map(|(_, b)| b.size).collect::<Vec<_>>() != sizes)
+            {
                 let buffers = images
                     .iter()
                     .map(|(name, img)| {
@@ -1074,8 +1091,13 @@ impl Renderer {
             None => Ok(()),
         };
         self.profiler.begin_frame(rec.cmd, slot);
-        self.shadow_maps
-            .record(&mut rec, &mut self.profiler, pool, &cache.gpu_scene, shadows)?;
+        self.shadow_maps.record(
+            &mut rec,
+            &mut self.profiler,
+            pool,
+            &cache.gpu_scene,
+            shadows,
+        )?;
         checkpoint("shadow_maps")?;
         if ism.vpl_count > 0 {
             self.ism.record(&mut rec, &mut self.profiler, pool, ism)?;
@@ -1116,7 +1138,7 @@ impl Renderer {
                 &mut rec,
                 &mut self.profiler,
                 pool,
-                &t.gbuffer,
+                (&t.gbuffer).into(),
                 &t.s0,
                 &SsbcInputs {
                     camera: &ssbc_camera,

@@ -110,7 +110,8 @@ impl ResidentScene {
 
     fn check_lights(&self) -> Result<()> {
         for (i, l) in self.scene.lights.iter().enumerate() {
-            let finite = l.position.is_finite() && l.direction.is_finite() && l.intensity.is_finite();
+            let finite =
+                l.position.is_finite() && l.direction.is_finite() && l.intensity.is_finite();
             if !finite || l.intensity.min_element() < 0.0 {
                 return Err(Error::InvalidParameter(format!(
                     "light {i} has a non-finite or negative value"

@@ -541,10 +541,7 @@ impl Viewer {
                 "ssbc | {} | {} steps | b {} | GPU frame {:.1} ms",
                 names[self.layer % names.len()],
                 self.options.settings.ssbc.steps,
-                self.options
-                    .settings
-                    .bound
-                    .resolve(2.0 * self.radius),
+                self.options.settings.bound.resolve(2.0 * self.radius),
                 self.timings.get("frame").copied().unwrap_or(0.0)
             );
             if let Some(w) = &self.window {

@@ -72,17 +72,34 @@ fn frames_redo_only_what_changed_and_allocate_nothing() {
     let s = settings();
     // One frame per slot creates every resource.
     let first = renderer.render_resident(&resident, &s).unwrap();
-    for stage in ["bvh_build", "scene_upload", "vpl_generation", "point_sampling"] {
-        assert!(stages(&first).contains(&stage), "{stage} missing from {:?}", stages(&first));
+    for stage in [
+        "bvh_build",
+        "scene_upload",
+        "vpl_generation",
+        "point_sampling",
+    ] {
+        assert!(
+            stages(&first).contains(&stage),
+            "{stage} missing from {:?}",
+            stages(&first)
+        );
     }
     renderer.render_resident(&resident, &s).unwrap();
     let created = renderer.device().resources_created();
 
     // Nothing changed: no CPU stage but recording and the wait.
     let same = renderer.render_resident(&resident, &s).unwrap();
-    let cpu_work = ["bvh_build", "scene_upload", "vpl_generation", "point_sampling"];
+    let cpu_work = [
+        "bvh_build",
+        "scene_upload",
+        "vpl_generation",
+        "point_sampling",
+    ];
     for stage in cpu_work {
-        assert!(!stages(&same).contains(&stage), "unchanged frame ran {stage}");
+        assert!(
+            !stages(&same).contains(&stage),
+            "unchanged frame ran {stage}"
+        );
     }
     assert!(max_relative_difference(&same, &first) == 0.0);
 
@@ -94,8 +111,14 @@ fn frames_redo_only_what_changed_and_allocate_nothing() {
     }
     let immediate = immediate_renderer.render(resident.scene(), &s).unwrap();
     let d = max_relative_difference(&moved, &immediate);
-    assert!(d < 1e-5, "camera-moved frame differs from immediate mode by {d}");
-    assert!(max_relative_difference(&moved, &first) > 1e-3, "the camera did not move");
+    assert!(
+        d < 1e-5,
+        "camera-moved frame differs from immediate mode by {d}"
+    );
+    assert!(
+        max_relative_difference(&moved, &first) > 1e-3,
+        "the camera did not move"
+    );
 
     // A light move: VPLs again, but no BVH, upload or points.
     let mut light = resident.scene().lights[0].clone();

@@ -122,7 +122,8 @@ impl IsmPass {
             ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
         }
         if !points.positions.is_empty() {
-            ism.points.write(0, bytemuck::cast_slice(&points.positions))?;
+            ism.points
+                .write(0, bytemuck::cast_slice(&points.positions))?;
         }
         ism.far = far;
         ism.point_radius = points.point_radius;

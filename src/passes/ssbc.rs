@@ -463,7 +463,7 @@ impl SsbcPass {
         rec: &mut Recorder<'_>,
         profiler: &mut GpuProfiler,
         pool: &DescriptorPool,
-        gbuffer: &GBuffer,
+        gbuffer: SsbcGBuffer<'_>,
         s0: &Image,
         inputs: &SsbcInputs<'_>,
         frame: &SsbcFrame,
@@ -473,8 +473,8 @@ impl SsbcPass {
 
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
         for level in 0..frame.levels {
-            rec.use_image(&gbuffer.position, Access::ComputeRead);
-            rec.use_image(&gbuffer.normal, Access::ComputeRead);
+            rec.use_image(gbuffer.position, Access::ComputeRead);
+            rec.use_image(gbuffer.normal, Access::ComputeRead);
             rec.use_buffer(&frame.geo, Access::ComputeWrite);
             rec.use_buffer(&frame.aux, Access::ComputeWrite);
             rec.use_buffer(&frame.radiance, Access::ComputeRead);
@@ -483,8 +483,8 @@ impl SsbcPass {
             let bindings = [
                 &Self::pyramid_bindings(frame)[..],
                 &[
-                    Binding::storage(&gbuffer.position),
-                    Binding::storage(&gbuffer.normal),
+                    Binding::storage(gbuffer.position),
+                    Binding::storage(gbuffer.normal),
                 ],
             ]
             .concat();
@@ -745,9 +745,53 @@ impl SsbcPass {
     }
 }
 
+/// The G-buffer images SSBC reads, ssbc's own or a host's: world-space
+/// position (xyz; w = 0 where there is no geometry), unit normal (xyz) and
+/// diffuse albedo (rgb), each `R32G32B32A32_SFLOAT` with storage usage.
+#[derive(Clone, Copy)]
+pub struct SsbcGBuffer<'a> {
+    /// World-space position.
+    pub position: &'a Image,
+    /// Shading normal.
+    pub normal: &'a Image,
+    /// Diffuse albedo.
+    pub albedo: &'a Image,
+}
+
+impl<'a> From<&'a GBuffer> for SsbcGBuffer<'a> {
+    fn from(g: &'a GBuffer) -> Self {
+        Self {
+            position: &g.position,
+            normal: &g.normal,
+            albedo: &g.albedo,
+        }
+    }
+}
+
+impl SsbcGBuffer<'_> {
+    fn targets(&self) -> [&Image; 3] {
+        [self.position, self.normal, self.albedo]
+    }
+
+    fn read_in_compute(&self, rec: &mut Recorder<'_>) {
+        for target in self.targets() {
+            rec.use_image(target, Access::ComputeRead);
+        }
+    }
+
+    fn storage_bindings(&self) -> [Binding<'_>; 3] {
+        self.targets().map(Binding::storage)
+    }
+
+    /// Width and height.
+    pub fn extent(&self) -> (u32, u32) {
+        (self.position.desc.width, self.position.desc.height)
+    }
+}
+
 /// What a step writes, and what it reads from the frame besides the pyramids.
 struct StepOutput<'a> {
-    gbuffer: &'a GBuffer,
+    gbuffer: SsbcGBuffer<'a>,
     /// `S0 + ... + S_{k-1}` (the final image itself after the first step).
     previous: &'a Image,
     final_image: &'a Image,

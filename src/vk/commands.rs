@@ -129,6 +129,19 @@ impl Drop for CommandPool {
     }
 }
 
+impl<'a> Recorder<'a> {
+    /// Records into a command buffer a host engine began (and will end and
+    /// submit itself); call [`Recorder::flush_barriers`] when done.
+    pub fn for_host(device: &'a Arc<Device>, cmd: vk::CommandBuffer) -> Self {
+        Recorder {
+            device,
+            cmd,
+            image_barriers: Vec::new(),
+            buffer_barriers: Vec::new(),
+        }
+    }
+}
+
 /// Records one command buffer. Passes call [`Recorder::use_image`] and
 /// [`Recorder::use_buffer`] for everything they touch, then
 /// [`Recorder::flush_barriers`] emits one `vkCmdPipelineBarrier2`.

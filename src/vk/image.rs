@@ -63,6 +63,8 @@ pub struct Image {
     pub(crate) state: Cell<ResourceState>,
     /// Its debug name (`gbuffer.normal`, ...).
     name: String,
+    /// False for a host's image: its handle and view are never destroyed here.
+    owned: bool,
 }
 
 fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
@@ -76,6 +78,39 @@ impl Image {
     /// The debug name it was created with.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// Wraps a host engine's 2D image and view (never destroyed by ssbc) so
+    /// passes can record barriers for it. `layout` is its layout when the
+    /// commands ssbc records start; its last write is taken to be any
+    /// command's, so the first barrier waits for whatever the host did.
+    pub fn from_host(
+        device: &Arc<Device>,
+        raw: vk::Image,
+        view: vk::ImageView,
+        desc: ImageDesc,
+        layout: vk::ImageLayout,
+    ) -> Self {
+        Self {
+            device: device.clone(),
+            raw,
+            allocation: None,
+            desc,
+            view,
+            mip_views: Vec::new(),
+            layer_views: Vec::new(),
+            state: Cell::new(ResourceState {
+                layout,
+                last_write: Some((
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    vk::AccessFlags2::MEMORY_WRITE,
+                )),
+                visible_stages: vk::PipelineStageFlags2::empty(),
+                visible_access: vk::AccessFlags2::empty(),
+            }),
+            name: "host image".into(),
+            owned: false,
+        }
     }
 
     /// Creates the image in device memory, with its views.
@@ -154,6 +189,7 @@ impl Image {
             layer_views: Vec::new(),
             state: Cell::new(ResourceState::default()),
             name: name.to_string(),
+            owned: true,
         };
         // SAFETY: memory allocated for this image's requirements.
         let bound = unsafe {
@@ -235,6 +271,9 @@ impl Image {
 
 impl Drop for Image {
     fn drop(&mut self) {
+        if !self.owned {
+            return;
+        }
         let views = std::iter::once(self.view)
             .chain(self.mip_views.drain(..))
             .chain(self.layer_views.drain(..));

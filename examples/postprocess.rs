@@ -1,0 +1,659 @@
+//! SSBC as a post-process in someone else's frame.
+//!
+//! The "host" here is a small engine with its own pipelines, written
+//! against raw `ash`: a compute shader ray-casts its G-buffer (a room
+//! corner: floor, back wall, left wall), another computes its clamped VPL
+//! lighting `S0` (no ssbc code), both compiled from GLSL at run time. It
+//! records its own barriers into its own command buffer, asks
+//! [`SsbcPostProcess`] to record one residual step into that same command
+//! buffer, submits it with its own fence, reads everything back, and checks
+//! the residual against the CPU twin of SSBC on the read-back G-buffer.
+//! (Memory comes from ssbc's `Image`/`Buffer` helpers, for brevity.)
+//!
+//! `cargo run --release --example postprocess`
+
+use std::sync::Arc;
+
+use ash::vk;
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+use ssbc::cpu::ssbc::{BruteForceTwin, GBufferView, TwinCamera};
+use ssbc::passes::ssbc::{Integration, SsbcSettings};
+use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+use ssbc::vk::{Buffer, Device, DeviceSelector, Image, ImageDesc, Instance, Validation};
+
+/// The host's G-buffer pass: a camera ray per pixel against three quads.
+const GBUFFER_GLSL: &str = r#"#version 450
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0, rgba32f) uniform writeonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform writeonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform writeonly image2D g_albedo;
+layout(push_constant) uniform Camera { vec4 eye; vec4 forward; vec4 right; vec4 up; } cam;
+
+void try_plane(vec3 o, vec3 d, vec3 n, float offset, vec3 lo, vec3 hi, vec3 albedo,
+               inout float best, inout vec3 hit_n, inout vec3 hit_albedo) {
+    float denom = dot(n, d);
+    if (abs(denom) < 1e-6) return;
+    float t = (offset - dot(n, o)) / denom;
+    vec3 p = o + t * d;
+    if (t > 1e-4 && t < best && all(greaterThanEqual(p, lo - 1e-4)) && all(lessThanEqual(p, hi + 1e-4))) {
+        best = t; hit_n = n; hit_albedo = albedo;
+    }
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(g_position);
+    if (any(greaterThanEqual(p, size))) return;
+    vec2 ndc = (vec2(p) + 0.5) / vec2(size) * 2.0 - 1.0;
+    vec3 d = normalize(cam.forward.xyz + ndc.x * cam.right.xyz - ndc.y * cam.up.xyz);
+    vec3 o = cam.eye.xyz;
+    float best = 1e30; vec3 n = vec3(0); vec3 albedo = vec3(0);
+    try_plane(o, d, vec3(0, 1, 0), 0.0, vec3(-1, 0, -1), vec3(1, 0, 1), vec3(0.7, 0.7, 0.7), best, n, albedo);
+    try_plane(o, d, vec3(0, 0, 1), -1.0, vec3(-1, 0, -1), vec3(1, 2, -1), vec3(0.8, 0.6, 0.4), best, n, albedo);
+    try_plane(o, d, vec3(1, 0, 0), -1.0, vec3(-1, 0, -1), vec3(-1, 2, 1), vec3(0.3, 0.6, 0.8), best, n, albedo);
+    bool hit = best < 1e29;
+    imageStore(g_position, p, hit ? vec4(o + best * d, 1.0) : vec4(0.0));
+    imageStore(g_normal, p, vec4(n, 0.0));
+    imageStore(g_albedo, p, vec4(albedo, 1.0));
+}
+"#;
+
+/// The host's lighting: clamped VPL light, albedo/pi * sum flux * min(G, b)
+/// (no shadows: every point of a concave corner sees every other).
+const LIGHTING_GLSL: &str = r#"#version 450
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D s0;
+struct Vpl { vec4 position; vec4 normal; vec4 flux; };
+layout(set = 0, binding = 4, std430) readonly buffer Vpls { Vpl vpls[]; };
+layout(push_constant) uniform Params { uint count; float bound; } params;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(p, imageSize(s0)))) return;
+    vec4 x = imageLoad(g_position, p);
+    if (x.w == 0.0) { imageStore(s0, p, vec4(0.0)); return; }
+    vec3 n = imageLoad(g_normal, p).xyz;
+    vec3 sum = vec3(0);
+    for (uint i = 0; i < params.count; i++) {
+        vec3 d = vpls[i].position.xyz - x.xyz;
+        float d2 = max(dot(d, d), 1e-8);
+        vec3 w = d / sqrt(d2);
+        float g = max(dot(n, w), 0.0) * max(dot(vpls[i].normal.xyz, -w), 0.0) / d2;
+        sum += vpls[i].flux.rgb * min(g, params.bound);
+    }
+    imageStore(s0, p, vec4(imageLoad(g_albedo, p).rgb / 3.14159265 * sum, 1.0));
+}
+"#;
+
+/// What the example measured.
+#[derive(Debug)]
+pub struct PostProcessReport {
+    /// Relative RMSE of the GPU residual against the CPU twin, per
+    /// integration (brute force, hierarchical).
+    pub relative_rmse: Vec<(Integration, f64)>,
+    /// Mean of the residual over the twin's mean, per integration.
+    pub mean_ratio: Vec<(Integration, f64)>,
+    /// Mean residual radiance (the energy the bound removed and SSBC gives back).
+    pub mean_residual: f64,
+    /// Mean of the host's clamped lighting S0.
+    pub mean_s0: f64,
+    /// Validation messages.
+    pub validation_messages: u32,
+}
+
+fn compile(source: &str, name: &str) -> Result<Vec<u32>, Box<dyn std::error::Error>> {
+    let compiler = shaderc::Compiler::new()?;
+    let spirv =
+        compiler.compile_into_spirv(source, shaderc::ShaderKind::Compute, name, "main", None)?;
+    Ok(spirv.as_binary().to_vec())
+}
+
+/// A raw compute pipeline of the host: storage images then storage buffers.
+struct HostKernel {
+    device: Arc<Device>,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+}
+
+impl HostKernel {
+    fn new(
+        device: &Arc<Device>,
+        spirv: &[u32],
+        types: &[vk::DescriptorType],
+        push_bytes: u32,
+    ) -> Result<Self, Box<dyn std::error::Error>> {
+        let raw = &device.raw;
+        let bindings: Vec<_> = types
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(t)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .size(push_bytes)];
+        // SAFETY: valid create infos on a live device; destroyed in Drop.
+        unsafe {
+            let set_layout = raw.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )?;
+            let set_layouts = [set_layout];
+            let layout = raw.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )?;
+            let module =
+                raw.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)?;
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main");
+            let info = vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(layout);
+            let pipeline = raw
+                .create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
+                .map_err(|(_, e)| e)?[0];
+            raw.destroy_shader_module(module, None);
+            Ok(Self {
+                device: device.clone(),
+                set_layout,
+                layout,
+                pipeline,
+            })
+        }
+    }
+}
+
+impl Drop for HostKernel {
+    fn drop(&mut self) {
+        // SAFETY: the host waited for its work before dropping its kernels.
+        unsafe {
+            self.device.raw.destroy_pipeline(self.pipeline, None);
+            self.device.raw.destroy_pipeline_layout(self.layout, None);
+            self.device
+                .raw
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// The host's barrier: everything before, to compute or transfer after.
+fn host_barrier(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    images: &[(&Image, vk::ImageLayout, vk::ImageLayout)],
+    dst_stage: vk::PipelineStageFlags2,
+    dst_access: vk::AccessFlags2,
+) {
+    let barriers: Vec<_> = images
+        .iter()
+        .map(|(image, old, new)| {
+            vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+                .dst_stage_mask(dst_stage)
+                .dst_access_mask(dst_access)
+                .old_layout(*old)
+                .new_layout(*new)
+                .image(image.raw)
+                .subresource_range(image.full_range())
+        })
+        .collect();
+    // SAFETY: recording; the images are live.
+    unsafe {
+        device.raw.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+        )
+    };
+}
+
+/// Runs the host frame at `w` x `h` with each integration method.
+pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Error>> {
+    let instance = Instance::with_validation(Validation::Synchronization, &[])?;
+    let log = instance.validation_log();
+    let device = Device::new(instance, &DeviceSelector::default(), &[])?;
+    let raw = &device.raw;
+
+    // --- The host's resources. ---
+    let usage = vk::ImageUsageFlags::STORAGE
+        | vk::ImageUsageFlags::TRANSFER_SRC
+        | vk::ImageUsageFlags::TRANSFER_DST;
+    let image = |name: &str| {
+        Image::new(
+            &device,
+            name,
+            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w, h, usage),
+        )
+    };
+    let (position, normal, albedo, s0, output) = (
+        image("host.position")?,
+        image("host.normal")?,
+        image("host.albedo")?,
+        image("host.s0")?,
+        image("host.output")?,
+    );
+    // 64 VPLs on the floor near the corner, facing up.
+    let vpl_data: Vec<[f32; 12]> = (0..64)
+        .map(|i| {
+            let (u, v) = ((i % 8) as f32 / 8.0 + 0.06, (i / 8) as f32 / 8.0 + 0.06);
+            [
+                -1.0 + 1.2 * u,
+                0.0,
+                -1.0 + 1.2 * v,
+                1.0,
+                0.0,
+                1.0,
+                0.0,
+                0.0,
+                0.05,
+                0.045,
+                0.04,
+                0.0,
+            ]
+        })
+        .collect();
+    let vpls = Buffer::with_data(
+        &device,
+        "host.vpls",
+        &vpl_data,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+    )?;
+    let readback: Vec<Buffer> = (0..5)
+        .map(|i| {
+            Buffer::new(
+                &device,
+                &format!("host.readback{i}"),
+                w as u64 * h as u64 * 16,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )
+        })
+        .collect::<Result<_, _>>()?;
+    let storage = vk::DescriptorType::STORAGE_IMAGE;
+    let gbuffer_kernel = HostKernel::new(
+        &device,
+        &compile(GBUFFER_GLSL, "gbuffer.comp")?,
+        &[storage; 3],
+        64,
+    )?;
+    let mut lighting_types = vec![storage; 4];
+    lighting_types.push(vk::DescriptorType::STORAGE_BUFFER);
+    let lighting_kernel = HostKernel::new(
+        &device,
+        &compile(LIGHTING_GLSL, "lighting.comp")?,
+        &lighting_types,
+        8,
+    )?;
+
+    // SAFETY (this block): plain object creation on a live device; every
+    // object is destroyed below after the host's fence has signalled.
+    let (descriptor_pool, command_pool, fence) = unsafe {
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: storage,
+                descriptor_count: 7,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: 1,
+            },
+        ];
+        (
+            raw.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(2)
+                    .pool_sizes(&sizes),
+                None,
+            )?,
+            raw.create_command_pool(
+                &vk::CommandPoolCreateInfo::default()
+                    .queue_family_index(device.queue_family)
+                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                None,
+            )?,
+            raw.create_fence(&vk::FenceCreateInfo::default(), None)?,
+        )
+    };
+    let layouts = [gbuffer_kernel.set_layout, lighting_kernel.set_layout];
+    // SAFETY: the pool was sized for these two sets.
+    let sets = unsafe {
+        raw.allocate_descriptor_sets(
+            &vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(descriptor_pool)
+                .set_layouts(&layouts),
+        )?
+    };
+    let image_info = |img: &Image| {
+        [vk::DescriptorImageInfo::default()
+            .image_view(img.view)
+            .image_layout(vk::ImageLayout::GENERAL)]
+    };
+    let infos = [
+        image_info(&position),
+        image_info(&normal),
+        image_info(&albedo),
+        image_info(&s0),
+    ];
+    let buffer_info = [vk::DescriptorBufferInfo::default()
+        .buffer(vpls.raw)
+        .range(vk::WHOLE_SIZE)];
+    let mut writes = Vec::new();
+    for (set, count) in [(sets[0], 3), (sets[1], 4)] {
+        for (i, info) in infos.iter().take(count).enumerate() {
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(storage)
+                    .image_info(info),
+            );
+        }
+    }
+    writes.push(
+        vk::WriteDescriptorSet::default()
+            .dst_set(sets[1])
+            .dst_binding(4)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .buffer_info(&buffer_info),
+    );
+    // SAFETY: every write points at live descriptors of matching types.
+    unsafe { raw.update_descriptor_sets(&writes, &[]) };
+    // SAFETY: allocating one primary buffer from the host's pool.
+    let cmd = unsafe {
+        raw.allocate_command_buffers(
+            &vk::CommandBufferAllocateInfo::default()
+                .command_pool(command_pool)
+                .command_buffer_count(1),
+        )?
+    }[0];
+
+    // The camera: looking into the corner from the front right, above.
+    let eye = Vec3::new(0.9, 1.1, 1.6);
+    let forward = (Vec3::new(-0.4, 0.5, -0.6) - eye).normalize();
+    let yfov = 50f32.to_radians();
+    let right = forward.cross(Vec3::Y).normalize();
+    let up = right.cross(forward);
+    let tan = (yfov * 0.5).tan();
+    let aspect = w as f32 / h as f32;
+    let camera_push: Vec<f32> = [eye, forward, right * tan * aspect, up * tan]
+        .iter()
+        .flat_map(|v| [v.x, v.y, v.z, 0.0])
+        .collect();
+    let bound = 1.0f32;
+    let mut light_push = 64u32.to_ne_bytes().to_vec();
+    light_push.extend(bound.to_ne_bytes());
+
+    let mut post = SsbcPostProcess::new(&device, 1)?;
+    let host_image = |img: &Image| HostImage {
+        image: img.raw,
+        view: img.view,
+        format: vk::Format::R32G32B32A32_SFLOAT,
+        extent: (w, h),
+        layout: vk::ImageLayout::GENERAL,
+    };
+    let mut report = PostProcessReport {
+        relative_rmse: Vec::new(),
+        mean_ratio: Vec::new(),
+        mean_residual: 0.0,
+        mean_s0: 0.0,
+        validation_messages: 0,
+    };
+    for integration in [Integration::Brute, Integration::Hierarchical] {
+        let settings = SsbcSettings {
+            steps: 1,
+            integration,
+            ..Default::default()
+        };
+        let groups = (w.div_ceil(8), h.div_ceil(8));
+        let all = [&position, &normal, &albedo, &s0, &output];
+        // SAFETY (recording): the host's command buffer, pipelines and sets
+        // are live; the previous submission's fence was waited on.
+        unsafe {
+            raw.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())?;
+            raw.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )?;
+            let to_general: Vec<_> = all
+                .iter()
+                .map(|&i| (i, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL))
+                .collect();
+            host_barrier(
+                &device,
+                cmd,
+                &to_general,
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            );
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, gbuffer_kernel.pipeline);
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                gbuffer_kernel.layout,
+                0,
+                &[sets[0]],
+                &[],
+            );
+            raw.cmd_push_constants(
+                cmd,
+                gbuffer_kernel.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::cast_slice(&camera_push),
+            );
+            raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
+            let gbuffer_done: Vec<_> = all[..3]
+                .iter()
+                .map(|&i| (i, vk::ImageLayout::GENERAL, vk::ImageLayout::GENERAL))
+                .collect();
+            host_barrier(
+                &device,
+                cmd,
+                &gbuffer_done,
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            );
+            raw.cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                lighting_kernel.pipeline,
+            );
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                lighting_kernel.layout,
+                0,
+                &[sets[1]],
+                &[],
+            );
+            raw.cmd_push_constants(
+                cmd,
+                lighting_kernel.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                &light_push,
+            );
+            raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
+        }
+
+        // --- SSBC, recorded into the host's command buffer. ---
+        post.record(
+            cmd,
+            0,
+            &PostProcessInputs {
+                position: host_image(&position),
+                normal: host_image(&normal),
+                albedo: host_image(&albedo),
+                s0: host_image(&s0),
+                output: host_image(&output),
+                camera_position: eye,
+                camera_forward: forward,
+                yfov,
+                bound,
+                typical_depth: 2.0,
+            },
+            &settings,
+            PostOutput::Residual(1),
+        )?;
+
+        // --- The host reads everything back with its own commands. ---
+        // SAFETY: as above.
+        unsafe {
+            let mut layouts: Vec<_> = all[..4]
+                .iter()
+                .map(|&i| {
+                    (
+                        i,
+                        vk::ImageLayout::GENERAL,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    )
+                })
+                .collect();
+            layouts.push((
+                &output,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            ));
+            host_barrier(
+                &device,
+                cmd,
+                &layouts,
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_READ,
+            );
+            for (img, buffer) in all.iter().zip(&readback) {
+                let region = vk::BufferImageCopy::default()
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width: w,
+                        height: h,
+                        depth: 1,
+                    });
+                raw.cmd_copy_image_to_buffer(
+                    cmd,
+                    img.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buffer.raw,
+                    &[region],
+                );
+            }
+            let host_read = vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                .dst_access_mask(vk::AccessFlags2::HOST_READ);
+            raw.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&[host_read]),
+            );
+            raw.end_command_buffer(cmd)?;
+            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+            raw.queue_submit2(
+                device.queue,
+                &[vk::SubmitInfo2::default().command_buffer_infos(&cmds)],
+                fence,
+            )?;
+            raw.wait_for_fences(&[fence], true, u64::MAX)?;
+            raw.reset_fences(&[fence])?;
+        }
+        let read: Vec<Vec<f32>> = readback
+            .iter()
+            .map(|b| b.read::<f32>())
+            .collect::<Result<_, _>>()?;
+        let g = GBufferView {
+            width: w,
+            height: h,
+            position: &read[0],
+            normal: &read[1],
+            albedo: &read[2],
+        };
+        let twin = BruteForceTwin::new(
+            &g,
+            &read[3],
+            TwinCamera {
+                position: eye,
+                forward,
+                pixel_side: 2.0 * tan / h as f32,
+                min_cos_view: settings.min_cos_view,
+            },
+            bound,
+        )
+        .image();
+        let gpu = &read[4];
+        let (mut err, mut norm, mut sum_gpu, mut sum_twin) = (0f64, 0f64, 0f64, 0f64);
+        for (i, (a, b)) in gpu.iter().zip(&twin).enumerate() {
+            if i % 4 == 3 {
+                continue;
+            }
+            err += ((a - b) as f64).powi(2);
+            norm += (*b as f64).powi(2);
+            sum_gpu += *a as f64;
+            sum_twin += *b as f64;
+        }
+        report
+            .relative_rmse
+            .push((integration, (err / norm.max(1e-30)).sqrt()));
+        report
+            .mean_ratio
+            .push((integration, sum_gpu / sum_twin.max(1e-30)));
+        let pixels = w as f64 * h as f64;
+        report.mean_residual = sum_twin / (pixels * 3.0);
+        report.mean_s0 = read[3]
+            .chunks_exact(4)
+            .map(|p| (p[0] + p[1] + p[2]) as f64)
+            .sum::<f64>()
+            / (pixels * 3.0);
+    }
+    // The host waited on its fence; now it tears down its own objects.
+    drop(post);
+    // SAFETY: no work is pending (the fence was waited on).
+    unsafe {
+        raw.destroy_fence(fence, None);
+        raw.destroy_command_pool(command_pool, None);
+        raw.destroy_descriptor_pool(descriptor_pool, None);
+    }
+    drop((gbuffer_kernel, lighting_kernel));
+    drop((position, normal, albedo, s0, output, vpls, readback));
+    drop(device);
+    report.validation_messages = log.total();
+    Ok(report)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let report = run(160, 120)?;
+    for ((integration, rmse), (_, ratio)) in report.relative_rmse.iter().zip(&report.mean_ratio) {
+        println!(
+            "{integration:?}: residual vs CPU twin: relative RMSE {:.2e}, mean ratio {ratio:.5}",
+            rmse
+        );
+    }
+    println!(
+        "mean S0 {:.4}, mean residual {:.4} ({:.1}% of S0); {} validation messages",
+        report.mean_s0,
+        report.mean_residual,
+        100.0 * report.mean_residual / report.mean_s0,
+        report.validation_messages
+    );
+    Ok(())
+}

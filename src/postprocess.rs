@@ -1,0 +1,275 @@
+//! SSBC as a post-process on a host engine's own images, recorded into the
+//! host's own command buffer: the paper's use of the technique.
+//!
+//! The host draws its G-buffer (world position, normal, diffuse albedo) and
+//! its clamped lighting `S0 = T Le + T_b L^` with its own pipelines, then
+//! calls [`SsbcPostProcess::record`], which records the geometry pyramid and
+//! K residual steps `S_k = T_r S_{k-1}` and copies the compensated image
+//! `S0 + S_1 + ... + S_K` (or one step's residual) into the host's output
+//! image. The host ends, submits and synchronises the command buffer with
+//! its own semaphores or fences.
+//!
+//! Images (all 2D, one mip, one layer, the same size):
+//!
+//! | image | format | usage | layout on entry | layout on exit |
+//! |---|---|---|---|---|
+//! | position (xyz world, w = 0 off geometry), normal (xyz), albedo (rgb), S0 (rgb) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
+//! | output | `R32G32B32A32_SFLOAT` | `TRANSFER_DST` | any (declared) | `TRANSFER_DST_OPTIMAL`, last written by a copy |
+//!
+//! Barriers: ssbc's first barrier on each host image waits for all prior
+//! commands' writes (`ALL_COMMANDS` / `MEMORY_WRITE`) and moves it from the
+//! declared layout; on exit the host must make the output's transfer write
+//! visible to whatever reads it next (and move the layouts back if it
+//! needs to). Internal resources (the pyramids) belong to one of `slots`
+//! frame slots: the host passes the slot of the frame being recorded and
+//! guarantees the GPU has finished the slot's previous frame, as it does for
+//! its own per-frame resources. Before dropping an [`SsbcPostProcess`], or
+//! recording with a new size in a slot, the host waits for the command
+//! buffers it recorded into (ssbc cannot see the host's submissions).
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::error::{Error, Result};
+use crate::passes::ssbc::{SsbcCamera, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcPass, SsbcSettings};
+use crate::vk::{DescriptorPool, Device, GpuProfiler, Image, ImageDesc, Recorder};
+
+/// One of the host's images: handle, a 2D view of it, its size and the
+/// layout it will be in when the recorded commands start.
+#[derive(Clone, Copy, Debug)]
+pub struct HostImage {
+    /// The image (owned by the host).
+    pub image: vk::Image,
+    /// A 2D view of its only mip and layer (owned by the host).
+    pub view: vk::ImageView,
+    /// Its format (must be `R32G32B32A32_SFLOAT`).
+    pub format: vk::Format,
+    /// Width and height.
+    pub extent: (u32, u32),
+    /// Its layout when the commands ssbc records begin.
+    pub layout: vk::ImageLayout,
+}
+
+/// What the host wants in its output image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PostOutput {
+    /// `S0 + S_1 + ... + S_K`.
+    Compensated,
+    /// One step's residual `S_k` (1-based).
+    Residual(u32),
+}
+
+/// The host's inputs for one frame.
+#[derive(Clone, Copy, Debug)]
+pub struct PostProcessInputs {
+    /// World-space position (xyz; w = 0 where there is no geometry).
+    pub position: HostImage,
+    /// Shading normal (xyz, unit length).
+    pub normal: HostImage,
+    /// Diffuse albedo (rgb).
+    pub albedo: HostImage,
+    /// The clamped lighting `S0` (rgb radiance).
+    pub s0: HostImage,
+    /// Where the result goes.
+    pub output: HostImage,
+    /// Camera position (world).
+    pub camera_position: glam::Vec3,
+    /// Unit optical axis.
+    pub camera_forward: glam::Vec3,
+    /// Vertical field of view (radians).
+    pub yfov: f32,
+    /// The clamping bound b (1/m²) the host's `S0` was clamped with.
+    pub bound: f32,
+    /// Distance along the optical axis where most of the image lies (e.g.
+    /// to the scene's centre): picks the coarsest evaluation level.
+    pub typical_depth: f32,
+}
+
+/// Per-slot resources.
+struct Slot {
+    key: (u32, u32, u32),
+    frame: SsbcFrame,
+    pool: DescriptorPool,
+}
+
+/// SSBC on the host's images (see the module documentation). Command
+/// buffers must be submitted in the order they were recorded.
+pub struct SsbcPostProcess {
+    // Field order is drop order: resources before the device.
+    slots: Vec<Option<Slot>>,
+    pass: SsbcPass,
+    /// Labels only (the host times its own command buffer).
+    profiler: GpuProfiler,
+    device: Arc<Device>,
+}
+
+impl SsbcPostProcess {
+    /// Creates the pipelines for `slots` frames in flight.
+    pub fn new(device: &Arc<Device>, slots: usize) -> Result<Self> {
+        if slots == 0 {
+            return Err(Error::InvalidParameter(
+                "SsbcPostProcess needs at least one frame slot".into(),
+            ));
+        }
+        Ok(Self {
+            slots: (0..slots).map(|_| None).collect(),
+            pass: SsbcPass::new(device)?,
+            profiler: GpuProfiler::new(device, 256, 1, false)?,
+            device: device.clone(),
+        })
+    }
+
+    fn check(inputs: &PostProcessInputs) -> Result<(u32, u32)> {
+        let extent = inputs.position.extent;
+        let named = [
+            ("position", &inputs.position),
+            ("normal", &inputs.normal),
+            ("albedo", &inputs.albedo),
+            ("s0", &inputs.s0),
+            ("output", &inputs.output),
+        ];
+        for (name, image) in named {
+            if image.format != vk::Format::R32G32B32A32_SFLOAT {
+                return Err(Error::InvalidParameter(format!(
+                    "SSBC post-process: the {name} image is {:?}; it must be R32G32B32A32_SFLOAT",
+                    image.format
+                )));
+            }
+            if image.extent != extent {
+                return Err(Error::InvalidParameter(format!(
+                    "SSBC post-process: the {name} image is {:?}, the position image {extent:?}",
+                    image.extent
+                )));
+            }
+        }
+        let finite = inputs.camera_position.is_finite()
+            && inputs.camera_forward.is_finite()
+            && inputs.yfov.is_finite()
+            && inputs.typical_depth.is_finite();
+        if !finite || inputs.yfov <= 0.0 || inputs.bound.is_nan() || inputs.bound <= 0.0 {
+            return Err(Error::InvalidParameter(
+                "SSBC post-process: camera, field of view, depth and bound must be finite and positive"
+                    .into(),
+            ));
+        }
+        Ok(extent)
+    }
+
+    /// Records SSBC for the frame in `slot` into the host's command buffer
+    /// `cmd` (recording, outside any render pass). See the module
+    /// documentation for layouts and synchronisation.
+    pub fn record(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        inputs: &PostProcessInputs,
+        settings: &SsbcSettings,
+        output: PostOutput,
+    ) -> Result<()> {
+        let (w, h) = Self::check(inputs)?;
+        settings.validate()?;
+        if settings.steps == 0 {
+            return Err(Error::InvalidParameter(
+                "SSBC post-process with 0 steps has nothing to do".into(),
+            ));
+        }
+        if let PostOutput::Residual(k) = output {
+            if k == 0 || k > settings.steps {
+                return Err(Error::InvalidParameter(format!(
+                    "residual {k} asked for, with {} steps",
+                    settings.steps
+                )));
+            }
+        }
+        let slot_count = self.slots.len();
+        let entry = self
+            .slots
+            .get_mut(slot)
+            .ok_or_else(|| Error::InvalidParameter(format!("frame slot {slot} of {slot_count}")))?;
+        crate::passes::ssbc::check_size(&self.device, w, h)?;
+        let key = (w, h, settings.steps);
+        if entry.as_ref().is_none_or(|s| s.key != key) {
+            *entry = None;
+            let frame = self.pass.prepare(&self.device, (w, h), settings.steps)?;
+            let max_eval = settings
+                .max_eval_level
+                .min(frame.levels().saturating_sub(1));
+            let pool = DescriptorPool::new(
+                &self.device,
+                &self.pass.set_layouts((w, h), settings.steps, max_eval),
+            )?;
+            pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
+            *entry = Some(Slot { key, frame, pool });
+        }
+        let Slot { frame, pool, .. } = entry.as_ref().expect("prepared above");
+        // The host finished this slot's previous frame (its promise).
+        pool.reset()?;
+
+        let wrap = |image: &HostImage, usage| {
+            Image::from_host(
+                &self.device,
+                image.image,
+                image.view,
+                ImageDesc::new_2d(image.format, w, h, usage),
+                image.layout,
+            )
+        };
+        let storage = vk::ImageUsageFlags::STORAGE;
+        let (position, normal, albedo, s0) = (
+            wrap(&inputs.position, storage),
+            wrap(&inputs.normal, storage),
+            wrap(&inputs.albedo, storage),
+            wrap(&inputs.s0, storage),
+        );
+        let out = wrap(&inputs.output, vk::ImageUsageFlags::TRANSFER_DST);
+        let camera = SsbcCamera {
+            position: inputs.camera_position,
+            forward: inputs.camera_forward.normalize(),
+            pixel_side: 2.0 * (inputs.yfov * 0.5).tan() / h as f32,
+        };
+        let eval_level = SsbcPass::eval_level(
+            &camera,
+            inputs.typical_depth,
+            inputs.bound,
+            frame.levels(),
+            settings,
+        );
+
+        let mut rec = Recorder::for_host(&self.device, cmd);
+        self.profiler.begin_frame(cmd, 0);
+        let scope = self.profiler.begin(cmd, "ssbc_postprocess");
+        let recorded = self.pass.record(
+            &mut rec,
+            &mut self.profiler,
+            pool,
+            SsbcGBuffer {
+                position: &position,
+                normal: &normal,
+                albedo: &albedo,
+            },
+            &s0,
+            &SsbcInputs {
+                camera: &camera,
+                bound: inputs.bound,
+                eval_level,
+                settings,
+            },
+            frame,
+        );
+        if let Err(e) = recorded {
+            // The slot's tracked states describe commands the host will
+            // not submit as they are: start it afresh next time.
+            self.slots[slot] = None;
+            return Err(e);
+        }
+        let result = match output {
+            PostOutput::Compensated => &frame.final_image,
+            PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
+        };
+        rec.copy_image(result, &out, (w, h));
+        rec.flush_barriers();
+        self.profiler.end(cmd, scope);
+        Ok(())
+    }
+}
