@@ -237,7 +237,7 @@ impl SsbcPostProcess {
         );
 
         let mut rec = Recorder::for_host(&self.device, cmd);
-        self.profiler.begin_frame(cmd, 0);
+        self.profiler.begin_frame(cmd, 0, false);
         let scope = self.profiler.begin(cmd, "ssbc_postprocess");
         let recorded = self.pass.record(
             &mut rec,

@@ -34,13 +34,14 @@ use crate::passes::shadow_maps::ShadowMapPass;
 use crate::passes::shadow_maps::ShadowMaps;
 use crate::passes::ssbc::SsbcFrame;
 use crate::passes::ssbc::{Integration, SsbcCamera, SsbcInputs, SsbcPass, SsbcSettings};
+use crate::postprocess::HostImage;
 use crate::profile::{monotonic_ns, CpuSpan, FrameStats};
 use crate::resident::{next_version, ResidentScene, SceneVersions};
 use crate::scene::Bounds;
 use crate::scene::Scene;
 use crate::vk::{
     Access, Buffer, CommandPool, DescriptorPool, DescriptorSetLayout, Device, DeviceSelector,
-    GpuFrameTimes, GpuProfiler, Image, Instance, PassTiming, Validation, ValidationLog,
+    GpuFrameTimes, GpuProfiler, Image, Instance, PassTiming, Recorder, Validation, ValidationLog,
 };
 
 /// How to create the renderer.
@@ -519,10 +520,29 @@ pub struct GpuSubmission {
     pub previous_timings: Option<GpuFrameTimes>,
 }
 
-/// What a frame returns: everything read back, or a GPU submission.
+/// What a frame returns: everything read back, a GPU submission, or
+/// nothing (recorded into the host's command buffer).
 enum Outcome {
     Frame(Box<Frame>),
     Gpu(GpuSubmission),
+    Host,
+}
+
+/// Where a frame's result goes.
+#[derive(Clone, Copy)]
+enum Sink<'a> {
+    /// Read back to the host (the frame is waited for).
+    Readback,
+    /// Kept on the GPU as this layer; ssbc submits.
+    Gpu(&'a str),
+    /// Recorded into the host's command buffer; this layer is copied into
+    /// the host's image.
+    Host {
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        output: &'a HostImage,
+        layer: &'a str,
+    },
 }
 
 /// Largest number of ISM points uploaded (VPLs x points per VPL).
@@ -699,9 +719,9 @@ impl Renderer {
         versions: SceneVersions,
         settings: &RenderSettings,
     ) -> Result<Frame> {
-        match self.run(scene, versions, settings, None)? {
+        match self.run(scene, versions, settings, Sink::Readback)? {
             Outcome::Frame(frame) => Ok(*frame),
-            Outcome::Gpu(_) => unreachable!("no GPU layer was asked for"),
+            _ => unreachable!("a read-back frame returns a Frame"),
         }
     }
 
@@ -737,19 +757,57 @@ impl Renderer {
         settings: &RenderSettings,
         layer: &str,
     ) -> Result<GpuSubmission> {
+        Self::check_layer(layer, settings)?;
+        match self.run(scene, versions, settings, Sink::Gpu(layer))? {
+            Outcome::Gpu(submission) => Ok(submission),
+            _ => unreachable!("a GPU frame returns its submission"),
+        }
+    }
+
+    fn check_layer(layer: &str, settings: &RenderSettings) -> Result<()> {
         let steps = settings.ssbc.steps as usize;
         let known = matches!(layer, "final" | "direct" | "indirect_bounded")
             || layer
                 .strip_prefix("residual_")
                 .and_then(|k| k.parse::<usize>().ok())
                 .is_some_and(|k| k >= 1 && k <= steps);
-        if !known {
-            return Err(Error::InvalidParameter(format!("no GPU layer '{layer}'")));
+        if known {
+            Ok(())
+        } else {
+            Err(Error::InvalidParameter(format!("no GPU layer '{layer}'")))
         }
-        match self.run(scene, versions, settings, Some(layer))? {
-            Outcome::Gpu(submission) => Ok(submission),
-            Outcome::Frame(_) => unreachable!("a GPU layer was asked for"),
-        }
+    }
+
+    /// Records a frame of `scene` into the host's command buffer `cmd`
+    /// (recording, outside a render pass) and copies `layer` (`final`,
+    /// `direct`, `indirect_bounded`, `residual_k`) into the host's `output`
+    /// image (`R32G32B32A32_SFLOAT`, `TRANSFER_DST` usage, the frame's size;
+    /// left in `TRANSFER_DST_OPTIMAL` after a transfer write). The host
+    /// ends and submits `cmd` and synchronises with its own semaphores; it
+    /// passes the frame slot (`0..FRAME_SLOTS`) and guarantees the slot's
+    /// previous frame has finished on the GPU. Such frames are labelled but
+    /// not timed, and must not be interleaved with ssbc's own submissions
+    /// ([`Renderer::render_resident`], ...) while in flight. A change of
+    /// geometry or materials uploads the scene with ssbc's own submission
+    /// first (waited for).
+    pub fn record_resident(
+        &mut self,
+        scene: &ResidentScene,
+        settings: &RenderSettings,
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        output: &HostImage,
+        layer: &str,
+    ) -> Result<()> {
+        Self::check_layer(layer, settings)?;
+        let sink = Sink::Host {
+            cmd,
+            slot,
+            output,
+            layer,
+        };
+        self.run(scene.scene(), scene.versions(), settings, sink)
+            .map(|_| ())
     }
 
     /// Makes the next frame fail after recording `pass` (`shadow_maps`,
@@ -765,19 +823,41 @@ impl Renderer {
         scene: &Scene,
         versions: SceneVersions,
         settings: &RenderSettings,
-        gpu_layer: Option<&str>,
+        sink: Sink<'_>,
     ) -> Result<Outcome> {
         self.check_settings(settings)?;
-        // The frame slot: wait for (only) the frame that used it last.
-        let slot = (self.frame_index % FRAME_SLOTS as u64) as usize;
-        self.frame_index += 1;
-        self.device.wait(self.slot_done[slot])?;
-        let previous_timings = if self.profiler.has_frame(slot) {
-            self.profiler.resolve(slot)?
-        } else {
-            None
+        let (slot, previous_timings) = match sink {
+            Sink::Host { slot, output, .. } => {
+                if slot >= FRAME_SLOTS {
+                    return Err(Error::InvalidParameter(format!(
+                        "frame slot {slot} of {FRAME_SLOTS}"
+                    )));
+                }
+                if output.format != vk::Format::R32G32B32A32_SFLOAT
+                    || output.extent != (settings.width, settings.height)
+                {
+                    return Err(Error::InvalidParameter(format!(
+                        "the host's output image must be R32G32B32A32_SFLOAT of {}x{} (it is {:?} of {:?})",
+                        settings.width, settings.height, output.format, output.extent
+                    )));
+                }
+                // The host guarantees the slot's previous frame is done.
+                (slot, None)
+            }
+            Sink::Readback | Sink::Gpu(_) => {
+                // The frame slot: wait for (only) the frame that used it last.
+                let slot = (self.frame_index % FRAME_SLOTS as u64) as usize;
+                self.frame_index += 1;
+                self.device.wait(self.slot_done[slot])?;
+                let previous = if self.profiler.has_frame(slot) {
+                    self.profiler.resolve(slot)?
+                } else {
+                    None
+                };
+                (slot, previous)
+            }
         };
-        let result = self.frame(scene, versions, settings, gpu_layer, slot, previous_timings);
+        let result = self.frame(scene, versions, settings, sink, slot, previous_timings);
         if result.is_err() {
             // Whatever was recorded was never submitted, but the resources'
             // tracked states say otherwise: forget them, and the scene's
@@ -1028,7 +1108,7 @@ impl Renderer {
         scene: &Scene,
         versions: SceneVersions,
         settings: &RenderSettings,
-        gpu_layer: Option<&str>,
+        sink: Sink<'_>,
         slot: usize,
         previous_timings: Option<GpuFrameTimes>,
     ) -> Result<Outcome> {
@@ -1040,7 +1120,7 @@ impl Renderer {
         let mut spans = Vec::new();
         self.update_scene(scene, versions, settings, slot, &mut spans)?;
         let resources_start = monotonic_ns();
-        self.update_slot(scene, settings, slot, gpu_layer.is_none())?;
+        self.update_slot(scene, settings, slot, matches!(sink, Sink::Readback))?;
         spans.push(CpuSpan {
             name: "slot_resources".into(),
             start_ns: resources_start,
@@ -1082,7 +1162,10 @@ impl Renderer {
 
         // Record the frame.
         let record_start = monotonic_ns();
-        let mut rec = self.commands[slot].begin()?;
+        let mut rec = match sink {
+            Sink::Host { cmd, .. } => Recorder::for_host(&self.device, cmd),
+            _ => self.commands[slot].begin()?,
+        };
         let faults = &mut self.fault;
         let mut checkpoint = |pass: &str| match faults.take_if(|f| f == pass) {
             Some(f) => Err(Error::InvalidParameter(format!(
@@ -1090,7 +1173,10 @@ impl Renderer {
             ))),
             None => Ok(()),
         };
-        self.profiler.begin_frame(rec.cmd, slot);
+        // Frames in a host's command buffer are labelled, not timed (ssbc
+        // cannot know when the host's submission finishes).
+        let timed = !matches!(sink, Sink::Host { .. });
+        self.profiler.begin_frame(rec.cmd, slot, timed);
         self.shadow_maps.record(
             &mut rec,
             &mut self.profiler,
@@ -1153,7 +1239,31 @@ impl Renderer {
         self.profiler.end_frame(rec.cmd);
         rec.use_buffer(&t.ssbc.stats, Access::HostRead);
         let images = frame.readback_images(settings.debug_readback);
-        if let Some(buffers) = frame.readback.as_ref().filter(|_| gpu_layer.is_none()) {
+        if let Sink::Host { output, layer, .. } = sink {
+            let source = t
+                .layer(layer)
+                .ok_or_else(|| Error::InvalidParameter(format!("no layer '{layer}'")))?;
+            let out = Image::from_host(
+                &device,
+                output.image,
+                output.view,
+                crate::vk::ImageDesc::new_2d(
+                    output.format,
+                    w,
+                    h,
+                    vk::ImageUsageFlags::TRANSFER_DST,
+                ),
+                output.layout,
+            );
+            rec.copy_image(source, &out, (w, h));
+            rec.flush_barriers();
+            return Ok(Outcome::Host);
+        }
+        if let Some(buffers) = frame
+            .readback
+            .as_ref()
+            .filter(|_| matches!(sink, Sink::Readback))
+        {
             for ((_, image), (_, buffer)) in images.iter().zip(buffers) {
                 rec.copy_image_to_buffer(image, buffer);
                 rec.use_buffer(buffer, Access::HostRead);
@@ -1169,7 +1279,7 @@ impl Renderer {
         let done = rec.submit()?;
         self.profiler.submitted(slot);
         self.slot_done[slot] = done;
-        if let Some(layer) = gpu_layer {
+        if let Sink::Gpu(layer) = sink {
             self.output = Some(FrameOutput {
                 slot,
                 layer: layer.to_string(),

@@ -72,6 +72,8 @@ pub struct GpuProfiler {
     current: usize,
     /// An open scope holds the statistics query (queries of one type cannot nest).
     statistics_open: bool,
+    /// The frame being recorded writes timestamps (false: labels only).
+    frame_timed: bool,
     period_ns: f64,
     valid_mask: u64,
 }
@@ -146,6 +148,7 @@ impl GpuProfiler {
             slots: vec![SlotState::default(); slots],
             current: 0,
             statistics_open: false,
+            frame_timed: true,
             period_ns: support.timestamp_period_ns as f64,
             valid_mask,
         })
@@ -163,12 +166,14 @@ impl GpuProfiler {
 
     /// Resets `slot`'s queries (host reset) and starts a frame in it: writes
     /// the frame's first timestamp. The slot's previous frame must be done.
-    pub fn begin_frame(&mut self, cmd: vk::CommandBuffer, slot: usize) {
+    /// An untimed frame (`timed` false) only gets labels.
+    pub fn begin_frame(&mut self, cmd: vk::CommandBuffer, slot: usize, timed: bool) {
         self.current = slot;
         self.slots[slot] = SlotState::default();
         self.statistics_open = false;
+        self.frame_timed = timed;
         let base = self.base(slot);
-        if let Some(pool) = self.timestamps {
+        if let Some(pool) = self.timestamps.filter(|_| timed) {
             // SAFETY: hostQueryReset is enabled; the caller waited for the
             // slot's previous submission, so no pending work uses these queries.
             unsafe {
@@ -183,7 +188,7 @@ impl GpuProfiler {
                 );
             }
         }
-        if let Some(pool) = self.statistics {
+        if let Some(pool) = self.statistics.filter(|_| timed) {
             // SAFETY: as above.
             unsafe {
                 self.device
@@ -205,7 +210,10 @@ impl GpuProfiler {
             self.capacity
         );
         let mut statistics_query = None;
-        if let Some(pool) = self.statistics.filter(|_| !self.statistics_open) {
+        if let Some(pool) = self
+            .statistics
+            .filter(|_| self.frame_timed && !self.statistics_open)
+        {
             let query = self.current as u32 * self.capacity + state.statistics_used;
             state.statistics_used += 1;
             self.statistics_open = true;
@@ -219,7 +227,7 @@ impl GpuProfiler {
             };
         }
         state.scopes.push((name.to_string(), statistics_query));
-        if let Some(pool) = self.timestamps {
+        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
             // SAFETY: query index inside the pool, reset this frame.
             unsafe {
                 self.device.raw.cmd_write_timestamp2(
@@ -235,7 +243,7 @@ impl GpuProfiler {
 
     /// Closes a pass: its end timestamp, statistics query and label region.
     pub fn end(&mut self, cmd: vk::CommandBuffer, scope: PassScope) {
-        if let Some(pool) = self.timestamps {
+        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
             // SAFETY: as in begin.
             unsafe {
                 self.device.raw.cmd_write_timestamp2(
@@ -259,7 +267,7 @@ impl GpuProfiler {
     /// the CPU's (where calibrated timestamps are supported).
     pub fn end_frame(&mut self, cmd: vk::CommandBuffer) {
         let query = self.base(self.current) + 1;
-        if let Some(pool) = self.timestamps {
+        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
             // SAFETY: the slot's second query is reserved for the frame end.
             unsafe {
                 self.device.raw.cmd_write_timestamp2(
