@@ -232,6 +232,12 @@ struct ViewArgs {
     /// Screenshot written on exit: FILE.exr (linear) and FILE.png (as shown).
     #[arg(long, value_name = "FILE")]
     screenshot: Option<std::path::PathBuf>,
+    /// Move the camera and the light a little every frame (soak runs).
+    #[arg(long)]
+    animate: bool,
+    /// Resize the window N times (one per frame), then minimise and restore it.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    resize_storm: u32,
 }
 
 fn validation_from_env() -> bool {
@@ -446,6 +452,8 @@ fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
         exposure: args.common.exposure.unwrap_or(1.0),
         frames: args.frames,
         screenshot: args.screenshot,
+        animate: args.animate,
+        resize_storm: args.resize_storm,
     })
 }
 

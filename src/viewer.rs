@@ -51,6 +51,41 @@ pub struct ViewOptions {
     pub frames: Option<u64>,
     /// Where the screenshot goes (`.exr` and `.png` next to each other).
     pub screenshot: Option<PathBuf>,
+    /// Move the camera and the light a little every frame (soak runs).
+    pub animate: bool,
+    /// Resize the window this many times, one per frame, then minimise and
+    /// restore it (robustness runs).
+    pub resize_storm: u32,
+}
+
+/// Run-time figures of a viewer session (printed on exit).
+#[derive(Default)]
+struct SessionStats {
+    /// Wall-clock ms between consecutive frames.
+    wall_ms: Vec<f64>,
+    /// GPU frame ms from timestamps (of the slot's previous frame).
+    gpu_ms: Vec<f64>,
+    /// (resident set kB, live ssbc resources) at frame 10 and at the end.
+    first: Option<(Option<u64>, u64)>,
+    last: Option<(Option<u64>, u64)>,
+    resizes: u32,
+}
+
+/// The process's resident set size in kB (Linux).
+fn resident_kb() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
 }
 
 const HELP: &str =
@@ -62,6 +97,8 @@ struct FrameSlot {
     commands: CommandPool,
     acquired: BinarySemaphore,
     display: Option<Image>,
+    /// The present pass's descriptor set, reset every frame.
+    present_pool: Option<DescriptorPool>,
     /// Timeline value of the slot's last submission.
     done: u64,
 }
@@ -95,6 +132,9 @@ struct PresentPush {
 
 struct Viewer {
     options: ViewOptions,
+    stats: SessionStats,
+    /// The camera and light the animation starts from.
+    anim_start: Option<(Camera, Vec3)>,
     /// The scene kept between frames: camera and light moves only mark
     /// what changed (no clone, no BVH, no upload per frame).
     resident: ResidentScene,
@@ -211,6 +251,8 @@ pub fn run(options: ViewOptions) -> Result<u32> {
     options.settings.camera = Some(0);
     let mut viewer = Viewer {
         options,
+        stats: SessionStats::default(),
+        anim_start: None,
         resident,
         radius,
         camera,
@@ -303,6 +345,7 @@ impl Viewer {
                     commands: CommandPool::new(&device)?,
                     acquired: BinarySemaphore::new(&device)?,
                     display: None,
+                    present_pool: None,
                     done: 0,
                 })
             })
@@ -379,9 +422,14 @@ impl Viewer {
         if size.width == 0 || size.height == 0 {
             return Ok(()); // minimised
         }
-        let dt = self.last_frame.elapsed().as_secs_f32().min(0.5);
+        let elapsed = self.last_frame.elapsed();
+        if self.frames_done > 0 {
+            self.stats.wall_ms.push(elapsed.as_secs_f64() * 1e3);
+        }
+        let dt = elapsed.as_secs_f32().min(0.5);
         self.last_frame = Instant::now();
         self.fly(dt);
+        self.script(size);
         let wanted = vk::Extent2D {
             width: size.width,
             height: size.height,
@@ -484,7 +532,17 @@ impl Viewer {
         };
         let image = &gpu.swapchain.images[index];
         let display = slot.display.as_ref().expect("allocated above");
-        let pool = DescriptorPool::new(&gpu.device, &[gpu.present.set_layout()])?;
+        // The slot's previous frame is done: its set can be reused.
+        match &slot.present_pool {
+            Some(pool) => pool.reset()?,
+            None => {
+                slot.present_pool = Some(DescriptorPool::new(
+                    &gpu.device,
+                    &[gpu.present.set_layout()],
+                )?)
+            }
+        }
+        let pool = slot.present_pool.as_ref().expect("created above");
         let mut rec = slot.commands.begin()?;
         match (layer.as_str(), gpu.renderer.output()) {
             ("samples_1", _) | (_, None) => {
@@ -503,7 +561,7 @@ impl Viewer {
                 let bindings = [Binding::storage(output), Binding::storage(display)];
                 gpu.present.dispatch_2d(
                     rec.cmd,
-                    &pool,
+                    pool,
                     &bindings,
                     bytemuck::bytes_of(&push),
                     (extent.width, extent.height),
@@ -517,7 +575,6 @@ impl Viewer {
             &[(slot.acquired.raw, vk::PipelineStageFlags2::ALL_COMMANDS)],
             &[image.render_done],
         )?;
-        drop(pool); // destroyed once this frame is done
         self.last_gpu_slot = (layer != "samples_1").then_some(slot_index);
         if !gpu.swapchain.present(index)? {
             gpu.swapchain.recreate(wanted)?;
@@ -531,6 +588,7 @@ impl Viewer {
                 let e = self.timings.entry(p.name.clone()).or_insert(p.gpu_ms);
                 *e = 0.8 * *e + 0.2 * p.gpu_ms;
             }
+            self.stats.gpu_ms.push(frame_ms);
             let f = self.timings.entry("frame".into()).or_insert(frame_ms);
             *f = 0.8 * *f + 0.2 * frame_ms;
         }
@@ -549,6 +607,12 @@ impl Viewer {
             }
         }
         self.frames_done += 1;
+        let live = self.gpu.as_ref().map_or(0, |g| g.device.live_resources());
+        let sample = Some((resident_kb(), live));
+        if self.frames_done == 10 {
+            self.stats.first = sample;
+        }
+        self.stats.last = sample;
         Ok(())
     }
 
@@ -703,7 +767,75 @@ impl Viewer {
         }
     }
 
+    /// Scripted changes for soak and robustness runs: `--animate` moves the
+    /// camera and the light on small circles; `--resize-storm N` resizes
+    /// the window every frame N times, then minimises and restores it.
+    fn script(&mut self, size: PhysicalSize<u32>) {
+        let frame = self.frames_done as f32;
+        if self.options.animate {
+            let light = self
+                .resident
+                .scene()
+                .lights
+                .first()
+                .map_or(Vec3::ZERO, |l| l.position);
+            let (camera, light_start) = self
+                .anim_start
+                .get_or_insert_with(|| (self.camera.clone(), light))
+                .clone();
+            let r = self.radius * 0.02;
+            let a = frame * 0.05;
+            self.camera = Camera::look_at(
+                camera.position + r * Vec3::new(a.cos() - 1.0, 0.0, a.sin()),
+                camera.position + r * Vec3::new(a.cos() - 1.0, 0.0, a.sin()) + camera.forward,
+                camera.yfov,
+            );
+            let target = light_start + r * Vec3::new(a.sin(), 0.0, a.cos() - 1.0);
+            self.move_light(target - light);
+        }
+        let Some(window) = &self.window else {
+            return;
+        };
+        let storm = self.options.resize_storm;
+        if storm > 0 && self.stats.resizes < storm {
+            let base = (self.options.settings.width.max(64), self.options.settings.height.max(48));
+            let k = self.stats.resizes % 5;
+            let wanted = PhysicalSize::new(base.0 * (4 + k) / 6, base.1 * (6 - k) / 5);
+            let _ = window.request_inner_size(wanted);
+            self.stats.resizes += 1;
+            if self.stats.resizes == storm {
+                window.set_minimized(true);
+            }
+        } else if storm > 0 && self.stats.resizes == storm {
+            window.set_minimized(false);
+            let _ = window.request_inner_size(size);
+            self.stats.resizes += 1;
+        }
+    }
+
+    fn print_session(&self) {
+        let Some(gpu) = &self.gpu else {
+            return;
+        };
+        let (wall, gpu_ms) = (median(&self.stats.wall_ms), median(&self.stats.gpu_ms));
+        let show = |s: &Option<(Option<u64>, u64)>| match s {
+            Some((Some(kb), live)) => format!("{} MiB RSS, {live} live resources", kb / 1024),
+            Some((None, live)) => format!("{live} live resources"),
+            None => "-".into(),
+        };
+        eprintln!(
+            "viewer session: {} frames; wall-clock {wall:.1} ms/frame (median), GPU frame {gpu_ms:.1} ms (median), ratio {:.2}; at frame 10: {}; at the end: {}; {} objects awaiting destruction; {} resizes",
+            self.frames_done,
+            wall / gpu_ms,
+            show(&self.stats.first),
+            show(&self.stats.last),
+            gpu.device.pending_destruction(),
+            self.stats.resizes
+        );
+    }
+
     fn print_timings(&self) {
+        self.print_session();
         if self.timings.is_empty() {
             return;
         }

@@ -121,6 +121,8 @@ pub struct Device {
     /// Buffers, images and descriptor pools created so far (a frame that
     /// reuses its resources adds none).
     resources_created: AtomicU64,
+    /// ...and destroyed so far.
+    resources_destroyed: AtomicU64,
     /// GPU/CPU clock pairs (VK_EXT_calibrated_timestamps with the device and
     /// CLOCK_MONOTONIC domains).
     calibration: Option<ash::ext::calibrated_timestamps::Device>,
@@ -429,6 +431,7 @@ impl Device {
             profiling,
             calibration,
             resources_created: AtomicU64::new(0),
+            resources_destroyed: AtomicU64::new(0),
         });
         device.set_name(device.timeline, "ssbc.timeline");
         Ok(device)
@@ -475,6 +478,18 @@ impl Device {
     /// so far (for checking that frames allocate nothing).
     pub fn resources_created(&self) -> u64 {
         self.resources_created.load(Ordering::Relaxed)
+    }
+
+    /// Buffers, images and descriptor pools alive now (created, not yet
+    /// destroyed; including those waiting for deferred destruction).
+    pub fn live_resources(&self) -> u64 {
+        self.resources_created.load(Ordering::Relaxed)
+            - self.resources_destroyed.load(Ordering::Relaxed)
+    }
+
+    /// Objects waiting in the deferred-destruction queue.
+    pub fn pending_destruction(&self) -> usize {
+        self.garbage.lock().unwrap_or_else(|p| p.into_inner()).len()
     }
 
     /// Counts one created resource (see [`Device::resources_created`]).
@@ -637,17 +652,22 @@ impl Device {
                 Garbage::Buffer(b, a) => {
                     self.raw.destroy_buffer(b, None);
                     self.free_allocation(a);
+                    self.resources_destroyed.fetch_add(1, Ordering::Relaxed);
                 }
                 Garbage::Image(i, a) => {
                     self.raw.destroy_image(i, None);
                     self.free_allocation(a);
+                    self.resources_destroyed.fetch_add(1, Ordering::Relaxed);
                 }
                 Garbage::ImageView(v) => self.raw.destroy_image_view(v, None),
                 Garbage::Sampler(s) => self.raw.destroy_sampler(s, None),
                 Garbage::Pipeline(p) => self.raw.destroy_pipeline(p, None),
                 Garbage::PipelineLayout(l) => self.raw.destroy_pipeline_layout(l, None),
                 Garbage::DescriptorSetLayout(l) => self.raw.destroy_descriptor_set_layout(l, None),
-                Garbage::DescriptorPool(p) => self.raw.destroy_descriptor_pool(p, None),
+                Garbage::DescriptorPool(p) => {
+                    self.raw.destroy_descriptor_pool(p, None);
+                    self.resources_destroyed.fetch_add(1, Ordering::Relaxed);
+                }
                 Garbage::QueryPool(p) => self.raw.destroy_query_pool(p, None),
                 Garbage::CommandPool(p) => self.raw.destroy_command_pool(p, None),
             }
