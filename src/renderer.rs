@@ -956,11 +956,10 @@ impl Renderer {
         // Shadow maps: the lights' views depend on the lights and the bounds.
         let lights_key = (cache.versions.lights, cache.versions.geometry);
         let lights = &scene.lights;
-        let shadows_current = frame
-            .shadows
-            .as_ref()
-            .is_some_and(|(key, _)| *key == lights_key);
-        if !shadows_current {
+        let current = frame.shadows.as_ref().is_some_and(|(key, maps)| {
+            *key == lights_key && maps.depth.desc.width == settings.shadow_map_size
+        });
+        if !current {
             let updated = match frame.shadows.as_mut() {
                 Some((_, maps)) => self.shadow_maps.update(
                     maps,
@@ -981,18 +980,6 @@ impl Renderer {
                 )?;
                 frame.shadows = Some((lights_key, maps));
             }
-        } else if frame
-            .shadows
-            .as_ref()
-            .is_some_and(|(_, m)| m.depth.desc.width != settings.shadow_map_size)
-        {
-            let maps = self.shadow_maps.prepare(
-                &device,
-                lights,
-                &cache.bounds,
-                settings.shadow_map_size,
-            )?;
-            frame.shadows = Some((lights_key, maps));
         }
 
         // ISM atlas and its inputs.

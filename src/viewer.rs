@@ -798,7 +798,10 @@ impl Viewer {
         };
         let storm = self.options.resize_storm;
         if storm > 0 && self.stats.resizes < storm {
-            let base = (self.options.settings.width.max(64), self.options.settings.height.max(48));
+            let base = (
+                self.options.settings.width.max(64),
+                self.options.settings.height.max(48),
+            );
             let k = self.stats.resizes % 5;
             let wanted = PhysicalSize::new(base.0 * (4 + k) / 6, base.1 * (6 - k) / 5);
             let _ = window.request_inner_size(wanted);

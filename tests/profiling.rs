@@ -13,21 +13,11 @@ use ssbc::renderer::{RenderSettings, Renderer, RendererConfig};
 use ssbc::vk::CommandPool;
 
 fn settings() -> RenderSettings {
-    let mut s = common::small(64, 48);
-    s.vpl.count = 16;
-    s.points_per_vpl = 64;
-    s.ism_tile = 16;
-    s.shadow_map_size = 64;
-    s.ssbc.steps = 2;
-    s
+    common::tiny_settings()
 }
 
 fn validated() -> Renderer {
-    Renderer::new(&RendererConfig {
-        validation: true,
-        ..Default::default()
-    })
-    .expect("renderer")
+    common::validated_renderer()
 }
 
 /// A deliberately invalid command on ssbc's final image: the validation

@@ -5,26 +5,16 @@
 mod common;
 
 use glam::{Vec3, Vec4};
-use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Scene};
 
 fn settings() -> RenderSettings {
-    let mut s = common::small(64, 48);
-    s.vpl.count = 32;
-    s.points_per_vpl = 128;
-    s.ism_tile = 16;
-    s.shadow_map_size = 128;
-    s.ssbc.steps = 2;
-    s
+    common::tiny_settings()
 }
 
 fn validated() -> Renderer {
-    Renderer::new(&RendererConfig {
-        validation: true,
-        ..Default::default()
-    })
-    .expect("renderer")
+    common::validated_renderer()
 }
 
 fn cornell() -> Scene {

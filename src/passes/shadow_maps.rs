@@ -18,6 +18,22 @@ use crate::vk::{
     GraphicsDesc, Image, ImageDesc, Pipeline, Recorder,
 };
 
+/// Each light's entry (with its range of layers) and every layer's view.
+fn light_table(
+    lights: &[Light],
+    bounds: &Bounds,
+    resolution: u32,
+) -> (Vec<GpuLight>, Vec<(Mat4, Vec4)>) {
+    let mut gpu_lights = Vec::new();
+    let mut views = Vec::new();
+    for light in lights {
+        let lv = light_views(light, bounds, resolution);
+        gpu_lights.push(GpuLight::new(light, views.len() as u32, lv.len() as u32));
+        views.extend(lv);
+    }
+    (gpu_lights, views)
+}
+
 /// The depth pipeline (created once) and its descriptor layout (materials
 /// and colour textures, for alpha masks).
 pub struct ShadowMapPass {
@@ -142,13 +158,7 @@ impl ShadowMapPass {
         bounds: &Bounds,
         resolution: u32,
     ) -> Result<bool> {
-        let mut gpu_lights = Vec::new();
-        let mut views = Vec::new();
-        for light in lights {
-            let lv = light_views(light, bounds, resolution);
-            gpu_lights.push(GpuLight::new(light, views.len() as u32, lv.len() as u32));
-            views.extend(lv);
-        }
+        let (gpu_lights, views) = light_table(lights, bounds, resolution);
         if views.len().max(1) as u32 != maps.depth.desc.layers
             || resolution != maps.depth.desc.width
             || lights.len().max(1) * std::mem::size_of::<GpuLight>() != maps.lights.size as usize
@@ -175,13 +185,7 @@ impl ShadowMapPass {
         bounds: &Bounds,
         resolution: u32,
     ) -> Result<ShadowMaps> {
-        let mut gpu_lights = Vec::new();
-        let mut views = Vec::new();
-        for light in lights {
-            let lv = light_views(light, bounds, resolution);
-            gpu_lights.push(GpuLight::new(light, views.len() as u32, lv.len() as u32));
-            views.extend(lv);
-        }
+        let (gpu_lights, views) = light_table(lights, bounds, resolution);
         let layers = views.len().max(1) as u32;
         let depth = Image::new(
             device,

@@ -159,6 +159,21 @@ impl GpuProfiler {
         self.timestamps.is_some()
     }
 
+    /// Writes timestamp `query` when this frame is timed.
+    fn timestamp(&self, cmd: vk::CommandBuffer, query: u32) {
+        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
+            // SAFETY: the query is inside the pool and was reset this frame.
+            unsafe {
+                self.device.raw.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    pool,
+                    query,
+                )
+            };
+        }
+    }
+
     /// First timestamp query of `slot`.
     fn base(&self, slot: usize) -> u32 {
         slot as u32 * (self.capacity * 2 + 2)
@@ -179,15 +194,10 @@ impl GpuProfiler {
             unsafe {
                 self.device
                     .raw
-                    .reset_query_pool(pool, base, self.capacity * 2 + 2);
-                self.device.raw.cmd_write_timestamp2(
-                    cmd,
-                    vk::PipelineStageFlags2::ALL_COMMANDS,
-                    pool,
-                    base,
-                );
-            }
+                    .reset_query_pool(pool, base, self.capacity * 2 + 2)
+            };
         }
+        self.timestamp(cmd, base);
         if let Some(pool) = self.statistics.filter(|_| timed) {
             // SAFETY: as above.
             unsafe {
@@ -227,33 +237,13 @@ impl GpuProfiler {
             };
         }
         state.scopes.push((name.to_string(), statistics_query));
-        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
-            // SAFETY: query index inside the pool, reset this frame.
-            unsafe {
-                self.device.raw.cmd_write_timestamp2(
-                    cmd,
-                    vk::PipelineStageFlags2::ALL_COMMANDS,
-                    pool,
-                    self.base(self.current) + 2 + index * 2,
-                )
-            };
-        }
+        self.timestamp(cmd, self.base(self.current) + 2 + index * 2);
         PassScope(index)
     }
 
     /// Closes a pass: its end timestamp, statistics query and label region.
     pub fn end(&mut self, cmd: vk::CommandBuffer, scope: PassScope) {
-        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
-            // SAFETY: as in begin.
-            unsafe {
-                self.device.raw.cmd_write_timestamp2(
-                    cmd,
-                    vk::PipelineStageFlags2::ALL_COMMANDS,
-                    pool,
-                    self.base(self.current) + 3 + scope.0 * 2,
-                )
-            };
-        }
+        self.timestamp(cmd, self.base(self.current) + 3 + scope.0 * 2);
         let query = self.slots[self.current].scopes[scope.0 as usize].1;
         if let (Some(pool), Some(query)) = (self.statistics, query) {
             // SAFETY: the query was begun in this command buffer by `begin`.
@@ -266,18 +256,8 @@ impl GpuProfiler {
     /// Writes the frame's last timestamp and pairs the device clock with
     /// the CPU's (where calibrated timestamps are supported).
     pub fn end_frame(&mut self, cmd: vk::CommandBuffer) {
-        let query = self.base(self.current) + 1;
-        if let Some(pool) = self.timestamps.filter(|_| self.frame_timed) {
-            // SAFETY: the slot's second query is reserved for the frame end.
-            unsafe {
-                self.device.raw.cmd_write_timestamp2(
-                    cmd,
-                    vk::PipelineStageFlags2::ALL_COMMANDS,
-                    pool,
-                    query,
-                )
-            };
-        }
+        // The slot's second query is reserved for the frame end.
+        self.timestamp(cmd, self.base(self.current) + 1);
         self.slots[self.current].calibration = self.device.calibrated_timestamps();
     }
 

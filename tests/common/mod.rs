@@ -30,6 +30,28 @@ pub fn render_validated(scene: &Scene, settings: &RenderSettings) -> Frame {
 }
 
 /// Settings for a small test image.
+/// A renderer with validation and synchronization validation.
+pub fn validated_renderer() -> Renderer {
+    Renderer::new(&RendererConfig {
+        validation: true,
+        ..Default::default()
+    })
+    .expect("renderer (is lavapipe + the validation layer installed? run scripts/setup.sh)")
+}
+
+/// A frame small in every way (64x48, 32 VPLs of 128 points, 16-texel ISM
+/// tiles, 128-texel shadow maps) with two SSBC steps.
+pub fn tiny_settings() -> RenderSettings {
+    let mut s = small(64, 48);
+    s.vpl.count = 32;
+    s.points_per_vpl = 128;
+    s.ism_tile = 16;
+    s.shadow_map_size = 128;
+    s.ssbc.steps = 2;
+    s
+}
+
+/// Settings at `width` x `height`, defaults otherwise.
 pub fn small(width: u32, height: u32) -> RenderSettings {
     RenderSettings {
         width,
