@@ -22,6 +22,9 @@ pub struct GpuScene {
     pub indices: Buffer,
     /// Number of indices.
     pub index_count: u32,
+    /// Indices before this one are triangles of opaque materials (drawn
+    /// without an alpha test); alpha-masked ones follow.
+    pub masked_index_start: u32,
     /// `GpuMaterial` per material.
     pub materials: Buffer,
     /// Base-colour and emissive textures, resized to one size, one layer each (sRGB).
@@ -43,10 +46,30 @@ impl GpuScene {
             &scene.vertices,
             vk::BufferUsageFlags::VERTEX_BUFFER,
         )?;
+        // Opaque triangles first: the shadow pass draws them depth-only (an
+        // alpha test in the fragment shader costs rasterizers their fast
+        // depth-only path: llvmpipe's shadow pass was 14x slower with it).
+        let masked = |tri: &[u32]| {
+            let material = scene.vertices[tri[0] as usize].material as usize;
+            scene
+                .materials
+                .get(material)
+                .is_some_and(|m| m.alpha != crate::scene::AlphaMode::Opaque)
+        };
+        let (mut ordered, mut masked_tris) = (Vec::new(), Vec::new());
+        for tri in scene.indices.chunks_exact(3) {
+            if masked(tri) {
+                masked_tris.extend_from_slice(tri);
+            } else {
+                ordered.extend_from_slice(tri);
+            }
+        }
+        let masked_index_start = ordered.len() as u32;
+        ordered.extend(masked_tris);
         let indices = Buffer::with_data(
             device,
             "scene.indices",
-            &scene.indices,
+            &ordered,
             vk::BufferUsageFlags::INDEX_BUFFER,
         )?;
         // Which textures go to which array.
@@ -122,6 +145,7 @@ impl GpuScene {
             vertices,
             indices,
             index_count: scene.indices.len() as u32,
+            masked_index_start,
             materials,
             color_textures,
             linear_textures,

@@ -216,6 +216,11 @@ struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: Option<u32>,
 
+    /// Count shader invocations per pass (pipeline-statistics queries,
+    /// where supported; can slow the driver and so the timings).
+    #[arg(long)]
+    pipeline_statistics: bool,
+
     /// Write a Chrome trace-event file (Perfetto, chrome://tracing): GPU
     /// passes and CPU stages of every frame rendered.
     #[arg(long, value_name = "FILE.json")]
@@ -293,6 +298,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     let config = RendererConfig {
         validation: args.common.validation(),
         device: args.common.device(),
+        pipeline_statistics: args.pipeline_statistics,
         ..Default::default()
     };
     let settings = args.common.settings();

@@ -115,7 +115,7 @@ impl SsbcPostProcess {
         Ok(Self {
             slots: (0..slots).map(|_| None).collect(),
             pass: SsbcPass::new(device)?,
-            profiler: GpuProfiler::new(device, 256, 1, false)?,
+            profiler: GpuProfiler::new(device, 256, 1, false, false)?,
             device: device.clone(),
         })
     }

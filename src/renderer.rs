@@ -57,6 +57,10 @@ pub struct RendererConfig {
     /// Do not time passes with timestamp queries (timings are then absent,
     /// as on a queue without timestamps; labels and names stay).
     pub no_gpu_timestamps: bool,
+    /// Count shader invocations per pass with pipeline-statistics queries
+    /// (where supported). Off by default: counting can slow a driver down
+    /// (llvmpipe's rasterization, several times) and so distort the timings.
+    pub pipeline_statistics: bool,
 }
 
 /// The clamping bound b of the geometry term (1/m²).
@@ -558,7 +562,11 @@ impl Renderer {
         };
         let instance = Instance::with_validation(mode, &[])?;
         let device = Device::new(instance, &config.device, &[])?;
-        Self::with_device_and_timing(device, !config.no_gpu_timestamps)
+        Self::with_device_and_profiling(
+            device,
+            !config.no_gpu_timestamps,
+            config.pipeline_statistics,
+        )
     }
 
     /// Creates every pipeline on an existing device: one ssbc made
@@ -580,12 +588,17 @@ impl Renderer {
     /// # Ok(()) }
     /// ```
     pub fn with_device(device: Arc<Device>) -> Result<Self> {
-        Self::with_device_and_timing(device, true)
+        Self::with_device_and_profiling(device, true, false)
     }
 
     /// As [`Renderer::with_device`]; `timestamps` false leaves passes
-    /// untimed (labelled only).
-    pub fn with_device_and_timing(device: Arc<Device>, timestamps: bool) -> Result<Self> {
+    /// untimed (labelled only); `statistics` counts shader invocations per
+    /// pass where the device can.
+    pub fn with_device_and_profiling(
+        device: Arc<Device>,
+        timestamps: bool,
+        statistics: bool,
+    ) -> Result<Self> {
         if device.profiling().timestamp_valid_bits == 0 && timestamps {
             log::warn!("the device's queue has no timestamps: GPU timings will be absent (null)");
         }
@@ -597,7 +610,7 @@ impl Renderer {
             direct_lighting: DirectLightingPass::new(&device)?,
             indirect_bounded: IndirectBoundedPass::new(&device)?,
             ssbc: SsbcPass::new(&device)?,
-            profiler: GpuProfiler::new(&device, 1024, FRAME_SLOTS, timestamps)?,
+            profiler: GpuProfiler::new(&device, 1024, FRAME_SLOTS, timestamps, statistics)?,
             commands: (0..FRAME_SLOTS)
                 .map(|slot| {
                     let pool = CommandPool::new(&device)?;

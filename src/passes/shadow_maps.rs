@@ -38,7 +38,10 @@ fn light_table(
 /// and colour textures, for alpha masks).
 pub struct ShadowMapPass {
     layout: DescriptorSetLayout,
+    /// Alpha-masked triangles: a fragment shader discards cut-out texels.
     pipeline: Pipeline,
+    /// Opaque triangles: depth only, no fragment shader.
+    depth_only: Pipeline,
 }
 
 /// One frame's shadow maps and the light table that points into them.
@@ -138,9 +141,32 @@ impl ShadowMapPass {
             &[&layout],
             64,
         )?;
-        pipeline.name("shadow_maps");
+        pipeline.name("shadow_maps masked");
+        let depth_only = Pipeline::graphics(
+            device,
+            &GraphicsDesc {
+                vertex: shaders::SHADOW_MAP_VERT,
+                fragment: None,
+                vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+                attributes: &[
+                    (0, vk::Format::R32G32B32_SFLOAT, 0),
+                    (2, vk::Format::R32G32_SFLOAT, 24),
+                    (3, vk::Format::R32_UINT, 32),
+                ],
+                color_formats: &[],
+                depth_format: vk::Format::D32_SFLOAT,
+                depth_bias: (0.0, 0.0),
+            },
+            &[&layout],
+            64,
+        )?;
+        depth_only.name("shadow_maps opaque");
         layout.name("shadow_maps set layout");
-        Ok(Self { layout, pipeline })
+        Ok(Self {
+            layout,
+            pipeline,
+            depth_only,
+        })
     }
 
     /// The descriptor layout (for sizing pools).
@@ -262,16 +288,28 @@ impl ShadowMapPass {
                 &[],
                 maps.depth.layer_views[layer],
             );
-            self.pipeline
-                .bind(rec.cmd, set, bytemuck::bytes_of(&view_proj.to_cols_array()));
-            // SAFETY: recording inside the rendering scope begun above.
-            unsafe {
-                let d = &rec.device.raw;
-                d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
-                d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
-                d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
-                d.cmd_end_rendering(rec.cmd);
+            let push = view_proj.to_cols_array();
+            let ranges = [
+                (&self.depth_only, 0, scene.masked_index_start),
+                (
+                    &self.pipeline,
+                    scene.masked_index_start,
+                    scene.index_count - scene.masked_index_start,
+                ),
+            ];
+            for (pipeline, first, count) in ranges.into_iter().filter(|r| r.2 > 0) {
+                pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+                // SAFETY: recording inside the rendering scope begun above;
+                // the range lies inside the index buffer.
+                unsafe {
+                    let d = &rec.device.raw;
+                    d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
+                    d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
+                    d.cmd_draw_indexed(rec.cmd, count, 1, first, 0, 0);
+                }
             }
+            // SAFETY: closes the rendering scope begun above.
+            unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };
         }
         profiler.end(rec.cmd, scope);
         Ok(())

@@ -91,12 +91,15 @@ const STATISTICS: vk::QueryPipelineStatisticFlags = vk::QueryPipelineStatisticFl
 impl GpuProfiler {
     /// Pools for up to `capacity` passes per frame in each of `slots` slots.
     /// With `timestamps` false (or a queue without timestamps) passes are
-    /// still labelled, but not timed.
+    /// still labelled, but not timed. `statistics` adds pipeline-statistics
+    /// queries where the device supports them (they can slow a driver down:
+    /// llvmpipe rasterizes several times slower while counting fragments).
     pub fn new(
         device: &Arc<Device>,
         capacity: u32,
         slots: usize,
         timestamps: bool,
+        statistics: bool,
     ) -> Result<Self> {
         let support = device.profiling();
         let per_slot = capacity * 2 + 2;
@@ -112,7 +115,7 @@ impl GpuProfiler {
         } else {
             None
         };
-        let statistics = if support.pipeline_statistics && timestamps.is_some() {
+        let statistics = if statistics && support.pipeline_statistics && timestamps.is_some() {
             let info = vk::QueryPoolCreateInfo::default()
                 .query_type(vk::QueryType::PIPELINE_STATISTICS)
                 .pipeline_statistics(STATISTICS)
