@@ -29,8 +29,14 @@ fn a_validation_message_names_the_object_by_its_ssbc_name() {
     let log = renderer.validation_log();
     let mut scene = ssbc::scene::builtin::cornell();
     scene.ensure_light();
-    renderer.render(&scene, &settings()).expect("render");
+    let frame = renderer.render(&scene, &settings()).expect("render");
     assert_eq!(log.total(), 0, "{:?}", log.messages());
+    // Pipeline statistics are opt-in (they can slow the driver down).
+    assert!(frame
+        .timings
+        .timed_passes()
+        .iter()
+        .all(|p| p.compute_invocations.is_none() && p.fragment_invocations.is_none()));
     let out = renderer.output_image().expect("an output image");
     let device = renderer.device().clone();
     device.wait(out.value).unwrap();
@@ -72,7 +78,12 @@ fn a_validation_message_names_the_object_by_its_ssbc_name() {
 /// submission and the end of the wait for it.
 #[test]
 fn frames_give_spreads_and_a_trace_with_gpu_and_cpu_tracks() {
-    let mut renderer = validated();
+    let mut renderer = Renderer::new(&RendererConfig {
+        validation: true,
+        pipeline_statistics: true,
+        ..Default::default()
+    })
+    .unwrap();
     let log = renderer.validation_log();
     let support = renderer.device().profiling();
     let mut scene = ssbc::scene::builtin::cornell();
