@@ -9,7 +9,7 @@ use gpu_allocator::MemoryLocation;
 use crate::error::Result;
 use crate::gpu_types::GpuMaterial;
 use crate::scene::{Bounds, Scene};
-use crate::vk::{Buffer, CommandPool, Device, Image, ImageDesc, Sampler};
+use crate::vk::{Buffer, Device, Image, ImageDesc, Recorder, Sampler};
 
 /// Largest side of the texture array; bigger textures are downsampled.
 const MAX_TEXTURE_SIDE: u32 = 2048;
@@ -35,11 +35,19 @@ pub struct GpuScene {
     pub texture_sampler: Sampler,
     /// Scene bounds.
     pub bounds: Bounds,
+    /// Texture data not yet copied into `color_textures` (0) and
+    /// `linear_textures` (1): (staging buffer, array, extent, layers).
+    pending: Vec<(Buffer, usize, (u32, u32), u32)>,
+    /// Staging buffers whose copies are recorded in a frame that may not
+    /// have been submitted yet (released by the next frame).
+    recorded: Vec<Buffer>,
 }
 
 impl GpuScene {
-    /// Uploads `scene` (waits for the texture copy to finish).
-    pub fn upload(device: &Arc<Device>, pool: &mut CommandPool, scene: &Scene) -> Result<Self> {
+    /// Uploads `scene`: geometry and materials at once (host-visible
+    /// buffers), textures into staging buffers whose copies the next frame
+    /// records ([`GpuScene::record_uploads`]), so nothing waits.
+    pub fn upload(device: &Arc<Device>, scene: &Scene) -> Result<Self> {
         let vertices = Buffer::with_data(
             device,
             "scene.vertices",
@@ -111,9 +119,8 @@ impl GpuScene {
             &mats,
             vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
-        let color_textures = upload_array(
+        let (color_textures, color_staging) = upload_array(
             device,
-            pool,
             "scene.color_textures",
             vk::Format::R8G8B8A8_SRGB,
             scene
@@ -123,9 +130,8 @@ impl GpuScene {
                 .filter(|(_, &u)| u)
                 .map(|(t, _)| t),
         )?;
-        let linear_textures = upload_array(
+        let (linear_textures, linear_staging) = upload_array(
             device,
-            pool,
             "scene.linear_textures",
             vk::Format::R8G8B8A8_UNORM,
             scene
@@ -151,19 +157,52 @@ impl GpuScene {
             linear_textures,
             texture_sampler,
             bounds: scene.bounds(),
+            pending: [color_staging, linear_staging]
+                .into_iter()
+                .enumerate()
+                .map(|(i, (b, extent, layers))| (b, i, extent, layers))
+                .collect(),
+            recorded: Vec::new(),
         })
+    }
+
+    /// Records the texture copies still pending (the first frame after an
+    /// upload does this before its passes).
+    pub fn record_uploads(&mut self, rec: &mut Recorder<'_>) {
+        for (staging, array, extent, layers) in self.pending.drain(..) {
+            let image = if array == 0 {
+                &self.color_textures
+            } else {
+                &self.linear_textures
+            };
+            rec.copy_buffer_to_image(&staging, image, extent, layers);
+            self.recorded.push(staging);
+        }
+    }
+
+    /// Whether texture copies are still to be recorded.
+    pub fn has_pending_uploads(&self) -> bool {
+        !self.pending.is_empty()
+    }
+
+    /// Lets the staging buffers go once the frame that copies them has been
+    /// submitted (they are then destroyed after that submission finishes).
+    pub fn release_staging(&mut self) {
+        self.recorded.clear();
     }
 }
 
 /// Uploads `textures` as the layers of one array (all resized to the
 /// largest size, at most [`MAX_TEXTURE_SIDE`]; one white texel if none).
+/// The image and its staging buffer, extent and layer count.
+type StagedArray = (Image, (Buffer, (u32, u32), u32));
+
 fn upload_array<'a>(
     device: &Arc<Device>,
-    pool: &mut CommandPool,
     name: &str,
     format: vk::Format,
     textures: impl Iterator<Item = &'a crate::scene::Texture> + Clone,
-) -> Result<Image> {
+) -> Result<StagedArray> {
     let (w, h) = textures
         .clone()
         .fold((1, 1), |(w, h), t| (w.max(t.width), h.max(t.height)));
@@ -207,9 +246,5 @@ fn upload_array<'a>(
         MemoryLocation::CpuToGpu,
     )?;
     staging.write(0, &texels)?;
-    let mut rec = pool.begin()?;
-    rec.copy_buffer_to_image(&staging, &image, (w, h), layers);
-    let done = rec.submit()?;
-    device.wait(done)?;
-    Ok(image)
+    Ok((image, (staging, (w, h), layers)))
 }

@@ -892,9 +892,12 @@ impl Renderer {
         scene: &Scene,
         versions: SceneVersions,
         settings: &RenderSettings,
-        slot: usize,
         spans: &mut Vec<CpuSpan>,
     ) -> Result<()> {
+        // Earlier frames that recorded texture copies have been submitted.
+        if let Some(cache) = self.scene_cache.as_mut() {
+            cache.gpu_scene.release_staging();
+        }
         let same_surfaces = |c: &SceneCache| {
             c.versions.geometry == versions.geometry && c.versions.materials == versions.materials
         };
@@ -903,7 +906,7 @@ impl Renderer {
             self.scene_cache = None;
             let bvh = CpuSpan::time(spans, "bvh_build", || SceneBvh::new(scene));
             let gpu_scene = CpuSpan::time(spans, "scene_upload", || {
-                GpuScene::upload(&self.device, &mut self.commands[slot], scene)
+                GpuScene::upload(&self.device, scene)
             })?;
             self.scene_cache = Some(SceneCache {
                 versions,
@@ -1118,7 +1121,7 @@ impl Renderer {
 
         // CPU work and GPU resources that changed.
         let mut spans = Vec::new();
-        self.update_scene(scene, versions, settings, slot, &mut spans)?;
+        self.update_scene(scene, versions, settings, &mut spans)?;
         let resources_start = monotonic_ns();
         self.update_slot(scene, settings, slot, matches!(sink, Sink::Readback))?;
         spans.push(CpuSpan {
@@ -1131,6 +1134,30 @@ impl Renderer {
             vpl_generation: span_ms(&spans, "vpl_generation"),
             point_sampling: span_ms(&spans, "point_sampling"),
         };
+
+        // Record the frame.
+        let record_start = monotonic_ns();
+        let gpu_scene = &mut self
+            .scene_cache
+            .as_mut()
+            .expect("scene cache built")
+            .gpu_scene;
+        if matches!(sink, Sink::Host { .. }) && gpu_scene.has_pending_uploads() {
+            // Texture copies go through ssbc's own submission here (ssbc's
+            // timeline cannot see when the host's command buffer finishes,
+            // so the staging buffers could not be freed safely).
+            let mut upload = self.commands[slot].begin()?;
+            gpu_scene.record_uploads(&mut upload);
+            let done = upload.submit()?;
+            self.device.wait(done)?;
+            gpu_scene.release_staging();
+        }
+        let mut rec = match sink {
+            Sink::Host { cmd, .. } => Recorder::for_host(&self.device, cmd),
+            _ => self.commands[slot].begin()?,
+        };
+        // The first frame after an upload copies the scene's textures.
+        gpu_scene.record_uploads(&mut rec);
 
         let cache = self.scene_cache.as_ref().expect("scene cache built");
         let frame = &self.slots[slot];
@@ -1160,12 +1187,6 @@ impl Renderer {
         let near = (far * 1e-4).max(1e-4);
         let view_proj = camera.projection(w as f32 / h as f32, near, far) * camera.view();
 
-        // Record the frame.
-        let record_start = monotonic_ns();
-        let mut rec = match sink {
-            Sink::Host { cmd, .. } => Recorder::for_host(&self.device, cmd),
-            _ => self.commands[slot].begin()?,
-        };
         let faults = &mut self.fault;
         let mut checkpoint = |pass: &str| match faults.take_if(|f| f == pass) {
             Some(f) => Err(Error::InvalidParameter(format!(
