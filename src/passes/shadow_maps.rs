@@ -123,44 +123,31 @@ impl ShadowMapPass {
             ],
             vk::ShaderStageFlags::FRAGMENT,
         )?;
-        let pipeline = Pipeline::graphics(
-            device,
-            &GraphicsDesc {
-                vertex: shaders::SHADOW_MAP_VERT,
-                fragment: Some(shaders::SHADOW_MAP_FRAG),
-                vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
-                attributes: &[
-                    (0, vk::Format::R32G32B32_SFLOAT, 0),
-                    (2, vk::Format::R32G32_SFLOAT, 24),
-                    (3, vk::Format::R32_UINT, 32),
-                ],
-                color_formats: &[],
-                depth_format: vk::Format::D32_SFLOAT,
-                depth_bias: (0.0, 0.0),
-            },
-            &[&layout],
-            64,
-        )?;
-        pipeline.name("shadow_maps masked");
-        let depth_only = Pipeline::graphics(
-            device,
-            &GraphicsDesc {
-                vertex: shaders::SHADOW_MAP_VERT,
-                fragment: None,
-                vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
-                attributes: &[
-                    (0, vk::Format::R32G32B32_SFLOAT, 0),
-                    (2, vk::Format::R32G32_SFLOAT, 24),
-                    (3, vk::Format::R32_UINT, 32),
-                ],
-                color_formats: &[],
-                depth_format: vk::Format::D32_SFLOAT,
-                depth_bias: (0.0, 0.0),
-            },
-            &[&layout],
-            64,
-        )?;
-        depth_only.name("shadow_maps opaque");
+        // The same depth pipeline with and without the alpha test.
+        let depth = |fragment, name| -> Result<Pipeline> {
+            let pipeline = Pipeline::graphics(
+                device,
+                &GraphicsDesc {
+                    vertex: shaders::SHADOW_MAP_VERT,
+                    fragment,
+                    vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+                    attributes: &[
+                        (0, vk::Format::R32G32B32_SFLOAT, 0),
+                        (2, vk::Format::R32G32_SFLOAT, 24),
+                        (3, vk::Format::R32_UINT, 32),
+                    ],
+                    color_formats: &[],
+                    depth_format: vk::Format::D32_SFLOAT,
+                    depth_bias: (0.0, 0.0),
+                },
+                &[&layout],
+                64,
+            )?;
+            pipeline.name(name);
+            Ok(pipeline)
+        };
+        let pipeline = depth(Some(shaders::SHADOW_MAP_FRAG), "shadow_maps masked")?;
+        let depth_only = depth(None, "shadow_maps opaque")?;
         layout.name("shadow_maps set layout");
         Ok(Self {
             layout,
