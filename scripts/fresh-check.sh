@@ -81,3 +81,11 @@ echo "fresh-check: Debian $(cat "$root/etc/debian_version"), $(nproc) cores, rus
 run ./scripts/render.sh
 run ./scripts/test.sh
 tail -n 3 "$work/test.sh.log"
+# The README's commands must leave the checkout clean (outputs go to out/).
+dirty=$(git -C "$root/root/ssbc" status --porcelain)
+if [ -n "$dirty" ]; then
+  echo "fresh-check: the checkout is not clean after both commands:"
+  echo "$dirty"
+  exit 1
+fi
+echo "fresh-check: checkout clean after both commands"
