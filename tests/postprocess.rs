@@ -33,3 +33,117 @@ fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
         );
     }
 }
+
+/// Bad host inputs are clear errors, recorded nothing, and leave the
+/// post-process usable.
+#[test]
+fn bad_host_inputs_are_clear_errors() {
+    use ash::vk;
+    use ssbc::passes::ssbc::SsbcSettings;
+    use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+    use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
+
+    let instance = Instance::with_validation(Validation::Synchronization, &[]).unwrap();
+    let log = instance.validation_log();
+    let device = Device::new(instance, &DeviceSelector::default(), &[]).unwrap();
+    assert!(SsbcPostProcess::new(&device, 0).is_err());
+    let mut post = SsbcPostProcess::new(&device, 2).unwrap();
+    // Never dereferenced: every call below fails its checks first.
+    let image = HostImage {
+        image: vk::Image::null(),
+        view: vk::ImageView::null(),
+        format: vk::Format::R32G32B32A32_SFLOAT,
+        extent: (64, 48),
+        layout: vk::ImageLayout::GENERAL,
+    };
+    let inputs = PostProcessInputs {
+        position: image,
+        normal: image,
+        albedo: image,
+        s0: image,
+        output: image,
+        camera_position: glam::Vec3::new(0.0, 1.0, 3.0),
+        camera_forward: -glam::Vec3::Z,
+        yfov: 0.8,
+        bound: 4.0,
+        typical_depth: 3.0,
+    };
+    let one = SsbcSettings {
+        steps: 1,
+        ..Default::default()
+    };
+    let cmd = vk::CommandBuffer::null();
+    let cases: Vec<(PostProcessInputs, SsbcSettings, PostOutput, usize, &str)> = vec![
+        (
+            PostProcessInputs {
+                normal: HostImage {
+                    format: vk::Format::R8G8B8A8_UNORM,
+                    ..image
+                },
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "normal image is R8G8B8A8_UNORM",
+        ),
+        (
+            PostProcessInputs {
+                s0: HostImage {
+                    extent: (32, 48),
+                    ..image
+                },
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "s0 image is (32, 48)",
+        ),
+        (
+            PostProcessInputs {
+                bound: f32::NAN,
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "finite and positive",
+        ),
+        (
+            inputs,
+            SsbcSettings {
+                steps: 0,
+                ..Default::default()
+            },
+            PostOutput::Compensated,
+            0,
+            "0 steps",
+        ),
+        (
+            inputs,
+            one.clone(),
+            PostOutput::Residual(2),
+            0,
+            "residual 2",
+        ),
+        (
+            inputs,
+            one.clone(),
+            PostOutput::Compensated,
+            5,
+            "frame slot 5 of 2",
+        ),
+    ];
+    for (inputs, settings, output, slot, expected) in cases {
+        let err = post
+            .record(cmd, slot, &inputs, &settings, output)
+            .expect_err(expected);
+        let text = err.to_string();
+        assert!(text.contains(expected), "{text} (expected: {expected})");
+        assert!(!text.contains('\n'), "{text}");
+    }
+    drop(post);
+    drop(device);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
