@@ -408,14 +408,7 @@ impl FrameSlot {
         let (Some(t), Some((_, ism))) = (&self.targets, &self.ism) else {
             return Vec::new();
         };
-        let mut v: Vec<(String, &Image)> = vec![
-            ("final".into(), t.final_image()),
-            ("direct".into(), &t.direct),
-            ("indirect_bounded".into(), &t.indirect),
-        ];
-        for (k, r) in t.ssbc.residuals.iter().enumerate() {
-            v.push((format!("residual_{}", k + 1), r));
-        }
+        let mut v = t.layers();
         if debug {
             v.push(("gbuffer_position".into(), &t.gbuffer.position));
             v.push(("gbuffer_normal".into(), &t.gbuffer.normal));
@@ -442,18 +435,32 @@ impl Targets {
         }
     }
 
-    /// The image of a GPU layer name (`final`, `direct`, ...).
-    fn layer(&self, layer: &str) -> Option<&Image> {
-        match layer {
-            "final" => Some(self.final_image()),
-            "direct" => Some(&self.direct),
-            "indirect_bounded" => Some(&self.indirect),
-            _ => {
-                let k: usize = layer.strip_prefix("residual_")?.parse().ok()?;
-                self.ssbc.residuals.get(k.checked_sub(1)?)
-            }
-        }
+    /// Every layer with its name ([`layer_names`] order).
+    fn layers(&self) -> Vec<(String, &Image)> {
+        let images = [self.final_image(), &self.direct, &self.indirect]
+            .into_iter()
+            .chain(&self.ssbc.residuals);
+        layer_names(self.key.2).into_iter().zip(images).collect()
     }
+
+    /// The image of a layer name (`final`, `direct`, ...).
+    fn layer(&self, layer: &str) -> Option<&Image> {
+        self.layers()
+            .into_iter()
+            .find(|(name, _)| name == layer)
+            .map(|(_, image)| image)
+    }
+}
+
+/// The names of a frame's layers with `steps` SSBC steps: `final`,
+/// `direct`, `indirect_bounded`, `residual_1` ... `residual_K` (the one
+/// definition the renderer, the CLI's `--output-layer` and the viewer use).
+pub fn layer_names(steps: u32) -> Vec<String> {
+    ["final", "direct", "indirect_bounded"]
+        .into_iter()
+        .map(String::from)
+        .chain((1..=steps).map(|k| format!("residual_{k}")))
+        .collect()
 }
 
 /// Bytes of a tightly packed host copy of `image`'s first level.
@@ -778,16 +785,14 @@ impl Renderer {
     }
 
     fn check_layer(layer: &str, settings: &RenderSettings) -> Result<()> {
-        let steps = settings.ssbc.steps as usize;
-        let known = matches!(layer, "final" | "direct" | "indirect_bounded")
-            || layer
-                .strip_prefix("residual_")
-                .and_then(|k| k.parse::<usize>().ok())
-                .is_some_and(|k| k >= 1 && k <= steps);
-        if known {
+        let names = layer_names(settings.ssbc.steps);
+        if names.iter().any(|n| n == layer) {
             Ok(())
         } else {
-            Err(Error::InvalidParameter(format!("no GPU layer '{layer}'")))
+            Err(Error::InvalidParameter(format!(
+                "no layer '{layer}' (have: {})",
+                names.join(", ")
+            )))
         }
     }
 

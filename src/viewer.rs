@@ -372,14 +372,7 @@ impl Viewer {
 
     /// Names of the layers that can be shown.
     fn layer_names(&self) -> Vec<String> {
-        let mut names = vec![
-            "final".to_string(),
-            "direct".into(),
-            "indirect_bounded".into(),
-        ];
-        for k in 1..=self.options.settings.ssbc.steps {
-            names.push(format!("residual_{k}"));
-        }
+        let mut names = crate::renderer::layer_names(self.options.settings.ssbc.steps);
         if self.options.settings.ssbc.steps > 0 {
             names.push("samples_1".into());
         }
