@@ -216,10 +216,10 @@ struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: Option<u32>,
 
-    /// Count shader invocations per pass (pipeline-statistics queries,
-    /// where supported; can slow the driver and so the timings).
+    /// Do not count shader invocations per pass (pipeline-statistics
+    /// queries, on by default where the device supports them).
     #[arg(long)]
-    pipeline_statistics: bool,
+    no_pipeline_statistics: bool,
 
     /// Write a Chrome trace-event file (Perfetto, chrome://tracing): GPU
     /// passes and CPU stages of every frame rendered.
@@ -298,7 +298,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     let config = RendererConfig {
         validation: args.common.validation(),
         device: args.common.device(),
-        pipeline_statistics: args.pipeline_statistics,
+        no_pipeline_statistics: args.no_pipeline_statistics,
         ..Default::default()
     };
     let settings = args.common.settings();

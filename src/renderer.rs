@@ -57,10 +57,10 @@ pub struct RendererConfig {
     /// Do not time passes with timestamp queries (timings are then absent,
     /// as on a queue without timestamps; labels and names stay).
     pub no_gpu_timestamps: bool,
-    /// Count shader invocations per pass with pipeline-statistics queries
-    /// (where supported). Off by default: counting can slow a driver down
-    /// (llvmpipe's rasterization, several times) and so distort the timings.
-    pub pipeline_statistics: bool,
+    /// Do not count shader invocations per pass (pipeline-statistics
+    /// queries, used by default where the device supports them; a driver
+    /// may count at a cost, which this switch rules out of a measurement).
+    pub no_pipeline_statistics: bool,
 }
 
 /// The clamping bound b of the geometry term (1/m²).
@@ -572,7 +572,7 @@ impl Renderer {
         Self::with_device_and_profiling(
             device,
             !config.no_gpu_timestamps,
-            config.pipeline_statistics,
+            !config.no_pipeline_statistics,
         )
     }
 

@@ -31,12 +31,14 @@ fn a_validation_message_names_the_object_by_its_ssbc_name() {
     scene.ensure_light();
     let frame = renderer.render(&scene, &settings()).expect("render");
     assert_eq!(log.total(), 0, "{:?}", log.messages());
-    // Pipeline statistics are opt-in (they can slow the driver down).
+    // Pipeline statistics where the device has them (lavapipe has).
+    let counted = renderer.device().profiling().pipeline_statistics;
     assert!(frame
         .timings
         .timed_passes()
         .iter()
-        .all(|p| p.compute_invocations.is_none() && p.fragment_invocations.is_none()));
+        .filter(|p| !p.name.contains('/'))
+        .all(|p| p.compute_invocations.is_some() == counted));
     let out = renderer.output_image().expect("an output image");
     let device = renderer.device().clone();
     device.wait(out.value).unwrap();
@@ -78,12 +80,7 @@ fn a_validation_message_names_the_object_by_its_ssbc_name() {
 /// submission and the end of the wait for it.
 #[test]
 fn frames_give_spreads_and_a_trace_with_gpu_and_cpu_tracks() {
-    let mut renderer = Renderer::new(&RendererConfig {
-        validation: true,
-        pipeline_statistics: true,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut renderer = validated();
     let log = renderer.validation_log();
     let support = renderer.device().profiling();
     let mut scene = ssbc::scene::builtin::cornell();

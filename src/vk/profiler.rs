@@ -92,8 +92,7 @@ impl GpuProfiler {
     /// Pools for up to `capacity` passes per frame in each of `slots` slots.
     /// With `timestamps` false (or a queue without timestamps) passes are
     /// still labelled, but not timed. `statistics` adds pipeline-statistics
-    /// queries where the device supports them (they can slow a driver down:
-    /// llvmpipe rasterizes several times slower while counting fragments).
+    /// queries where the device supports them.
     pub fn new(
         device: &Arc<Device>,
         capacity: u32,
