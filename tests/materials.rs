@@ -700,3 +700,48 @@ fn the_default_png_is_exposed_from_the_image_and_not_clipped() {
     let dark = image::open(&path).unwrap().into_rgb8();
     assert!(dark.as_raw().iter().all(|&c| c < 40));
 }
+
+/// An emissive material that no triangle uses lights nothing: the scene
+/// still gets the default light (a glTF file found black without it).
+#[test]
+fn an_unused_emissive_material_does_not_replace_the_default_light() {
+    let mut s = Scene::new("unused emitter");
+    let m = add(&mut s, Material::diffuse(Vec3::splat(0.7), None));
+    let mut lamp = Material::diffuse(Vec3::ONE, None);
+    lamp.emission = Vec3::splat(5.0);
+    add(&mut s, lamp);
+    quad(
+        &mut s,
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::X * 2.0,
+        -Vec3::Z * 2.0,
+        m,
+        1.0,
+    );
+    s.ensure_light();
+    assert_eq!(s.lights.len(), 1, "no default light was added");
+    // With the emitter used by a triangle, it is the light.
+    let mut lit = Scene::new("used emitter");
+    let floor = add(&mut lit, Material::diffuse(Vec3::splat(0.7), None));
+    let mut lamp = Material::diffuse(Vec3::ONE, None);
+    lamp.emission = Vec3::splat(5.0);
+    let lamp = add(&mut lit, lamp);
+    quad(
+        &mut lit,
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::X * 2.0,
+        -Vec3::Z * 2.0,
+        floor,
+        1.0,
+    );
+    quad(
+        &mut lit,
+        Vec3::new(-0.2, 1.0, -0.2),
+        Vec3::X * 0.4,
+        Vec3::Z * 0.4,
+        lamp,
+        1.0,
+    );
+    lit.ensure_light();
+    assert!(lit.lights.is_empty());
+}

@@ -472,9 +472,14 @@ impl Scene {
     /// nor inside a closed object), with an intensity giving 1 W/m²
     /// irradiance at the centre of the scene's bounds. Logged.
     pub fn ensure_light(&mut self) {
+        // Emissive triangles light the scene, not emissive materials: a
+        // file may define an emissive material no triangle uses.
         if !self.lights.is_empty()
-            || self.materials.iter().any(|m| m.is_emissive())
             || self.indices.is_empty()
+            || crate::cpu::emitters::Emitters::new(self)
+                .power()
+                .max_element()
+                > 0.0
         {
             return;
         }
