@@ -140,30 +140,18 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 path += 1;
                 continue;
             };
-            let flux = e.radiance * std::f32::consts::PI / (e.pdf_area * p_light);
+            let flux = e.radiance * std::f32::consts::PI / e.pdf_area;
             raw.push(Vpl {
                 position: e.position,
                 normal: e.normal,
                 albedo: Vec3::ONE,
-                flux,
+                flux: flux / p_light,
                 bounce: 0,
             });
             let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
             let origin =
                 e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
-            path += 1;
-            trace_path(
-                scene,
-                bvh,
-                settings,
-                &halton,
-                path - 1,
-                origin,
-                dir,
-                flux,
-                &mut raw,
-            );
-            continue;
+            (origin, dir, flux)
         } else {
             let light = &scene.lights[li];
             match light.kind {
