@@ -6,6 +6,7 @@
 // interpolation fail). A texel that is not one smooth surface, or where the
 // bounding radius spans fewer than pc.texels_per_radius of its texels on
 // screen, is unusable.
+#define SSBC_READ_PYRAMIDS
 #include "ssbc.glsl"
 
 layout(local_size_x = 64) in;
@@ -27,7 +28,7 @@ void main() {
     }
     uint index = texel_index(t, l);
     ivec2 q = eval_pixel(t, l);
-    GeoCluster g = geo[texel_index(q, 0)].front;
+    GeoCluster g = geo_cluster(texel_index(q, 0), 0u);
     vec3 x = g.position_extent.xyz;
     float r_world = inversesqrt(pc.bound);
     bool usable = (aux[index].flags & 1u) == 1u

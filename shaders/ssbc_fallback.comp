@@ -3,6 +3,7 @@
 // stand for (at corners, contacts and silhouettes), each from its own
 // position and normal. Dispatched indirectly over the fallback list (bound
 // as pending_in).
+#define SSBC_READ_PYRAMIDS
 #include "ssbc.glsl"
 #include "ssbc_output.glsl"
 

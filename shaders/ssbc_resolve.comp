@@ -10,6 +10,7 @@
 // it one level finer and goes on the pending list for that level; at level 1
 // the pending list is the fallback list (the pixel is evaluated alone).
 // pc.from_list = 0: every pixel (the coarsest level); 1: the pending list.
+#define SSBC_READ_PYRAMIDS
 #include "ssbc.glsl"
 #include "ssbc_output.glsl"
 
@@ -74,7 +75,7 @@ void main() {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
                 EvalPoint point = points[texel_index(t, l)];
-                GeoCluster g = geo[texel_index(eval_pixel(t, l), 0)].front;
+                GeoCluster g = geo_cluster(texel_index(eval_pixel(t, l), 0), 0u);
                 vec3 n = g.normal_cone.xyz;
                 vec3 d = x - g.position_extent.xyz;
                 float dist = length(d);

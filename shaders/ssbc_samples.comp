@@ -3,6 +3,7 @@
 // share of every evaluation point of this step whose block it is in (the
 // point's reads divided by the block's pixels with geometry), so that the
 // image sums to every texel read in the step.
+#define SSBC_READ_PYRAMIDS
 #include "ssbc.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;

@@ -15,7 +15,11 @@
 // so a texel far enough from x for both is added whole instead of being
 // refined down to single pixels along every silhouette.
 //
-// Bindings 0..2 are the same in every kernel that includes this file.
+// Bindings 0..2 are the same in every kernel that includes this file. The
+// kernels that only read the pyramids (#define SSBC_READ_PYRAMIDS first) see
+// geo[] and radiance[] as texel buffers: a texel fetch reads 16 bytes in one
+// gather where a storage-buffer load costs lavapipe a per-lane loop for every
+// 4 bytes (src/vk/buffer_view.rs).
 
 #ifndef SSBC_GLSL
 #define SSBC_GLSL
@@ -62,9 +66,35 @@ struct GeoAux {
                               // bit 8 + 2k + c: cluster c of child k went to the back cluster
 };
 
+#ifdef SSBC_READ_PYRAMIDS
+layout(set = 0, binding = 0) uniform usamplerBuffer geo_texels;       // four per GeoTexel
+layout(set = 0, binding = 1) readonly buffer Aux { GeoAux aux[]; };
+layout(set = 0, binding = 2) uniform samplerBuffer radiance_texels;   // two per texel: front, back
+
+// Cluster c (0 front, 1 back) of texel i.
+GeoCluster geo_cluster(uint i, uint c) {
+    int at = int(4u * i + 2u * c);
+    return GeoCluster(uintBitsToFloat(texelFetch(geo_texels, at)),
+                      uintBitsToFloat(texelFetch(geo_texels, at + 1)));
+}
+
+// Sum of A_y S(y) over cluster c of texel i.
+vec3 cluster_radiance(uint i, uint c) {
+    return texelFetch(radiance_texels, int(2u * i + c)).rgb;
+}
+#else
 layout(set = 0, binding = 0) buffer Geo { GeoTexel geo[]; };
 layout(set = 0, binding = 1) buffer Aux { GeoAux aux[]; };
 layout(set = 0, binding = 2) buffer Radiance { vec4 radiance[]; };  // two per texel: front, back
+
+GeoCluster geo_cluster(uint i, uint c) {
+    return c == 0u ? geo[i].front : geo[i].back;
+}
+
+vec3 cluster_radiance(uint i, uint c) {
+    return radiance[2u * i + c].rgb;
+}
+#endif
 
 const uint MODE_HIERARCHICAL = 0u;
 const uint MODE_BRUTE = 1u;
@@ -200,11 +230,11 @@ void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float rad
         for (int px = lo.x; px <= hi.x; px++) {
             count++;
             uint i = texel_index(ivec2(px, py), 0);
-            GeoCluster g = geo[i].front;  // a pixel is one cluster
+            GeoCluster g = geo_cluster(i, 0u);  // a pixel is one cluster
             vec3 d = g.position_extent.xyz - x;
             float d2 = dot(d, d);
             if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
-                if (accumulate(acc, nx, g.normal_cone.xyz, d, sqrt(d2), radiance[2u * i].rgb)) {
+                if (accumulate(acc, nx, g.normal_cone.xyz, d, sqrt(d2), cluster_radiance(i, 0u))) {
                     nearest = min(nearest, sqrt(d2));
                 }
             }
@@ -293,13 +323,13 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
     while (root < roots) {
         count++;
         uint i = texel_index(t.xy, t.z);
-        GeoTexel g = geo[i];
+        GeoTexel g = GeoTexel(geo_cluster(i, 0u), geo_cluster(i, 1u));
         int front = classify(g.front, x, nx, r_world, t.z);
         int back = classify(g.back, x, nx, r_world, t.z);
         bool refine = front == REFINE || back == REFINE;
         if (!refine) {
-            if (front == ADD) add_cluster(acc, g.front, x, nx, radiance[2u * i].rgb, nearest);
-            if (back == ADD) add_cluster(acc, g.back, x, nx, radiance[2u * i + 1u].rgb, nearest);
+            if (front == ADD) add_cluster(acc, g.front, x, nx, cluster_radiance(i, 0u), nearest);
+            if (back == ADD) add_cluster(acc, g.back, x, nx, cluster_radiance(i, 1u), nearest);
         }
         if (refine) {
             t = ivec3(t.xy * 2, t.z - 1);

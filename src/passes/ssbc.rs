@@ -16,8 +16,8 @@ use super::gbuffer::GBuffer;
 use crate::error::{Error, Result};
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device,
-    GpuProfiler, Image, Recorder,
+    Access, Binding, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout,
+    Device, GpuProfiler, Image, Recorder,
 };
 
 /// How each residual step integrates over the screen.
@@ -141,6 +141,12 @@ pub struct SsbcPass {
 
 /// One frame's SSBC resources.
 pub struct SsbcFrame {
+    /// `geo` as `R32G32B32A32_UINT` texels (four per `GeoTexel`), for the
+    /// kernels that only read it. Views are declared before their buffers
+    /// so that they are dropped first.
+    geo_texels: BufferView,
+    /// `radiance` as `R32G32B32A32_SFLOAT` texels (two per texel).
+    radiance_texels: BufferView,
     /// Geometry pyramid, every level in one buffer (`GeoTexel` in ssbc.glsl).
     pub geo: Buffer,
     /// Summed area, pixel count and continuity per texel (`GeoAux`).
@@ -279,12 +285,24 @@ impl SsbcPass {
         use vk::DescriptorType as T;
         // Bindings 0..2 of every kernel: geo, aux, radiance (ssbc.glsl).
         let with_pyramids = |own: &[T]| [&[T::STORAGE_BUFFER; 3][..], own].concat();
+        // Kernels that only read the pyramids see geo and radiance as texels
+        // (SSBC_READ_PYRAMIDS in ssbc.glsl; see vk::buffer_view for why).
+        let reading_pyramids = |own: &[T]| {
+            let pyramids = [
+                T::UNIFORM_TEXEL_BUFFER,
+                T::STORAGE_BUFFER,
+                T::UNIFORM_TEXEL_BUFFER,
+            ];
+            [&pyramids[..], own].concat()
+        };
         let push = std::mem::size_of::<SsbcPush>();
         // Points, pending in, pending out, requests, G-buffer (3), previous
         // sum, final, residual, samples (ssbc_output.glsl).
         let output = [&[T::STORAGE_BUFFER; 4][..], &[T::STORAGE_IMAGE; 7]].concat();
         let kernel =
             |spirv, own: &[T]| ComputeKernel::new(device, spirv, &with_pyramids(own), push);
+        let reader =
+            |spirv, own: &[T]| ComputeKernel::new(device, spirv, &reading_pyramids(own), push);
         Ok(Self {
             // G-buffer position and normal.
             geometry: kernel(shaders::SSBC_GEOMETRY_MIPS_COMP, &[T::STORAGE_IMAGE; 2])?
@@ -293,12 +311,12 @@ impl SsbcPass {
             radiance: kernel(shaders::SSBC_RADIANCE_MIPS_COMP, &[T::STORAGE_IMAGE])?
                 .named("ssbc_radiance_mips"),
             // Points, requests.
-            eval: kernel(shaders::SSBC_EVAL_COMP, &[T::STORAGE_BUFFER; 2])?
+            eval: reader(shaders::SSBC_EVAL_COMP, &[T::STORAGE_BUFFER; 2])?
                 .named("ssbc_residual_eval"),
-            resolve: kernel(shaders::SSBC_RESOLVE_COMP, &output)?.named("ssbc_residual_resolve"),
-            fallback: kernel(shaders::SSBC_FALLBACK_COMP, &output)?.named("ssbc_residual_fallback"),
+            resolve: reader(shaders::SSBC_RESOLVE_COMP, &output)?.named("ssbc_residual_resolve"),
+            fallback: reader(shaders::SSBC_FALLBACK_COMP, &output)?.named("ssbc_residual_fallback"),
             // Points, samples.
-            samples: kernel(
+            samples: reader(
                 shaders::SSBC_SAMPLES_COMP,
                 &[T::STORAGE_BUFFER, T::STORAGE_IMAGE],
             )?
@@ -397,10 +415,33 @@ impl SsbcPass {
         let samples = (1..=steps)
             .map(|k| image(format!("ssbc.samples_{k}"), vk::Format::R32_SFLOAT))
             .collect::<Result<_>>()?;
+        let texel_usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        let geo = storage(
+            "ssbc.pyramid.geometry",
+            texels * GEO_TEXEL_BYTES,
+            texel_usage,
+        )?;
+        let radiance = storage(
+            "ssbc.pyramid.radiance",
+            texels * RADIANCE_BYTES,
+            texel_usage,
+        )?;
+        let view =
+            |buffer: &Buffer, format, name: &str| BufferView::new(device, buffer, format, 16, name);
         Ok(SsbcFrame {
-            geo: storage("ssbc.pyramid.geometry", texels * GEO_TEXEL_BYTES, none)?,
+            geo_texels: view(
+                &geo,
+                vk::Format::R32G32B32A32_UINT,
+                "ssbc.pyramid.geometry texels",
+            )?,
+            radiance_texels: view(
+                &radiance,
+                vk::Format::R32G32B32A32_SFLOAT,
+                "ssbc.pyramid.radiance texels",
+            )?,
+            geo,
             aux: storage("ssbc.pyramid.aux", texels * AUX_BYTES, none)?,
-            radiance: storage("ssbc.pyramid.radiance", texels * RADIANCE_BYTES, none)?,
+            radiance,
             points: storage(
                 "ssbc.eval_points",
                 texels * EVAL_POINT_BYTES,
@@ -453,6 +494,16 @@ impl SsbcPass {
             Binding::StorageBuffer(&frame.geo),
             Binding::StorageBuffer(&frame.aux),
             Binding::StorageBuffer(&frame.radiance),
+        ]
+    }
+
+    /// The pyramids for the kernels that only read them (geo and radiance as
+    /// texels), declared with [`Self::read_pyramids`].
+    fn pyramid_read_bindings(frame: &SsbcFrame) -> [Binding<'_>; 3] {
+        [
+            Binding::UniformTexelBuffer(&frame.geo_texels),
+            Binding::StorageBuffer(&frame.aux),
+            Binding::UniformTexelBuffer(&frame.radiance_texels),
         ]
     }
 
@@ -563,9 +614,9 @@ impl SsbcPass {
     }
 
     fn read_pyramids(rec: &mut Recorder<'_>, frame: &SsbcFrame) {
-        for buffer in [&frame.geo, &frame.aux, &frame.radiance] {
-            rec.use_buffer(buffer, Access::ComputeRead);
-        }
+        rec.use_buffer(&frame.geo, Access::ComputeSampled);
+        rec.use_buffer(&frame.aux, Access::ComputeRead);
+        rec.use_buffer(&frame.radiance, Access::ComputeSampled);
     }
 
     /// One step's residual, coarse to fine: the evaluation points of the
@@ -657,7 +708,7 @@ impl SsbcPass {
         rec.use_image(out.samples, Access::ComputeWrite);
         rec.flush_barriers();
         let bindings = [
-            &Self::pyramid_bindings(frame)[..],
+            &Self::pyramid_read_bindings(frame)[..],
             &[
                 Binding::StorageBuffer(&frame.points),
                 Binding::storage(out.samples),
@@ -688,7 +739,7 @@ impl SsbcPass {
         rec.use_buffer(&frame.requests, Access::ComputeRead);
         rec.flush_barriers();
         let bindings = [
-            &Self::pyramid_bindings(frame)[..],
+            &Self::pyramid_read_bindings(frame)[..],
             &[
                 Binding::StorageBuffer(&frame.points),
                 Binding::StorageBuffer(&frame.requests),
@@ -822,7 +873,7 @@ impl StepOutput<'_> {
     ) -> Vec<Binding<'b>> {
         let [position, normal, albedo] = self.gbuffer.storage_bindings();
         [
-            &SsbcPass::pyramid_bindings(frame)[..],
+            &SsbcPass::pyramid_read_bindings(frame)[..],
             &[
                 Binding::StorageBuffer(&frame.points),
                 Binding::StorageBuffer(lists.0),

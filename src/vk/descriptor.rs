@@ -9,6 +9,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::buffer::Buffer;
+use super::buffer_view::BufferView;
 use super::device::{Device, Garbage};
 use super::image::{Image, Sampler};
 use crate::error::{Result, VkResultExt};
@@ -174,6 +175,9 @@ impl DescriptorPool {
                     Binding::StorageBuffer(_) | Binding::UniformBuffer(_) => {
                         w.buffer_info(std::slice::from_ref(&buffer_infos[i]))
                     }
+                    Binding::UniformTexelBuffer(view) => {
+                        w.texel_buffer_view(std::slice::from_ref(&view.raw))
+                    }
                 }
             })
             .collect();
@@ -200,6 +204,8 @@ pub enum Binding<'a> {
     StorageBuffer(&'a Buffer),
     /// A whole uniform buffer.
     UniformBuffer(&'a Buffer),
+    /// A buffer read as texels (`samplerBuffer`).
+    UniformTexelBuffer(&'a BufferView),
 }
 
 impl<'a> Binding<'a> {

@@ -20,6 +20,7 @@ use crate::error::{Error, Result, VkResultExt};
 /// A Vulkan object waiting for the GPU to finish with it.
 pub(crate) enum Garbage {
     Buffer(vk::Buffer, Allocation),
+    BufferView(vk::BufferView),
     Image(vk::Image, Allocation),
     ImageView(vk::ImageView),
     Sampler(vk::Sampler),
@@ -659,6 +660,7 @@ impl Device {
                     self.free_allocation(a);
                     self.resources_destroyed.fetch_add(1, Ordering::Relaxed);
                 }
+                Garbage::BufferView(v) => self.raw.destroy_buffer_view(v, None),
                 Garbage::ImageView(v) => self.raw.destroy_image_view(v, None),
                 Garbage::Sampler(s) => self.raw.destroy_sampler(s, None),
                 Garbage::Pipeline(p) => self.raw.destroy_pipeline(p, None),

@@ -9,6 +9,7 @@
 
 pub mod barrier;
 pub mod buffer;
+pub mod buffer_view;
 pub mod commands;
 pub mod descriptor;
 pub mod device;
@@ -20,6 +21,7 @@ pub mod swapchain;
 
 pub use barrier::Access;
 pub use buffer::Buffer;
+pub use buffer_view::BufferView;
 pub use commands::{CommandPool, Recorder, TrackedImage};
 pub use descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 pub use device::{Device, DeviceSelector, HostDevice, ProfilingSupport, RequiredFeatures};
