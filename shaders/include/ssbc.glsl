@@ -244,17 +244,18 @@ void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float rad
 
 // Largest cos(theta_y) = n_y . (x - y) / |x - y| over a texel whose normals
 // lie in a cone (cosine cone_cos) around the unit mean n, seen from x at
-// distance dist (> extent) in direction -d/dist: the angle between n and x - y
-// is at least A - B, A = angle(n, x - mean), B = cone + asin(extent / dist).
-float max_cos_y(vec3 n, float cone_cos, vec3 d, float dist, float extent) {
-    float sigma = extent / dist;
+// distance dist (> extent; inv_dist = 1 / dist) in direction -d/dist: the
+// angle between n and x - y is at least A - B, A = angle(n, x - mean),
+// B = cone + asin(extent / dist).
+float max_cos_y(vec3 n, float cone_cos, vec3 d, float inv_dist, float extent) {
+    float sigma = extent * inv_dist;
     if (!(sigma < 1.0)) return 1.0;
     float cos_s = sqrt(1.0 - sigma * sigma);
     float sin_c = sqrt(max(1.0 - cone_cos * cone_cos, 0.0));
     float cos_b = cone_cos * cos_s - sin_c * sigma;
     if (cos_b <= 0.0) return 1.0;                     // B >= 90 degrees: no bound
     float sin_b = sin_c * cos_s + cone_cos * sigma;
-    float cos_a = clamp(-dot(n, d) / dist, -1.0, 1.0);
+    float cos_a = clamp(-dot(n, d) * inv_dist, -1.0, 1.0);
     if (cos_a >= cos_b) return 1.0;                   // A <= B
     return cos_a * cos_b + sqrt(1.0 - cos_a * cos_a) * sin_b;  // cos(A - B)
 }
@@ -264,40 +265,59 @@ const int SKIP = 0;
 const int ADD = 1;
 const int REFINE = 2;
 
+// One cluster as the traversal sees it: what to do with it, and what adding
+// it from its means would add (see `accumulate`): `wk` = w cos(theta_y) / d^2
+// (zero where G <= b at the mean) and the distance left to its sphere.
+struct Visit {
+    int action;
+    vec3 wk;
+    float d_near;
+};
+
 // A cluster is skipped if G cannot exceed b anywhere in it: G <= cos_x cos_y
 // / d^2 with d >= dist - radius, cos_x bounded by the bounding slab (it
 // reaches at most `reach` in front of the receiver's tangent plane) and cos_y
 // by the normal cone; a cluster behind the tangent plane or facing away has
 // G = 0. It needs refining if its bounding sphere is larger than
 // refine_ratio x its distance; otherwise it can be added from its means.
-int classify(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
+// Written without early returns and with one reciprocal square root per
+// vector: lavapipe runs every branch of a divergent SIMD group anyway, and
+// square roots and divisions are most of a texel's cost there.
+Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     vec2 extent = cluster_extent(g);  // radius, thickness
     vec3 d = g.position_extent.xyz - x;
-    float dist = length(d);
+    float d2 = dot(d, d);
+    float inv_dist = inversesqrt(max(d2, 1e-30));
+    float dist = d2 * inv_dist;
     float d_min = dist - extent.x;
-    if (extent.y < 0.0 || d_min >= r_world) return SKIP;
     vec3 ny = g.normal_cone.xyz;
-    float ny_len = length(ny);
-    vec3 axis = ny_len > 0.0 ? ny / ny_len : vec3(0.0);
+    float ny2 = dot(ny, ny);
+    vec3 axis = ny2 > 0.0 ? ny * inversesqrt(ny2) : vec3(0.0);
     float a = clamp(dot(nx, axis), -1.0, 1.0);
-    float reach = dot(nx, d) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
+    float along = dot(nx, d);
+    float reach = along + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
     // A coplanar cluster reaches 0 up to rounding of its normals (1e-3 of its extent).
-    if (reach <= 1e-3 * extent.x) return SKIP;
+    bool skip = extent.y < 0.0 || d_min >= r_world || reach <= 1e-3 * extent.x;
     if (d_min > 0.0) {
-        // G <= cos_x / d_min^2 first; the cone's bound on cos_y only if that is not enough.
-        float g_max = min(1.0, reach / d_min) / (d_min * d_min);
-        if (g_max <= pc.bound) return SKIP;
-        if (g_max * max_cos_y(axis, g.normal_cone.w, d, dist, extent.x) <= pc.bound) return SKIP;
+        // G <= cos_x / d_min^2 = min(d_min, reach) / d_min^3, and the cone's bound on cos_y.
+        float g_max = min(d_min, reach) / (d_min * d_min * d_min);
+        skip = skip || g_max <= pc.bound
+            || g_max * max_cos_y(axis, g.normal_cone.w, d, inv_dist, extent.x) <= pc.bound;
     }
-    return level > 0 && extent.x > pc.refine_ratio * dist ? REFINE : ADD;
+    // The mean's own geometry term (accumulate's test).
+    float k = max(-dot(ny, d), 0.0) * inv_dist * inv_dist * inv_dist;
+    bool counts = dist > 1e-6 && along * inv_dist * k > pc.bound;
+    int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist ? REFINE : ADD);
+    return Visit(action, counts ? d * (inv_dist * k) : vec3(0.0), max(d_min, 0.0));
 }
 
-// Adds a cluster from its means: max(G - b, 0) * sum(A_y S(y)).
-void add_cluster(inout Residual acc, GeoCluster g, vec3 x, vec3 nx, vec3 as, inout float nearest) {
-    vec3 d = g.position_extent.xyz - x;
-    float dist = length(d);
-    if (dist > 1e-6 && accumulate(acc, nx, g.normal_cone.xyz, d, dist, as)) {
-        nearest = min(nearest, max(dist - cluster_extent(g).x, 0.0));
+// Adds a visited cluster from its means: max(G - b, 0) * sum(A_y S(y)).
+void add_visit(inout Residual acc, Visit v, vec3 as, inout float nearest) {
+    if (v.action == ADD && v.wk != vec3(0.0)) {
+        acc.r += vec4(v.wk * as.r, as.r);
+        acc.g += vec4(v.wk * as.g, as.g);
+        acc.b += vec4(v.wk * as.b, as.b);
+        nearest = min(nearest, v.d_near);
     }
 }
 
@@ -323,13 +343,12 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
     while (root < roots) {
         count++;
         uint i = texel_index(t.xy, t.z);
-        GeoTexel g = GeoTexel(geo_cluster(i, 0u), geo_cluster(i, 1u));
-        int front = classify(g.front, x, nx, r_world, t.z);
-        int back = classify(g.back, x, nx, r_world, t.z);
-        bool refine = front == REFINE || back == REFINE;
+        Visit front = visit(geo_cluster(i, 0u), x, nx, r_world, t.z);
+        Visit back = visit(geo_cluster(i, 1u), x, nx, r_world, t.z);
+        bool refine = front.action == REFINE || back.action == REFINE;
         if (!refine) {
-            if (front == ADD) add_cluster(acc, g.front, x, nx, cluster_radiance(i, 0u), nearest);
-            if (back == ADD) add_cluster(acc, g.back, x, nx, cluster_radiance(i, 1u), nearest);
+            add_visit(acc, front, cluster_radiance(i, 0u), nearest);
+            add_visit(acc, back, cluster_radiance(i, 1u), nearest);
         }
         if (refine) {
             t = ivec3(t.xy * 2, t.z - 1);
