@@ -74,7 +74,7 @@ void main() {
         if (w > 0.0) {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
-                EvalPoint point = points[texel_index(t, l)];
+                EvalPoint point = load_point(point_texels, texel_index(t, l));
                 GeoCluster g = geo_cluster(texel_index(eval_pixel(t, l), 0), 0u);
                 vec3 n = g.normal_cone.xyz;
                 vec3 d = x - g.position_extent.xyz;

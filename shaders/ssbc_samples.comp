@@ -8,7 +8,7 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 3) readonly buffer EvalPoints { EvalPoint points[]; };
+layout(set = 0, binding = 3) uniform usamplerBuffer point_texels;  // points[] as texels
 layout(set = 0, binding = 4, r32f) uniform image2D samples;
 
 void main() {
@@ -18,7 +18,7 @@ void main() {
     float reads = imageLoad(samples, p).x;
     for (int l = 0; l <= int(pc.eval_level); l++) {
         uint index = texel_index(p >> l, l);
-        EvalPoint point = points[index];
+        EvalPoint point = load_point(point_texels, index);
         if (point.generation == pc.generation && point.reads > 0.0) {
             reads += point.reads / float(aux[index].pixels);
         }

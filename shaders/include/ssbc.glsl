@@ -397,4 +397,15 @@ struct EvalPoint {
     uint pad;
 };
 
+// Evaluation point `index` from a texel view of the points (four
+// R32G32B32A32_UINT texels per point; see SSBC_READ_PYRAMIDS for why).
+EvalPoint load_point(usamplerBuffer texels, uint index) {
+    int at = int(4u * index);
+    uvec4 tail = texelFetch(texels, at + 3);
+    return EvalPoint(Residual(uintBitsToFloat(texelFetch(texels, at)),
+                              uintBitsToFloat(texelFetch(texels, at + 1)),
+                              uintBitsToFloat(texelFetch(texels, at + 2))),
+                     uintBitsToFloat(tail.x), uintBitsToFloat(tail.y), tail.z, tail.w);
+}
+
 #endif

@@ -16,6 +16,7 @@ layout(set = 0, binding = 10, rgba32f) uniform readonly image2D previous;   // S
 layout(set = 0, binding = 11, rgba32f) uniform writeonly image2D final_image;
 layout(set = 0, binding = 12, rgba32f) uniform writeonly image2D residual;  // S_k
 layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
+layout(set = 0, binding = 14) uniform usamplerBuffer point_texels;          // points[] as texels (reads)
 
 // S_k(p) = albedo / pi * I; final = previous + S_k; `reads`: the pixel's own.
 void write_residual(ivec2 p, vec3 integral, float reads) {

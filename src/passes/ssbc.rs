@@ -147,6 +147,8 @@ pub struct SsbcFrame {
     geo_texels: BufferView,
     /// `radiance` as `R32G32B32A32_SFLOAT` texels (two per texel).
     radiance_texels: BufferView,
+    /// `points` as `R32G32B32A32_UINT` texels (four per `EvalPoint`).
+    point_texels: BufferView,
     /// Geometry pyramid, every level in one buffer (`GeoTexel` in ssbc.glsl).
     pub geo: Buffer,
     /// Summed area, pixel count and continuity per texel (`GeoAux`).
@@ -297,8 +299,13 @@ impl SsbcPass {
         };
         let push = std::mem::size_of::<SsbcPush>();
         // Points, pending in, pending out, requests, G-buffer (3), previous
-        // sum, final, residual, samples (ssbc_output.glsl).
-        let output = [&[T::STORAGE_BUFFER; 4][..], &[T::STORAGE_IMAGE; 7]].concat();
+        // sum, final, residual, samples, points as texels (ssbc_output.glsl).
+        let output = [
+            &[T::STORAGE_BUFFER; 4][..],
+            &[T::STORAGE_IMAGE; 7],
+            &[T::UNIFORM_TEXEL_BUFFER],
+        ]
+        .concat();
         let kernel =
             |spirv, own: &[T]| ComputeKernel::new(device, spirv, &with_pyramids(own), push);
         let reader =
@@ -315,10 +322,10 @@ impl SsbcPass {
                 .named("ssbc_residual_eval"),
             resolve: reader(shaders::SSBC_RESOLVE_COMP, &output)?.named("ssbc_residual_resolve"),
             fallback: reader(shaders::SSBC_FALLBACK_COMP, &output)?.named("ssbc_residual_fallback"),
-            // Points, samples.
+            // Points (as texels), samples.
             samples: reader(
                 shaders::SSBC_SAMPLES_COMP,
-                &[T::STORAGE_BUFFER, T::STORAGE_IMAGE],
+                &[T::UNIFORM_TEXEL_BUFFER, T::STORAGE_IMAGE],
             )?
             .named("ssbc_samples"),
         })
@@ -428,7 +435,13 @@ impl SsbcPass {
         )?;
         let view =
             |buffer: &Buffer, format, name: &str| BufferView::new(device, buffer, format, 16, name);
+        let points = storage(
+            "ssbc.eval_points",
+            texels * EVAL_POINT_BYTES,
+            vk::BufferUsageFlags::TRANSFER_DST | texel_usage,
+        )?;
         Ok(SsbcFrame {
+            point_texels: view(&points, vk::Format::R32G32B32A32_UINT, "ssbc.eval_points texels")?,
             geo_texels: view(
                 &geo,
                 vk::Format::R32G32B32A32_UINT,
@@ -442,11 +455,7 @@ impl SsbcPass {
             geo,
             aux: storage("ssbc.pyramid.aux", texels * AUX_BYTES, none)?,
             radiance,
-            points: storage(
-                "ssbc.eval_points",
-                texels * EVAL_POINT_BYTES,
-                vk::BufferUsageFlags::TRANSFER_DST,
-            )?,
+            points,
             pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
             requests: list("ssbc.requests")?,
             fallback: list("ssbc.fallback")?,
@@ -685,6 +694,7 @@ impl SsbcPass {
         Self::read_pyramids(rec, frame);
         out.declare(rec);
         rec.use_buffer(&frame.points, Access::ComputeRead);
+        rec.use_buffer(&frame.points, Access::ComputeSampled);
         rec.use_buffer(&frame.requests, Access::ComputeRead);
         rec.use_buffer(&frame.fallback, Access::IndirectRead);
         rec.use_buffer(&frame.fallback, Access::ComputeRead);
@@ -704,13 +714,13 @@ impl SsbcPass {
         // Texels read per pixel.
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
         Self::read_pyramids(rec, frame);
-        rec.use_buffer(&frame.points, Access::ComputeRead);
+        rec.use_buffer(&frame.points, Access::ComputeSampled);
         rec.use_image(out.samples, Access::ComputeWrite);
         rec.flush_barriers();
         let bindings = [
             &Self::pyramid_read_bindings(frame)[..],
             &[
-                Binding::StorageBuffer(&frame.points),
+                Binding::UniformTexelBuffer(&frame.point_texels),
                 Binding::storage(out.samples),
             ],
         ]
@@ -774,7 +784,10 @@ impl SsbcPass {
         rec.update_buffer(&frame.requests, 0, bytemuck::bytes_of(&LIST_HEADER));
         Self::read_pyramids(rec, frame);
         out.declare(rec);
+        // Points of this level are read as texels, those of the next finer
+        // level stamped through the storage binding.
         rec.use_buffer(&frame.points, Access::ComputeWrite);
+        rec.use_buffer(&frame.points, Access::ComputeSampled);
         if groups.is_none() {
             rec.use_buffer(pending_in, Access::IndirectRead);
         }
@@ -886,6 +899,7 @@ impl StepOutput<'_> {
                 Binding::storage(self.final_image),
                 Binding::storage(self.residual),
                 Binding::storage(self.samples),
+                Binding::UniformTexelBuffer(&frame.point_texels),
             ],
         ]
         .concat()
