@@ -336,11 +336,11 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
     int root_level = clamp(int(ceil(log2(max(radius_px, 1.0) * 0.5))), 0, top);
     ivec2 lo = max(ivec2(floor(center - radius_px)) >> root_level, ivec2(0));
     ivec2 hi = min(ivec2(ceil(center + radius_px)) >> root_level, level_size(root_level) - 1);
-    int roots_wide = hi.x - lo.x + 1;
-    int roots = roots_wide * (hi.y - lo.y + 1);
-    int root = 0;
+    // Roots in rows, x fastest (stepped, not divided: lavapipe has no vector
+    // integer division and would run eight scalar ones per iteration).
     ivec3 t = ivec3(lo, root_level);
-    while (root < roots) {
+    bool more = all(lessThanEqual(lo, hi));
+    while (more) {
         count++;
         uint i = texel_index(t.xy, t.z);
         Visit front = visit(geo_cluster(i, 0u), x, nx, r_world, t.z);
@@ -357,8 +357,8 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
             int climb = min(findLSB(~(t.x & t.y)), root_level - t.z);
             t = ivec3(t.xy >> climb, t.z + climb);
             if (t.z == root_level) {
-                root++;
-                t = ivec3(lo + ivec2(root % roots_wide, root / roots_wide), root_level);
+                t.xy = t.x < hi.x ? ivec2(t.x + 1, t.y) : ivec2(lo.x, t.y + 1);
+                more = t.y <= hi.y;
             } else {
                 t.xy += (t.x & 1) == 0 ? ivec2(1, 0) : ivec2(-1, 1);
             }
