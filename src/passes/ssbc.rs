@@ -41,7 +41,10 @@ pub struct SsbcSettings {
     /// Lower clamp of cos(theta_view) in A_y (conservative grazing-angle compensation).
     pub min_cos_view: f32,
     /// Refine a texel whose bounding sphere's radius exceeds this fraction of
-    /// its distance to x.
+    /// its distance to x. 0.16 keeps the hierarchical residual within 1.7%
+    /// relative RMSE and 0.7% in the mean of brute force on the built-in
+    /// scenes and an open box at 256x192 to 640x480 (tests/ssbc.rs); 0.1
+    /// reads 1.3 to 1.6 times as many texels, 0.2 exceeds 2% at 320x240.
     pub refine_ratio: f32,
     /// A texel is one smooth surface ("continuous", usable as an evaluation
     /// point) if the mean of its unit normals is at least this long...
@@ -67,7 +70,7 @@ impl Default for SsbcSettings {
             steps: 2,
             integration: Integration::Hierarchical,
             min_cos_view: 0.2,
-            refine_ratio: 0.1,
+            refine_ratio: 0.16,
             max_normal_spread: 0.9,
             max_thickness: 0.25,
             texels_per_radius: 8.0,
