@@ -444,7 +444,11 @@ impl SsbcPass {
             vk::BufferUsageFlags::TRANSFER_DST | texel_usage,
         )?;
         Ok(SsbcFrame {
-            point_texels: view(&points, vk::Format::R32G32B32A32_UINT, "ssbc.eval_points texels")?,
+            point_texels: view(
+                &points,
+                vk::Format::R32G32B32A32_UINT,
+                "ssbc.eval_points texels",
+            )?,
             geo_texels: view(
                 &geo,
                 vk::Format::R32G32B32A32_UINT,
