@@ -266,13 +266,12 @@ const int ADD = 1;
 const int REFINE = 2;
 
 // One cluster as the traversal sees it: what to do with it, and what adding
-// it from its means adds (see `accumulate` and `clipped_mean`):
-// weight x (wk - b) + extra, per unit of A_y S(y), for the receiver's normal.
+// it from its means adds per unit of A_y S(y) in the linear form of
+// `Residual` (see `accumulate` and SPREAD): wk to V, weight to C.
 struct Visit {
     int action;
-    vec3 wk;          // w cos(theta_y) / d^2 at the mean
+    vec3 wk;          // weight x w cos(theta_y) / d^2 at the mean (+ the straddling term)
     float weight;     // 0: adds nothing
-    float extra;      // times the receiver's normal
     float d_near;     // distance left to its sphere (if G > b at the mean)
 };
 
@@ -331,18 +330,18 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     bool straddles = m < s && s > 0.0;
     float weight = dist > 1e-6 ? (straddles ? 0.5 * t : (m > 0.0 ? 1.0 : 0.0)) : 0.0;
     int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist ? REFINE : ADD);
-    return Visit(action, d * (inv_dist * k), weight, straddles ? 0.5 * t * s : 0.0,
-                 m > 0.0 ? max(d_min, 0.0) : r_world);
+    // The straddling term t/2 s is constant: n . n = 1 carries it in V.
+    vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
+    return Visit(action, wk, weight, m > 0.0 ? max(d_min, 0.0) : r_world);
 }
 
 // Adds a visited cluster from its means: the mean of max(G - b, 0) over it
 // times sum(A_y S(y)), kept linear in the receiver's normal nx.
-void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout float nearest) {
+void add_visit(inout Residual acc, Visit v, vec3 as, inout float nearest) {
     if (v.action == ADD && v.weight > 0.0) {
-        vec3 wk = v.weight * v.wk + v.extra * nx;
-        acc.r += vec4(wk * as.r, v.weight * as.r);
-        acc.g += vec4(wk * as.g, v.weight * as.g);
-        acc.b += vec4(wk * as.b, v.weight * as.b);
+        acc.r += vec4(v.wk * as.r, v.weight * as.r);
+        acc.g += vec4(v.wk * as.g, v.weight * as.g);
+        acc.b += vec4(v.wk * as.b, v.weight * as.b);
         nearest = min(nearest, v.d_near);
     }
 }
@@ -373,8 +372,8 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
         Visit back = visit(geo_cluster(i, 1u), x, nx, r_world, t.z);
         bool refine = front.action == REFINE || back.action == REFINE;
         if (!refine) {
-            add_visit(acc, front, cluster_radiance(i, 0u), nx, nearest);
-            add_visit(acc, back, cluster_radiance(i, 1u), nx, nearest);
+            add_visit(acc, front, cluster_radiance(i, 0u), nearest);
+            add_visit(acc, back, cluster_radiance(i, 1u), nearest);
         }
         if (refine) {
             t = ivec3(t.xy * 2, t.z - 1);
