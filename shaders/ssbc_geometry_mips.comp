@@ -1,8 +1,7 @@
 #version 460
 #extension GL_EXT_control_flow_attributes : require
-// SSBC geometry pyramid, one level per dispatch (pc.level).
-// Level 0 from the G-buffer: the pixel's world position and unit normal, and
-// the world-space area A_y seen through it (one cluster). Level l from l-1:
+// SSBC geometry pyramid, one level >= 1 per dispatch (pc.level; level 0 is
+// ssbc_geometry_base.comp). Level l from l-1:
 // the children's clusters (up to eight) sorted by depth and split at the
 // largest gap into a front and a back cluster; each gets the area-weighted
 // mean position and mean of the unit normals (left unnormalised: its length
@@ -17,8 +16,6 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
 
 // The clusters of the four children: 2k + c is cluster c of child k.
 GeoCluster members[8];
@@ -77,19 +74,6 @@ void main() {
     int level = int(pc.level);
     if (any(greaterThanEqual(p, level_size(level)))) return;
     uint dst = texel_index(p, level);
-    if (level == 0) {
-        vec4 position = vec4(0.0);
-        vec3 n = vec3(0.0);
-        if (all(lessThan(uvec2(p), pc.size))) {
-            position = imageLoad(g_position, p);
-            n = imageLoad(g_normal, p).xyz;
-        }
-        bool geometry = position.w != 0.0;
-        geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), empty_cluster());
-        aux[dst] = GeoAux(geometry ? pixel_area(position.xyz, n) : 0.0, 0.0, geometry ? 1u : 0u,
-                          geometry ? 1u : 0u);
-        return;
-    }
     uint pixels = 0u;
     bool continuous = true;
     float depth[8];
