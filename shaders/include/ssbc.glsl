@@ -117,7 +117,7 @@ layout(push_constant) uniform SsbcPush {
     float nearest_fraction;   // interpolate over at most this x the distance to the nearest contributor
     uint generation;          // evaluation points of this step carry this stamp
     uint from_list;           // 1: work items come from a list; 0: every texel of `level`
-    uint pad0;
+    float refine_excess;      // ...only if G may exceed (1 + this) b somewhere in it
     uint pad1;
     uint pad2;
 } pc;
@@ -295,7 +295,9 @@ const float SPREAD = 0.3;
 // reaches at most `reach` in front of the receiver's tangent plane) and cos_y
 // by the normal cone; a cluster behind the tangent plane or facing away has
 // G = 0. It needs refining if its bounding sphere is larger than
-// refine_ratio x its distance; otherwise it can be added from its means.
+// refine_ratio x its distance and G may exceed (1 + refine_excess) b in it
+// (where it cannot, max(G - b, 0) <= refine_excess b bounds what it adds,
+// error included); otherwise it is added from its means.
 // Written without early returns and with one reciprocal square root per
 // vector: lavapipe runs every branch of a divergent SIMD group anyway, and
 // square roots and divisions are most of a texel's cost there.
@@ -314,11 +316,12 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     float reach = along + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
     // A coplanar cluster reaches 0 up to rounding of its normals (1e-3 of its extent).
     bool skip = extent.y < 0.0 || d_min >= r_world || reach <= 1e-3 * extent.x;
+    float g_max = 3.4e38;
     if (d_min > 0.0) {
         // G <= cos_x / d_min^2 = min(d_min, reach) / d_min^3, and the cone's bound on cos_y.
-        float g_max = min(d_min, reach) / (d_min * d_min * d_min);
-        skip = skip || g_max <= pc.bound
-            || g_max * max_cos_y(axis, g.normal_cone.w, d, inv_dist, extent.x) <= pc.bound;
+        g_max = min(d_min, reach) / (d_min * d_min * d_min);
+        g_max = g_max <= pc.bound ? g_max : g_max * max_cos_y(axis, g.normal_cone.w, d, inv_dist, extent.x);
+        skip = skip || g_max <= pc.bound;
     }
     // The mean's own geometry term, k = cos(theta_y) / d^2, and the mean of
     // max(G - b, 0) over the cluster (see SPREAD; s = 0 for a pixel).
@@ -329,7 +332,7 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     float t = clamp((m + s) / max(2.0 * s, 1e-30), 0.0, 1.0);
     bool straddles = m < s && s > 0.0;
     float weight = dist > 1e-6 ? (straddles ? 0.5 * t : (m > 0.0 ? 1.0 : 0.0)) : 0.0;
-    int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist ? REFINE : ADD);
+    int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist && g_max > (1.0 + pc.refine_excess) * pc.bound ? REFINE : ADD);
     // The straddling term t/2 s is constant: n . n = 1 carries it in V.
     vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
     return Visit(action, wk, weight, m > 0.0 ? max(d_min, 0.0) : r_world);

@@ -119,6 +119,9 @@ pub fn one_step(size: (u32, u32), bound: Bound) -> RenderSettings {
     if let Some(v) = var("SSBC_REFINE_RATIO") {
         s.ssbc.refine_ratio = v;
     }
+    if let Some(v) = var("SSBC_REFINE_EXCESS") {
+        s.ssbc.refine_excess = v;
+    }
     if let Some(v) = var("SSBC_MAX_NORMAL_SPREAD") {
         s.ssbc.max_normal_spread = v;
     }
