@@ -45,7 +45,7 @@ void main() {
         return;
     }
     uint count = 0u;
-    float nearest;
-    Residual residual = residual_integral(x, g.normal_cone.xyz, vec2(q), count, nearest);
-    points[index] = EvalPoint(residual, float(count), nearest, pc.generation, 0u);
+    float variation;
+    Residual residual = residual_integral(x, g.normal_cone.xyz, vec2(q), count, variation);
+    points[index] = EvalPoint(residual, float(count), variation, pc.generation, 0u);
 }

