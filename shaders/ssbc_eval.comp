@@ -23,8 +23,9 @@ void main() {
         if (i >= requests.header.count) return;
         t = unpack_item(requests.items[i]);
     } else {
-        if (i >= uint(size_l.x * size_l.y)) return;
-        t = ivec2(int(i) % size_l.x, int(i) / size_l.x);
+        // One row of work groups per row of the level (no integer division).
+        t = ivec2(gl_GlobalInvocationID.xy);
+        if (t.x >= size_l.x) return;
     }
     uint index = texel_index(t, l);
     ivec2 q = eval_pixel(t, l);

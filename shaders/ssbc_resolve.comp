@@ -46,8 +46,9 @@ void main() {
         if (i >= pending_in.header.count) return;
         p = unpack_item(pending_in.items[i]);
     } else {
-        if (i >= pc.size.x * pc.size.y) return;
-        p = ivec2(int(i % pc.size.x), int(i / pc.size.x));
+        // One row of work groups per image row (no integer division).
+        p = ivec2(gl_GlobalInvocationID.xy);
+        if (p.x >= int(pc.size.x)) return;
     }
     vec4 xp = imageLoad(g_position, p);
     if (xp.w == 0.0) {

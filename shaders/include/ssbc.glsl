@@ -221,10 +221,10 @@ vec3 residual_at(Residual acc, vec3 n) {
                     dot(n, acc.b.xyz) - pc.bound * acc.b.w), vec3(0.0));
 }
 
-// What a contribution c at distance d adds to the sums (sum c, sum c / d)
-// whose ratio is the variation scale (see residual_integral).
-void add_to_scale(inout vec2 scale, float c, float d) {
-    scale += vec2(c, c / max(d, 1e-30));
+// What a contribution c at distance 1 / inv_d adds to the sums (sum c,
+// sum c / d) whose ratio is the variation scale (see residual_integral).
+void add_to_scale(inout vec2 scale, float c, float inv_d) {
+    scale += vec2(c, c * inv_d);
 }
 
 // Every texel of level 0 in the window (the reference).
@@ -245,7 +245,7 @@ void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float rad
                 if (accumulate(acc, nx, g.normal_cone.xyz, d, dist, as)) {
                     vec3 w = d / dist;
                     float excess = dot(nx, w) * max(-dot(g.normal_cone.xyz, w), 0.0) / d2 - pc.bound;
-                    add_to_scale(scale, excess * (as.r + as.g + as.b), dist);
+                    add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
                 }
             }
         }
@@ -282,7 +282,7 @@ struct Visit {
     int action;
     vec3 wk;          // weight x w cos(theta_y) / d^2 at the mean (+ the straddling term)
     float weight;     // 0: adds nothing
-    float dist;       // distance to its mean
+    float inv_dist;   // 1 / distance to its mean
 };
 
 // Adding a cluster from its mean takes max(G - b, 0) at the mean for the
@@ -326,12 +326,15 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     float reach = along + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
     // A coplanar cluster reaches 0 up to rounding of its normals (1e-3 of its extent).
     bool skip = extent.y < 0.0 || d_min >= r_world || reach <= 1e-3 * extent.x;
-    float g_max = 3.4e38;
+    bool may_exceed = true;  // G may exceed (1 + refine_excess) b somewhere in it
     if (d_min > 0.0) {
-        // G <= cos_x / d_min^2 = min(d_min, reach) / d_min^3, and the cone's bound on cos_y.
-        g_max = min(d_min, reach) / (d_min * d_min * d_min);
-        g_max = g_max <= pc.bound ? g_max : g_max * max_cos_y(axis, g.normal_cone.w, d, inv_dist, extent.x);
-        skip = skip || g_max <= pc.bound;
+        // G <= cos_x / d_min^2 = min(d_min, reach) / d_min^3, and the cone's
+        // bound on cos_y; compared as G d_min^3 (no division).
+        float cube = d_min * d_min * d_min;
+        float g_cube = min(d_min, reach);
+        g_cube = g_cube <= pc.bound * cube ? g_cube : g_cube * max_cos_y(axis, g.normal_cone.w, d, inv_dist, extent.x);
+        skip = skip || g_cube <= pc.bound * cube;
+        may_exceed = g_cube > (1.0 + pc.refine_excess) * pc.bound * cube;
     }
     // The mean's own geometry term, k = cos(theta_y) / d^2, and the mean of
     // max(G - b, 0) over the cluster (see SPREAD; s = 0 for a pixel).
@@ -342,10 +345,10 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     float t = clamp((m + s) / max(2.0 * s, 1e-30), 0.0, 1.0);
     bool straddles = m < s && s > 0.0;
     float weight = dist > 1e-6 ? (straddles ? 0.5 * t : (m > 0.0 ? 1.0 : 0.0)) : 0.0;
-    int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist && g_max > (1.0 + pc.refine_excess) * pc.bound ? REFINE : ADD);
+    int action = skip ? SKIP : (level > 0 && extent.x > pc.refine_ratio * dist && may_exceed ? REFINE : ADD);
     // The straddling term t/2 s is constant: n . n = 1 carries it in V.
     vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
-    return Visit(action, wk, weight, dist);
+    return Visit(action, wk, weight, inv_dist);
 }
 
 // Adds a visited cluster from its means: the mean of max(G - b, 0) over it
@@ -355,7 +358,7 @@ void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
         acc.r += vec4(v.wk * as.r, v.weight * as.r);
         acc.g += vec4(v.wk * as.g, v.weight * as.g);
         acc.b += vec4(v.wk * as.b, v.weight * as.b);
-        add_to_scale(scale, max(dot(nx, v.wk) - pc.bound * v.weight, 0.0) * (as.r + as.g + as.b), v.dist);
+        add_to_scale(scale, max(dot(nx, v.wk) - pc.bound * v.weight, 0.0) * (as.r + as.g + as.b), v.inv_dist);
     }
 }
 

@@ -687,7 +687,7 @@ impl SsbcPass {
         push.from_list = 0;
         let (w, h) = Self::level_extent(frame, top);
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{top}"));
-        self.record_eval(rec, pool, push, frame, [(w * h).div_ceil(64), 1, 1])?;
+        self.record_eval(rec, pool, push, frame, [w.div_ceil(64), h, 1])?;
         profiler.end(rec.cmd, sub);
         let mut pending_in = &frame.fallback; // unused while from_list == 0
         let mut pending_out = if top >= 2 {
@@ -703,7 +703,7 @@ impl SsbcPass {
             frame,
             out,
             (pending_in, pending_out),
-            Some([(pixels.0 * pixels.1).div_ceil(64), 1, 1]),
+            Some([pixels.0.div_ceil(64), pixels.1, 1]),
         )?;
         profiler.end(rec.cmd, sub);
         // Finer levels: the points asked for, the pixels still pending.
