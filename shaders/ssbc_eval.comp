@@ -38,8 +38,9 @@ void main() {
     // it on the point's surface, so a block across a silhouette or crease
     // still serves the pixels on its point's side (tori 1024x768: 4.1 ->
     // 3.7% of pixels alone, traversal -12%). Coarser, that let pixels
-    // interpolate across edges (cornell 640x480: 1.2 -> 4.2% RMSE).
-    bool usable = (l == 1 || (aux[index].flags & 1u) == 1u)
+    // interpolate across edges (cornell 640x480: 1.2 -> 4.2% RMSE). Either
+    // way the point's own pixel must be geometry.
+    bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (aux[index].flags & 1u) == 1u)
         && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
     if (!usable) {
         points[index] = EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u);
