@@ -16,7 +16,6 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-
 // The clusters of the four children: 2k + c is cluster c of child k.
 GeoCluster members[8];
 float member_area[8];

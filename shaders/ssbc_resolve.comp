@@ -3,11 +3,11 @@
 // form bilinearly from the four evaluation points of that level around it,
 // and evaluates it for its own normal, when every point (with a non-zero
 // weight) was usable and lies on the pixel's own smooth surface (below) and
-// close enough: within 1.5 / texels_per_radius of
-// the bounding radius, and within scale_fraction of the point's variation
-// scale (the length over which I(x) changes: short near corners and
-// contacts; see residual_integral). Otherwise the pixel asks for the four points around
-// it one level finer and goes on the pending list for that level; at level 1
+// close enough: within 1.5 / texels_per_radius of the bounding radius, and
+// within scale_fraction of the point's variation scale (the length over
+// which I(x) changes: short near corners and contacts; see
+// residual_integral). Otherwise the pixel asks for the four points around it
+// one level finer and goes on the pending list for that level; at level 1
 // the pending list is the fallback list (the pixel is evaluated alone).
 // pc.from_list = 0: every pixel (the coarsest level); 1: the pending list.
 #define SSBC_READ_PYRAMIDS
