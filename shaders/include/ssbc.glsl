@@ -201,17 +201,18 @@ struct Residual {
 
 // Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`) if G > b there.
 // `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is
-// then the area-weighted mean of the cosines. Returns whether it counted.
-bool accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 as) {
+// then the area-weighted mean of the cosines. Returns what it added per unit
+// of A_y S(y), max(G - b, 0).
+float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 as) {
     vec3 w = d / dist;
     float cos_x = dot(nx, w);
     float k = max(-dot(ny, w), 0.0) / (dist * dist);
-    if (!(cos_x * k > pc.bound)) return false;
+    if (!(cos_x * k > pc.bound)) return 0.0;
     vec3 wk = w * k;
     acc.r += vec4(wk * as.r, as.r);
     acc.g += vec4(wk * as.g, as.g);
     acc.b += vec4(wk * as.b, as.b);
-    return true;
+    return cos_x * k - pc.bound;
 }
 
 // I(x) for the normal n from the linear form.
@@ -242,11 +243,8 @@ void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float rad
             if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
                 vec3 as = cluster_radiance(i, 0u);
                 float dist = sqrt(d2);
-                if (accumulate(acc, nx, g.normal_cone.xyz, d, dist, as)) {
-                    vec3 w = d / dist;
-                    float excess = dot(nx, w) * max(-dot(g.normal_cone.xyz, w), 0.0) / d2 - pc.bound;
-                    add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
-                }
+                float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
+                add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
             }
         }
     }
