@@ -14,9 +14,46 @@ struct Xvfb(Child);
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
+        // SIGTERM lets Xvfb remove its lock file and socket; SIGKILL left
+        // them behind, and every run used up a display number.
+        // SAFETY: kill(2) on the pid of our own, not yet reaped child.
+        unsafe { libc::kill(self.0.id() as libc::pid_t, libc::SIGTERM) };
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.0.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
+}
+
+/// Whether display `n` is free. The lock file and socket of a server that
+/// is no longer running (killed before it could clean up) are removed.
+fn display_is_free(n: u32) -> bool {
+    let lock = format!("/tmp/.X{n}-lock");
+    let socket = format!("/tmp/.X11-unix/X{n}");
+    if let Ok(text) = std::fs::read_to_string(&lock) {
+        let alive = text
+            .trim()
+            .parse::<libc::pid_t>()
+            // SAFETY: signal 0 only checks that the process exists (EPERM:
+            // it does, as another user's).
+            .map(|pid| {
+                pid > 0
+                    && (unsafe { libc::kill(pid, 0) } == 0
+                        || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH))
+            })
+            .unwrap_or(true);
+        if alive {
+            return false;
+        }
+        let _ = std::fs::remove_file(&lock);
+        let _ = std::fs::remove_file(&socket);
+    }
+    !std::path::Path::new(&lock).exists() && !std::path::Path::new(&socket).exists()
 }
 
 /// Why the X server is missing: not installed (skip) or broken (fail).
@@ -28,9 +65,7 @@ enum NoServer {
 /// Starts Xvfb on a free display number.
 fn start_xvfb() -> Result<(Xvfb, String), NoServer> {
     for display in 90..120 {
-        if std::path::Path::new(&format!("/tmp/.X11-unix/X{display}")).exists()
-            || std::path::Path::new(&format!("/tmp/.X{display}-lock")).exists()
-        {
+        if !display_is_free(display) {
             continue;
         }
         let child = Command::new("Xvfb")
