@@ -50,6 +50,9 @@ pub mod profile;
 pub mod renderer;
 pub mod resident;
 pub mod scene;
+pub mod scene_cache;
+pub mod settings;
+pub mod timings;
 #[cfg(feature = "viewer")]
 pub mod viewer;
 pub mod vk;

@@ -33,6 +33,7 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 use crate::passes::ssbc::{SsbcCamera, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcPass, SsbcSettings};
+use crate::passes::PassSlot;
 use crate::vk::{DescriptorPool, Device, GpuProfiler, Image, ImageDesc, Recorder};
 
 /// One of the host's images: handle, a 2D view of it, its size and the
@@ -86,18 +87,15 @@ pub struct PostProcessInputs {
     pub typical_depth: f32,
 }
 
-/// Per-slot resources.
-struct Slot {
-    key: (u32, u32, u32),
-    frame: SsbcFrame,
-    pool: DescriptorPool,
-}
+/// One slot's pyramids and images, for (width, height, steps, coarsest
+/// evaluation level).
+type SsbcSlot = PassSlot<(u32, u32, u32, u32), SsbcFrame>;
 
 /// SSBC on the host's images (see the module documentation). Command
 /// buffers must be submitted in the order they were recorded.
 pub struct SsbcPostProcess {
     // Field order is drop order: resources before the device.
-    slots: Vec<Option<Slot>>,
+    slots: Vec<Option<SsbcSlot>>,
     pass: SsbcPass,
     /// Labels only (the host times its own command buffer).
     profiler: GpuProfiler,
@@ -188,23 +186,21 @@ impl SsbcPostProcess {
             .get_mut(slot)
             .ok_or_else(|| Error::InvalidParameter(format!("frame slot {slot} of {slot_count}")))?;
         crate::passes::ssbc::check_size(&self.device, w, h)?;
-        let key = (w, h, settings.steps);
-        if entry.as_ref().is_none_or(|s| s.key != key) {
-            *entry = None;
-            let frame = self.pass.prepare(&self.device, (w, h), settings.steps)?;
-            let max_eval = settings
-                .max_eval_level
-                .min(frame.levels().saturating_sub(1));
-            let pool = DescriptorPool::new(
-                &self.device,
-                &self.pass.set_layouts((w, h), settings.steps, max_eval),
-            )?;
-            pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
-            *entry = Some(Slot { key, frame, pool });
-        }
-        let Slot { frame, pool, .. } = entry.as_ref().expect("prepared above");
         // The host finished this slot's previous frame (its promise).
-        pool.reset()?;
+        let (pass, device) = (&self.pass, &self.device);
+        let steps = settings.steps;
+        let held = PassSlot::refresh(
+            entry,
+            (w, h, steps, settings.max_eval_level),
+            |_| Ok(false),
+            || pass.allocate(device, (w, h), steps, settings.max_eval_level),
+            |frame| {
+                let pool = DescriptorPool::new(device, &pass.frame_layouts(frame))?;
+                pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
+                Ok(pool)
+            },
+        )?;
+        let (frame, pool) = (&held.resources, &held.pool);
 
         let wrap = |image: &HostImage, usage| {
             Image::from_host(
@@ -239,7 +235,7 @@ impl SsbcPostProcess {
         let mut rec = Recorder::for_host(&self.device, cmd);
         self.profiler.begin_frame(cmd, 0, false);
         let scope = self.profiler.begin(cmd, "ssbc_postprocess");
-        let recorded = self.pass.record(
+        let recorded = self.pass.record_steps(
             &mut rec,
             &mut self.profiler,
             pool,

@@ -4,6 +4,7 @@
 //! and low-discrepancy sampling.
 
 pub mod bvh;
+pub mod default_light;
 pub mod emitters;
 pub mod points;
 pub mod reference;

@@ -9,11 +9,11 @@ use ash::vk;
 
 use super::gbuffer::GBuffer;
 use super::shadow_maps::ShadowMaps;
+use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler,
-    Image, Recorder, Sampler,
+    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler,
 };
 
 /// The direct-lighting compute kernel.
@@ -59,22 +59,37 @@ impl DirectLightingPass {
             .named("shadow_maps.sampler"),
         })
     }
+}
 
-    /// The descriptor layout (for sizing pools).
-    pub fn set_layout(&self) -> &DescriptorSetLayout {
-        self.kernel.set_layout()
+impl Pass for DirectLightingPass {
+    const NAME: &'static str = "direct_lighting";
+    /// Width and height.
+    type Key = (u32, u32);
+    /// The `direct` layer.
+    type Resources = Image;
+    type Reads<'a> = (&'a GBuffer, &'a ShadowMaps);
+
+    fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
+        setup.extent()
     }
 
-    /// Writes the direct radiance of every G-buffer pixel into `direct`.
-    pub fn record(
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Image> {
+        super::radiance_image(setup.device, "lighting.direct", setup.extent())
+    }
+
+    fn set_layouts(&self, _: &Image) -> Vec<&DescriptorSetLayout> {
+        vec![self.kernel.set_layout()]
+    }
+
+    /// Writes the direct radiance of every G-buffer pixel.
+    fn record(
         &self,
-        rec: &mut Recorder<'_>,
-        profiler: &mut GpuProfiler,
+        cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        gbuffer: &GBuffer,
-        shadows: &ShadowMaps,
+        (gbuffer, shadows): (&GBuffer, &ShadowMaps),
         direct: &Image,
     ) -> Result<()> {
+        let Recording { rec, profiler, .. } = cx;
         let scope = profiler.begin(rec.cmd, "direct_lighting");
         gbuffer.read_in_compute(rec);
         rec.use_image(&gbuffer.emission, Access::ComputeRead);

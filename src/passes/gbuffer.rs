@@ -6,14 +6,14 @@
 use std::sync::Arc;
 
 use ash::vk;
-use glam::{Mat4, Vec3};
 
+use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::gpu_scene::GpuScene;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, GraphicsDesc, Image,
-    ImageDesc, Pipeline, Recorder,
+    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc,
+    Pipeline, Recorder,
 };
 
 /// Format of every G-buffer colour target (storage-image compatible).
@@ -137,19 +137,41 @@ impl GBufferPass {
         layout.name("gbuffer set layout");
         Ok(Self { layout, pipeline })
     }
+}
 
-    /// Rasterizes the scene into `gbuffer` with the camera `view_proj` at `eye`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
+impl Pass for GBufferPass {
+    const NAME: &'static str = "gbuffer";
+    /// Width and height.
+    type Key = (u32, u32);
+    type Resources = GBuffer;
+    type Reads<'a> = &'a GpuScene;
+
+    fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
+        setup.extent()
+    }
+
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
+        GBuffer::new(setup.device, setup.extent())
+    }
+
+    fn set_layouts(&self, _: &GBuffer) -> Vec<&DescriptorSetLayout> {
+        vec![&self.layout]
+    }
+
+    /// Rasterizes the scene from the frame's camera.
+    fn record(
         &self,
-        rec: &mut Recorder<'_>,
-        profiler: &mut GpuProfiler,
+        cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
         scene: &GpuScene,
         gbuffer: &GBuffer,
-        view_proj: Mat4,
-        eye: Vec3,
     ) -> Result<()> {
+        let Recording {
+            rec,
+            profiler,
+            view,
+            ..
+        } = cx;
         let set = pool.allocate(
             &self.layout,
             &[
@@ -183,8 +205,8 @@ impl GBufferPass {
             gbuffer.depth.view,
         );
         let push = Push {
-            view_proj: view_proj.to_cols_array(),
-            camera_position: eye.extend(1.0).into(),
+            view_proj: view.view_proj.to_cols_array(),
+            camera_position: view.camera.position.extend(1.0).into(),
         };
         self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
         // SAFETY: recording inside the rendering scope with the pipeline bound.
@@ -197,10 +219,5 @@ impl GBufferPass {
         }
         profiler.end(rec.cmd, scope);
         Ok(())
-    }
-
-    /// The descriptor layout (for sizing pools).
-    pub fn set_layout(&self) -> &DescriptorSetLayout {
-        &self.layout
     }
 }

@@ -7,15 +7,23 @@ use ash::vk;
 
 use super::gbuffer::GBuffer;
 use super::ism::Ism;
+use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler,
-    Image, Recorder,
+    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
 };
 
 /// Relative depth tolerance of the ISM visibility test.
 pub const ISM_BIAS: f32 = 0.05;
+
+/// What the pass writes.
+pub struct BoundedLighting {
+    /// `T_b L^`, the `indirect_bounded` layer.
+    pub indirect: Image,
+    /// `S0 = T Le + T_b L^`, what the SSBC steps start from.
+    pub s0: Image,
+}
 
 /// The bounded-indirect compute kernel.
 pub struct IndirectBoundedPass {
@@ -51,26 +59,47 @@ impl IndirectBoundedPass {
         .named("indirect_bounded");
         Ok(Self { kernel })
     }
+}
 
-    /// The descriptor layout (for sizing pools).
-    pub fn set_layout(&self) -> &DescriptorSetLayout {
-        self.kernel.set_layout()
+impl Pass for IndirectBoundedPass {
+    const NAME: &'static str = "indirect_bounded";
+    /// Width and height.
+    type Key = (u32, u32);
+    type Resources = BoundedLighting;
+    /// The G-buffer, the `direct` layer, the ISM atlas and its VPLs.
+    type Reads<'a> = (&'a GBuffer, &'a Image, &'a Ism);
+
+    fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
+        setup.extent()
+    }
+
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<BoundedLighting> {
+        let image = |name| super::radiance_image(setup.device, name, setup.extent());
+        Ok(BoundedLighting {
+            indirect: image("lighting.indirect_bounded")?,
+            s0: image("ssbc.s0")?,
+        })
+    }
+
+    fn set_layouts(&self, _: &BoundedLighting) -> Vec<&DescriptorSetLayout> {
+        vec![self.kernel.set_layout()]
     }
 
     /// Writes `indirect_bounded` and `s0 = direct + indirect_bounded`.
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
+    fn record(
         &self,
-        rec: &mut Recorder<'_>,
-        profiler: &mut GpuProfiler,
+        cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        gbuffer: &GBuffer,
-        direct: &Image,
-        ism: &Ism,
-        bound: f32,
-        indirect_bounded: &Image,
-        s0: &Image,
+        (gbuffer, direct, ism): (&GBuffer, &Image, &Ism),
+        out: &BoundedLighting,
     ) -> Result<()> {
+        let Recording {
+            rec,
+            profiler,
+            view,
+            ..
+        } = cx;
+        let (indirect_bounded, s0) = (&out.indirect, &out.s0);
         let scope = profiler.begin(rec.cmd, "indirect_bounded");
         for input in [
             &gbuffer.position,
@@ -92,7 +121,7 @@ impl IndirectBoundedPass {
             tile: ism.tile,
             tiles_per_row: ism.tiles_per_row,
             far: ism.far,
-            bound,
+            bound: view.bound,
             ism_bias: ISM_BIAS,
             point_radius: ism.point_radius,
         };

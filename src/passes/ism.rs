@@ -6,13 +6,13 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use crate::cpu::points::IsmPoints;
+use super::{Pass, Recording, SlotSetup};
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device,
-    GpuProfiler, Image, ImageDesc, Recorder,
+    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
+    ImageDesc,
 };
 
 /// The two ISM pipelines.
@@ -86,59 +86,31 @@ impl IsmPass {
             .named("ism_pullpush"),
         })
     }
+}
 
-    /// Descriptor layouts one frame allocates sets of (one splat set and one
-    /// pull-push set per pyramid level transition).
-    pub fn set_layouts(&self, tile: u32) -> Vec<&DescriptorSetLayout> {
-        let levels = tile.trailing_zeros() + 1;
-        let mut v = vec![self.splat.set_layout()];
-        v.extend(std::iter::repeat_n(
-            self.pullpush.set_layout(),
-            1 + 2 * (levels as usize - 1),
-        ));
-        v
+impl Pass for IsmPass {
+    const NAME: &'static str = "ism";
+    /// (VPL version, points version, far plane bits, tile side).
+    type Key = (u64, u64, u32, u32);
+    /// The atlas and the VPLs and points it is splatted from.
+    type Resources = Ism;
+    type Reads<'a> = ();
+
+    fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
+        let cache = setup.cache;
+        (
+            cache.vpls().version,
+            cache.points().version,
+            cache.diagonal().to_bits(),
+            setup.settings.ism_tile,
+        )
     }
 
-    /// Rewrites `ism`'s VPLs and points in place (no allocation) when their
-    /// counts and the tile match; false when it must be prepared anew. The
-    /// atlas's previous frame must be done.
-    pub fn update(
-        &self,
-        ism: &mut Ism,
-        vpls: &[GpuVpl],
-        points: &IsmPoints,
-        tile: u32,
-        far: f32,
-    ) -> Result<bool> {
-        let points_per_vpl = (points.positions.len() / vpls.len().max(1)) as u32;
-        if ism.tile != tile
-            || ism.vpl_count != vpls.len() as u32
-            || ism.points_per_vpl != points_per_vpl
-            || (points.positions.len().max(1) * 16) as u64 != ism.points.size
-        {
-            return Ok(false);
-        }
-        if !vpls.is_empty() {
-            ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
-        }
-        if !points.positions.is_empty() {
-            ism.points
-                .write(0, bytemuck::cast_slice(&points.positions))?;
-        }
-        ism.far = far;
-        ism.point_radius = points.point_radius;
-        Ok(true)
-    }
-
-    /// Allocates the atlas for `vpls` with `tile`-texel tiles.
-    pub fn prepare(
-        &self,
-        device: &Arc<Device>,
-        vpls: &[GpuVpl],
-        points: &IsmPoints,
-        tile: u32,
-        far: f32,
-    ) -> Result<Ism> {
+    /// Allocates the atlas for the VPLs with `ism_tile`-texel tiles.
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Ism> {
+        let device = setup.device;
+        let (vpls, points) = (&setup.cache.vpls().gpu, &setup.cache.points().points);
+        let (tile, far) = (setup.settings.ism_tile, setup.cache.diagonal());
         if !tile.is_power_of_two() || !(4..=1024).contains(&tile) {
             return Err(Error::InvalidParameter(format!(
                 "ISM tile size {tile} must be a power of two in 4..=1024"
@@ -218,14 +190,54 @@ impl IsmPass {
         })
     }
 
-    /// Splats and fills every tile.
-    pub fn record(
+    /// Rewrites the VPLs and points in place when their counts and the tile
+    /// match.
+    fn update(&self, ism: &mut Ism, setup: &SlotSetup<'_>) -> Result<bool> {
+        let (vpls, points) = (&setup.cache.vpls().gpu, &setup.cache.points().points);
+        let (tile, far) = (setup.settings.ism_tile, setup.cache.diagonal());
+        let points_per_vpl = (points.positions.len() / vpls.len().max(1)) as u32;
+        if ism.tile != tile
+            || ism.vpl_count != vpls.len() as u32
+            || ism.points_per_vpl != points_per_vpl
+            || (points.positions.len().max(1) * 16) as u64 != ism.points.size
+        {
+            return Ok(false);
+        }
+        if !vpls.is_empty() {
+            ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
+        }
+        if !points.positions.is_empty() {
+            ism.points
+                .write(0, bytemuck::cast_slice(&points.positions))?;
+        }
+        ism.far = far;
+        ism.point_radius = points.point_radius;
+        Ok(true)
+    }
+
+    /// One splat set and one pull-push set per pyramid level transition.
+    fn set_layouts(&self, ism: &Ism) -> Vec<&DescriptorSetLayout> {
+        let levels = ism.tile.trailing_zeros() + 1;
+        let mut v = vec![self.splat.set_layout()];
+        v.extend(std::iter::repeat_n(
+            self.pullpush.set_layout(),
+            1 + 2 * (levels as usize - 1),
+        ));
+        v
+    }
+
+    /// Splats and fills every tile (nothing without VPLs).
+    fn record(
         &self,
-        rec: &mut Recorder<'_>,
-        profiler: &mut GpuProfiler,
+        cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
+        (): (),
         ism: &Ism,
     ) -> Result<()> {
+        if ism.vpl_count == 0 {
+            return Ok(());
+        }
+        let Recording { rec, profiler, .. } = cx;
         // Splat: clear to "no point" and atomicMin every point's distance.
         let scope = profiler.begin(rec.cmd, "ism_splat");
         rec.use_image(&ism.splat_target, Access::TransferWrite);

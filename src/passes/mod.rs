@@ -1,8 +1,15 @@
-//! One file per technique pass. Each pass owns its pipeline and descriptor
-//! layout (created once with the renderer) and, per frame, the descriptor set
-//! binding that frame's resources. Recording a pass declares every resource
-//! it touches (barriers follow from that), opens a GPU timestamp scope, and
-//! records its commands.
+//! One file per technique pass. A pass implements [`Pass`]: it owns its
+//! pipelines (created once with the renderer) and, per frame slot, the
+//! resources it writes ([`Pass::Resources`], made for a [`Pass::Key`]) with
+//! a descriptor pool sized for the sets it allocates per frame
+//! ([`Pass::set_layouts`]). Recording a pass declares every resource it
+//! touches (barriers follow from that), opens a GPU timestamp scope, and
+//! records its commands. [`Stage`] keeps a pass's resources for every frame
+//! slot and remakes them only when their key changes.
+//!
+//! Adding a pass: a file here implementing [`Pass`], a [`Stage`] of it in
+//! the renderer's `Passes`, and one line in the renderer's list of passes,
+//! naming what it reads.
 
 pub mod direct_lighting;
 pub mod gbuffer;
@@ -11,9 +18,211 @@ pub mod ism;
 pub mod shadow_maps;
 pub mod ssbc;
 
-use ash::vk;
+use std::sync::Arc;
 
-use crate::vk::{Device, Image};
+use ash::vk;
+use glam::Mat4;
+
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use crate::scene_cache::SceneCache;
+use crate::settings::RenderSettings;
+use crate::vk::{DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Recorder};
+use ssbc::SsbcCamera;
+
+/// What a pass's per-slot resources are made from: the device, the frame's
+/// settings and the scene's CPU products.
+pub struct SlotSetup<'a> {
+    /// The device.
+    pub device: &'a Arc<Device>,
+    /// The frame slot (`0..FRAME_SLOTS`).
+    pub slot: usize,
+    /// The frame's settings.
+    pub settings: &'a RenderSettings,
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its bounds, VPLs, ISM points and GPU copy.
+    pub cache: &'a SceneCache,
+}
+
+impl SlotSetup<'_> {
+    /// The image size.
+    pub fn extent(&self) -> (u32, u32) {
+        (self.settings.width, self.settings.height)
+    }
+}
+
+/// The camera and bound every pass of a frame records with.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameView {
+    /// The camera as SSBC sees it (eye, optical axis, pixel side).
+    pub camera: SsbcCamera,
+    /// World to clip space.
+    pub view_proj: Mat4,
+    /// Distance along the optical axis to the centre of the scene's bounds.
+    pub centre_depth: f32,
+    /// The clamping bound b (1/m²).
+    pub bound: f32,
+}
+
+/// What a pass records with besides its own resources and what it reads.
+pub struct Recording<'r, 'a> {
+    /// The command buffer being recorded, with its barrier tracking.
+    pub rec: &'r mut Recorder<'a>,
+    /// Timestamp scopes and labels.
+    pub profiler: &'r mut GpuProfiler,
+    /// Camera and bound.
+    pub view: &'r FrameView,
+    /// The frame's settings.
+    pub settings: &'r RenderSettings,
+    /// A pass after which recording fails (tests that a failed frame leaves
+    /// the renderer usable).
+    pub fault: &'r mut Option<String>,
+}
+
+impl Recording<'_, '_> {
+    /// Fails if a fault was injected after the pass `name`.
+    fn checkpoint(&mut self, name: &str) -> Result<()> {
+        match self.fault.take_if(|f| f == name) {
+            Some(f) => Err(Error::InvalidParameter(format!(
+                "injected fault after {f} (a test of recovery)"
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A technique pass as the frame sees it.
+pub trait Pass {
+    /// Its name (descriptor pools, injected faults).
+    const NAME: &'static str;
+    /// What its resources were made for (size, settings, versions of the
+    /// data they hold); they are updated or made anew when it changes.
+    type Key: PartialEq;
+    /// Its per-slot resources: what it writes, which later passes and the
+    /// read-back see.
+    type Resources;
+    /// What it reads from earlier passes.
+    type Reads<'a>;
+
+    /// The key of the resources `setup` needs.
+    fn key(&self, setup: &SlotSetup<'_>) -> Self::Key;
+    /// Makes the resources.
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Self::Resources>;
+    /// Rewrites the resources in place (no allocation) for a new key; false
+    /// when they must be made anew. The slot's previous frame is done.
+    fn update(&self, _resources: &mut Self::Resources, _setup: &SlotSetup<'_>) -> Result<bool> {
+        Ok(false)
+    }
+    /// Layouts of every descriptor set one frame allocates (one entry per set).
+    fn set_layouts(&self, resources: &Self::Resources) -> Vec<&DescriptorSetLayout>;
+    /// Records the pass, allocating its sets from `pool`.
+    fn record(
+        &self,
+        cx: &mut Recording<'_, '_>,
+        pool: &DescriptorPool,
+        reads: Self::Reads<'_>,
+        resources: &Self::Resources,
+    ) -> Result<()>;
+}
+
+/// A pass's resources in one frame slot: what they were made for, and the
+/// descriptor pool its sets come from each frame.
+pub struct PassSlot<K, R> {
+    key: K,
+    /// The resources.
+    pub resources: R,
+    /// Sized for the sets one frame allocates; reset every frame.
+    pub pool: DescriptorPool,
+}
+
+impl<K: PartialEq, R> PassSlot<K, R> {
+    /// Brings `held` up to `key` for a new frame in its slot (whose previous
+    /// frame is done): kept as it is for the same key, rewritten by
+    /// `update` when it can be (true), made anew by `prepare` (and its pool
+    /// by `pool`) otherwise. The pool is reset.
+    pub fn refresh(
+        held: &mut Option<Self>,
+        key: K,
+        update: impl FnOnce(&mut R) -> Result<bool>,
+        prepare: impl FnOnce() -> Result<R>,
+        pool: impl FnOnce(&R) -> Result<DescriptorPool>,
+    ) -> Result<&Self> {
+        if let Some(s) = held.as_mut() {
+            let same = s.key == key;
+            if same || update(&mut s.resources)? {
+                s.key = key;
+                s.pool.reset()?;
+                return Ok(held.as_ref().expect("checked above"));
+            }
+        }
+        *held = None; // free the old resources first
+        let resources = prepare()?;
+        let pool = pool(&resources)?;
+        Ok(held.insert(Self {
+            key,
+            resources,
+            pool,
+        }))
+    }
+}
+
+/// A pass and its resources in every frame slot.
+pub struct Stage<P: Pass> {
+    /// The pass (pipelines and layouts).
+    pub pass: P,
+    slots: Vec<Option<PassSlot<P::Key, P::Resources>>>,
+}
+
+impl<P: Pass> Stage<P> {
+    /// `pass` with `slots` frame slots, none prepared.
+    pub fn new(pass: P, slots: usize) -> Self {
+        Self {
+            pass,
+            slots: (0..slots).map(|_| None).collect(),
+        }
+    }
+
+    /// Brings the slot's resources up to `setup`, records the pass reading
+    /// `reads`, and returns what it wrote.
+    pub fn run(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        reads: P::Reads<'_>,
+    ) -> Result<&P::Resources> {
+        let pass = &self.pass;
+        let held = PassSlot::refresh(
+            &mut self.slots[setup.slot],
+            pass.key(setup),
+            |resources| pass.update(resources, setup),
+            || pass.prepare(setup),
+            |resources| {
+                let pool = DescriptorPool::new(setup.device, &pass.set_layouts(resources))?;
+                pool.name(&format!(
+                    "frame slot {} {} descriptor pool",
+                    setup.slot,
+                    P::NAME
+                ));
+                Ok(pool)
+            },
+        )?;
+        pass.record(cx, &held.pool, reads, &held.resources)?;
+        cx.checkpoint(P::NAME)?;
+        Ok(&held.resources)
+    }
+
+    /// The slot's resources, if prepared.
+    pub fn resources(&self, slot: usize) -> Option<&P::Resources> {
+        self.slots[slot].as_ref().map(|s| &s.resources)
+    }
+
+    /// Drops the slot's resources (after a frame that was recorded but not
+    /// submitted: their tracked states describe commands that never ran).
+    pub fn forget(&mut self, slot: usize) {
+        self.slots[slot] = None;
+    }
+}
 
 /// Begins dynamic rendering into `colors` and `depth` (all cleared), with a
 /// full-size viewport and scissor.
@@ -93,5 +302,20 @@ pub(crate) fn storage_image(
             extent.1,
             vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC | extra_usage,
         ),
+    )
+}
+
+/// A linear-radiance layer (RGBA32F storage image) of the frame's size.
+pub(crate) fn radiance_image(
+    device: &Arc<Device>,
+    name: &str,
+    extent: (u32, u32),
+) -> crate::Result<Image> {
+    storage_image(
+        device,
+        name,
+        vk::Format::R32G32B32A32_SFLOAT,
+        extent,
+        vk::ImageUsageFlags::empty(),
     )
 }

@@ -14,9 +14,11 @@ use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GpuProfiler,
-    GraphicsDesc, Image, ImageDesc, Pipeline, Recorder,
+    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image,
+    ImageDesc, Pipeline,
 };
+
+use super::{Pass, Recording, SlotSetup};
 
 /// Each light's entry (with its range of layers) and every layer's view.
 fn light_table(
@@ -155,50 +157,27 @@ impl ShadowMapPass {
             depth_only,
         })
     }
+}
 
-    /// The descriptor layout (for sizing pools).
-    pub fn set_layout(&self) -> &DescriptorSetLayout {
-        &self.layout
+impl Pass for ShadowMapPass {
+    const NAME: &'static str = "shadow_maps";
+    /// The (lights, geometry) versions the views were made for, and the
+    /// resolution.
+    type Key = (u64, u64, u32);
+    /// Depth layers and the light table.
+    type Resources = ShadowMaps;
+    type Reads<'a> = &'a GpuScene;
+
+    fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
+        let versions = &setup.cache.versions;
+        let resolution = setup.settings.shadow_map_size;
+        (versions.lights, versions.geometry, resolution)
     }
 
-    /// Rewrites `maps` for `lights` in place (no allocation) when their
-    /// views fit its layers; false when `maps` must be prepared anew. The
-    /// maps' previous frame must be done.
-    pub fn update(
-        &self,
-        maps: &mut ShadowMaps,
-        lights: &[Light],
-        bounds: &Bounds,
-        resolution: u32,
-    ) -> Result<bool> {
-        let (gpu_lights, views) = light_table(lights, bounds, resolution);
-        if views.len().max(1) as u32 != maps.depth.desc.layers
-            || resolution != maps.depth.desc.width
-            || lights.len().max(1) * std::mem::size_of::<GpuLight>() != maps.lights.size as usize
-        {
-            return Ok(false);
-        }
-        let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
-        if !packed.is_empty() {
-            maps.views.write(0, bytemuck::cast_slice(&packed))?;
-        }
-        if !gpu_lights.is_empty() {
-            maps.lights.write(0, bytemuck::cast_slice(&gpu_lights))?;
-        }
-        maps.light_count = lights.len() as u32;
-        maps.view_proj = views.iter().map(|v| v.0).collect();
-        Ok(true)
-    }
-
-    /// Allocates the shadow maps of `lights` at `resolution` texels per side.
-    pub fn prepare(
-        &self,
-        device: &Arc<Device>,
-        lights: &[Light],
-        bounds: &Bounds,
-        resolution: u32,
-    ) -> Result<ShadowMaps> {
-        let (gpu_lights, views) = light_table(lights, bounds, resolution);
+    /// Allocates the shadow maps of the lights at the resolution asked for.
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<ShadowMaps> {
+        let (device, resolution) = (setup.device, setup.settings.shadow_map_size);
+        let (gpu_lights, views) = light_table(&setup.scene.lights, &setup.cache.bounds, resolution);
         let layers = views.len().max(1) as u32;
         let depth = Image::new(
             device,
@@ -238,20 +217,46 @@ impl ShadowMapPass {
                 &gpu_lights_buf,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
-            light_count: lights.len() as u32,
+            light_count: setup.scene.lights.len() as u32,
             view_proj: views.iter().map(|v| v.0).collect(),
         })
     }
 
+    /// Rewrites the views and lights in place when they fit the layers.
+    fn update(&self, maps: &mut ShadowMaps, setup: &SlotSetup<'_>) -> Result<bool> {
+        let (lights, resolution) = (&setup.scene.lights, setup.settings.shadow_map_size);
+        let (gpu_lights, views) = light_table(lights, &setup.cache.bounds, resolution);
+        if views.len().max(1) as u32 != maps.depth.desc.layers
+            || resolution != maps.depth.desc.width
+            || lights.len().max(1) * std::mem::size_of::<GpuLight>() != maps.lights.size as usize
+        {
+            return Ok(false);
+        }
+        let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
+        if !packed.is_empty() {
+            maps.views.write(0, bytemuck::cast_slice(&packed))?;
+        }
+        if !gpu_lights.is_empty() {
+            maps.lights.write(0, bytemuck::cast_slice(&gpu_lights))?;
+        }
+        maps.light_count = lights.len() as u32;
+        maps.view_proj = views.iter().map(|v| v.0).collect();
+        Ok(true)
+    }
+
+    fn set_layouts(&self, _: &ShadowMaps) -> Vec<&DescriptorSetLayout> {
+        vec![&self.layout]
+    }
+
     /// Renders every layer.
-    pub fn record(
+    fn record(
         &self,
-        rec: &mut Recorder<'_>,
-        profiler: &mut GpuProfiler,
+        cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
         scene: &GpuScene,
         maps: &ShadowMaps,
     ) -> Result<()> {
+        let Recording { rec, profiler, .. } = cx;
         let set = pool.allocate(
             &self.layout,
             &[

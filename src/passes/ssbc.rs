@@ -13,131 +13,14 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::gbuffer::GBuffer;
+use super::{Pass, Recording, SlotSetup};
 use crate::error::{Error, Result};
+pub use crate::settings::{Integration, SsbcSettings};
 use crate::shaders;
 use crate::vk::{
     Access, Binding, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout,
     Device, GpuProfiler, Image, Recorder,
 };
-
-/// How each residual step integrates over the screen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Integration {
-    /// Top-down over the mip chains (the paper's method).
-    #[default]
-    Hierarchical,
-    /// Every full-resolution pixel within the bounding radius (the reference).
-    Brute,
-}
-
-/// SSBC parameters.
-#[derive(Clone, Debug)]
-pub struct SsbcSettings {
-    /// Number of residual steps K (0 = no compensation).
-    pub steps: u32,
-    /// Integration method.
-    pub integration: Integration,
-    /// Lower clamp of cos(theta_view) in A_y (conservative grazing-angle compensation).
-    pub min_cos_view: f32,
-    /// Refine a texel whose bounding sphere's radius exceeds this fraction of
-    /// its distance to x... With `refine_excess` 1.5, 0.16 keeps the
-    /// hierarchical residual within 1.7% relative RMSE and 0.6% in the mean
-    /// of brute force on the built-in scenes and an open box at 256x192 to
-    /// 640x480 (tests/ssbc.rs). Without it (0), 0.1 reads 1.3 to 1.6 times
-    /// as many texels as 0.16, and 0.2 exceeds 2% at 320x240.
-    pub refine_ratio: f32,
-    /// ...but only if G can exceed (1 + refine_excess) b somewhere in it: a
-    /// cluster where max(G - b, 0) <= refine_excess b adds at most that per
-    /// unit of A_y S(y), error included, however large it is. 1.5 reads
-    /// 21-31% fewer texels than refining every large cluster (0) at the same
-    /// accuracy; 2 moved the mean by 1% on cornell 320x240.
-    pub refine_excess: f32,
-    /// A texel is one smooth surface ("continuous", usable as an evaluation
-    /// point) if the mean of its unit normals is at least this long...
-    pub max_normal_spread: f32,
-    /// ...and its bounding slab is at most this x its bounding radius thick.
-    pub max_thickness: f32,
-    /// The residual is evaluated at the texels of the coarsest pyramid level
-    /// (up to `max_eval_level`) that still puts this many texels across the
-    /// bounding radius 1/sqrt(b) on screen, and interpolated to the pixels
-    /// that lie on the same smooth surface; other pixels are evaluated alone.
-    pub texels_per_radius: f32,
-    /// Coarsest evaluation level (0: every pixel is evaluated alone).
-    pub max_eval_level: u32,
-    /// A pixel interpolates only from points closer to it than this fraction
-    /// of their variation scale: the length over which I(x) changes there,
-    /// estimated as the contribution-weighted harmonic mean of the distances
-    /// to what they gather from (short near corners and contacts). 0.2 keeps
-    /// the accuracy of the former limit, 0.25 x the distance to the nearest
-    /// contributing surface, with 22% fewer texels on tori at 640x480 (which
-    /// that limit sent pixel by pixel inside its concave rings).
-    pub scale_fraction: f32,
-}
-
-impl Default for SsbcSettings {
-    fn default() -> Self {
-        Self {
-            steps: 2,
-            integration: Integration::Hierarchical,
-            min_cos_view: 0.2,
-            refine_ratio: 0.16,
-            refine_excess: 1.5,
-            max_normal_spread: 0.9,
-            max_thickness: 0.25,
-            texels_per_radius: 8.0,
-            max_eval_level: 4,
-            scale_fraction: 0.2,
-        }
-    }
-}
-
-impl SsbcSettings {
-    /// Checks the parameters.
-    pub fn validate(&self) -> Result<()> {
-        let bad = |m: String| Err(Error::InvalidParameter(m));
-        if self.steps > 16 {
-            return bad(format!("--steps {} (at most 16)", self.steps));
-        }
-        if !(self.min_cos_view > 0.0 && self.min_cos_view <= 1.0) {
-            return bad(format!(
-                "min cos view {} must be in (0, 1]",
-                self.min_cos_view
-            ));
-        }
-        if !(self.refine_ratio > 0.0 && self.refine_ratio.is_finite()) {
-            return bad(format!(
-                "refine ratio {} must be positive",
-                self.refine_ratio
-            ));
-        }
-        if !(self.refine_excess >= 0.0 && self.refine_excess.is_finite()) {
-            return bad(format!(
-                "refine excess {} must be at least 0",
-                self.refine_excess
-            ));
-        }
-        if !(self.texels_per_radius >= 1.0 && self.texels_per_radius.is_finite()) {
-            return bad(format!(
-                "texels per radius {} must be at least 1",
-                self.texels_per_radius
-            ));
-        }
-        if !(self.scale_fraction > 0.0 && self.scale_fraction.is_finite()) {
-            return bad(format!(
-                "scale fraction {} must be positive",
-                self.scale_fraction
-            ));
-        }
-        if self.max_eval_level > 8 {
-            return bad(format!(
-                "max eval level {} (at most 8)",
-                self.max_eval_level
-            ));
-        }
-        Ok(())
-    }
-}
 
 /// Camera quantities the SSBC shaders need.
 #[derive(Clone, Copy, Debug)]
@@ -197,12 +80,19 @@ pub struct SsbcFrame {
     pub final_image: Image,
     levels: u32,
     pyramid_size: (u32, u32),
+    /// The coarsest evaluation level the descriptor sets are counted for.
+    max_eval_level: u32,
 }
 
 impl SsbcFrame {
     /// Pyramid levels.
     pub fn levels(&self) -> u32 {
         self.levels
+    }
+
+    /// Steps the frame holds residuals for.
+    pub fn steps(&self) -> u32 {
+        self.residuals.len() as u32
     }
 
     /// Pixels evaluated alone in each step (after the frame has finished;
@@ -357,19 +247,14 @@ impl SsbcPass {
         })
     }
 
-    /// Layouts of every set one frame allocates.
-    pub fn set_layouts(
-        &self,
-        extent: (u32, u32),
-        steps: u32,
-        eval_level: u32,
-    ) -> Vec<&DescriptorSetLayout> {
-        let levels = pyramid_levels(extent.0, extent.1) as usize;
+    /// Layouts of every set one frame of `frame` allocates.
+    pub fn frame_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
+        let levels = frame.levels as usize;
         let mut v = vec![self.geometry_base.set_layout()];
         v.extend(std::iter::repeat_n(self.geometry.set_layout(), levels - 1));
-        for _ in 0..steps {
+        for _ in 0..frame.steps() {
             v.extend(std::iter::repeat_n(self.radiance.set_layout(), levels));
-            for _ in 0..=eval_level {
+            for _ in 0..=frame.max_eval_level {
                 v.push(self.eval.set_layout());
                 v.push(self.resolve.set_layout());
             }
@@ -405,12 +290,15 @@ impl SsbcPass {
             .min(levels - 1)
     }
 
-    /// Allocates one frame's resources for `steps` steps.
-    pub fn prepare(
+    /// Allocates one frame's resources for `steps` steps, with descriptor
+    /// sets counted for evaluation points from `max_eval_level` (at most)
+    /// down ([`SsbcPass::frame_layouts`]).
+    pub fn allocate(
         &self,
         device: &Arc<Device>,
         extent: (u32, u32),
         steps: u32,
+        max_eval_level: u32,
     ) -> Result<SsbcFrame> {
         // Level 0 padded so every level halves exactly (padding has no geometry).
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
@@ -502,6 +390,7 @@ impl SsbcPass {
             final_image: image("ssbc.final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
             levels,
             pyramid_size,
+            max_eval_level: max_eval_level.min(levels - 1),
         })
     }
 
@@ -550,7 +439,7 @@ impl SsbcPass {
 
     /// Records the geometry pyramid and every step; `s0` is `T Le + T_b L^`.
     #[allow(clippy::too_many_arguments)]
-    pub fn record(
+    pub fn record_steps(
         &self,
         rec: &mut Recorder<'_>,
         profiler: &mut GpuProfiler,
@@ -942,32 +831,59 @@ impl StepOutput<'_> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+impl Pass for SsbcPass {
+    const NAME: &'static str = "ssbc";
+    /// (width, height, steps, coarsest evaluation level).
+    type Key = (u32, u32, u32, u32);
+    type Resources = SsbcFrame;
+    /// The G-buffer and `S0`.
+    type Reads<'a> = (SsbcGBuffer<'a>, &'a Image);
 
-    #[test]
-    fn settings_reject_absurd_refinement() {
-        assert!(SsbcSettings::default().validate().is_ok());
-        for refine_excess in [-0.5, f32::NAN, f32::INFINITY] {
-            let s = SsbcSettings {
-                refine_excess,
-                ..Default::default()
-            };
-            assert!(s.validate().is_err(), "refine_excess {refine_excess}");
+    fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
+        let (w, h) = setup.extent();
+        let ssbc = &setup.settings.ssbc;
+        (w, h, ssbc.steps, ssbc.max_eval_level)
+    }
+
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<SsbcFrame> {
+        let ssbc = &setup.settings.ssbc;
+        self.allocate(
+            setup.device,
+            setup.extent(),
+            ssbc.steps,
+            ssbc.max_eval_level,
+        )
+    }
+
+    fn set_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
+        self.frame_layouts(frame)
+    }
+
+    /// The geometry pyramid and the K steps (nothing with 0 steps).
+    fn record(
+        &self,
+        cx: &mut Recording<'_, '_>,
+        pool: &DescriptorPool,
+        (gbuffer, s0): (SsbcGBuffer<'_>, &Image),
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        let settings = &cx.settings.ssbc;
+        if settings.steps == 0 {
+            return Ok(());
         }
-        for refine_ratio in [0.0, -1.0, f32::NAN] {
-            let s = SsbcSettings {
-                refine_ratio,
-                ..Default::default()
-            };
-            assert!(s.validate().is_err(), "refine_ratio {refine_ratio}");
-        }
-        // 0: refine every cluster larger than the ratio (the former rule).
-        let s = SsbcSettings {
-            refine_excess: 0.0,
-            ..Default::default()
+        let view = cx.view;
+        let inputs = SsbcInputs {
+            camera: &view.camera,
+            bound: view.bound,
+            eval_level: Self::eval_level(
+                &view.camera,
+                view.centre_depth,
+                view.bound,
+                frame.levels(),
+                settings,
+            ),
+            settings,
         };
-        assert!(s.validate().is_ok());
+        self.record_steps(cx.rec, cx.profiler, pool, gbuffer, s0, &inputs, frame)
     }
 }

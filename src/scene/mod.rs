@@ -466,67 +466,6 @@ impl Scene {
         }
     }
 
-    /// Adds the documented default light if the scene has none (punctual or
-    /// emissive): a white point light near the camera, raised and moved
-    /// towards the scene when there is room (never hidden from the camera
-    /// nor inside a closed object), with an intensity giving 1 W/m²
-    /// irradiance at the centre of the scene's bounds. Logged.
-    pub fn ensure_light(&mut self) {
-        // Emissive triangles light the scene, not emissive materials: a
-        // file may define an emissive material no triangle uses.
-        if !self.lights.is_empty()
-            || self.indices.is_empty()
-            || crate::cpu::emitters::Emitters::new(self)
-                .power()
-                .max_element()
-                > 0.0
-        {
-            return;
-        }
-        let Ok(camera) = self.camera(None) else {
-            return;
-        };
-        let b = self.bounds();
-        let center = b.center();
-        let bvh = crate::cpu::bvh::SceneBvh::new(self);
-        let d = (center - camera.position)
-            .length()
-            .max(b.radius() * 0.1)
-            .max(1e-3);
-        let candidates =
-            [(0.3, 0.2), (0.15, 0.1), (0.05, 0.05), (0.0, 0.0)].map(|(up, forward)| {
-                camera.position + camera.up * (up * d) + camera.forward * (forward * d)
-            });
-        let position = candidates
-            .into_iter()
-            .find(|&p| !bvh.occluded(camera.position, p) && !self.inside_geometry(&bvh, p))
-            .unwrap_or(camera.position);
-        let d2 = (position - center).length_squared().max(1e-6);
-        log::info!(
-            "scene '{}' has no lights: adding a default point light at {position} (near the camera) of {d2:.3} W/sr, 1 W/m² at the centre of its bounds",
-            self.name
-        );
-        self.lights.push(Light {
-            kind: LightKind::Point,
-            position,
-            direction: -Vec3::Y,
-            intensity: Vec3::splat(d2),
-        });
-    }
-
-    /// Whether `p` is enclosed by geometry: most of six axis rays from it
-    /// hit a surface from behind (the side its normals do not point to).
-    fn inside_geometry(&self, bvh: &crate::cpu::bvh::SceneBvh, p: Vec3) -> bool {
-        let behind = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
-            .iter()
-            .filter(|&&dir| {
-                bvh.intersect(p, dir, 0.0, f32::INFINITY)
-                    .is_some_and(|hit| !bvh.surface(self, &hit, -dir).front)
-            })
-            .count();
-        behind >= 4
-    }
-
     /// Checks the scene is renderable.
     pub fn validate(&self) -> Result<()> {
         if self.indices.is_empty() {

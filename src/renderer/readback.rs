@@ -1,0 +1,373 @@
+//! What a frame hands back: its layers read back to the host ([`Frame`]),
+//! or one of its images by layer name (kept on the GPU, or copied into a
+//! host's image).
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use crate::cpu::vpl::Vpl;
+use crate::error::Result;
+use crate::passes::gbuffer::GBuffer;
+use crate::passes::indirect_bounded::BoundedLighting;
+use crate::passes::ism::Ism;
+use crate::passes::ssbc::{SsbcFrame, SsbcPass};
+use crate::passes::FrameView;
+use crate::scene_cache::SceneCache;
+use crate::settings::RenderSettings;
+use crate::timings::{CpuSpan, CpuTimings, SsbcStepTiming, Timings};
+use crate::vk::{Buffer, Device, GpuFrameTimes, Image};
+
+/// One named image of linear radiance, RGBA f32 per pixel, rows top to bottom.
+#[derive(Clone, Debug)]
+pub struct Layer {
+    /// Layer name (`direct`, ...).
+    pub name: String,
+    /// `width * height * 4` floats; alpha is 1 on geometry, 0 on background.
+    pub rgba: Vec<f32>,
+}
+
+/// The ISM atlas, read back for diagnostics.
+#[derive(Clone, Debug)]
+pub struct IsmReadback {
+    /// Atlas width.
+    pub width: u32,
+    /// Atlas height.
+    pub height: u32,
+    /// Tile side.
+    pub tile: u32,
+    /// Tiles per row.
+    pub tiles_per_row: u32,
+    /// Distances are stored divided by this.
+    pub far: f32,
+    /// Level 0 after pull-push (negative: hole).
+    pub depth: Vec<f32>,
+    /// World radius of one splatted point.
+    pub point_radius: f32,
+}
+
+impl IsmReadback {
+    /// The GPU's ISM visibility test, replayed on the CPU: is `x` visible from
+    /// VPL `index` (at `vpl`) according to its imperfect shadow map? `normal`
+    /// is the receiver's.
+    pub fn visible(&self, index: usize, vpl: &Vpl, x: glam::Vec3, normal: glam::Vec3) -> bool {
+        let d = x - vpl.position;
+        let dist = d.length();
+        let w = d / dist;
+        let (t, b) = crate::cpu::sampling::basis(vpl.normal);
+        let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
+        let uv = glam::Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + glam::Vec2::splat(0.5);
+        let tile = self.tile as i64;
+        let origin = (
+            (index as u32 % self.tiles_per_row) as i64 * tile,
+            (index as u32 / self.tiles_per_row) as i64 * tile,
+        );
+        let local = ((uv.x * tile as f32) as i64).clamp(0, tile - 1);
+        let local_y = ((uv.y * tile as f32) as i64).clamp(0, tile - 1);
+        let texel = ((origin.1 + local_y) * self.width as i64 + origin.0 + local) as usize;
+        let stored = self.depth[texel];
+        // ism_tolerance() in shaders/include/ism.glsl.
+        let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
+        let c = (-normal.dot(w)).clamp(0.1, 1.0);
+        let slope = (1.0 - c * c).sqrt() / c;
+        let tolerance = crate::passes::indirect_bounded::ISM_BIAS * dist + footprint * slope + 1e-3;
+        stored < 0.0 || dist <= stored * self.far + tolerance
+    }
+}
+
+/// A rendered frame: the final image, its component layers and timings.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The final image (linear radiance).
+    pub image: Layer,
+    /// Component layers (`direct`, `indirect_bounded`, `residual_k`, and with
+    /// debug readback `gbuffer_position`, `gbuffer_normal`, `gbuffer_albedo`,
+    /// `gbuffer_emission`).
+    pub layers: Vec<Layer>,
+    /// Per-pass GPU timings.
+    pub timings: Timings,
+    /// The VPLs used.
+    pub vpls: Vec<Vpl>,
+    /// The bound b used.
+    pub bound: f32,
+    /// The ISM atlas (with debug readback).
+    pub ism: Option<IsmReadback>,
+    /// Texels read per pixel of each SSBC step (see [`SsbcStepTiming`]).
+    pub samples: Vec<Vec<f32>>,
+}
+
+impl Frame {
+    /// The layer called `name` (`final` is the final image).
+    pub fn layer(&self, name: &str) -> Option<&Layer> {
+        if name == "final" {
+            return Some(&self.image);
+        }
+        self.layers.iter().find(|l| l.name == name)
+    }
+}
+
+/// The names of a frame's layers with `steps` SSBC steps: `final`,
+/// `direct`, `indirect_bounded`, `residual_1` ... `residual_K` (the one
+/// definition the renderer, the CLI's `--output-layer` and the viewer use).
+pub fn layer_names(steps: u32) -> Vec<String> {
+    ["final", "direct", "indirect_bounded"]
+        .into_iter()
+        .map(String::from)
+        .chain((1..=steps).map(|k| format!("residual_{k}")))
+        .collect()
+}
+
+/// The images one frame slot's passes wrote.
+pub(crate) struct FrameImages<'a> {
+    pub gbuffer: &'a GBuffer,
+    pub direct: &'a Image,
+    pub bounded: &'a BoundedLighting,
+    pub ssbc: &'a SsbcFrame,
+    pub ism: &'a Ism,
+}
+
+impl<'a> FrameImages<'a> {
+    /// The final image: SSBC's sum, or S0 without steps.
+    fn final_image(&self) -> &'a Image {
+        if self.ssbc.steps() > 0 {
+            &self.ssbc.final_image
+        } else {
+            &self.bounded.s0
+        }
+    }
+
+    /// Every layer with its name ([`layer_names`] order).
+    fn layers(&self) -> Vec<(String, &'a Image)> {
+        let images = [self.final_image(), self.direct, &self.bounded.indirect]
+            .into_iter()
+            .chain(&self.ssbc.residuals);
+        layer_names(self.ssbc.steps())
+            .into_iter()
+            .zip(images)
+            .collect()
+    }
+
+    /// The image of a layer name (`final`, `direct`, ...).
+    pub fn layer(&self, layer: &str) -> Option<&'a Image> {
+        self.layers()
+            .into_iter()
+            .find(|(name, _)| name == layer)
+            .map(|(_, image)| image)
+    }
+
+    /// The images a read-back frame copies to the host, with their layer
+    /// names: the final image first, then the layers, the per-step sample
+    /// counts and (for diagnostics) the G-buffer and the ISM atlas.
+    pub fn readback(&self, debug: bool) -> Vec<(String, &'a Image)> {
+        let mut v = self.layers();
+        let g = self.gbuffer;
+        if debug {
+            v.push(("gbuffer_position".into(), &g.position));
+            v.push(("gbuffer_normal".into(), &g.normal));
+            v.push(("gbuffer_albedo".into(), &g.albedo));
+            v.push(("gbuffer_emission".into(), &g.emission));
+        }
+        for (k, img) in self.ssbc.samples.iter().enumerate() {
+            v.push((format!("samples_{}", k + 1), img));
+        }
+        if debug {
+            v.push(("ism_atlas".into(), &self.ism.pyramid));
+        }
+        v
+    }
+}
+
+/// Host-visible buffers for a slot's read-back, one per image, named as
+/// its layer.
+pub(crate) type ReadbackBuffers = Vec<(String, Buffer)>;
+
+/// Bytes of a tightly packed host copy of `image`'s first level.
+fn readback_size(image: &Image) -> u64 {
+    let texel = if image.desc.format == vk::Format::R32G32B32A32_SFLOAT {
+        16
+    } else {
+        4
+    };
+    image.desc.width as u64 * image.desc.height as u64 * texel
+}
+
+/// Makes `held` fit `images` (kept while every size matches).
+pub(crate) fn ensure_buffers(
+    device: &std::sync::Arc<Device>,
+    held: &mut Option<ReadbackBuffers>,
+    images: &[(String, &Image)],
+) -> Result<()> {
+    let sizes: Vec<u64> = images.iter().map(|(_, img)| readback_size(img)).collect();
+    let fits = held
+        .as_ref()
+        .is_some_and(|r| r.iter().map(|(_, b)| b.size).eq(sizes.iter().copied()));
+    if !fits {
+        let buffers = images
+            .iter()
+            .map(|(name, img)| {
+                Buffer::new(
+                    device,
+                    &format!("readback.{}", img.name()),
+                    readback_size(img),
+                    vk::BufferUsageFlags::TRANSFER_DST,
+                    MemoryLocation::GpuToCpu,
+                )
+                .map(|b| (name.clone(), b))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        *held = Some(buffers);
+    }
+    Ok(())
+}
+
+/// What besides the read-back buffers goes into a [`Frame`].
+pub(crate) struct FrameRecord<'a> {
+    pub device: &'a Device,
+    pub settings: &'a RenderSettings,
+    pub view: &'a FrameView,
+    pub images: FrameImages<'a>,
+    pub cache: &'a SceneCache,
+    pub gpu_times: Option<GpuFrameTimes>,
+    /// The frame's CPU stages.
+    pub spans: Vec<CpuSpan>,
+    /// When it was submitted (ns, CLOCK_MONOTONIC).
+    pub submit_ns: u64,
+}
+
+/// Milliseconds of the CPU stage `name` (0 if it did not run this frame).
+fn span_ms(spans: &[CpuSpan], name: &str) -> f64 {
+    spans
+        .iter()
+        .find(|s| s.name == name)
+        .map_or(0.0, CpuSpan::ms)
+}
+
+/// Assembles the frame from its read-back `buffers` (the frame is done).
+pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> Result<Frame> {
+    let mut layers = Vec::new();
+    let mut samples = Vec::new();
+    let mut ism_depth = None;
+    for (name, buffer) in buffers {
+        if let Some(k) = name.strip_prefix("samples_") {
+            debug_assert_eq!(k.parse::<usize>().ok(), Some(samples.len() + 1));
+            samples.push(buffer.read::<f32>()?);
+        } else if name == "ism_atlas" {
+            ism_depth = Some(buffer.read::<f32>()?);
+        } else {
+            layers.push(Layer {
+                name: name.clone(),
+                rgba: buffer.read::<f32>()?,
+            });
+        }
+    }
+    let image = layers.remove(0);
+    let FrameRecord {
+        device,
+        settings,
+        view,
+        images,
+        cache,
+        gpu_times,
+        spans,
+        submit_ns,
+    } = record;
+    let geometry: Vec<bool> = layers[0]
+        .rgba
+        .chunks_exact(4)
+        .map(|p| p[3] != 0.0)
+        .collect();
+    let ssbc_steps = ssbc_figures(&samples, &geometry, &images, view, settings, &gpu_times)?;
+    let vpl_set = &cache.vpls().set;
+    let bound = view.bound;
+    let timings = Timings {
+        device: device.name().to_string(),
+        width: settings.width,
+        height: settings.height,
+        frame_gpu_ms: gpu_times.as_ref().map(|t| t.frame_ms),
+        gpu_start_ns: gpu_times.as_ref().and_then(|t| t.start_monotonic_ns),
+        passes: gpu_times.map(|t| t.passes),
+        stats: None,
+        cpu_ms: CpuTimings {
+            bvh_build: span_ms(&spans, "bvh_build"),
+            vpl_generation: span_ms(&spans, "vpl_generation"),
+            point_sampling: span_ms(&spans, "point_sampling"),
+        },
+        cpu_spans: spans,
+        submit_ns,
+        vpl_count: vpl_set.vpls.len(),
+        light_paths: vpl_set.paths,
+        ism_tile: settings.ism_tile,
+        points_per_vpl: settings.points_per_vpl,
+        bound: if bound.is_finite() {
+            serde_json::json!(bound)
+        } else {
+            serde_json::json!("inf")
+        },
+        integration: settings.ssbc.integration,
+        ssbc_steps,
+    };
+    let ism = images.ism;
+    let ism_readback = ism_depth.map(|depth| IsmReadback {
+        width: ism.pyramid.desc.width,
+        height: ism.pyramid.desc.height,
+        tile: ism.tile,
+        tiles_per_row: ism.tiles_per_row,
+        far: ism.far,
+        depth,
+        point_radius: ism.point_radius,
+    });
+    Ok(Frame {
+        width: settings.width,
+        height: settings.height,
+        image,
+        layers,
+        timings,
+        vpls: vpl_set.vpls.clone(),
+        bound,
+        ism: ism_readback,
+        samples,
+    })
+}
+
+/// Per-step SSBC figures from the per-pixel sample counts of each step.
+fn ssbc_figures(
+    samples: &[Vec<f32>],
+    geometry: &[bool],
+    images: &FrameImages<'_>,
+    view: &FrameView,
+    settings: &RenderSettings,
+    gpu_times: &Option<GpuFrameTimes>,
+) -> Result<Vec<SsbcStepTiming>> {
+    let fallback_counts = images.ssbc.fallback_counts()?;
+    let eval_level = SsbcPass::eval_level(
+        &view.camera,
+        view.centre_depth,
+        view.bound,
+        images.ssbc.levels(),
+        &settings.ssbc,
+    );
+    let steps = samples.iter().enumerate().map(|(k, counts)| {
+        let on_geometry: Vec<f32> = counts
+            .iter()
+            .zip(geometry)
+            .filter(|(_, g)| **g)
+            .map(|(c, _)| *c)
+            .collect();
+        let name = format!("ssbc_step_{}", k + 1);
+        let pixels = on_geometry.len().max(1) as f64;
+        SsbcStepTiming {
+            gpu_ms: gpu_times
+                .as_ref()
+                .and_then(|t| t.passes.iter().find(|p| p.name == name))
+                .map(|p| p.gpu_ms),
+            samples_per_pixel_avg: on_geometry.iter().map(|&c| c as f64).sum::<f64>() / pixels,
+            samples_per_pixel_max: on_geometry.iter().fold(0.0, |m, &c| m.max(c as f64)),
+            eval_level,
+            fallback_fraction: fallback_counts.get(k).copied().unwrap_or(0) as f64 / pixels,
+        }
+    });
+    Ok(steps.collect())
+}
