@@ -1,7 +1,7 @@
 //! What a frame's timing figures are: clocks and CPU spans, per-pass GPU
 //! times with the figures that explain them ([`Timings`]), and their
 //! statistics over several frames ([`FrameStats`]). Measuring frames (warm
-//! frames, traces) is [`crate::profile`]'s job.
+//! frames, traces) is the `profile` module's job.
 
 use serde::Serialize;
 
@@ -229,7 +229,7 @@ pub struct Timings {
     pub passes: Option<Vec<PassTiming>>,
     /// First to last timestamp of the frame (None without timestamps).
     pub frame_gpu_ms: Option<f64>,
-    /// Statistics over several frames ([`crate::profile::render_frames`]).
+    /// Statistics over several frames (`profile::render_frames`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stats: Option<FrameStats>,
     /// CPU stages (ms).

@@ -115,6 +115,118 @@ struct Gpu {
     frames: u64,
 }
 
+impl Gpu {
+    /// Uploads `frame`'s samples heat map, encoded for the swapchain, into
+    /// the staging buffer the present copies from.
+    fn upload_heat_map(&mut self, frame: &Frame, exposure: f32, bgra: bool) -> Result<()> {
+        let heat = Viewer::heat_map(frame);
+        let bytes: Vec<u8> = heat
+            .chunks_exact(4)
+            .flat_map(|p| {
+                let q = |v: f32| {
+                    (crate::output::srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8
+                };
+                if bgra {
+                    [q(p[2]), q(p[1]), q(p[0]), 255]
+                } else {
+                    [q(p[0]), q(p[1]), q(p[2]), 255]
+                }
+            })
+            .collect();
+        if self
+            .staging
+            .as_ref()
+            .is_none_or(|b| b.size < bytes.len() as u64)
+        {
+            self.staging = Some(Buffer::new(
+                &self.device,
+                "present_staging",
+                bytes.len() as u64,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        self.staging
+            .as_ref()
+            .expect("allocated above")
+            .write(0, &bytes)
+    }
+
+    /// Acquires a swapchain image and submits the slot's copy of the shown
+    /// layer into it (encoded by `present.comp`; the heat map from staging).
+    /// The image's index, or None when none could be acquired (the
+    /// swapchain is out of date).
+    fn submit_display(
+        &mut self,
+        slot_index: usize,
+        layer: &str,
+        push: PresentPush,
+    ) -> Result<Option<usize>> {
+        let [width, height] = push.size;
+        let slot = &mut self.slots[slot_index];
+        if slot
+            .display
+            .as_ref()
+            .is_none_or(|d| (d.desc.width, d.desc.height) != (width, height))
+        {
+            slot.display = Some(Image::new(
+                &self.device,
+                "display",
+                crate::vk::ImageDesc::new_2d(
+                    vk::Format::R8G8B8A8_UNORM,
+                    width,
+                    height,
+                    vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
+                ),
+            )?);
+        }
+        let Some(index) = self.swapchain.acquire(&slot.acquired)? else {
+            return Ok(None);
+        };
+        let image = &self.swapchain.images[index];
+        let display = slot.display.as_ref().expect("allocated above");
+        // The slot's previous frame is done: its set can be reused.
+        match &slot.present_pool {
+            Some(pool) => pool.reset()?,
+            None => {
+                slot.present_pool = Some(DescriptorPool::new(
+                    &self.device,
+                    &[self.present.set_layout()],
+                )?)
+            }
+        }
+        let pool = slot.present_pool.as_ref().expect("created above");
+        let mut rec = slot.commands.begin()?;
+        match (layer, self.renderer.output()) {
+            ("samples_1", _) | (_, None) => {
+                let staging = self.staging.as_ref().expect("uploaded above");
+                rec.copy_buffer_to_image(staging, image, (width, height), 1);
+            }
+            (_, Some(output)) => {
+                rec.use_image(output, Access::ComputeRead);
+                rec.use_image(display, Access::ComputeWrite);
+                rec.flush_barriers();
+                let bindings = [Binding::storage(output), Binding::storage(display)];
+                self.present.dispatch_2d(
+                    rec.cmd,
+                    pool,
+                    &bindings,
+                    bytemuck::bytes_of(&push),
+                    (width, height),
+                )?;
+                rec.copy_image(display, image, (width, height));
+            }
+        }
+        rec.use_image(image, Access::Present);
+        rec.flush_barriers();
+        slot.done = rec.submit_with(
+            &[(slot.acquired.raw, vk::PipelineStageFlags2::ALL_COMMANDS)],
+            &[image.render_done],
+        )?;
+        Ok(Some(index))
+    }
+}
+
 impl Drop for Gpu {
     fn drop(&mut self) {
         // Semaphores and images below may still be in use by queued frames.
@@ -449,43 +561,10 @@ impl Viewer {
         // Render: on the GPU, kept there (timings come from this slot's
         // previous frame, read without waiting), or, for the samples heat
         // map, read back and uploaded.
+        let (settings, exposure) = (&self.options.settings, self.options.exposure);
         let timings = if layer == "samples_1" {
-            let frame = gpu
-                .renderer
-                .render_resident(&self.resident, &self.options.settings)?;
-            let exposure = self.options.exposure;
-            let heat = Self::heat_map(&frame);
-            let bytes: Vec<u8> = heat
-                .chunks_exact(4)
-                .flat_map(|p| {
-                    let q = |v: f32| {
-                        (crate::output::srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5)
-                            as u8
-                    };
-                    if bgra {
-                        [q(p[2]), q(p[1]), q(p[0]), 255]
-                    } else {
-                        [q(p[0]), q(p[1]), q(p[2]), 255]
-                    }
-                })
-                .collect();
-            if gpu
-                .staging
-                .as_ref()
-                .is_none_or(|b| b.size < bytes.len() as u64)
-            {
-                gpu.staging = Some(Buffer::new(
-                    &gpu.device,
-                    "present_staging",
-                    bytes.len() as u64,
-                    vk::BufferUsageFlags::TRANSFER_SRC,
-                    MemoryLocation::CpuToGpu,
-                )?);
-            }
-            gpu.staging
-                .as_ref()
-                .expect("allocated above")
-                .write(0, &bytes)?;
+            let frame = gpu.renderer.render_resident(&self.resident, settings)?;
+            gpu.upload_heat_map(&frame, exposure, bgra)?;
             frame
                 .timings
                 .passes
@@ -498,81 +577,29 @@ impl Viewer {
                 })
         } else {
             gpu.renderer
-                .render_resident_to_gpu(&self.resident, &self.options.settings, &layer)?
+                .render_resident_to_gpu(&self.resident, settings, &layer)?
                 .previous_timings
         };
-
-        let slot = &mut gpu.slots[slot_index];
-        if slot
-            .display
-            .as_ref()
-            .is_none_or(|d| (d.desc.width, d.desc.height) != (extent.width, extent.height))
-        {
-            slot.display = Some(Image::new(
-                &gpu.device,
-                "display",
-                crate::vk::ImageDesc::new_2d(
-                    vk::Format::R8G8B8A8_UNORM,
-                    extent.width,
-                    extent.height,
-                    vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
-                ),
-            )?);
-        }
-        let Some(index) = gpu.swapchain.acquire(&slot.acquired)? else {
+        let push = PresentPush {
+            size: [extent.width, extent.height],
+            exposure,
+            swap_red_blue: bgra as u32,
+        };
+        let Some(index) = gpu.submit_display(slot_index, &layer, push)? else {
             gpu.swapchain.recreate(wanted)?;
             return Ok(());
         };
-        let image = &gpu.swapchain.images[index];
-        let display = slot.display.as_ref().expect("allocated above");
-        // The slot's previous frame is done: its set can be reused.
-        match &slot.present_pool {
-            Some(pool) => pool.reset()?,
-            None => {
-                slot.present_pool = Some(DescriptorPool::new(
-                    &gpu.device,
-                    &[gpu.present.set_layout()],
-                )?)
-            }
-        }
-        let pool = slot.present_pool.as_ref().expect("created above");
-        let mut rec = slot.commands.begin()?;
-        match (layer.as_str(), gpu.renderer.output()) {
-            ("samples_1", _) | (_, None) => {
-                let staging = gpu.staging.as_ref().expect("uploaded above");
-                rec.copy_buffer_to_image(staging, image, (extent.width, extent.height), 1);
-            }
-            (_, Some(output)) => {
-                rec.use_image(output, Access::ComputeRead);
-                rec.use_image(display, Access::ComputeWrite);
-                rec.flush_barriers();
-                let push = PresentPush {
-                    size: [extent.width, extent.height],
-                    exposure: self.options.exposure,
-                    swap_red_blue: bgra as u32,
-                };
-                let bindings = [Binding::storage(output), Binding::storage(display)];
-                gpu.present.dispatch_2d(
-                    rec.cmd,
-                    pool,
-                    &bindings,
-                    bytemuck::bytes_of(&push),
-                    (extent.width, extent.height),
-                )?;
-                rec.copy_image(display, image, (extent.width, extent.height));
-            }
-        }
-        rec.use_image(image, Access::Present);
-        rec.flush_barriers();
-        slot.done = rec.submit_with(
-            &[(slot.acquired.raw, vk::PipelineStageFlags2::ALL_COMMANDS)],
-            &[image.render_done],
-        )?;
         self.last_gpu_slot = (layer != "samples_1").then_some(slot_index);
         if !gpu.swapchain.present(index)? {
             gpu.swapchain.recreate(wanted)?;
         }
+        self.note_frame(timings);
+        Ok(())
+    }
 
+    /// Smoothed per-pass timings, the window title once a second, and the
+    /// session's figures.
+    fn note_frame(&mut self, timings: Option<crate::vk::GpuFrameTimes>) {
         if let Some(crate::vk::GpuFrameTimes {
             passes, frame_ms, ..
         }) = timings
@@ -606,7 +633,6 @@ impl Viewer {
             self.stats.first = sample;
         }
         self.stats.last = sample;
-        Ok(())
     }
 
     /// Moves the camera by the held keys.

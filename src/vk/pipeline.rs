@@ -69,6 +69,48 @@ pub struct GraphicsDesc<'a> {
     pub depth_bias: (f32, f32),
 }
 
+/// The vertex and (optional) fragment modules of `desc`; none is left
+/// behind on failure.
+fn graphics_modules(
+    device: &Device,
+    desc: &GraphicsDesc<'_>,
+) -> Result<(vk::ShaderModule, Option<vk::ShaderModule>)> {
+    let vert = shader_module(device, desc.vertex)?;
+    match desc.fragment.map(|f| shader_module(device, f)).transpose() {
+        Ok(frag) => Ok((vert, frag)),
+        Err(e) => {
+            // SAFETY: the module is unused.
+            unsafe { device.raw.destroy_shader_module(vert, None) };
+            Err(e)
+        }
+    }
+}
+
+/// One interleaved vertex buffer (binding 0) with `desc`'s attributes.
+fn vertex_layout(
+    desc: &GraphicsDesc<'_>,
+) -> (
+    [vk::VertexInputBindingDescription; 1],
+    Vec<vk::VertexInputAttributeDescription>,
+) {
+    let binding = vk::VertexInputBindingDescription {
+        binding: 0,
+        stride: desc.vertex_stride,
+        input_rate: vk::VertexInputRate::VERTEX,
+    };
+    let attributes = desc.attributes.iter();
+    let attributes =
+        attributes.map(
+            |&(location, format, offset)| vk::VertexInputAttributeDescription {
+                location,
+                binding: 0,
+                format,
+                offset,
+            },
+        );
+    ([binding], attributes.collect())
+}
+
 impl Pipeline {
     /// A compute pipeline from SPIR-V with entry `main`.
     pub fn compute(
@@ -131,12 +173,9 @@ impl Pipeline {
     ) -> Result<Self> {
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         let layout = pipeline_layout(device, set_layouts, push_size, stages)?;
-        let vert = shader_module(device, desc.vertex)?;
-        let frag = match desc.fragment.map(|f| shader_module(device, f)).transpose() {
-            Ok(f) => f,
+        let (vert, frag) = match graphics_modules(device, desc) {
+            Ok(modules) => modules,
             Err(e) => {
-                // SAFETY: unused module and layout.
-                unsafe { device.raw.destroy_shader_module(vert, None) };
                 device.defer_destroy(Garbage::PipelineLayout(layout));
                 return Err(e);
             }
@@ -153,23 +192,7 @@ impl Pipeline {
                     .name(c"main"),
             );
         }
-        let vb = [vk::VertexInputBindingDescription {
-            binding: 0,
-            stride: desc.vertex_stride,
-            input_rate: vk::VertexInputRate::VERTEX,
-        }];
-        let attrs: Vec<_> = desc
-            .attributes
-            .iter()
-            .map(
-                |&(location, format, offset)| vk::VertexInputAttributeDescription {
-                    location,
-                    binding: 0,
-                    format,
-                    offset,
-                },
-            )
-            .collect();
+        let (vb, attrs) = vertex_layout(desc);
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vb)
             .vertex_attribute_descriptions(&attrs);
