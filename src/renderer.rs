@@ -8,7 +8,7 @@
 //!       ─▶ read-back / kept on the GPU / copied into the host's image
 //! ```
 //!
-//! [`Passes::record`] is the list of passes in frame order; each pass owns
+//! `Passes::record` is the list of passes in frame order; each pass owns
 //! its per-slot resources (see [`crate::passes`]).
 
 mod limits;
