@@ -1,4 +1,4 @@
-//! The README's accuracy table: relMSE and mean-radiance ratio against a
+//! The accuracy table of docs/accuracy.md: relMSE and mean-radiance ratio against a
 //! path-traced reference for the clamped image, SSBC with 1..3 steps and the
 //! unclamped image, on the built-in scenes, with the time each took; and the
 //! Kollig–Keller baseline's time.
