@@ -1,6 +1,8 @@
 #version 460
-// Bounded VPL lighting T_b L^: sum over VPLs of f_r(x) min(G, b) V_ISM f_r(z) Phi.
-// Also writes S0 = direct + bounded indirect, the term SSBC compensates.
+// Bounded VPL lighting T_b L^ by the full gather: every VPL at every pixel,
+// f_r(x) min(G, b) V_ISM f_r(z) Phi summed (the reference of the
+// interleaved gather). Also writes S0 = direct + bounded indirect, the term
+// SSBC compensates.
 #include "common.glsl"
 #include "ism.glsl"
 
@@ -26,15 +28,7 @@ layout(push_constant) uniform Push {
     float point_radius;   // world radius of one splatted point
 } pc;
 
-// ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
-// n), whose surface makes cos_x with -w. The tolerance grows with the
-// receiver's slope across a splat (its own surface's points land in its texel).
-float ism_visible(uint v, vec3 w, vec3 n, float dist, float cos_x) {
-    vec2 uv = ism_paraboloid(w, n);
-    float stored = imageLoad(ism, ism_texel(v, uv, pc.tile, pc.tiles_per_row)).r;
-    if (stored < 0.0) return 1.0;
-    return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, pc.ism_bias) ? 1.0 : 0.0;
-}
+#include "vpl_gather.glsl"
 
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -43,24 +37,9 @@ void main() {
     vec4 direct_radiance = imageLoad(direct, pixel);
     vec3 radiance = vec3(0.0);
     if (position.w != 0.0) {
-        vec3 x = position.xyz;
         vec3 n = imageLoad(g_normal, pixel).xyz;
         vec3 albedo = imageLoad(g_albedo, pixel).rgb;
-        for (uint i = 0u; i < pc.vpl_count; i++) {
-            GpuVpl vpl = vpls[i];
-            vec3 d = x - vpl.position.xyz;
-            float d2 = dot(d, d);
-            if (d2 < 1e-10) continue;
-            float dist = sqrt(d2);
-            vec3 w = d / dist;
-            float cos_z = dot(vpl.normal.xyz, w);
-            float cos_x = -dot(n, w);
-            if (cos_z <= 0.0 || cos_x <= 0.0) continue;
-            float g = min(cos_x * cos_z / d2, pc.bound);
-            float v = ism_visible(i, w, vpl.normal.xyz, dist, cos_x);
-            radiance += vpl.albedo.rgb * vpl.flux.rgb * (g * v);
-        }
-        radiance *= albedo / (PI * PI);
+        radiance = vpl_sum(position.xyz, n, 0u, pc.vpl_count) * albedo / (PI * PI);
     }
     imageStore(indirect_bounded, pixel, vec4(radiance, position.w));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));

@@ -1,6 +1,7 @@
 #version 460
-// ISM point splatting: every VPL splats its own subset of scene points into
-// its paraboloid tile with atomicMin on the (positive float) distance bits.
+// ISM point splatting: every VPL splats its own block of scene points (the
+// one its identity picks, flux.w) into its paraboloid tile with atomicMin
+// on the (positive float) distance bits.
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
@@ -23,7 +24,8 @@ void main() {
     uint v = gl_GlobalInvocationID.y;
     if (i >= pc.points_per_vpl || v >= pc.vpl_count) return;
     GpuVpl vpl = vpls[v];
-    vec3 p = points[v * pc.points_per_vpl + i].xyz;
+    uint block = floatBitsToUint(vpl.flux.w);
+    vec3 p = points[block * pc.points_per_vpl + i].xyz;
     vec3 d = p - vpl.position.xyz;
     float dist = length(d);
     if (dist < 1e-5) return;

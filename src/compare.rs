@@ -19,6 +19,8 @@ pub struct Comparison {
     pub rel_mse: f64,
     /// Mean radiance of A divided by that of B.
     pub mean_ratio: f64,
+    /// RMSE divided by the mean radiance of B (over RGB).
+    pub relative_rmse: f64,
     /// Per channel R, G, B: (rmse, rel_mse, mean_ratio).
     pub channels: [ChannelComparison; 3],
 }
@@ -63,12 +65,41 @@ pub fn compare(a: &[f32], b: &[f32]) -> Result<Comparison> {
     let mean = |f: fn(&ChannelComparison) -> f64| ch.iter().map(f).sum::<f64>() / 3.0;
     let sum_a: f64 = a.chunks_exact(4).map(|p| (p[0] + p[1] + p[2]) as f64).sum();
     let sum_b: f64 = b.chunks_exact(4).map(|p| (p[0] + p[1] + p[2]) as f64).sum();
+    let rmse = mean(|c| c.rmse * c.rmse).sqrt();
     Ok(Comparison {
-        rmse: mean(|c| c.rmse * c.rmse).sqrt(),
+        rmse,
         rel_mse: mean(|c| c.rel_mse),
         mean_ratio: sum_a / sum_b.max(1e-30),
+        relative_rmse: rmse / (sum_b / (3.0 * n)).max(1e-30),
         channels: [ch[0].clone(), ch[1].clone(), ch[2].clone()],
     })
+}
+
+/// The mean of each `block` x `block` block of an RGBA image (alpha: the
+/// mean too); partial blocks at the right and bottom edges average what
+/// they hold. Comparing block means measures the error that remains once
+/// pixel noise is blurred away.
+pub fn block_average(rgba: &[f32], width: u32, height: u32, block: u32) -> Vec<f32> {
+    let block = block.max(1);
+    let (bw, bh) = (width.div_ceil(block), height.div_ceil(block));
+    let mut out = vec![0.0f32; (bw * bh * 4) as usize];
+    let mut counts = vec![0u32; (bw * bh) as usize];
+    for y in 0..height {
+        for x in 0..width {
+            let b = ((y / block) * bw + x / block) as usize;
+            let p = ((y * width + x) * 4) as usize;
+            for c in 0..4 {
+                out[b * 4 + c] += rgba[p + c];
+            }
+            counts[b] += 1;
+        }
+    }
+    for (b, &n) in counts.iter().enumerate() {
+        for c in 0..4 {
+            out[b * 4 + c] /= n.max(1) as f32;
+        }
+    }
+    out
 }
 
 /// Writes a false-colour map of |a - b| / (b + 0.01) (blue 0, red >= 1).
@@ -95,4 +126,26 @@ pub fn write_heatmap(a: &[f32], b: &[f32], width: u32, height: u32, path: &Path)
             message: e.to_string(),
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_means_and_relative_rmse() {
+        // 3x2 image, blocks of 2: the right column is a partial block.
+        let px = |v: f32| [v, v, v, 1.0];
+        let img: Vec<f32> = [1.0, 3.0, 5.0, 3.0, 1.0, 7.0]
+            .iter()
+            .flat_map(|&v| px(v))
+            .collect();
+        let blocks = block_average(&img, 3, 2, 2);
+        assert_eq!(blocks, [2.0, 2.0, 2.0, 1.0, 6.0, 6.0, 6.0, 1.0]);
+        let b = vec![1.0f32; 8];
+        let a: Vec<f32> = [1.1, 1.1, 1.1, 1.0, 0.9, 0.9, 0.9, 1.0].to_vec();
+        let c = compare(&a, &b).unwrap();
+        assert!((c.relative_rmse - 0.1).abs() < 1e-6);
+        assert!((c.mean_ratio - 1.0).abs() < 1e-6);
+    }
 }

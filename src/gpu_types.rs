@@ -193,18 +193,19 @@ pub struct GpuVpl {
     pub normal: [f32; 4],
     /// rgb albedo.
     pub albedo: [f32; 4],
-    /// rgb flux (W).
+    /// rgb flux (W); w: the bits of the index of the block of ISM points it
+    /// splats (`u32`).
     pub flux: [f32; 4],
 }
 
 impl GpuVpl {
-    /// Packs a CPU VPL.
-    pub fn new(v: &crate::cpu::vpl::Vpl) -> Self {
+    /// Packs a CPU VPL that splats ISM point block `point_block`.
+    pub fn new(v: &crate::cpu::vpl::Vpl, point_block: u32) -> Self {
         Self {
             position: v.position.extend(1.0).into(),
             normal: v.normal.extend(0.0).into(),
             albedo: v.albedo.extend(1.0).into(),
-            flux: v.flux.extend(0.0).into(),
+            flux: v.flux.extend(f32::from_bits(point_block)).into(),
         }
     }
 }

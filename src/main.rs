@@ -9,6 +9,7 @@ use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
+use ssbc::settings::Gather;
 use ssbc::vk::DeviceSelector;
 
 #[derive(Parser)]
@@ -82,6 +83,10 @@ struct CompareArgs {
     /// Write a false-colour relative-error map (PNG).
     #[arg(long, value_name = "OUT.png")]
     heatmap: Option<PathBuf>,
+    /// Compare the means of N x N pixel blocks instead of pixels (the error
+    /// left once pixel noise is blurred away).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    blocks: u32,
 }
 
 /// Parses `WxH`.
@@ -144,10 +149,10 @@ struct SceneOptions {
     #[arg(long)]
     camera: Option<usize>,
     /// Shadow-map resolution (texels per side).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = RenderSettings::default().shadow_map_size)]
     shadow_map_size: u32,
     /// Number of VPLs wanted (0 switches indirect light off).
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_count)]
+    #[arg(long, default_value_t = RenderSettings::default().vpl.count, allow_negative_numbers = true, value_parser = parse_count)]
     vpls: usize,
     /// Most diffuse hits of a light path, at least 1. Russian roulette ends
     /// paths; this is a safety net (a low value biases the image).
@@ -157,24 +162,32 @@ struct SceneOptions {
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// ISM tile side per VPL in texels (power of two).
-    #[arg(long = "ism-res", default_value_t = 64)]
+    #[arg(long = "ism-res", default_value_t = RenderSettings::default().ism_tile)]
     ism_res: u32,
     /// Scene points each VPL splats into its ISM.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = RenderSettings::default().points_per_vpl)]
     points_per_vpl: u32,
+    /// How the bounded VPL lighting visits the VPLs: interleaved (each pixel
+    /// of an N x N block one subset, then a depth/normal-aware filter) or
+    /// full (every VPL at every pixel; the reference).
+    #[arg(long, value_enum, default_value_t = RenderSettings::default().gather)]
+    gather: Gather,
+    /// Side N of the interleaved pattern (N x N subsets of the VPLs).
+    #[arg(long, default_value_t = RenderSettings::default().interleave)]
+    interleave: u32,
     /// Clamping bound b of the geometry term in 1/m^2: a number, `inf` (no
     /// clamping), or `auto` = (10 / scene bounding-box diagonal)^2, i.e.
     /// clamping starts within a tenth of the scene's diagonal.
     #[arg(long, default_value = "auto", value_parser = parse_bound, allow_negative_numbers = true)]
     bound: Bound,
     /// SSBC steps K (0 = no compensation).
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = RenderSettings::default().ssbc.steps)]
     steps: u32,
     /// SSBC integration: hierarchical (the paper's) or brute (reference).
     #[arg(long, value_enum, default_value_t = Integration::Hierarchical)]
     integration: Integration,
     /// Lower clamp of cos(view angle) in the pixel area A_y (grazing views).
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = RenderSettings::default().ssbc.min_cos_view)]
     min_cos_view: f32,
     /// Exposure of PNG output (and of the viewer). Default: chosen from the
     /// image (middle grey at its log-average luminance) for PNGs, 1 in the
@@ -263,6 +276,8 @@ impl SceneOptions {
             },
             ism_tile: self.ism_res,
             points_per_vpl: self.points_per_vpl,
+            gather: self.gather,
+            interleave: self.interleave,
             bound: self.bound,
             ssbc: SsbcSettings {
                 steps: self.steps,
@@ -415,17 +430,22 @@ fn compare(args: CompareArgs) -> Result<u32, ssbc::Error> {
             "image sizes differ: {wa}x{ha} vs {wb}x{hb}"
         )));
     }
-    let c = ssbc::compare::compare(&a, &b)?;
     if let Some(path) = &args.heatmap {
         ssbc::compare::write_heatmap(&a, &b, wa, ha, path)?;
     }
+    let c = if args.blocks > 1 {
+        let blocks = |img: &[f32]| ssbc::compare::block_average(img, wa, ha, args.blocks);
+        ssbc::compare::compare(&blocks(&a), &blocks(&b))?
+    } else {
+        ssbc::compare::compare(&a, &b)?
+    };
     let mut text = String::new();
     if args.json {
         text = serde_json::to_string_pretty(&c).expect("serialisable") + "\n";
     } else {
         text += &format!(
-            "RMSE {:.6}  relMSE {:.6}  mean ratio A/B {:.4}\n",
-            c.rmse, c.rel_mse, c.mean_ratio
+            "RMSE {:.6}  relative RMSE {:.4}  relMSE {:.6}  mean ratio A/B {:.4}\n",
+            c.rmse, c.relative_rmse, c.rel_mse, c.mean_ratio
         );
         for (name, ch) in ["R", "G", "B"].iter().zip(&c.channels) {
             text += &format!(

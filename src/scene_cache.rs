@@ -17,13 +17,17 @@ use crate::settings::RenderSettings;
 use crate::timings::CpuSpan;
 use crate::vk::Device;
 
-/// VPLs traced for one version of the lights and one set of settings.
+/// VPLs traced for one version of the lights and one set of settings, in
+/// the order of their interleaving subsets.
 pub struct VplCache {
-    key: (u64, VplSettings),
+    key: (u64, VplSettings, u32),
     /// The VPLs and the light paths that made them.
     pub set: VplSet,
     /// The same, as the GPU reads them.
     pub gpu: Vec<GpuVpl>,
+    /// Where each interleaving subset starts in `set.vpls` (and `gpu`), and
+    /// where the last ends.
+    pub subsets: Vec<u32>,
     /// Changes whenever the VPLs do (passes compare it with what they hold).
     pub version: u64,
 }
@@ -90,14 +94,21 @@ impl SceneCache {
         let cache = cache.as_mut().expect("built above");
         cache.versions.lights = versions.lights;
         cache.versions.camera = versions.camera;
-        let vpl_key = (versions.lights, settings.vpl.clone());
+        let side = settings.pattern_side();
+        let vpl_key = (versions.lights, settings.vpl.clone(), side);
         if !cache.vpls.as_ref().is_some_and(|v| v.key == vpl_key) {
-            let set = CpuSpan::time(spans, "vpl_generation", || {
+            let mut set = CpuSpan::time(spans, "vpl_generation", || {
                 vpl::generate(scene, &cache.bvh, &settings.vpl)
             })?;
+            let subsets = vpl::interleave(&mut set.vpls, side * side);
+            // Each VPL splats the block of points its identity picks (so
+            // its ISM does not change with the paths traced before it).
+            let blocks = set.vpls.len().max(1) as u64;
+            let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
             cache.vpls = Some(VplCache {
-                gpu: set.vpls.iter().map(GpuVpl::new).collect(),
+                gpu: set.vpls.iter().map(|v| GpuVpl::new(v, block(v))).collect(),
                 set,
+                subsets,
                 key: vpl_key,
                 version: next_version(),
             });

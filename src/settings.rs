@@ -63,6 +63,10 @@ pub struct RenderSettings {
     pub ism_tile: u32,
     /// Scene points each VPL splats into its ISM.
     pub points_per_vpl: u32,
+    /// How the bounded VPL lighting visits the VPLs.
+    pub gather: Gather,
+    /// Side N of the interleaved pattern: N x N subsets of the VPLs.
+    pub interleave: u32,
     /// Clamping bound b.
     pub bound: Bound,
     /// Bias compensation.
@@ -81,11 +85,49 @@ impl Default for RenderSettings {
             vpl: VplSettings::default(),
             ism_tile: 64,
             points_per_vpl: 1024,
+            gather: Gather::Interleaved,
+            interleave: 4,
             bound: Bound::Auto,
             ssbc: SsbcSettings::default(),
             debug_readback: false,
         }
     }
+}
+
+impl RenderSettings {
+    /// The side of the interleaved pattern: 1 for the full gather.
+    pub fn pattern_side(&self) -> u32 {
+        match self.gather {
+            Gather::Full => 1,
+            Gather::Interleaved => self.interleave,
+        }
+    }
+
+    /// Checks what needs no device.
+    pub fn validate(&self) -> Result<()> {
+        if self.gather == Gather::Interleaved && !(2..=4).contains(&self.interleave) {
+            return Err(Error::InvalidParameter(format!(
+                "--interleave {} must be in 2..=4 (or use --gather full)",
+                self.interleave
+            )));
+        }
+        self.ssbc.validate()
+    }
+}
+
+/// How the bounded VPL lighting `T_b L^` visits the VPLs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Gather {
+    /// Interleaved sampling (Keller & Heidrich 2001; Segovia et al. 2006):
+    /// the VPLs are split into N x N random subsets, each pixel of an N x N
+    /// block evaluates one of them, and a depth- and normal-aware filter
+    /// over each pixel's N x N neighbourhood sums the subsets back on each
+    /// surface.
+    #[default]
+    Interleaved,
+    /// Every VPL at every pixel (the reference).
+    Full,
 }
 
 /// How each residual step integrates over the screen.

@@ -11,9 +11,13 @@ use ssbc::passes::ssbc::SsbcSettings;
 use ssbc::renderer::{Bound, RenderSettings};
 use ssbc::Frame;
 
+/// The full gather: the GPU's sum is compared with the CPU's pixel by pixel
+/// (the interleaved gather is checked against the full one in
+/// `tests/interleaved.rs`).
 fn settings(bound: Bound) -> RenderSettings {
     let mut s = common::small(128, 96);
     s.vpl.count = 64;
+    s.gather = ssbc::settings::Gather::Full;
     s.bound = bound;
     s.ssbc = SsbcSettings {
         steps: 0,

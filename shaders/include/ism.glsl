@@ -8,7 +8,7 @@ struct GpuVpl {
     vec4 position;   // xyz position
     vec4 normal;     // xyz unit normal (hemisphere it emits into)
     vec4 albedo;     // rgb linear albedo at the VPL
-    vec4 flux;       // rgb flux Phi [W]
+    vec4 flux;       // rgb flux Phi [W]; w: bits of its ISM point block (uint)
 };
 
 // Orthonormal basis around n (Duff et al. 2017); matches cpu::sampling::basis.

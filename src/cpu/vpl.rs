@@ -28,6 +28,20 @@ pub struct Vpl {
     pub flux: Vec3,
     /// Bounce at which it was deposited (0 = on an emitter, 1 = first hit).
     pub bounce: u32,
+    /// The light path that deposited it (its index in the Halton sequence).
+    /// With `bounce` it names the VPL across frames: when a light moves a
+    /// little, the same path deposits "the same" VPL a little elsewhere,
+    /// whatever happened to the paths before it.
+    pub path: u64,
+}
+
+impl Vpl {
+    /// A number fixed by the VPL's identity (path, bounce), uniform over u64:
+    /// what assigns it an interleaving subset and an ISM point set, so that
+    /// neither changes between frames unless its own path does.
+    pub fn identity_hash(&self) -> u64 {
+        super::sampling::hash64(self.path.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ self.bounce as u64)
+    }
 }
 
 /// Light-tracing parameters.
@@ -147,6 +161,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 albedo: Vec3::ONE,
                 flux: flux / p_light,
                 bounce: 0,
+                path,
             });
             let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
             let origin =
@@ -236,6 +251,7 @@ fn trace_path(
             albedo: surf.albedo,
             flux,
             bounce,
+            path,
         });
         if bounce == settings.bounces {
             return;
@@ -257,6 +273,26 @@ fn trace_path(
         origin = surf.position
             + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
     }
+}
+
+/// Orders `vpls` by interleaving subset, for a gather in which each pixel
+/// of an N x N block evaluates one of `subsets` = N² subsets: VPL v is in
+/// subset `(v.identity_hash() >> 32) % subsets`, a random split that keeps a
+/// VPL in its subset from frame to frame. The order within a subset is
+/// kept (one subset: nothing moves). Returns the `subsets + 1` offsets of
+/// the subsets in the new order.
+pub fn interleave(vpls: &mut [Vpl], subsets: u32) -> Vec<u32> {
+    let subsets = subsets.max(1);
+    let subset = |v: &Vpl| ((v.identity_hash() >> 32) % subsets as u64) as u32;
+    vpls.sort_by_key(subset);
+    let mut offsets = vec![0u32; subsets as usize + 1];
+    for v in vpls.iter() {
+        offsets[subset(v) as usize + 1] += 1;
+    }
+    for s in 0..subsets as usize {
+        offsets[s + 1] += offsets[s];
+    }
+    offsets
 }
 
 /// Bounded VPL lighting at one surface point, the CPU twin of the GPU's
@@ -363,6 +399,52 @@ mod tests {
             generate(&scene, &bvh, &s).unwrap().vpls,
             generate(&scene, &bvh, &s).unwrap().vpls
         );
+    }
+
+    #[test]
+    fn interleaving_keeps_a_vpl_in_its_subset() {
+        let scene = crate::scene::builtin::cornell();
+        let bvh = SceneBvh::new(&scene);
+        let s = VplSettings {
+            count: 4096,
+            ..Default::default()
+        };
+        let mut vpls = generate(&scene, &bvh, &s).unwrap().vpls;
+        let unsorted = vpls.clone();
+        let offsets = interleave(&mut vpls, 16);
+        assert_eq!(offsets.len(), 17);
+        assert_eq!(offsets[16] as usize, vpls.len());
+        // Every VPL is still there, each subset holds about 1/16 of them.
+        let mut a: Vec<_> = unsorted.iter().map(|v| (v.path, v.bounce)).collect();
+        let mut b: Vec<_> = vpls.iter().map(|v| (v.path, v.bounce)).collect();
+        a.sort();
+        b.sort();
+        assert_eq!(a, b);
+        for w in offsets.windows(2) {
+            let size = (w[1] - w[0]) as f32;
+            assert!((size - 256.0).abs() < 64.0, "subset of {size} VPLs");
+        }
+        // A VPL's subset depends on its path and bounce only: dropping the
+        // first path's VPLs moves no other VPL to another subset.
+        let subset_of = |vpls: &[Vpl], offsets: &[u32]| {
+            let mut m = std::collections::HashMap::new();
+            for s in 0..16 {
+                for v in &vpls[offsets[s] as usize..offsets[s + 1] as usize] {
+                    m.insert((v.path, v.bounce), s);
+                }
+            }
+            m
+        };
+        let before = subset_of(&vpls, &offsets);
+        let mut fewer: Vec<Vpl> = unsorted.into_iter().filter(|v| v.path != 0).collect();
+        let fewer_offsets = interleave(&mut fewer, 16);
+        for (key, s) in subset_of(&fewer, &fewer_offsets) {
+            assert_eq!(before[&key], s);
+        }
+        // One subset keeps the order.
+        let mut same = vpls.clone();
+        assert_eq!(interleave(&mut same, 1), vec![0, vpls.len() as u32]);
+        assert_eq!(same, vpls);
     }
 
     #[test]

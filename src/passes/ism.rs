@@ -27,10 +27,17 @@ pub struct Ism {
     pub splat_target: Image,
     /// Filled depth pyramid (r32f); level 0 is what lighting reads.
     pub pyramid: Image,
-    /// The VPLs (`GpuVpl`).
+    /// The VPLs (`GpuVpl`), in the order of their interleaving subsets.
     pub vpls: Buffer,
-    /// Scene points, `points_per_vpl` per VPL.
+    /// Where each interleaving subset starts in `vpls`, and where the last
+    /// ends (`u32`).
+    pub subsets: Buffer,
+    /// Number of interleaving subsets.
+    pub subset_count: u32,
+    /// Scene points, `points_per_vpl` per block (one block per VPL).
     pub points: Buffer,
+    /// The (VPL, points) versions the buffers hold.
+    versions: (u64, u64),
     /// Number of VPLs.
     pub vpl_count: u32,
     /// Points per VPL.
@@ -166,6 +173,7 @@ impl Pass for IsmPass {
         } else {
             points.positions.clone()
         };
+        let subsets = &setup.cache.vpls().subsets;
         Ok(Ism {
             splat_target,
             pyramid,
@@ -175,6 +183,14 @@ impl Pass for IsmPass {
                 &vpl_data,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
+            subsets: Buffer::with_data(
+                device,
+                "vpls.subsets",
+                subsets,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
+            subset_count: subsets.len() as u32 - 1,
+            versions: (setup.cache.vpls().version, setup.cache.points().version),
             points: Buffer::with_data(
                 device,
                 "ism.points",
@@ -190,26 +206,31 @@ impl Pass for IsmPass {
         })
     }
 
-    /// Rewrites the VPLs and points in place when their counts and the tile
-    /// match.
+    /// Rewrites the VPLs (and the points, if they changed) in place when
+    /// their counts and the tile match.
     fn update(&self, ism: &mut Ism, setup: &SlotSetup<'_>) -> Result<bool> {
-        let (vpls, points) = (&setup.cache.vpls().gpu, &setup.cache.points().points);
+        let (cached_vpls, cached_points) = (setup.cache.vpls(), setup.cache.points());
+        let (vpls, points) = (&cached_vpls.gpu, &cached_points.points);
         let (tile, far) = (setup.settings.ism_tile, setup.cache.diagonal());
         let points_per_vpl = (points.positions.len() / vpls.len().max(1)) as u32;
         if ism.tile != tile
             || ism.vpl_count != vpls.len() as u32
+            || ism.subset_count as usize + 1 != cached_vpls.subsets.len()
             || ism.points_per_vpl != points_per_vpl
             || (points.positions.len().max(1) * 16) as u64 != ism.points.size
         {
             return Ok(false);
         }
-        if !vpls.is_empty() {
+        if !vpls.is_empty() && ism.versions.0 != cached_vpls.version {
             ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
+            ism.subsets
+                .write(0, bytemuck::cast_slice(&cached_vpls.subsets))?;
         }
-        if !points.positions.is_empty() {
+        if !points.positions.is_empty() && ism.versions.1 != cached_points.version {
             ism.points
                 .write(0, bytemuck::cast_slice(&points.positions))?;
         }
+        ism.versions = (cached_vpls.version, cached_points.version);
         ism.far = far;
         ism.point_radius = points.point_radius;
         Ok(true)

@@ -67,5 +67,5 @@ pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Resu
             settings.vpl.count, settings.points_per_vpl
         )));
     }
-    settings.ssbc.validate()
+    settings.validate()
 }

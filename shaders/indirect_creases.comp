@@ -1,0 +1,48 @@
+#version 460
+// The interleaved gather's exception: pixels beside a crease or contact
+// (indirect_filter.comp lists them) evaluate every VPL themselves. There
+// the bounded lighting changes within a pixel (the geometry term of VPLs
+// on the adjoining surface drops to zero at the crease line), so sums
+// borrowed from neighbours, however close, would be wrong. Overwrites
+// indirect_bounded and S0 at those pixels.
+#include "common.glsl"
+#include "ism.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
+layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
+layout(set = 0, binding = 6) readonly buffer Vpls { GpuVpl vpls[]; };
+layout(set = 0, binding = 7, r32f) uniform readonly image2D ism;
+// (dispatch x, y, z, count), then x | y << 16 per pixel.
+layout(set = 0, binding = 8) readonly buffer Creases { uvec4 header; uint pixels[]; } creases;
+
+layout(push_constant) uniform Push {
+    uvec2 size;
+    uint vpl_count;
+    uint tile;
+    uint tiles_per_row;
+    float far;
+    float bound;
+    float ism_bias;
+    float point_radius;
+} pc;
+
+#include "vpl_gather.glsl"
+
+void main() {
+    uint item = gl_GlobalInvocationID.x;
+    if (item >= creases.header.w) return;
+    uint packed = creases.pixels[item];
+    ivec2 pixel = ivec2(packed & 0xFFFFu, packed >> 16);
+    vec3 x = imageLoad(g_position, pixel).xyz;
+    vec3 n = imageLoad(g_normal, pixel).xyz;
+    vec3 albedo = imageLoad(g_albedo, pixel).rgb;
+    vec3 radiance = vpl_sum(x, n, 0u, pc.vpl_count) * albedo / (PI * PI);
+    imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
+    imageStore(s0, pixel, vec4(imageLoad(direct, pixel).rgb + radiance, 1.0));
+}

@@ -1,0 +1,148 @@
+#version 460
+// Reconstruction of the interleaved bounded VPL lighting (Segovia et al.
+// 2006). Every N x N box of pixels holds each of the N^2 positions in a
+// block, i.e. each VPL subset, exactly once, so the mean of the interleaved
+// sums (N^2 x one subset's sum) over a box on one surface is the sum over
+// every VPL. Each pixel takes, of the N^2 boxes that contain it, the one
+// with most pixels on its own surface (normals within acos(min_normal_cos),
+// within max_plane_slope x their distance of its tangent plane; ties go to
+// the most central box), and averages those pixels: across depth and
+// normal discontinuities nothing is mixed, and beside an edge the box
+// turns away from it, so the pixel still sees every subset. Only where no
+// box lies on its surface (corners, features thinner than N pixels) do
+// some subsets go missing. Where the whole (2N - 1)^2 window is on the
+// surface, tent weights (N - |dx|)(N - |dy|) instead: each subset's total
+// weight is still N^2, and its pixels' offsets average to zero. Then the
+// receiver's albedo, and S0.
+//
+// A pixel beside a crease or contact (a neighbour of another surface
+// within crease_footprints x its footprint in space) is listed for
+// indirect_creases.comp, which evaluates every VPL there.
+#include "common.glsl"
+#include "guide.glsl"
+
+const int MAX_SIDE = 4;
+const int MAX_WINDOW = 2 * MAX_SIDE - 1;
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32ui) uniform readonly uimage2D guide;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D direct;
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D interleaved;
+layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
+// (dispatch x, y, z, count), then x | y << 16 per pixel.
+layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
+
+layout(push_constant) uniform Push {
+    uvec2 size;
+    int side;               // N <= MAX_SIDE
+    float min_normal_cos;
+    float max_plane_slope;
+    float crease_footprints;
+} pc;
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
+    uvec4 own = imageLoad(guide, pixel);
+    vec4 direct_radiance = imageLoad(direct, pixel);
+    if (own.w == NO_GEOMETRY) {
+        imageStore(indirect_bounded, pixel, vec4(0.0));
+        imageStore(s0, pixel, vec4(direct_radiance.rgb, 0.0));
+        return;
+    }
+    vec3 x = guide_position(own);
+    vec3 n = guide_normal(own);
+    int reach = pc.side - 1;
+    // Which pixels of the (2N - 1)^2 window around the pixel are on its
+    // surface: bit dx of rows[dy].
+    // Among the 8 neighbours: the nearest in space on the surface (per
+    // pixel of offset: the footprint) and on another surface.
+    uint rows[MAX_WINDOW];
+    float footprint = 1e30;
+    float other = 1e30;
+    for (int dy = 0; dy <= 2 * reach; dy++) {
+        uint row = 0u;
+        for (int dx = 0; dx <= 2 * reach; dx++) {
+            ivec2 offset = ivec2(dx, dy) - reach;
+            ivec2 q = pixel + offset;
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
+            uvec4 g = imageLoad(guide, q);
+            if (g.w == NO_GEOMETRY) continue;
+            vec3 d = guide_position(g) - x;
+            float distance = length(d);
+            bool adjacent = max(abs(offset.x), abs(offset.y)) == 1;
+            float per_pixel = distance / length(vec2(offset));
+            if (abs(dot(n, d)) > pc.max_plane_slope * distance
+                || dot(n, guide_normal(g)) < pc.min_normal_cos) {
+                if (adjacent) other = min(other, per_pixel);
+                continue;
+            }
+            if (adjacent) footprint = min(footprint, per_pixel);
+            row |= 1u << uint(dx);
+        }
+        rows[dy] = row;
+    }
+    if (other <= pc.crease_footprints * footprint) {
+        uint slot = atomicAdd(creases.header.w, 1u);
+        creases.pixels[slot] = uint(pixel.x) | uint(pixel.y) << 16;
+        atomicMax(creases.header.x, slot / 64u + 1u);
+        return;
+    }
+    // Every pixel of the window on the surface: tent weights, centred (the
+    // offsets of each subset's pixels average to zero: exact for lighting
+    // that varies linearly across the window).
+    uint full_row = (1u << uint(2 * reach + 1)) - 1u;
+    bool complete = true;
+    for (int dy = 0; dy <= 2 * reach; dy++) {
+        complete = complete && rows[dy] == full_row;
+    }
+    vec3 sum = vec3(0.0);
+    float weights = 0.0;
+    if (complete) {
+        for (int dy = 0; dy <= 2 * reach; dy++) {
+            float wy = float(pc.side - abs(dy - reach));
+            for (int dx = 0; dx <= 2 * reach; dx++) {
+                float w = wy * float(pc.side - abs(dx - reach));
+                sum += w * imageLoad(interleaved, pixel + ivec2(dx, dy) - reach).rgb;
+                weights += w;
+            }
+        }
+        vec3 radiance = imageLoad(g_albedo, pixel).rgb * sum / weights;
+        imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
+        imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
+        return;
+    }
+    // Otherwise the box (its corner (bx, by) in the window) with most such pixels.
+    uint box_mask = (1u << uint(pc.side)) - 1u;
+    int best = -1;
+    float best_offcentre = 0.0;
+    ivec2 best_box = ivec2(0);
+    float centre = 0.5 * float(reach);
+    for (int by = 0; by <= reach; by++) {
+        for (int bx = 0; bx <= reach; bx++) {
+            int count = 0;
+            for (int dy = by; dy < by + pc.side; dy++) {
+                count += bitCount(rows[dy] & (box_mask << uint(bx)));
+            }
+            float offcentre = abs(float(bx) - centre) + abs(float(by) - centre);
+            if (count > best || (count == best && offcentre < best_offcentre)) {
+                best = count;
+                best_offcentre = offcentre;
+                best_box = ivec2(bx, by);
+            }
+        }
+    }
+    for (int dy = best_box.y; dy < best_box.y + pc.side; dy++) {
+        uint row = (rows[dy] >> uint(best_box.x)) & box_mask;
+        for (int dx = 0; dx < pc.side; dx++) {
+            if ((row & (1u << uint(dx))) == 0u) continue;
+            sum += imageLoad(interleaved, pixel + ivec2(best_box.x + dx, dy) - reach).rgb;
+        }
+    }
+    // The pixel itself is in every box: best >= 1.
+    vec3 radiance = imageLoad(g_albedo, pixel).rgb * sum / float(best);
+    imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
+    imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
+}

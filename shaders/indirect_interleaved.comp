@@ -1,0 +1,52 @@
+#version 460
+// The interleaved gather of the bounded VPL lighting (Keller & Heidrich
+// 2001): the VPLs come sorted into N x N random subsets, and each pixel of
+// an N x N block evaluates one subset, the one of its position in the
+// block. The dispatch is de-interleaved: work group z = subset, so a
+// group's invocations share one subset and loop over the same VPLs. It
+// writes N^2 x its subset's sum without the receiver's albedo, and the
+// pixel's position and normal for the filter (indirect_filter.comp).
+#include "common.glsl"
+#include "ism.glsl"
+#include "guide.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2) readonly buffer Vpls { GpuVpl vpls[]; };
+layout(set = 0, binding = 3, r32f) uniform readonly image2D ism;
+layout(set = 0, binding = 4) readonly buffer Subsets { uint subset_start[]; };
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D interleaved;
+layout(set = 0, binding = 6, rgba32ui) uniform writeonly uimage2D guide;
+
+layout(push_constant) uniform Push {
+    uvec2 size;
+    uint side;            // N: the pattern is N x N
+    uint tile;
+    uint tiles_per_row;
+    float far;
+    float bound;
+    float ism_bias;
+    float point_radius;
+} pc;
+
+#include "vpl_gather.glsl"
+
+void main() {
+    uint subset = gl_WorkGroupID.z;
+    uvec2 in_block = uvec2(subset % pc.side, subset / pc.side);
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy * pc.side + in_block);
+    if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
+    vec4 position = imageLoad(g_position, pixel);
+    if (position.w == 0.0) {
+        imageStore(interleaved, pixel, vec4(0.0));
+        imageStore(guide, pixel, uvec4(0u, 0u, 0u, NO_GEOMETRY));
+        return;
+    }
+    vec3 n = imageLoad(g_normal, pixel).xyz;
+    vec3 sum = vpl_sum(position.xyz, n, subset_start[subset], subset_start[subset + 1u]);
+    float subsets = float(pc.side * pc.side);
+    imageStore(interleaved, pixel, vec4(sum * (subsets / (PI * PI)), 1.0));
+    imageStore(guide, pixel, pack_guide(position.xyz, n));
+}
