@@ -2,6 +2,8 @@
 //! box the accuracy checks use besides the built-in scenes. Shared by
 //! `tests/ssbc.rs` and `examples/ssbc_accuracy.rs` (included by path).
 
+#![allow(dead_code)]
+
 use glam::{Mat4, Vec3};
 use ssbc::cpu::ssbc::{compare_with_twin, BruteForceTwin, GBufferView, TwinCamera, TwinComparison};
 use ssbc::renderer::{Bound, Frame, RenderSettings, Renderer};
