@@ -14,7 +14,7 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
-layout(set = 0, binding = 6) readonly buffer Vpls { GpuVpl vpls[]; };
+layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
 layout(set = 0, binding = 7, r32f) uniform readonly image2D ism;
 
 layout(push_constant) uniform Push {

@@ -1,6 +1,6 @@
 #version 460
 // ISM point splatting: every VPL splats its own block of scene points (the
-// one its identity picks, flux.w) into its paraboloid tile with atomicMin
+// one its identity picks, position.w) into its paraboloid tile with atomicMin
 // on the (positive float) distance bits.
 #include "ism.glsl"
 
@@ -24,7 +24,7 @@ void main() {
     uint v = gl_GlobalInvocationID.y;
     if (i >= pc.points_per_vpl || v >= pc.vpl_count) return;
     GpuVpl vpl = vpls[v];
-    uint block = floatBitsToUint(vpl.flux.w);
+    uint block = floatBitsToUint(vpl.position.w);
     vec3 p = points[block * pc.points_per_vpl + i].xyz;
     vec3 d = p - vpl.position.xyz;
     float dist = length(d);
@@ -37,7 +37,8 @@ void main() {
     float radius_texels = clamp(pc.point_radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
     int r = int(radius_texels);
     uint depth = floatBitsToUint(dist * pc.depth_scale);
-    ivec2 origin = ivec2(v % pc.tiles_per_row, v / pc.tiles_per_row) * int(pc.tile);
+    uint cell = floatBitsToUint(vpl.normal.w);
+    ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
     ivec2 center = ivec2(uv * float(pc.tile));
     for (int dy = -r; dy <= r; dy++) {
         for (int dx = -r; dx <= r; dx++) {

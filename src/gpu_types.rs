@@ -187,27 +187,33 @@ mod tests {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuVpl {
-    /// xyz position.
-    pub position: [f32; 4],
-    /// xyz unit normal.
-    pub normal: [f32; 4],
-    /// rgb albedo.
-    pub albedo: [f32; 4],
-    /// rgb flux (W); w: the bits of the index of the block of ISM points it
+    /// xyz position; w: the bits of the index of the block of ISM points it
     /// splats (`u32`).
-    pub flux: [f32; 4],
+    pub position: [f32; 4],
+    /// xyz unit normal; w: the bits of its ISM tile's column | row << 16.
+    pub normal: [f32; 4],
+    /// rgb albedo x flux (W).
+    pub power: [f32; 4],
 }
 
 impl GpuVpl {
-    /// Packs a CPU VPL that splats ISM point block `point_block`.
-    pub fn new(v: &crate::cpu::vpl::Vpl, point_block: u32) -> Self {
+    /// Packs the CPU VPL at `index` of `count` that splats ISM point block
+    /// `point_block`.
+    pub fn new(v: &crate::cpu::vpl::Vpl, index: u32, count: u32, point_block: u32) -> Self {
+        let per_row = ism_tiles_per_row(count);
+        let cell = (index % per_row) | (index / per_row) << 16;
         Self {
-            position: v.position.extend(1.0).into(),
-            normal: v.normal.extend(0.0).into(),
-            albedo: v.albedo.extend(1.0).into(),
-            flux: v.flux.extend(f32::from_bits(point_block)).into(),
+            position: v.position.extend(f32::from_bits(point_block)).into(),
+            normal: v.normal.extend(f32::from_bits(cell)).into(),
+            power: (v.albedo * v.flux).extend(0.0).into(),
         }
     }
+}
+
+/// Tiles per row of the ISM atlas of `count` VPLs (a square-ish grid; VPL i
+/// has tile i in row-major order).
+pub fn ism_tiles_per_row(count: u32) -> u32 {
+    (count.max(1) as f64).sqrt().ceil() as u32
 }
 
 #[cfg(test)]
@@ -222,6 +228,6 @@ fn gpu_vpl_matches_glsl() {
         .filter_map(|l| l.split("//").next().unwrap().trim().strip_prefix("vec4 "))
         .map(|n| n.trim_end_matches(';'))
         .collect();
-    assert_eq!(names, ["position", "normal", "albedo", "flux"]);
-    assert_eq!(std::mem::size_of::<GpuVpl>(), 64);
+    assert_eq!(names, ["position", "normal", "power"]);
+    assert_eq!(std::mem::size_of::<GpuVpl>(), 48);
 }

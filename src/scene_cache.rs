@@ -103,10 +103,13 @@ impl SceneCache {
             let subsets = vpl::interleave(&mut set.vpls, side * side);
             // Each VPL splats the block of points its identity picks (so
             // its ISM does not change with the paths traced before it).
-            let blocks = set.vpls.len().max(1) as u64;
-            let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
+            let count = set.vpls.len() as u32;
+            let block = |v: &vpl::Vpl| (v.identity_hash() % count.max(1) as u64) as u32;
+            let gpu = set.vpls.iter().zip(0..);
             cache.vpls = Some(VplCache {
-                gpu: set.vpls.iter().map(|v| GpuVpl::new(v, block(v))).collect(),
+                gpu: gpu
+                    .map(|(v, i)| GpuVpl::new(v, i, count, block(v)))
+                    .collect(),
                 set,
                 subsets,
                 key: vpl_key,

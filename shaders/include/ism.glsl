@@ -3,12 +3,13 @@
 #ifndef SSBC_ISM_GLSL
 #define SSBC_ISM_GLSL
 
-// A VPL (mirrors GpuVpl in src/gpu_types.rs).
+// A VPL (mirrors GpuVpl in src/gpu_types.rs). The gathers read it as three
+// RGBA32F texels (vpl_gather.glsl), the splat as a struct.
 struct GpuVpl {
-    vec4 position;   // xyz position
-    vec4 normal;     // xyz unit normal (hemisphere it emits into)
-    vec4 albedo;     // rgb linear albedo at the VPL
-    vec4 flux;       // rgb flux Phi [W]; w: bits of its ISM point block (uint)
+    vec4 position;   // xyz position; w: bits of its ISM point block (uint)
+    vec4 normal;     // xyz unit normal (hemisphere it emits into); w: bits of
+                     // its atlas tile's column | row << 16 (uint)
+    vec4 power;      // rgb albedo x flux Phi [W] (f_r(z) Phi x pi)
 };
 
 // Orthonormal basis around n (Duff et al. 2017); matches cpu::sampling::basis.
@@ -29,9 +30,10 @@ vec2 ism_paraboloid(vec3 w, vec3 n) {
     return l.xy / (1.0 + l.z) * 0.5 + 0.5;
 }
 
-// Texel of the atlas for VPL `vpl` at paraboloid coordinate uv.
-ivec2 ism_texel(uint vpl, vec2 uv, uint tile, uint tiles_per_row) {
-    ivec2 origin = ivec2(vpl % tiles_per_row, vpl / tiles_per_row) * int(tile);
+// Texel of the atlas at paraboloid coordinate uv in the tile whose column
+// and row are packed in `cell` (GpuVpl.normal.w).
+ivec2 ism_texel(uint cell, vec2 uv, uint tile) {
+    ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(tile);
     ivec2 local = clamp(ivec2(uv * float(tile)), ivec2(0), ivec2(int(tile) - 1));
     return origin + local;
 }

@@ -130,11 +130,11 @@ impl IndirectBoundedPass {
             Ok(ComputeKernel::new(device, spirv, bindings, push)?.named(name))
         };
         let gather_push = std::mem::size_of::<GatherPush>();
-        // G-buffer (3), direct, indirect_bounded (out), s0 (out), VPLs, ISM;
-        // the crease kernel also reads its list.
+        // G-buffer (3), direct, indirect_bounded (out), s0 (out), VPLs (as
+        // texels), ISM; the crease kernel also reads its list.
         let full_bindings = [
             &[T::STORAGE_IMAGE; 6][..],
-            &[T::STORAGE_BUFFER, T::STORAGE_IMAGE],
+            &[T::UNIFORM_TEXEL_BUFFER, T::STORAGE_IMAGE],
         ]
         .concat();
         let crease_bindings = [&full_bindings[..], &[T::STORAGE_BUFFER]].concat();
@@ -143,7 +143,7 @@ impl IndirectBoundedPass {
         let interleaved_bindings = [
             T::STORAGE_IMAGE,
             T::STORAGE_IMAGE,
-            T::STORAGE_BUFFER,
+            T::UNIFORM_TEXEL_BUFFER,
             T::STORAGE_IMAGE,
             T::STORAGE_BUFFER,
             T::STORAGE_IMAGE,
@@ -192,7 +192,7 @@ impl IndirectBoundedPass {
         gbuffer.read_in_compute(rec);
         rec.use_image(direct, Access::ComputeRead);
         rec.use_image(&ism.pyramid, Access::ComputeRead);
-        rec.use_buffer(&ism.vpls, Access::ComputeRead);
+        rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
         rec.flush_barriers();
@@ -216,7 +216,7 @@ impl IndirectBoundedPass {
             Binding::storage(direct),
             Binding::storage(&out.indirect),
             Binding::storage(&out.s0),
-            Binding::StorageBuffer(&ism.vpls),
+            Binding::UniformTexelBuffer(&ism.vpl_texels),
             Binding::StorageImage(ism.pyramid.mip_views[0]),
         ]
     }
@@ -233,7 +233,7 @@ impl IndirectBoundedPass {
         rec.use_image(&gbuffer.position, Access::ComputeRead);
         rec.use_image(&gbuffer.normal, Access::ComputeRead);
         rec.use_image(&ism.pyramid, Access::ComputeRead);
-        rec.use_buffer(&ism.vpls, Access::ComputeRead);
+        rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(&ism.subsets, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeWrite);
         rec.use_image(&interleaved.guide, Access::ComputeWrite);
@@ -243,7 +243,7 @@ impl IndirectBoundedPass {
         let bindings = [
             Binding::storage(&gbuffer.position),
             Binding::storage(&gbuffer.normal),
-            Binding::StorageBuffer(&ism.vpls),
+            Binding::UniformTexelBuffer(&ism.vpl_texels),
             Binding::StorageImage(ism.pyramid.mip_views[0]),
             Binding::StorageBuffer(&ism.subsets),
             Binding::storage(&interleaved.sums),
@@ -316,7 +316,7 @@ impl IndirectBoundedPass {
         gbuffer.read_in_compute(rec);
         rec.use_image(direct, Access::ComputeRead);
         rec.use_image(&ism.pyramid, Access::ComputeRead);
-        rec.use_buffer(&ism.vpls, Access::ComputeRead);
+        rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(creases, Access::IndirectRead);
         rec.use_buffer(creases, Access::ComputeRead);
         rec.use_image(&out.indirect, Access::ComputeWrite);

@@ -11,8 +11,8 @@ use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::shaders;
 use crate::vk::{
-    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
-    ImageDesc,
+    Access, Binding, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout,
+    Device, Image, ImageDesc,
 };
 
 /// The two ISM pipelines.
@@ -23,6 +23,9 @@ pub struct IsmPass {
 
 /// One frame's ISM atlas and inputs.
 pub struct Ism {
+    /// `vpls` as RGBA32F texels (three per VPL), for the gathers. Declared
+    /// before the buffer so that it is dropped first.
+    pub vpl_texels: BufferView,
     /// Splatted distance bits (r32ui), 0xFFFFFFFF = hole.
     pub splat_target: Image,
     /// Filled depth pyramid (r32f); level 0 is what lighting reads.
@@ -124,7 +127,7 @@ impl Pass for IsmPass {
             )));
         }
         let vpl_count = vpls.len() as u32;
-        let tiles_per_row = (vpl_count.max(1) as f64).sqrt().ceil() as u32;
+        let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
         let rows = vpl_count.max(1).div_ceil(tiles_per_row);
         let (w, h) = (
             tiles_per_row as u64 * tile as u64,
@@ -174,15 +177,23 @@ impl Pass for IsmPass {
             points.positions.clone()
         };
         let subsets = &setup.cache.vpls().subsets;
+        let vpls = Buffer::with_data(
+            device,
+            "vpls",
+            &vpl_data,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+        )?;
         Ok(Ism {
+            vpl_texels: BufferView::new(
+                device,
+                &vpls,
+                vk::Format::R32G32B32A32_SFLOAT,
+                16,
+                "vpls texels",
+            )?,
             splat_target,
             pyramid,
-            vpls: Buffer::with_data(
-                device,
-                "vpls",
-                &vpl_data,
-                vk::BufferUsageFlags::STORAGE_BUFFER,
-            )?,
+            vpls,
             subsets: Buffer::with_data(
                 device,
                 "vpls.subsets",
