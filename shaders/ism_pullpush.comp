@@ -1,10 +1,15 @@
 #version 460
-// ISM hole filling by pull-push. Mode 0 converts the splatted distance bits
-// into the float pyramid's level 0 (holes = -1); mode 1 (pull) keeps the
-// farthest valid child of a coarser texel (filled holes then err towards
-// visibility rather than false shadows: measured 92% vs 91% agreement with
-// ray casts on cornell); mode 2 (push) fills holes of a finer level from the
-// coarser one.
+// ISM hole filling by pull-push. Pull keeps the farthest valid child of a
+// coarser texel (filled holes then err towards visibility rather than false
+// shadows: measured 92% vs 91% agreement with ray casts on cornell); push
+// fills holes of a finer level from the coarser one. Level 0 is only ever
+// written by the last push: the first pull reads the splatted distance bits
+// directly, and so does the last push (a conversion pass into level 0, and
+// reading it back, cost a third of the pull-push).
+//   mode 0: pull level 1 from the splatted bits
+//   mode 1: pull level l from level l - 1
+//   mode 2: push level l + 1 into the holes of level l
+//   mode 3: level 0: the splatted distance, or level 1 where it is a hole
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -17,27 +22,32 @@ layout(push_constant) uniform Push {
     uint mode;
 } pc;
 
+const uint HOLE = 0xFFFFFFFFu;
+
+float child(ivec2 c) {
+    if (pc.mode == 0u) {
+        uint bits = imageLoad(ism_depth, c).r;
+        return bits == HOLE ? -1.0 : uintBitsToFloat(bits);
+    }
+    return imageLoad(src_level, c).r;
+}
+
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(p), pc.dst_size))) return;
-    if (pc.mode == 0u) {
-        uint bits = imageLoad(ism_depth, p).r;
-        imageStore(dst_level, p, vec4(bits == 0xFFFFFFFFu ? -1.0 : uintBitsToFloat(bits)));
-    } else if (pc.mode == 1u) {
-        float farthest = 0.0;
-        float count = 0.0;
+    if (pc.mode <= 1u) {
+        float farthest = -1.0;
         for (int k = 0; k < 4; k++) {
-            float d = imageLoad(src_level, p * 2 + ivec2(k & 1, k >> 1)).r;
-            if (d >= 0.0) {
-                farthest = max(farthest, d);
-                count += 1.0;
-            }
+            farthest = max(farthest, child(p * 2 + ivec2(k & 1, k >> 1)));
         }
-        imageStore(dst_level, p, vec4(count > 0.0 ? farthest : -1.0));
-    } else {
-        float d = imageLoad(dst_level, p).r;
-        if (d < 0.0) {
+        imageStore(dst_level, p, vec4(farthest));
+    } else if (pc.mode == 2u) {
+        if (imageLoad(dst_level, p).r < 0.0) {
             imageStore(dst_level, p, vec4(imageLoad(src_level, p / 2).r));
         }
+    } else {
+        uint bits = imageLoad(ism_depth, p).r;
+        float d = bits == HOLE ? imageLoad(src_level, p / 2).r : uintBitsToFloat(bits);
+        imageStore(dst_level, p, vec4(d));
     }
 }

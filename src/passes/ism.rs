@@ -247,13 +247,13 @@ impl Pass for IsmPass {
         Ok(true)
     }
 
-    /// One splat set and one pull-push set per pyramid level transition.
+    /// One splat set and one pull-push set per pull and per push.
     fn set_layouts(&self, ism: &Ism) -> Vec<&DescriptorSetLayout> {
         let levels = ism.tile.trailing_zeros() + 1;
         let mut v = vec![self.splat.set_layout()];
         v.extend(std::iter::repeat_n(
             self.pullpush.set_layout(),
-            1 + 2 * (levels as usize - 1),
+            2 * (levels as usize - 1),
         ));
         v
     }
@@ -310,17 +310,16 @@ impl Pass for IsmPass {
             .dispatch(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), groups)?;
         profiler.end(rec.cmd, scope);
 
-        // Pull-push: convert to level 0, pull up the pyramid, push back down.
+        // Pull-push: pull up the pyramid from the splat, push back down, and
+        // level 0 last (see ism_pullpush.comp for the modes).
         let scope = profiler.begin(rec.cmd, "ism_pullpush");
         let levels = ism.pyramid.desc.mip_levels as usize;
         let views = &ism.pyramid.mip_views;
-        let mut steps = vec![(0u32, views[0], views[0], 0usize)];
-        steps.extend((1..levels).map(|l| (1, views[l - 1], views[l], l)));
-        steps.extend(
-            (0..levels - 1)
-                .rev()
-                .map(|l| (2, views[l + 1], views[l], l)),
-        );
+        let pull_step = |l: usize| (if l == 1 { 0 } else { 1 }, views[l - 1], views[l], l);
+        let push_step = |l: usize| (if l == 0 { 3 } else { 2 }, views[l + 1], views[l], l);
+        let steps = (1..levels)
+            .map(pull_step)
+            .chain((0..levels - 1).rev().map(push_step));
         for (mode, src, dst, level) in steps {
             rec.use_image(&ism.splat_target, Access::ComputeRead);
             rec.use_image(&ism.pyramid, Access::ComputeWrite);
