@@ -13,14 +13,15 @@ use ssbc::cpu::bvh::SceneBvh;
 use ssbc::profile::render_frames;
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 
-/// Agreement of the frame's ISM test with ray casts.
-fn agreement(scene: &ssbc::Scene, frame: &Frame) -> (f64, usize) {
+/// Agreement of the frame's ISM test with ray casts, the shares of pairs it
+/// wrongly shadows and wrongly lights, and the number of pairs.
+fn agreement(scene: &ssbc::Scene, frame: &Frame) -> (f64, f64, f64, usize) {
     let bvh = SceneBvh::new(scene);
     let ism = frame.ism.as_ref().expect("debug readback");
     let layer = |name: &str| &frame.layer(name).expect("debug readback").rgba;
     let (pos, nrm) = (layer("gbuffer_position"), layer("gbuffer_normal"));
     let v = |img: &[f32], i: usize| glam::Vec3::new(img[i * 4], img[i * 4 + 1], img[i * 4 + 2]);
-    let (mut agree, mut pairs) = (0usize, 0usize);
+    let (mut agree, mut pairs, mut shadowed, mut lit) = (0usize, 0usize, 0usize, 0usize);
     let geometry = (0..(frame.width * frame.height) as usize).filter(|&i| pos[i * 4 + 3] != 0.0);
     for i in geometry.step_by(13) {
         let (x, n) = (v(pos, i), v(nrm, i));
@@ -31,10 +32,14 @@ fn agreement(scene: &ssbc::Scene, frame: &Frame) -> (f64, usize) {
             }
             pairs += 1;
             let exact = !bvh.occluded(vpl.position + vpl.normal * 1e-4, x + n * 1e-4);
-            agree += (exact == ism.visible(k, vpl, x, n)) as usize;
+            let approx = ism.visible(k, vpl, x, n);
+            agree += (exact == approx) as usize;
+            shadowed += (exact && !approx) as usize;
+            lit += (!exact && approx) as usize;
         }
     }
-    (agree as f64 / pairs.max(1) as f64, pairs)
+    let share = |n: usize| n as f64 / pairs.max(1) as f64;
+    (share(agree), share(shadowed), share(lit), pairs)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -64,8 +69,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let vpls: usize = value("--vpls").and_then(|v| v.parse().ok()).unwrap_or(1024);
     let frames: u32 = value("--frames").and_then(|v| v.parse().ok()).unwrap_or(3);
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    println!("| scene | tile | points/VPL | splat ms | pull-push ms | ms per 1000 VPLs | agreement | pairs |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| scene | tile | points/VPL | splat ms | pull-push ms | ms per 1000 VPLs | agreement | false shadows | leaks | pairs |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for name in &scenes {
         let mut scene = ssbc::scene::load(name)?;
         scene.ensure_light();
@@ -91,12 +96,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .map_or(f64::NAN, |p| p.ms.median)
                 };
                 let (splat, pullpush) = (ms("ism_splat"), ms("ism_pullpush"));
-                let (agree, pairs) = agreement(&scene, &frame);
+                let (agree, shadowed, lit, pairs) = agreement(&scene, &frame);
                 println!(
-                    "| {} | {tile} | {points} | {splat:.1} | {pullpush:.1} | {:.1} | {:.2}% | {pairs} |",
+                    "| {} | {tile} | {points} | {splat:.1} | {pullpush:.1} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {pairs} |",
                     scene.name,
                     (splat + pullpush) * 1000.0 / frame.vpls.len() as f64,
                     100.0 * agree,
+                    100.0 * shadowed,
+                    100.0 * lit,
                 );
             }
         }

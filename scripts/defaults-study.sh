@@ -7,6 +7,7 @@
 #
 #   scripts/defaults-study.sh SCENE WxH "OPTIONS" ["OPTIONS" ...]
 # e.g. scripts/defaults-study.sh assets/open-front-box.gltf 320x240 "" "--vpls 1024" "--gather full --vpls 256 --ism-res 64"
+# BASELINE=path/to/an/older/ssbc adds a first row: that binary's defaults.
 set -euo pipefail
 scene=$1; size=$2; shift 2
 ssbc=${SSBC:-target/release/ssbc}
@@ -21,16 +22,21 @@ json() { python3 -c "import json,sys; d=json.load(open('$1')); print($2)"; }
   --timings "$out/direct.json" -o "$out/direct.exr" 2>/dev/null
 direct=$(json "$out/direct.json" "d['stats']['frame_gpu_ms']['median']")
 printf '| options | frame ms | / direct-only (%.1f ms) | relMSE pixel | relMSE 4x4 | mean / ref |\n|---|---|---|---|---|---|\n' "$direct"
-for options in "$@"; do
+row() {
+  local bin=$1 options=$2 label=$3
   # shellcheck disable=SC2086
-  "$ssbc" render "$scene" --size "$size" $options --frames "$frames" \
+  "$bin" render "$scene" --size "$size" $options --frames "$frames" \
     --timings "$out/run.json" -o "$out/run.exr" 2>/dev/null
   ms=$(json "$out/run.json" "d['stats']['frame_gpu_ms']['median']")
   px=$("$ssbc" compare "$out/run.exr" "$ref" --json)
   blocks=$("$ssbc" compare "$out/run.exr" "$ref" --json --blocks 4)
-  python3 - "$options" "$ms" "$direct" "$px" "$blocks" <<'PY'
+  python3 - "${label:-${options:-(defaults)}}" "$ms" "$direct" "$px" "$blocks" <<'PY'
 import json, sys
 options, ms, direct, px, blocks = sys.argv[1], float(sys.argv[2]), float(sys.argv[3]), json.loads(sys.argv[4]), json.loads(sys.argv[5])
-print(f"| {options or '(defaults)'} | {ms:.1f} | {ms / direct:.2f}x | {px['rel_mse']:.4f} | {blocks['rel_mse']:.4f} | {px['mean_ratio']:.4f} |")
+print(f"| {options} | {ms:.1f} | {ms / direct:.2f}x | {px['rel_mse']:.4f} | {blocks['rel_mse']:.4f} | {px['mean_ratio']:.4f} |")
 PY
+}
+if [ -n "${BASELINE:-}" ]; then row "$BASELINE" "" "defaults of $BASELINE"; fi
+for options in "$@"; do
+  row "$ssbc" "$options" ""
 done

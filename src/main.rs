@@ -61,7 +61,7 @@ struct ReferenceArgs {
     #[arg(long, value_enum, default_value_t = Method::PathTrace)]
     method: Method,
     /// VPLs for the VPL methods.
-    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_count)]
+    #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_number)]
     vpls: usize,
     /// Clamping bound b (number, inf, or auto) for the VPL methods.
     #[arg(long, default_value = "auto", value_parser = parse_bound, allow_negative_numbers = true)]
@@ -109,7 +109,30 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 }
 
 /// Parses a non-negative count with a clear message for negative numbers.
-fn parse_count(s: &str) -> Result<usize, String> {
+/// `--vpls`: a number, or chosen from the image size.
+#[derive(Clone, Copy, Debug)]
+enum VplCount {
+    Auto,
+    Exactly(usize),
+}
+
+/// Parses a VPL count: a whole number, or `auto`.
+fn parse_count(s: &str) -> Result<VplCount, String> {
+    if s.trim() == "auto" {
+        return Ok(VplCount::Auto);
+    }
+    let negative = s.trim().starts_with('-');
+    parse_number(s).map(VplCount::Exactly).map_err(|e| {
+        if negative {
+            e
+        } else {
+            format!("'{s}' is not a whole number or 'auto'")
+        }
+    })
+}
+
+/// Parses a whole number of VPLs.
+fn parse_number(s: &str) -> Result<usize, String> {
     if s.trim().starts_with('-') {
         return Err(format!(
             "{s} is negative; use 0 to switch indirect light off"
@@ -151,9 +174,10 @@ struct SceneOptions {
     /// Shadow-map resolution (texels per side).
     #[arg(long, default_value_t = RenderSettings::default().shadow_map_size)]
     shadow_map_size: u32,
-    /// Number of VPLs wanted (0 switches indirect light off).
-    #[arg(long, default_value_t = RenderSettings::default().vpl.count, allow_negative_numbers = true, value_parser = parse_count)]
-    vpls: usize,
+    /// Number of VPLs wanted (0 switches indirect light off), or `auto`: one
+    /// per 150 pixels, 2048 to 8192 (5120 at 1024x768).
+    #[arg(long, default_value = "auto", allow_negative_numbers = true, value_parser = parse_count)]
+    vpls: VplCount,
     /// Most diffuse hits of a light path, at least 1. Russian roulette ends
     /// paths; this is a safety net (a low value biases the image).
     #[arg(long, default_value_t = ssbc::cpu::vpl::DEFAULT_BOUNCES)]
@@ -270,7 +294,10 @@ impl SceneOptions {
             camera: self.camera,
             shadow_map_size: self.shadow_map_size,
             vpl: VplSettings {
-                count: self.vpls,
+                count: match self.vpls {
+                    VplCount::Exactly(n) => n,
+                    VplCount::Auto => ssbc::settings::auto_vpl_count(self.size.0, self.size.1),
+                },
                 bounces: self.bounces,
                 seed: self.seed,
             },

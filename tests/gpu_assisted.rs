@@ -1,4 +1,5 @@
-//! Shaders checked for out-of-bounds accesses: the ISM and SSBC passes (and
+//! Shaders checked for out-of-bounds accesses: the ISM, bounded-gather
+//! (interleaved with 4x4 and 3x3 patterns, and full) and SSBC passes (and
 //! the rest of the frame) under GPU-assisted validation, which instruments
 //! every buffer and image access; a deliberately out-of-bounds kernel shows
 //! the check can fail. And no layer of a frame holds a NaN or an infinity.
@@ -8,6 +9,7 @@ mod common;
 use ash::vk;
 use ssbc::passes::ssbc::Integration;
 use ssbc::renderer::{Bound, Renderer, RendererConfig};
+use ssbc::settings::Gather;
 use ssbc::vk::{Binding, Buffer, ComputeKernel, DescriptorPool, Device, Instance, Validation};
 
 fn gpu_assisted_renderer() -> Renderer {
@@ -30,12 +32,16 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
         open_box,
     ];
     for scene in &scenes {
-        for (size, integration, bound) in [
-            ((96, 72), Integration::Hierarchical, Bound::Auto),
-            ((130, 98), Integration::Hierarchical, Bound::Value(2.0)),
-            ((40, 30), Integration::Brute, Bound::Auto),
+        for (size, integration, bound, pattern) in [
+            ((96, 72), Integration::Hierarchical, Bound::Auto, 4),
+            ((130, 98), Integration::Hierarchical, Bound::Value(2.0), 3),
+            ((40, 30), Integration::Brute, Bound::Auto, 1),
         ] {
             let mut s = common::small(size.0, size.1);
+            match pattern {
+                1 => s.gather = Gather::Full,
+                n => s.interleave = n,
+            }
             s.vpl.count = 16;
             s.points_per_vpl = 256;
             s.ism_tile = 16;

@@ -4,29 +4,28 @@
 //! shadow).
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::sampling::Halton;
 use super::shading;
 use crate::scene::{AlphaMode, Scene};
 
-/// Points for every VPL, `points_per_vpl` each, stored consecutively.
+/// Blocks of points, `points_per_block` each, stored consecutively; each VPL
+/// splats one block.
 #[derive(Clone, Debug)]
 pub struct IsmPoints {
-    /// `vpl_count * points_per_vpl` positions (xyz, w = 1).
+    /// `blocks * points_per_block` positions (xyz, w = 1).
     pub positions: Vec<[f32; 4]>,
+    /// Points in a block.
+    pub points_per_block: usize,
     /// World radius one point stands for: sqrt(area / (pi * points_per_vpl)).
     pub point_radius: f32,
     /// Total surface area of the scene (m^2).
     pub total_area: f32,
 }
 
-/// Samples `points_per_vpl` area-uniform points for each of `vpl_count` VPLs.
-pub fn sample_points(
-    scene: &Scene,
-    vpl_count: usize,
-    points_per_vpl: usize,
-    seed: u64,
-) -> IsmPoints {
+/// Samples `blocks` blocks of `points_per_vpl` area-uniform points.
+pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: u64) -> IsmPoints {
     let tri = |t: usize| {
         let i = &scene.indices[t * 3..t * 3 + 3];
         let p = |k: usize| Vec3::from(scene.vertices[i[k] as usize].position);
@@ -40,36 +39,46 @@ pub fn sample_points(
         cdf.push(total);
     }
     let halton = Halton::new(seed ^ 0x15A);
-    let count = vpl_count * points_per_vpl;
-    let mut positions = Vec::with_capacity(count);
-    let masked = scene
-        .materials
-        .iter()
-        .any(|m| matches!(m.alpha, AlphaMode::Mask(_)));
-    // Points on cut-out texels are drawn again (up to 16 draws per point).
-    let mut k = 0u64;
-    while positions.len() < count && k < 16 * count as u64 {
+    let count = blocks * points_per_vpl;
+    // Point k of the sequence: a triangle in proportion to area, a uniform
+    // point on it (and whether it lies on a cut-out texel).
+    let point = |k: u64| {
         let target = halton.sample(k, 0) as f64 * total;
         let t = cdf.partition_point(|&c| c < target).min(cdf.len() - 1);
         let (a, b, c) = tri(t);
         let u = Vec2::new(halton.sample(k, 1), halton.sample(k, 2));
-        k += 1;
         let su = u.x.sqrt();
         let (w1, w2) = (su * (1.0 - u.y), su * u.y);
-        if masked {
-            let i = &scene.indices[t * 3..t * 3 + 3];
-            let v = |n: usize| &scene.vertices[i[n] as usize];
-            let material = &scene.materials[v(0).material as usize];
+        let i = &scene.indices[t * 3..t * 3 + 3];
+        let v = |n: usize| &scene.vertices[i[n] as usize];
+        let material = &scene.materials[v(0).material as usize];
+        let kept = !matches!(material.alpha, AlphaMode::Mask(_)) || {
             let uv = Vec2::from(v(0).uv) * (1.0 - w1 - w2)
                 + Vec2::from(v(1).uv) * w1
                 + Vec2::from(v(2).uv) * w2;
-            if !shading::opaque(scene, material, uv) {
-                continue;
-            }
-        }
+            shading::opaque(scene, material, uv)
+        };
         let p = a * (1.0 - w1 - w2) + b * w1 + c * w2;
-        positions.push([p.x, p.y, p.z, 1.0]);
-    }
+        kept.then_some([p.x, p.y, p.z, 1.0])
+    };
+    let masked = scene
+        .materials
+        .iter()
+        .any(|m| matches!(m.alpha, AlphaMode::Mask(_)));
+    let mut positions: Vec<[f32; 4]> = if masked {
+        // Points on cut-out texels are drawn again (up to 16 draws a point).
+        (0..16 * count as u64)
+            .filter_map(point)
+            .take(count)
+            .collect()
+    } else {
+        // Every draw is kept: the points are independent (2048 VPLs' worth,
+        // 2M points: 143 ms on one thread).
+        (0..count as u64)
+            .into_par_iter()
+            .filter_map(point)
+            .collect()
+    };
     // A scene almost entirely cut out: repeat the points found (every VPL
     // block must be full), or a vertex if there were none.
     let found = positions.len();
@@ -88,6 +97,7 @@ pub fn sample_points(
         (total as f32 / (std::f32::consts::PI * points_per_vpl.max(1) as f32)).sqrt();
     IsmPoints {
         positions,
+        points_per_block: points_per_vpl,
         point_radius,
         total_area: total as f32,
     }

@@ -30,8 +30,12 @@ use crate::vk::{
     Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
 };
 
-/// Relative depth tolerance of the ISM visibility test.
-pub const ISM_BIAS: f32 = 0.05;
+/// Relative depth tolerance of the ISM visibility test. With 32-texel tiles
+/// (the default) 0.12 rather than 0.05: false shadows 5.1 -> 4.4% of
+/// (pixel, VPL) pairs, leaks 2.7 -> 3.5%, and against path-traced
+/// references relMSE 0.0070 -> 0.0066 (open-front box; tori unchanged) and
+/// the mean 0.980 -> 0.985 (tori 0.995 -> 0.997), 320x240, 2048 VPLs.
+pub const ISM_BIAS: f32 = 0.12;
 
 /// Surface tests of the reconstruction filter: a neighbour is on the
 /// pixel's surface if it lies within `FILTER_PLANE_SLOPE` x its distance of

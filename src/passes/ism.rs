@@ -37,7 +37,7 @@ pub struct Ism {
     pub subsets: Buffer,
     /// Number of interleaving subsets.
     pub subset_count: u32,
-    /// Scene points, `points_per_vpl` per block (one block per VPL).
+    /// Blocks of scene points, `points_per_vpl` each (VPLs share blocks).
     pub points: Buffer,
     /// The (VPL, points) versions the buffers hold.
     versions: (u64, u64),
@@ -140,7 +140,7 @@ impl Pass for IsmPass {
             )));
         }
         let (w, h) = (w as u32, h as u32);
-        let points_per_vpl = (points.positions.len() / vpls.len().max(1)) as u32;
+        let points_per_vpl = points.points_per_block as u32;
         let levels = tile.trailing_zeros() + 1;
         let splat_target = Image::new(
             device,
@@ -223,7 +223,7 @@ impl Pass for IsmPass {
         let (cached_vpls, cached_points) = (setup.cache.vpls(), setup.cache.points());
         let (vpls, points) = (&cached_vpls.gpu, &cached_points.points);
         let (tile, far) = (setup.settings.ism_tile, setup.cache.diagonal());
-        let points_per_vpl = (points.positions.len() / vpls.len().max(1)) as u32;
+        let points_per_vpl = points.points_per_block as u32;
         if ism.tile != tile
             || ism.vpl_count != vpls.len() as u32
             || ism.subset_count as usize + 1 != cached_vpls.subsets.len()
