@@ -6,7 +6,8 @@
 //! `cargo bench --bench frame_cpu` (`-- --frames N`, default 20). The CPU
 //! time is the sum of the frame's CPU stages (BVH, upload, VPL tracing, ISM
 //! points, slot resources, recording); waiting for the GPU is excluded.
-//! Frames are 320x240, 256 VPLs, 2 SSBC steps.
+//! Frames are 320x240 with the defaults for that size (2048 VPLs, one SSBC
+//! step).
 
 use glam::{Mat4, Vec3};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
@@ -71,11 +72,7 @@ fn main() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(20);
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
-    let settings = RenderSettings {
-        width: 320,
-        height: 240,
-        ..Default::default()
-    };
+    let settings = RenderSettings::new(320, 240);
     println!(
         "# CPU ms per frame on the host thread, resident scene, median of {frames} frames ({})\n",
         renderer.device().name()

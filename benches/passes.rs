@@ -1,23 +1,25 @@
 //! Per-pass GPU time from timestamp queries, reported as ratios within one
 //! run (machines are shared and noisy). Run with
-//! `cargo bench --bench passes` (add `-- --quick` for 512x384, `--frames N`
-//! for the median of N warm frames per configuration; default 3).
+//! `cargo bench --bench passes` (`-- --frames N` for the median of N warm
+//! frames per configuration; default 3; `--quick` measures 320x240 only).
 //!
 //! Every configuration is measured as `ssbc render --frames N` does
 //! ([`ssbc::profile::render_frames`]): one warm-up frame (pipelines, first
 //! touch of memory), then N frames; the tables give medians.
 //!
-//! Tables:
-//! 1. instant radiosity: per-pass GPU ms for cornell and tori, 256 and 1024 VPLs;
-//! 2. SSBC: frame GPU ms with 0..3 steps, what a step adds over the 0-step
-//!    frame, texels read per pixel and GPU ns per texel read;
-//! 3. where one step's time goes (its parts);
-//! 4. hierarchical vs brute-force integration: time and texel ratios (at a
-//!    quarter of the resolution: brute force is quadratic in the radius).
+//! Tables, for cornell and tori at 320x240 and 1024x768 with the defaults:
+//! 1. per-pass GPU ms without SSBC (the bounded gather with its parts);
+//! 2. the interleaved gather against the full one with the same 1024 VPLs;
+//! 3. SSBC: frame GPU ms with 0..2 steps, what a step costs against the rest
+//!    of its frame and against the 0-step frame, texels read per pixel;
+//! 4. where one step's time goes (its parts), at 1024x768;
+//! 5. hierarchical vs brute-force integration: time and texel ratios (at
+//!    256x192: brute force is quadratic in the radius).
 
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::profile::{render_frames, FrameStats};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::settings::Gather;
 use ssbc::Scene;
 
 fn stats(f: &Frame) -> &FrameStats {
@@ -72,28 +74,22 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(3);
-    let (w, h) = if quick { (512, 384) } else { (1024, 768) };
+    let sizes: &[(u32, u32)] = if quick {
+        &[(320, 240)]
+    } else {
+        &[(320, 240), (1024, 768)]
+    };
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     let device = renderer.device().name().to_string();
-    println!("# ssbc benchmark on {device}, {w}x{h}, median of {reps} warm frames\n");
+    println!("# ssbc benchmark on {device}, defaults, median of {reps} warm frames\n");
     let scenes = ["cornell", "tori"];
-    let settings =
-        |vpls: usize, steps: u32, integration: Integration, size: (u32, u32)| RenderSettings {
-            width: size.0,
-            height: size.1,
-            vpl: ssbc::cpu::vpl::VplSettings {
-                count: vpls,
-                ..Default::default()
-            },
-            ssbc: SsbcSettings {
-                steps,
-                integration,
-                ..Default::default()
-            },
-            ..Default::default()
-        };
+    let settings = |size: (u32, u32), steps: u32| {
+        let mut s = RenderSettings::new(size.0, size.1);
+        s.ssbc.steps = steps;
+        s
+    };
 
-    println!("## Instant radiosity: GPU ms per pass (no SSBC)\n");
+    println!("## Per pass, no SSBC: GPU ms\n");
     let passes = [
         "shadow_maps",
         "ism_splat",
@@ -101,24 +97,24 @@ fn main() {
         "gbuffer",
         "direct_lighting",
         "indirect_bounded",
+        "indirect_bounded/gather",
+        "indirect_bounded/filter",
+        "indirect_bounded/creases",
     ];
-    println!("| scene | VPLs | {} | frame |", passes.join(" | "));
-    println!("|---|---|{}---|", "---|".repeat(passes.len()));
+    println!("| scene | size | VPLs | {} | frame |", passes.join(" | "));
+    println!("|---|---|---|{}---|", "---|".repeat(passes.len()));
     for scene_name in scenes {
         let scene = ssbc::scene::load(scene_name).unwrap();
-        for vpls in [256, 1024] {
-            let f = measure(
-                &mut renderer,
-                &scene,
-                &settings(vpls, 0, Integration::Hierarchical, (w, h)),
-                reps,
-            );
+        for &size in sizes {
+            let f = measure(&mut renderer, &scene, &settings(size, 0), reps);
             let cells: Vec<String> = passes
                 .iter()
                 .map(|p| format!("{:.1}", pass_ms(&f, p)))
                 .collect();
             println!(
-                "| {scene_name} | {} | {} | {:.1} |",
+                "| {scene_name} | {}x{} | {} | {} | {:.1} |",
+                size.0,
+                size.1,
                 f.timings.vpl_count,
                 cells.join(" | "),
                 frame_ms(&f)
@@ -126,7 +122,37 @@ fn main() {
         }
     }
 
-    println!("\n## SSBC: frame GPU ms with K steps, and what a step adds to the 0-step frame\n");
+    println!("\n## Interleaved gather against the full gather, the same 1024 VPLs, no SSBC\n");
+    println!("| scene | size | full ms | interleaved ms (gather + filter + creases) | speed-up | pixels x VPLs per us, full | interleaved |");
+    println!("|---|---|---|---|---|---|---|");
+    for scene_name in scenes {
+        let scene = ssbc::scene::load(scene_name).unwrap();
+        for &size in sizes {
+            let mut s = settings(size, 0);
+            s.vpl.count = 1024;
+            let interleaved = measure(&mut renderer, &scene, &s, reps);
+            s.gather = Gather::Full;
+            let full = measure(&mut renderer, &scene, &s, reps);
+            let pairs = geometry_pixels(&full) as f64 * full.timings.vpl_count as f64;
+            let (tf, ti) = (
+                pass_ms(&full, "indirect_bounded"),
+                pass_ms(&interleaved, "indirect_bounded"),
+            );
+            println!(
+                "| {scene_name} | {}x{} | {tf:.1} | {ti:.1} ({:.1} + {:.1} + {:.1}) | {:.1}x | {:.0} | {:.0} |",
+                size.0,
+                size.1,
+                pass_ms(&interleaved, "indirect_bounded/gather"),
+                pass_ms(&interleaved, "indirect_bounded/filter"),
+                pass_ms(&interleaved, "indirect_bounded/creases"),
+                tf / ti,
+                pairs / tf / 1e3,
+                pairs / ti / 1e3,
+            );
+        }
+    }
+
+    println!("\n## SSBC: frame GPU ms with K steps at the defaults\n");
     println!(
         "SSBC ms: the geometry pyramid and the K steps, from the frame's own timestamps; \
          per step / rest: (SSBC ms / K) over the rest of the same frame (robust to the \
@@ -134,26 +160,21 @@ fn main() {
          frame (two frames). Texels: read per geometry pixel by step 1 (average, most of \
          any one pixel); ns/texel: GPU ns of step 1 per texel read.\n"
     );
-    println!("| scene | VPLs | K | frame ms | SSBC ms | per step / rest | per step / 0-step | texels/px avg | max | ns/texel |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | size | VPLs | K | frame ms | SSBC ms | per step / rest | per step / 0-step | texels/px avg | max | ns/texel |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let mut parts = Vec::new();
     for scene_name in scenes {
         let scene = ssbc::scene::load(scene_name).unwrap();
-        for vpls in [256, 1024] {
-            let frames: Vec<Frame> = (0..4)
-                .map(|k| {
-                    measure(
-                        &mut renderer,
-                        &scene,
-                        &settings(vpls, k, Integration::Hierarchical, (w, h)),
-                        reps,
-                    )
-                })
+        for &size in sizes {
+            let frames: Vec<Frame> = (0..3)
+                .map(|k| measure(&mut renderer, &scene, &settings(size, k), reps))
                 .collect();
             let base = frame_ms(&frames[0]);
+            let vpls = frames[0].timings.vpl_count;
+            let (w, h) = size;
             for (k, f) in frames.iter().enumerate() {
                 if k == 0 {
-                    println!("| {scene_name} | {vpls} | 0 | {base:.1} | — | — | — | — | — | — |");
+                    println!("| {scene_name} | {w}x{h} | {vpls} | 0 | {base:.1} | — | — | — | — | — | — |");
                     continue;
                 }
                 let ssbc_ms =
@@ -163,7 +184,7 @@ fn main() {
                 let step = &f.timings.ssbc_steps[0];
                 let reads = step.samples_per_pixel_avg * geometry_pixels(f) as f64;
                 println!(
-                    "| {scene_name} | {vpls} | {k} | {:.1} | {ssbc_ms:.1} | {:.0}% | {:.0}% | {:.1} | {:.0} | {:.1} |",
+                    "| {scene_name} | {w}x{h} | {vpls} | {k} | {:.1} | {ssbc_ms:.1} | {:.0}% | {:.0}% | {:.1} | {:.0} | {:.1} |",
                     frame_ms(f),
                     100.0 * ssbc_ms / k as f64 / rest,
                     100.0 * per_step / base,
@@ -172,13 +193,14 @@ fn main() {
                     step_ms(f, 1) * 1e6 / reads.max(1.0)
                 );
             }
-            if vpls == 256 {
+            if size == *sizes.last().unwrap() {
                 parts.push((scene_name, frames[1].clone()));
             }
         }
     }
 
-    println!("\n## One step's parts (256 VPLs, K = 1): GPU ms\n");
+    let (pw, ph) = *sizes.last().unwrap();
+    println!("\n## One step's parts ({pw}x{ph}, K = 1): GPU ms\n");
     for (scene_name, f) in &parts {
         let cells: Vec<String> = std::iter::once(format!(
             "ssbc_geometry_mips {:.1}",
@@ -201,7 +223,7 @@ fn main() {
         );
     }
 
-    let (bw, bh) = (w / 4, h / 4);
+    let (bw, bh) = (256, 192);
     println!("\n## Hierarchical vs brute force, one step at {bw}x{bh}\n");
     println!("| scene | hierarchical ms | brute ms | time ratio | texels/px hier | brute | texel ratio |");
     println!("|---|---|---|---|---|---|---|");
@@ -210,13 +232,13 @@ fn main() {
         let hier = measure(
             &mut renderer,
             &scene,
-            &settings(256, 1, Integration::Hierarchical, (bw, bh)),
+            &one_step(Integration::Hierarchical, (bw, bh)),
             reps,
         );
         let brute = measure(
             &mut renderer,
             &scene,
-            &settings(256, 1, Integration::Brute, (bw, bh)),
+            &one_step(Integration::Brute, (bw, bh)),
             reps,
         );
         let (th, tb) = (step_ms(&hier, 1), step_ms(&brute, 1));
@@ -230,4 +252,16 @@ fn main() {
             sb / sh
         );
     }
+}
+
+/// One SSBC step with 256 VPLs (hierarchical vs brute force).
+fn one_step(integration: Integration, size: (u32, u32)) -> RenderSettings {
+    let mut s = RenderSettings::new(size.0, size.1);
+    s.vpl.count = 256;
+    s.ssbc = SsbcSettings {
+        steps: 1,
+        integration,
+        ..Default::default()
+    };
+    s
 }

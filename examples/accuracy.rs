@@ -51,12 +51,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ("unclamped (b = inf)", 0, Bound::Value(f32::INFINITY)),
         ];
         for (label, steps, bound) in configs {
-            let mut s = RenderSettings {
-                width: w,
-                height: h,
-                bound,
-                ..Default::default()
-            };
+            let mut s = RenderSettings::new(w, h);
+            s.bound = bound;
             s.ssbc.steps = steps;
             let frame = renderer.render(&scene, &s)?;
             let c = ssbc::compare::compare(&frame.image.rgba, &truth)?;

@@ -111,11 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spp: u32 = value(ours, "--spp")
         .and_then(|v| v.parse().ok())
         .unwrap_or(1024);
-    let mut settings = RenderSettings {
-        width: size.0,
-        height: size.1,
-        ..Default::default()
-    };
+    let mut settings = RenderSettings::new(size.0, size.1);
     let num = |flag: &str| value(render_args, flag).and_then(|v| v.parse::<f64>().ok());
     if let Some(v) = num("--vpls") {
         settings.vpl.count = v as usize;

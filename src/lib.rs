@@ -13,7 +13,7 @@
 //! let mut renderer = ssbc::Renderer::new(&ssbc::RendererConfig::default())?;
 //! let mut scene = ssbc::scene::load("cornell")?;
 //! scene.ensure_light();
-//! let mut settings = ssbc::RenderSettings { width: 640, height: 480, ..Default::default() };
+//! let mut settings = ssbc::RenderSettings::new(640, 480);
 //! settings.ssbc.steps = 2; // K steps of bias compensation
 //! let frame = renderer.render(&scene, &settings)?;
 //! for pass in frame.timings.timed_passes() {

@@ -51,13 +51,9 @@ pub fn tiny_settings() -> RenderSettings {
     s
 }
 
-/// Settings at `width` x `height`, defaults otherwise.
+/// Settings at `width` x `height`, the defaults for that size otherwise.
 pub fn small(width: u32, height: u32) -> RenderSettings {
-    RenderSettings {
-        width,
-        height,
-        ..Default::default()
-    }
+    RenderSettings::new(width, height)
 }
 
 /// RGB of pixel (x, y) of a layer.
