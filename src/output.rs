@@ -179,9 +179,22 @@ pub fn timings_table(frame: &Frame) -> String {
         );
     }
     s += &format!(
-        "  CPU: BVH {:.1} ms, {} VPLs from {} light paths {:.1} ms, ISM points {:.1} ms; bound b = {}\n",
-        t.cpu_ms.bvh_build, t.vpl_count, t.light_paths, t.cpu_ms.vpl_generation, t.cpu_ms.point_sampling, t.bound
+        "  CPU: BVH {:.1} ms, {} VPLs from {} light paths ({:.1} per path, at most {}) {:.1} ms, ISM points {:.1} ms; bound b = {}\n",
+        t.cpu_ms.bvh_build,
+        t.vpl_count,
+        t.light_paths,
+        t.vpl_count as f64 / t.light_paths.max(1) as f64,
+        t.max_vpls_per_light_path,
+        t.cpu_ms.vpl_generation,
+        t.cpu_ms.point_sampling,
+        t.bound
     );
+    if t.enclosed_emission_w > 0.0 {
+        s += &format!(
+            "  light tracing left out {:.3} W of emission into closed volumes\n",
+            t.enclosed_emission_w
+        );
+    }
     s
 }
 

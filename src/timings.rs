@@ -247,6 +247,12 @@ pub struct Timings {
     pub vpl_count: usize,
     /// Light paths traced to make them.
     pub light_paths: u64,
+    /// Most VPLs a single light path deposited (a handful of paths trapped
+    /// somewhere would show here).
+    pub max_vpls_per_light_path: u32,
+    /// Emitted power (W, luminance) that light tracing left out because it
+    /// goes into closed volumes (the inside of a thin emissive box).
+    pub enclosed_emission_w: f32,
     /// ISM tile side.
     pub ism_tile: u32,
     /// Points per VPL.

@@ -71,6 +71,24 @@ pub struct SceneBvh {
     alpha_textures: Vec<AlphaTexture>,
 }
 
+/// The directions [`SceneBvh::enclosed_fraction`] casts (not normalised).
+const ENCLOSURE_DIRECTIONS: [[f32; 3]; 14] = [
+    [1.0, 0.0, 0.0],
+    [-1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, -1.0, 0.0],
+    [0.0, 0.0, 1.0],
+    [0.0, 0.0, -1.0],
+    [1.0, 1.0, 1.0],
+    [1.0, 1.0, -1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, -1.0, -1.0],
+    [-1.0, 1.0, 1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, 1.0],
+    [-1.0, -1.0, -1.0],
+];
+
 /// Relative offset used to leave surfaces without self-intersection.
 pub const RAY_EPSILON: f32 = 1e-4;
 
@@ -224,6 +242,33 @@ impl SceneBvh {
         !self
             .bvh
             .ray_traverse_miss(ray, |r, id| self.candidate(r, id))
+    }
+
+    /// The share of 14 rays from `p` (the 6 axes and the 8 diagonals, turned)
+    /// that
+    /// meet the back of a surface (the side its vertex normals do not point
+    /// to): 1 deep inside a closed mesh whose normals point out, 0 in a room
+    /// whose walls face in. Rays that meet nothing count as outside.
+    pub fn enclosed_fraction(&self, scene: &Scene, p: Vec3) -> f32 {
+        let back = ENCLOSURE_DIRECTIONS
+            .iter()
+            .filter(|&&d| {
+                // Turned off the axes: modelled geometry is axis-aligned and
+                // symmetric, and rays along its edges may slip between
+                // triangles.
+                let dir = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.11, 0.23, 0.37)
+                    * Vec3::from(d).normalize();
+                self.intersect(p, dir, 0.0, f32::INFINITY)
+                    .is_some_and(|hit| !self.surface(scene, &hit, -dir).front)
+            })
+            .count();
+        back as f32 / ENCLOSURE_DIRECTIONS.len() as f32
+    }
+
+    /// Whether `p` is enclosed: every one of the 14 rays of
+    /// [`SceneBvh::enclosed_fraction`] meets the back of a surface.
+    pub fn enclosed(&self, scene: &Scene, p: Vec3) -> bool {
+        self.enclosed_fraction(scene, p) >= 1.0
     }
 
     /// The surface at `hit`, seen from direction `toward` (unit, pointing

@@ -40,7 +40,7 @@ impl Scene {
             });
         let position = candidates
             .into_iter()
-            .find(|&p| !bvh.occluded(camera.position, p) && !self.inside_geometry(&bvh, p))
+            .find(|&p| !bvh.occluded(camera.position, p) && bvh.enclosed_fraction(self, p) < 0.6)
             .unwrap_or(camera.position);
         let d2 = (position - center).length_squared().max(1e-6);
         log::info!(
@@ -53,18 +53,5 @@ impl Scene {
             direction: -Vec3::Y,
             intensity: Vec3::splat(d2),
         });
-    }
-
-    /// Whether `p` is enclosed by geometry: most of six axis rays from it
-    /// hit a surface from behind (the side its normals do not point to).
-    fn inside_geometry(&self, bvh: &SceneBvh, p: Vec3) -> bool {
-        let behind = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
-            .iter()
-            .filter(|&&dir| {
-                bvh.intersect(p, dir, 0.0, f32::INFINITY)
-                    .is_some_and(|hit| !bvh.surface(self, &hit, -dir).front)
-            })
-            .count();
-        behind >= 4
     }
 }

@@ -6,9 +6,15 @@
 //! its material is double-sided). With an emissive texture, Le is averaged
 //! over the triangle from a fixed set of points for the power (which only
 //! steers the sampling); the radiance at the sampled point is exact.
+//!
+//! Light tracing leaves out the sides that emit into a closed volume (the
+//! inside of a thin emissive box, say): that light can never leave it, and
+//! its paths would bounce there until the VPL budget is spent
+//! ([`Emitters::without_enclosed_sides`]).
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::bvh::{SceneBvh, RAY_EPSILON};
 use super::shading;
 use crate::scene::Scene;
 
@@ -29,7 +35,7 @@ pub struct EmitterSample {
 /// Every emitting triangle with its power.
 #[derive(Clone, Debug, Default)]
 pub struct Emitters {
-    /// Triangle index, area, emitting sides (1 or 2).
+    /// Triangle index, area, emitting sides (bit 0 the front, bit 1 the back).
     triangles: Vec<(u32, f32, u32)>,
     /// Power (W, rgb) per triangle.
     power: Vec<Vec3>,
@@ -74,8 +80,8 @@ impl Emitters {
             } else {
                 material.emission
             };
-            let sides = if material.double_sided { 2 } else { 1 };
-            let power = mean * std::f32::consts::PI * area * sides as f32;
+            let sides = if material.double_sided { 3 } else { 1 };
+            let power = mean * std::f32::consts::PI * area * side_count(sides);
             let weight = luminance(power).max(0.0);
             if weight <= 0.0 {
                 continue;
@@ -86,6 +92,52 @@ impl Emitters {
             e.cdf.push(total);
         }
         e
+    }
+
+    /// The same emitters without the sides that emit into a closed volume
+    /// (every ray from just off that side meets the back of a surface: the
+    /// inside of a closed mesh whose normals point out). Their light never
+    /// reaches anything outside, so light tracing does not start paths there.
+    /// Returns the emitters and the power (W, rgb) left out.
+    pub fn without_enclosed_sides(&self, scene: &Scene, bvh: &SceneBvh) -> (Self, Vec3) {
+        use rayon::prelude::*;
+        let kept: Vec<u32> = self
+            .triangles
+            .par_iter()
+            .map(|&(t, _, sides)| {
+                let idx = &scene.indices[t as usize * 3..t as usize * 3 + 3];
+                let p = |k: usize| Vec3::from(scene.vertices[idx[k] as usize].position);
+                // Off-centre: modelled lamps are symmetric, and rays through
+                // the centroid of one face meet edges of the opposite one.
+                let point = p(0) * 0.29 + p(1) * 0.33 + p(2) * 0.38;
+                let front = front_normal(scene, t, p(0), p(1), p(2));
+                let offset = RAY_EPSILON * 10.0 * (1.0 + point.abs().max_element());
+                let mut kept = sides;
+                for (bit, n) in [(1, front), (2, -front)] {
+                    if sides & bit != 0 && bvh.enclosed(scene, point + n * offset) {
+                        kept &= !bit;
+                    }
+                }
+                kept
+            })
+            .collect();
+        let mut out = Self::default();
+        let (mut total, mut dropped) = (0.0f32, Vec3::ZERO);
+        for ((&(t, area, sides), &power), kept) in self.triangles.iter().zip(&self.power).zip(kept)
+        {
+            let share = side_count(kept) / side_count(sides);
+            dropped += power * (1.0 - share);
+            let power = power * share;
+            let weight = luminance(power);
+            if kept == 0 || weight <= 0.0 {
+                continue;
+            }
+            total += weight;
+            out.triangles.push((t, area, kept));
+            out.power.push(power);
+            out.cdf.push(total);
+        }
+        (out, dropped)
     }
 
     /// No emitters.
@@ -117,23 +169,40 @@ impl Emitters {
         let position = p(0) * b0 + p(1) * b1 + p(2) * b2;
         let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * b1 + Vec2::from(v(2).uv) * b2;
         let material = &scene.materials[v(0).material as usize];
-        // The front is where the vertex normals point (as the G-buffer sees it).
-        let mut normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
-        let interpolated = Vec3::from(v(0).normal) * b0
-            + Vec3::from(v(1).normal) * b1
-            + Vec3::from(v(2).normal) * b2;
-        if normal.dot(interpolated) < 0.0 {
-            normal = -normal;
-        }
-        if sides == 2 && u.w >= 0.5 {
-            normal = -normal;
-        }
+        let front = front_normal(scene, t, p(0), p(1), p(2));
+        let normal = match sides {
+            1 => front,
+            2 => -front,
+            _ if u.w >= 0.5 => -front,
+            _ => front,
+        };
         Some(EmitterSample {
             position,
             normal,
             radiance: shading::emission(scene, material, uv),
-            pdf_area: p_triangle / (area * sides as f32),
+            pdf_area: p_triangle / (area * side_count(sides)),
         })
+    }
+}
+
+/// Number of sides in a side mask.
+fn side_count(sides: u32) -> f32 {
+    sides.count_ones() as f32
+}
+
+/// Unit geometric normal of triangle `t` (corners `a`, `b`, `c`) on its
+/// front, where the vertex normals point (as the G-buffer sees it).
+fn front_normal(scene: &Scene, t: u32, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    let idx = &scene.indices[t as usize * 3..t as usize * 3 + 3];
+    let normal = (b - a).cross(c - a).normalize_or_zero();
+    let interpolated: Vec3 = idx
+        .iter()
+        .map(|&i| Vec3::from(scene.vertices[i as usize].normal))
+        .sum();
+    if normal.dot(interpolated) < 0.0 {
+        -normal
+    } else {
+        normal
     }
 }
 
@@ -141,4 +210,72 @@ impl Emitters {
 pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
     let su = u.x.sqrt();
     (su * (1.0 - u.y), su * u.y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A closed box whose faces point out, emissive and double-sided.
+    fn thin_emissive_box(scene: &mut Scene, lo: Vec3, hi: Vec3) {
+        let m = scene.add_material(Vec3::ONE, None);
+        scene.materials[m as usize].emission = Vec3::ONE;
+        let (d, c) = (hi - lo, (hi + lo) * 0.5);
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut indices = Vec::new();
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let mut n = Vec3::ZERO;
+                n[axis] = sign;
+                let (u, v) = (
+                    n.any_orthonormal_vector(),
+                    n.cross(n.any_orthonormal_vector()),
+                );
+                let base = positions.len() as u32;
+                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                    positions.push(c + (n + u * a + v * b) * d * 0.5);
+                    normals.push(n);
+                }
+                // Counter-clockwise seen from outside.
+                indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+            }
+        }
+        scene
+            .add_mesh(&positions, &normals, &[], &indices, glam::Mat4::IDENTITY, m)
+            .unwrap();
+    }
+
+    #[test]
+    fn a_closed_box_emits_only_outwards() {
+        let mut scene = Scene::new("lamp");
+        thin_emissive_box(
+            &mut scene,
+            Vec3::new(-0.25, 1.97, -0.25),
+            Vec3::new(0.25, 1.99, 0.25),
+        );
+        let bvh = SceneBvh::new(&scene);
+        let all = Emitters::new(&scene);
+        let (outside, dropped) = all.without_enclosed_sides(&scene, &bvh);
+        let half = all.power() * 0.5;
+        assert!(
+            (outside.power() - half).abs().max_element() < 1e-3 * half.max_element(),
+            "kept {} of {}",
+            outside.power(),
+            all.power()
+        );
+        assert!((dropped - half).abs().max_element() < 1e-3 * half.max_element());
+        // Every sample leaves the box.
+        for i in 0..64 {
+            let u = glam::Vec4::new(
+                (i as f32 + 0.5) / 64.0,
+                0.3,
+                0.6,
+                (i % 2) as f32 * 0.5 + 0.25,
+            );
+            let e = outside.sample(&scene, u).unwrap();
+            let out_of_centre = e.position - Vec3::new(0.0, 1.98, 0.0);
+            assert!(e.normal.dot(out_of_centre) > 0.0, "{e:?} faces in");
+        }
+    }
 }

@@ -1,8 +1,10 @@
 //! VPL distribution by light tracing (Keller 1997): paths leave the lights
 //! (punctual lights and emissive triangles) with their share of the emitted
 //! power, deposit a VPL at every diffuse hit, and continue by cosine sampling
-//! with Russian roulette by albedo, which is what ends them (the bounce
-//! limit is only a safety net). A path from an emitter first deposits a VPL
+//! with Russian roulette by albedo (at most [`MAX_SURVIVAL`]), which is what
+//! ends them (the bounce limit is only a safety net). Paths never start on a
+//! side of an emitter that faces into a closed volume, whose light cannot
+//! leave it. A path from an emitter first deposits a VPL
 //! on the emitter itself ("bounce 0", albedo 1): its clamped contribution
 //! near the fixture is what SSBC gives back.
 
@@ -71,6 +73,12 @@ impl Default for VplSettings {
 /// 0.8^64 = 6e-7 of the light beyond it).
 pub const DEFAULT_BOUNCES: u32 = 64;
 
+/// The highest survival probability of Russian roulette: on white (albedo
+/// 1) surfaces, the default glTF material, a path would otherwise bounce
+/// until the bounce limit, and a handful of paths would make every VPL.
+/// Unbiased (the flux is divided by it); paths average at most 10 bounces.
+pub const MAX_SURVIVAL: f32 = 0.9;
+
 /// The VPLs and how many light paths were started to make them.
 #[derive(Clone, Debug, Default)]
 pub struct VplSet {
@@ -78,6 +86,11 @@ pub struct VplSet {
     pub vpls: Vec<Vpl>,
     /// Paths started (the normalisation, including paths that missed).
     pub paths: u64,
+    /// Most VPLs one path deposited.
+    pub max_per_path: u32,
+    /// Emitted power (W, rgb) left out because it goes into closed volumes
+    /// ([`Emitters::without_enclosed_sides`]).
+    pub enclosed_power: Vec3,
 }
 
 /// Power (W) emitted by a light (per channel); `scene_radius` sizes the disk
@@ -114,6 +127,8 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     if settings.count == 0 || (scene.lights.is_empty() && emitters.is_empty()) {
         return Ok(set);
     }
+    let (emitters, enclosed_power) = emitters.without_enclosed_sides(scene, bvh);
+    set.enclosed_power = enclosed_power;
     let bounds = scene.bounds();
     let radius = bounds.radius().max(1e-3);
     // Sources: every punctual light, then the emitters as one.
@@ -132,6 +147,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     let mut raw = Vec::with_capacity(settings.count);
     let mut path = 0u64;
     while raw.len() < settings.count && path < max_paths {
+        let before = raw.len();
         let s = |d: usize| halton.sample(path, d);
         // Choose a source in proportion to its power.
         let mut pick = s(0) * total;
@@ -207,6 +223,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             flux,
             &mut raw,
         );
+        set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
     }
     set.paths = path;
     let norm = 1.0 / path.max(1) as f32;
@@ -258,7 +275,7 @@ fn trace_path(
         }
         // Russian roulette with survival probability max(albedo).
         let dim = 7 + 3 * (bounce as usize - 1);
-        let survive = surf.albedo.max_element().min(1.0);
+        let survive = surf.albedo.max_element().min(MAX_SURVIVAL);
         if survive <= 0.0 || halton.sample(path, dim) >= survive {
             return;
         }

@@ -299,6 +299,8 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         submit_ns,
         vpl_count: vpl_set.vpls.len(),
         light_paths: vpl_set.paths,
+        max_vpls_per_light_path: vpl_set.max_per_path,
+        enclosed_emission_w: crate::cpu::emitters::luminance(vpl_set.enclosed_power),
         ism_tile: settings.ism_tile,
         points_per_vpl: settings.points_per_vpl,
         bound: if bound.is_finite() {
