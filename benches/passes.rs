@@ -93,7 +93,6 @@ fn main() {
     let passes = [
         "shadow_maps",
         "ism_splat",
-        "ism_pullpush",
         "gbuffer",
         "direct_lighting",
         "indirect_bounded",

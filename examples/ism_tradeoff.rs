@@ -1,6 +1,6 @@
 //! Imperfect shadow maps: cost per VPL against agreement with exact
 //! visibility, for ISM tile sides and points per VPL. For each setting: the
-//! GPU ms of `ism_splat` + `ism_pullpush` (median of warm frames) per 1000
+//! GPU ms of `ism_splat` (ray-cast layer + points; median of warm frames) per 1000
 //! VPLs, and the share of (pixel, VPL) pairs on which the ISM test agrees
 //! with a ray cast (pairs that exchange light at cosines of at least 0.1 on
 //! both ends, every 13th geometry pixel), as `tests/instant_radiosity.rs`
@@ -69,8 +69,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let vpls: usize = value("--vpls").and_then(|v| v.parse().ok()).unwrap_or(1024);
     let frames: u32 = value("--frames").and_then(|v| v.parse().ok()).unwrap_or(3);
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    println!("| scene | tile | points/VPL | splat ms | pull-push ms | ms per 1000 VPLs | agreement | false shadows | leaks | pairs |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | tile | points/VPL | ISM ms (layer + splat) | ms per 1000 VPLs | agreement | false shadows | leaks | pairs |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for name in &scenes {
         let mut scene = ssbc::scene::load(name)?;
         scene.ensure_light();
@@ -95,12 +95,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         .find(|p| p.name == pass)
                         .map_or(f64::NAN, |p| p.ms.median)
                 };
-                let (splat, pullpush) = (ms("ism_splat"), ms("ism_pullpush"));
+                let splat = ms("ism_splat");
                 let (agree, shadowed, lit, pairs) = agreement(&scene, &frame);
                 println!(
-                    "| {} | {tile} | {points} | {splat:.1} | {pullpush:.1} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {pairs} |",
+                    "| {} | {tile} | {points} | {splat:.1} | {:.1} | {:.2}% | {:.2}% | {:.2}% | {pairs} |",
                     scene.name,
-                    (splat + pullpush) * 1000.0 / frame.vpls.len() as f64,
+                    splat * 1000.0 / frame.vpls.len() as f64,
                     100.0 * agree,
                     100.0 * shadowed,
                     100.0 * lit,

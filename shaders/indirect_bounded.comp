@@ -15,7 +15,7 @@ layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
-layout(set = 0, binding = 7, r32f) uniform readonly image2D ism;
+layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance bits / far
 
 layout(push_constant) uniform Push {
     uvec2 size;

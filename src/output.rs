@@ -179,7 +179,7 @@ pub fn timings_table(frame: &Frame) -> String {
         );
     }
     s += &format!(
-        "  CPU: BVH {:.1} ms, {} VPLs from {} light paths ({:.1} per path, at most {}) {:.1} ms, ISM points {:.1} ms; bound b = {}\n",
+        "  CPU: BVH {:.1} ms, {} VPLs from {} light paths ({:.1} per path, at most {}) {:.1} ms, ISM points {:.1} ms, ISM rays {:.1} ms; bound b = {}\n",
         t.cpu_ms.bvh_build,
         t.vpl_count,
         t.light_paths,
@@ -187,6 +187,7 @@ pub fn timings_table(frame: &Frame) -> String {
         t.max_vpls_per_light_path,
         t.cpu_ms.vpl_generation,
         t.cpu_ms.point_sampling,
+        t.cpu_ms.ism_rays,
         t.bound
     );
     if t.enclosed_emission_w > 0.0 {

@@ -1,8 +1,8 @@
 //! The frame: which passes run in which order, and what comes back.
 //!
 //! ```text
-//!  CPU: BVH ─▶ VPLs (light tracing) ─▶ ISM points           (scene_cache)
-//!  GPU: shadow_maps ─▶ ism_splat ─▶ ism_pullpush ─▶ gbuffer ─▶ direct_lighting
+//!  CPU: BVH ─▶ VPLs (light tracing) ─▶ ISM rays, ISM points (scene_cache)
+//!  GPU: shadow_maps ─▶ ism_splat (ray layer + points) ─▶ gbuffer ─▶ direct_lighting
 //!        ─▶ indirect_bounded (S0 = T Le + T_b L^) ─▶ ssbc_geometry_mips
 //!        ─▶ ssbc_step_1 … ssbc_step_K (S_k = T_r S_{k-1}, final += S_k)
 //!       ─▶ read-back / kept on the GPU / copied into the host's image

@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use crate::cpu::bvh::SceneBvh;
+use crate::cpu::ism_rays;
 use crate::cpu::points::{sample_points, IsmPoints};
 use crate::cpu::vpl::{self, VplSet, VplSettings};
 use crate::error::Result;
@@ -28,6 +29,9 @@ pub struct VplCache {
     /// Where each interleaving subset starts in `set.vpls` (and `gpu`), and
     /// where the last ends.
     pub subsets: Vec<u32>,
+    /// Each VPL's coarse ray-cast ISM layer, in the same order
+    /// ([`ism_rays::coarse_depths`]).
+    pub ism_base: Vec<f32>,
     /// Changes whenever the VPLs do (passes compare it with what they hold).
     pub version: u64,
 }
@@ -119,7 +123,12 @@ impl SceneCache {
             let blocks = point_blocks(count as usize) as u64;
             let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
             let gpu = set.vpls.iter().zip(0..);
+            let miss = 4.0 * cache.bounds.radius().max(1e-3);
+            let ism_base = CpuSpan::time(spans, "ism_rays", || {
+                ism_rays::coarse_depths(&cache.bvh, &set.vpls, miss)
+            });
             cache.vpls = Some(VplCache {
+                ism_base,
                 gpu: gpu
                     .map(|(v, i)| GpuVpl::new(v, i, count, block(v)))
                     .collect(),

@@ -193,6 +193,8 @@ pub struct CpuTimings {
     pub vpl_generation: f64,
     /// ISM point sampling.
     pub point_sampling: f64,
+    /// The ISMs' coarse ray-cast layer ([`crate::cpu::ism_rays`]).
+    pub ism_rays: f64,
 }
 
 /// Per-step SSBC figures.

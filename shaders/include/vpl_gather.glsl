@@ -13,7 +13,7 @@
 // receiver's slope across a splat (its own surface's points land in its texel).
 float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
     vec2 uv = ism_paraboloid(w, n);
-    float stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
+    float stored = uintBitsToFloat(imageLoad(ism, ism_texel(cell, uv, pc.tile)).r);
     if (stored < 0.0) return 1.0;
     return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, pc.ism_bias) ? 1.0 : 0.0;
 }

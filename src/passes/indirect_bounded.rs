@@ -195,7 +195,7 @@ impl IndirectBoundedPass {
         let Recording { rec, view, .. } = cx;
         gbuffer.read_in_compute(rec);
         rec.use_image(direct, Access::ComputeRead);
-        rec.use_image(&ism.pyramid, Access::ComputeRead);
+        rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
@@ -221,7 +221,7 @@ impl IndirectBoundedPass {
             Binding::storage(&out.indirect),
             Binding::storage(&out.s0),
             Binding::UniformTexelBuffer(&ism.vpl_texels),
-            Binding::StorageImage(ism.pyramid.mip_views[0]),
+            Binding::storage(&ism.atlas),
         ]
     }
 
@@ -236,7 +236,7 @@ impl IndirectBoundedPass {
         let Recording { rec, view, .. } = cx;
         rec.use_image(&gbuffer.position, Access::ComputeRead);
         rec.use_image(&gbuffer.normal, Access::ComputeRead);
-        rec.use_image(&ism.pyramid, Access::ComputeRead);
+        rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(&ism.subsets, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeWrite);
@@ -248,7 +248,7 @@ impl IndirectBoundedPass {
             Binding::storage(&gbuffer.position),
             Binding::storage(&gbuffer.normal),
             Binding::UniformTexelBuffer(&ism.vpl_texels),
-            Binding::StorageImage(ism.pyramid.mip_views[0]),
+            Binding::storage(&ism.atlas),
             Binding::StorageBuffer(&ism.subsets),
             Binding::storage(&interleaved.sums),
             Binding::storage(&interleaved.guide),
@@ -319,7 +319,7 @@ impl IndirectBoundedPass {
         let (gbuffer, direct, ism) = reads;
         gbuffer.read_in_compute(rec);
         rec.use_image(direct, Access::ComputeRead);
-        rec.use_image(&ism.pyramid, Access::ComputeRead);
+        rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(creases, Access::IndirectRead);
         rec.use_buffer(creases, Access::ComputeRead);

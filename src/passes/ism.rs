@@ -1,12 +1,16 @@
-//! Imperfect shadow maps (Ritschel et al. 2008): each VPL splats its own
-//! subset of scene points into a paraboloid depth tile of one atlas
-//! (`ism_splat`), then pull-push fills the holes (`ism_pullpush`).
+//! Imperfect shadow maps (Ritschel et al. 2008): each VPL's paraboloid depth
+//! tile of one atlas starts from a coarse ray-cast layer (`ism_base`, see
+//! [`crate::cpu::ism_rays`]), and the VPL splats its own subset of scene
+//! points into it (`ism_splat`). The layer leaves no holes, so there is no
+//! pull-push: it filled the holes between points with the farthest of their
+//! neighbours, which is where occluders near a VPL leaked.
 
 use std::sync::Arc;
 
 use ash::vk;
 
 use super::{Pass, Recording, SlotSetup};
+use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::shaders;
@@ -15,10 +19,10 @@ use crate::vk::{
     Device, Image, ImageDesc,
 };
 
-/// The two ISM pipelines.
+/// The ISM pipelines.
 pub struct IsmPass {
+    base: ComputeKernel,
     splat: ComputeKernel,
-    pullpush: ComputeKernel,
 }
 
 /// One frame's ISM atlas and inputs.
@@ -26,10 +30,9 @@ pub struct Ism {
     /// `vpls` as RGBA32F texels (three per VPL), for the gathers. Declared
     /// before the buffer so that it is dropped first.
     pub vpl_texels: BufferView,
-    /// Splatted distance bits (r32ui), 0xFFFFFFFF = hole.
-    pub splat_target: Image,
-    /// Filled depth pyramid (r32f); level 0 is what lighting reads.
-    pub pyramid: Image,
+    /// The atlas: per texel the bits of the nearest distance (r32ui, a
+    /// positive float divided by `far`), what lighting reads.
+    pub atlas: Image,
     /// The VPLs (`GpuVpl`), in the order of their interleaving subsets.
     pub vpls: Buffer,
     /// Where each interleaving subset starts in `vpls`, and where the last
@@ -39,6 +42,8 @@ pub struct Ism {
     pub subset_count: u32,
     /// Blocks of scene points, `points_per_vpl` each (VPLs share blocks).
     pub points: Buffer,
+    /// Each VPL's coarse ray-cast layer (m, `BASE_GRID`² per VPL).
+    pub base_depths: Buffer,
     /// The (VPL, points) versions the buffers hold.
     versions: (u64, u64),
     /// Number of VPLs.
@@ -68,9 +73,11 @@ struct SplatPush {
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct PullPushPush {
-    dst_size: [u32; 2],
-    mode: u32,
+struct BasePush {
+    vpl_count: u32,
+    tile: u32,
+    grid: u32,
+    depth_scale: f32,
 }
 
 impl IsmPass {
@@ -78,6 +85,14 @@ impl IsmPass {
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         use vk::DescriptorType as T;
         Ok(Self {
+            // Splat target, VPLs, ray-cast layer.
+            base: ComputeKernel::new(
+                device,
+                shaders::ISM_BASE_COMP,
+                &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
+                std::mem::size_of::<BasePush>(),
+            )?
+            .named("ism_base"),
             // Splat target, VPLs, points.
             splat: ComputeKernel::new(
                 device,
@@ -86,14 +101,6 @@ impl IsmPass {
                 std::mem::size_of::<SplatPush>(),
             )?
             .named("ism_splat"),
-            // Splat target, source level, destination level.
-            pullpush: ComputeKernel::new(
-                device,
-                shaders::ISM_PULLPUSH_COMP,
-                &[T::STORAGE_IMAGE; 3],
-                std::mem::size_of::<PullPushPush>(),
-            )?
-            .named("ism_pullpush"),
         })
     }
 }
@@ -141,30 +148,16 @@ impl Pass for IsmPass {
         }
         let (w, h) = (w as u32, h as u32);
         let points_per_vpl = points.points_per_block as u32;
-        let levels = tile.trailing_zeros() + 1;
-        let splat_target = Image::new(
+        // TRANSFER_SRC: diagnostics read it back.
+        let atlas = Image::new(
             device,
-            "ism.splat_target",
+            "ism.atlas",
             ImageDesc::new_2d(
                 vk::Format::R32_UINT,
                 w,
                 h,
-                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_DST,
+                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
             ),
-        )?;
-        let pyramid = Image::new(
-            device,
-            "ism.atlas",
-            ImageDesc {
-                format: vk::Format::R32_SFLOAT,
-                width: w,
-                height: h,
-                layers: 1,
-                mip_levels: levels,
-                // TRANSFER_SRC: diagnostics read level 0 back.
-                usage: vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
-                array: false,
-            },
         )?;
         let vpl_data = if vpls.is_empty() {
             vec![GpuVpl::default()]
@@ -177,6 +170,7 @@ impl Pass for IsmPass {
             points.positions.clone()
         };
         let subsets = &setup.cache.vpls().subsets;
+        let base_data = base_layer(setup);
         let vpls = Buffer::with_data(
             device,
             "vpls",
@@ -191,8 +185,7 @@ impl Pass for IsmPass {
                 16,
                 "vpls texels",
             )?,
-            splat_target,
-            pyramid,
+            atlas,
             vpls,
             subsets: Buffer::with_data(
                 device,
@@ -206,6 +199,12 @@ impl Pass for IsmPass {
                 device,
                 "ism.points",
                 &point_data,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
+            base_depths: Buffer::with_data(
+                device,
+                "ism.base_depths",
+                base_data,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
             vpl_count,
@@ -236,6 +235,8 @@ impl Pass for IsmPass {
             ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
             ism.subsets
                 .write(0, bytemuck::cast_slice(&cached_vpls.subsets))?;
+            ism.base_depths
+                .write(0, bytemuck::cast_slice(&cached_vpls.ism_base))?;
         }
         if !points.positions.is_empty() && ism.versions.1 != cached_points.version {
             ism.points
@@ -247,18 +248,12 @@ impl Pass for IsmPass {
         Ok(true)
     }
 
-    /// One splat set and one pull-push set per pull and per push.
-    fn set_layouts(&self, ism: &Ism) -> Vec<&DescriptorSetLayout> {
-        let levels = ism.tile.trailing_zeros() + 1;
-        let mut v = vec![self.splat.set_layout()];
-        v.extend(std::iter::repeat_n(
-            self.pullpush.set_layout(),
-            2 * (levels as usize - 1),
-        ));
-        v
+    /// A base and a splat set.
+    fn set_layouts(&self, _: &Ism) -> Vec<&DescriptorSetLayout> {
+        vec![self.base.set_layout(), self.splat.set_layout()]
     }
 
-    /// Splats and fills every tile (nothing without VPLs).
+    /// Writes every VPL's tile (nothing without VPLs).
     fn record(
         &self,
         cx: &mut Recording<'_, '_>,
@@ -270,24 +265,28 @@ impl Pass for IsmPass {
             return Ok(());
         }
         let Recording { rec, profiler, .. } = cx;
-        // Splat: clear to "no point" and atomicMin every point's distance.
+        // Splat: start every VPL's tile from its ray-cast layer (tiles past
+        // the last VPL are never read) and atomicMin every point's distance.
         let scope = profiler.begin(rec.cmd, "ism_splat");
-        rec.use_image(&ism.splat_target, Access::TransferWrite);
+        rec.use_image(&ism.atlas, Access::ComputeWrite);
+        rec.use_buffer(&ism.vpls, Access::ComputeRead);
+        rec.use_buffer(&ism.base_depths, Access::ComputeRead);
         rec.flush_barriers();
-        let clear = vk::ClearColorValue {
-            uint32: [u32::MAX; 4],
+        let push = BasePush {
+            vpl_count: ism.vpl_count,
+            tile: ism.tile,
+            grid: ism_rays::BASE_GRID,
+            depth_scale: 1.0 / ism.far,
         };
-        // SAFETY: recording; the image is in TRANSFER_DST layout (barrier above).
-        unsafe {
-            rec.device.raw.cmd_clear_color_image(
-                rec.cmd,
-                ism.splat_target.raw,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &clear,
-                &[ism.splat_target.full_range()],
-            )
-        };
-        rec.use_image(&ism.splat_target, Access::ComputeWrite);
+        let bindings = [
+            Binding::storage(&ism.atlas),
+            Binding::StorageBuffer(&ism.vpls),
+            Binding::StorageBuffer(&ism.base_depths),
+        ];
+        let groups = [(ism.tile * ism.tile).div_ceil(64), ism.vpl_count, 1];
+        self.base
+            .dispatch(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), groups)?;
+        rec.use_image(&ism.atlas, Access::ComputeWrite);
         rec.use_buffer(&ism.vpls, Access::ComputeRead);
         rec.use_buffer(&ism.points, Access::ComputeRead);
         rec.flush_barriers();
@@ -300,7 +299,7 @@ impl Pass for IsmPass {
             point_radius: ism.point_radius,
         };
         let bindings = [
-            Binding::storage(&ism.splat_target),
+            Binding::storage(&ism.atlas),
             Binding::StorageBuffer(&ism.vpls),
             Binding::StorageBuffer(&ism.points),
         ];
@@ -309,40 +308,17 @@ impl Pass for IsmPass {
         self.splat
             .dispatch(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), groups)?;
         profiler.end(rec.cmd, scope);
-
-        // Pull-push: pull up the pyramid from the splat, push back down, and
-        // level 0 last (see ism_pullpush.comp for the modes).
-        let scope = profiler.begin(rec.cmd, "ism_pullpush");
-        let levels = ism.pyramid.desc.mip_levels as usize;
-        let views = &ism.pyramid.mip_views;
-        let pull_step = |l: usize| (if l == 1 { 0 } else { 1 }, views[l - 1], views[l], l);
-        let push_step = |l: usize| (if l == 0 { 3 } else { 2 }, views[l + 1], views[l], l);
-        let steps = (1..levels)
-            .map(pull_step)
-            .chain((0..levels - 1).rev().map(push_step));
-        for (mode, src, dst, level) in steps {
-            rec.use_image(&ism.splat_target, Access::ComputeRead);
-            rec.use_image(&ism.pyramid, Access::ComputeWrite);
-            rec.flush_barriers();
-            let (w, h) = ism.pyramid.mip_extent(level as u32);
-            let bindings = [
-                Binding::storage(&ism.splat_target),
-                Binding::StorageImage(src),
-                Binding::StorageImage(dst),
-            ];
-            let push = PullPushPush {
-                dst_size: [w, h],
-                mode,
-            };
-            self.pullpush.dispatch_2d(
-                rec.cmd,
-                pool,
-                &bindings,
-                bytemuck::bytes_of(&push),
-                (w, h),
-            )?;
-        }
-        profiler.end(rec.cmd, scope);
         Ok(())
+    }
+}
+
+/// The VPLs' ray-cast layers, or one block when there are no VPLs (a buffer
+/// is never empty).
+fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [f32] {
+    let base = &setup.cache.vpls().ism_base;
+    if base.is_empty() {
+        &[0.0]
+    } else {
+        base
     }
 }

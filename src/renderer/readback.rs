@@ -39,7 +39,7 @@ pub struct IsmReadback {
     pub tiles_per_row: u32,
     /// Distances are stored divided by this.
     pub far: f32,
-    /// Level 0 after pull-push (negative: hole).
+    /// The atlas, as distances divided by `far`.
     pub depth: Vec<f32>,
     /// World radius of one splatted point.
     pub point_radius: f32,
@@ -70,7 +70,7 @@ impl IsmReadback {
         let c = (-normal.dot(w)).clamp(0.1, 1.0);
         let slope = (1.0 - c * c).sqrt() / c;
         let tolerance = crate::passes::indirect_bounded::ISM_BIAS * dist + footprint * slope + 1e-3;
-        stored < 0.0 || dist <= stored * self.far + tolerance
+        dist <= stored * self.far + tolerance
     }
 }
 
@@ -174,7 +174,7 @@ impl<'a> FrameImages<'a> {
             v.push((format!("samples_{}", k + 1), img));
         }
         if debug {
-            v.push(("ism_atlas".into(), &self.ism.pyramid));
+            v.push(("ism_atlas".into(), &self.ism.atlas));
         }
         v
     }
@@ -294,6 +294,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
             bvh_build: span_ms(&spans, "bvh_build"),
             vpl_generation: span_ms(&spans, "vpl_generation"),
             point_sampling: span_ms(&spans, "point_sampling"),
+            ism_rays: span_ms(&spans, "ism_rays"),
         },
         cpu_spans: spans,
         submit_ns,
@@ -313,8 +314,8 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
     };
     let ism = images.ism;
     let ism_readback = ism_depth.map(|depth| IsmReadback {
-        width: ism.pyramid.desc.width,
-        height: ism.pyramid.desc.height,
+        width: ism.atlas.desc.width,
+        height: ism.atlas.desc.height,
         tile: ism.tile,
         tiles_per_row: ism.tiles_per_row,
         far: ism.far,

@@ -1,0 +1,132 @@
+//! The coarse ray-cast layer of each VPL's imperfect shadow map.
+//!
+//! Scene points are spread by area, so an occluder close to a VPL gets few
+//! of them although it covers much of the VPL's view: a lamp's shade, the
+//! ceiling 1 cm above an emissive quad, the inside of a thin box. Pull-push
+//! then fills the holes with the far surfaces behind it, and the VPL lights
+//! the room through the occluder. Each VPL's tile therefore starts from
+//! exact distances on a coarse grid of its paraboloid, [`BASE_GRID`]²
+//! blocks, cast on the CPU with the BVH: a block holds the farthest of the
+//! distances at its four corners (so along an occluder's silhouette it errs
+//! towards visibility, as pull-push does), and the splatted points add the
+//! detail finer than a block (atomicMin keeps the nearest).
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::bvh::{SceneBvh, RAY_EPSILON};
+use super::sampling::basis;
+use super::vpl::Vpl;
+
+/// Blocks per side of a tile's ray-cast layer.
+pub const BASE_GRID: u32 = 8;
+
+/// Rays a VPL casts for its layer: the corners of the blocks.
+pub const RAYS_PER_VPL: u32 = (BASE_GRID + 1) * (BASE_GRID + 1);
+
+/// Unit direction leaving a VPL with normal `n` through paraboloid
+/// coordinate `uv` in [0,1]² (the inverse of `ism_paraboloid` in
+/// shaders/include/ism.glsl); points outside the unit disc are moved onto
+/// it, just above the horizon.
+pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {
+    let mut p = uv * 2.0 - 1.0;
+    let r2 = p.length_squared();
+    if r2 > 0.998 {
+        p *= (0.998 / r2).sqrt();
+    }
+    let r2 = p.length_squared();
+    let z = (1.0 - r2) / (1.0 + r2);
+    let xy = p * (1.0 + z);
+    let (t, b) = basis(n);
+    (t * xy.x + b * xy.y + n * z).normalize()
+}
+
+/// The layer of every VPL, in their order: [`BASE_GRID`]² distances (m) per
+/// VPL, row by row along the paraboloid's v then u; `miss` where every
+/// corner ray of a block leaves the scene.
+pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<f32> {
+    let g = BASE_GRID as usize;
+    let mut out = vec![0.0f32; vpls.len() * g * g];
+    out.par_chunks_mut(g * g)
+        .zip(vpls.par_iter())
+        .for_each(|(blocks, v)| {
+            let origin =
+                v.position + v.normal * RAY_EPSILON * (1.0 + v.position.abs().max_element());
+            let mut corners = [0.0f32; (BASE_GRID as usize + 1) * (BASE_GRID as usize + 1)];
+            for (k, c) in corners.iter_mut().enumerate() {
+                let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
+                let dir = paraboloid_direction(v.normal, uv);
+                *c = bvh
+                    .intersect(origin, dir, 0.0, f32::INFINITY)
+                    .map_or(miss, |hit| hit.t.min(miss));
+            }
+            for (k, block) in blocks.iter_mut().enumerate() {
+                let (x, y) = (k % g, k / g);
+                let corner = |dx: usize, dy: usize| corners[(y + dy) * (g + 1) + x + dx];
+                *block = corner(0, 0)
+                    .max(corner(1, 0))
+                    .max(corner(0, 1))
+                    .max(corner(1, 1));
+            }
+        });
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Mirror of `ism_paraboloid` (shaders/include/ism.glsl).
+    fn paraboloid(w: Vec3, n: Vec3) -> Vec2 {
+        let (t, b) = basis(n);
+        let l = Vec3::new(w.dot(t), w.dot(b), w.dot(n));
+        Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + 0.5
+    }
+
+    #[test]
+    fn inverts_the_paraboloid() {
+        for n in [Vec3::Y, -Vec3::Z, Vec3::new(0.3, -0.8, 0.52).normalize()] {
+            for uv in [
+                Vec2::new(0.5, 0.5),
+                Vec2::new(0.2, 0.7),
+                Vec2::new(0.9, 0.45),
+            ] {
+                let w = paraboloid_direction(n, uv);
+                assert!(w.dot(n) > 0.0);
+                assert!((paraboloid(w, n) - uv).length() < 1e-4, "{n} {uv}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_vpl_under_a_slab_sees_it_above_and_the_room_at_the_horizon() {
+        // A VPL on the ceiling of the Cornell box looking down at a quad 1 cm
+        // below it: the centre blocks hold 1 cm, the rim blocks the walls.
+        let mut scene = crate::scene::builtin::cornell();
+        let m = scene.materials.len() as u32 - 1;
+        let p = [
+            Vec3::new(-0.3, 1.99, -0.3),
+            Vec3::new(0.3, 1.99, -0.3),
+            Vec3::new(0.3, 1.99, 0.3),
+            Vec3::new(-0.3, 1.99, 0.3),
+        ];
+        scene
+            .add_mesh(&p, &[], &[], &[0, 1, 2, 0, 2, 3], glam::Mat4::IDENTITY, m)
+            .unwrap();
+        let bvh = SceneBvh::new(&scene);
+        let vpl = Vpl {
+            position: Vec3::new(0.01, 2.0, 0.02),
+            normal: -Vec3::Y,
+            albedo: Vec3::ONE,
+            flux: Vec3::ONE,
+            bounce: 1,
+            path: 0,
+        };
+        let d = coarse_depths(&bvh, &[vpl], 100.0);
+        let g = BASE_GRID as usize;
+        let centre = d[(g / 2) * g + g / 2];
+        assert!((0.01..0.015).contains(&centre), "centre block {centre}");
+        let rim = d[(g / 2) * g];
+        assert!(rim > 0.5, "rim block {rim}");
+    }
+}
