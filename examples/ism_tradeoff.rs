@@ -6,8 +6,9 @@
 //! both ends, every 13th geometry pixel), as `tests/instant_radiosity.rs`
 //! measures it.
 //!
-//! `cargo run --release --example ism_tradeoff -- [SCENE ...] [--size WxH] [--vpls N] [--frames N]`
-//! (default: assets/open-front-box.gltf and tori, 320x240, 1024 VPLs, 3 frames).
+//! `cargo run --release --example ism_tradeoff -- [SCENE ...] [--size WxH] [--vpls N] [--frames N] [--tiles 16,32,64] [--points 256,512,1024,2048]`
+//! (default: assets/open-front-box.gltf and tori, 320x240, 1024 VPLs, 3
+//! frames, the tiles and points shown).
 
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::profile::render_frames;
@@ -48,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let i = args.iter().position(|a| a == flag)?;
         args.get(i + 1).cloned()
     };
-    let flag_values: Vec<String> = ["--size", "--vpls", "--frames"]
+    let flag_values: Vec<String> = ["--size", "--vpls", "--frames", "--tiles", "--points"]
         .iter()
         .filter_map(|f| value(f))
         .collect();
@@ -68,14 +69,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or((320, 240));
     let vpls: usize = value("--vpls").and_then(|v| v.parse().ok()).unwrap_or(1024);
     let frames: u32 = value("--frames").and_then(|v| v.parse().ok()).unwrap_or(3);
+    let list = |flag: &str, default: &[u32]| -> Vec<u32> {
+        value(flag).map_or(default.to_vec(), |v| {
+            v.split(',').filter_map(|n| n.parse().ok()).collect()
+        })
+    };
+    let (tiles, point_counts) = (
+        list("--tiles", &[16, 32, 64]),
+        list("--points", &[256, 512, 1024, 2048]),
+    );
     let mut renderer = Renderer::new(&RendererConfig::default())?;
     println!("| scene | tile | points/VPL | ISM ms (layer + splat) | ms per 1000 VPLs | agreement | false shadows | leaks | pairs |");
     println!("|---|---|---|---|---|---|---|---|---|");
     for name in &scenes {
         let mut scene = ssbc::scene::load(name)?;
         scene.ensure_light();
-        for tile in [16u32, 32, 64] {
-            for points in [256u32, 512, 1024, 2048] {
+        for &tile in &tiles {
+            for &points in &point_counts {
                 let mut settings = RenderSettings {
                     width,
                     height,

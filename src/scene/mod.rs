@@ -212,6 +212,62 @@ impl Camera {
         }
     }
 
+    /// The default view of a scene without a camera: looking down 40° from
+    /// the front right (30° off +Z), placed so that the eight corners of
+    /// `bounds` fill an image of aspect `aspect` (w/h) with a 45° vertical
+    /// field of view as tightly as the perspective allows (5% margin). A
+    /// raised three-quarter view shows a large plane or a flat interior from
+    /// above rather than edge-on; fitting the corners (rather than the
+    /// bounding sphere, around its centre) fills the image with wide, flat
+    /// or tall scenes.
+    pub fn framing(bounds: &Bounds, aspect: f32) -> Self {
+        let (azimuth, elevation) = (30f32.to_radians(), 40f32.to_radians());
+        let yfov = 45f32.to_radians();
+        let to_eye = Vec3::new(
+            azimuth.sin() * elevation.cos(),
+            elevation.sin(),
+            azimuth.cos() * elevation.cos(),
+        );
+        let view = Self::look_at(to_eye, Vec3::ZERO, yfov);
+        let (forward, up) = (view.forward, view.up);
+        let right = forward.cross(up);
+        let margin = 0.95;
+        let tan_y = (yfov * 0.5).tan() * margin;
+        let tan_x = (yfov * 0.5).tan() * aspect.clamp(0.1, 10.0) * margin;
+        // In the camera's basis (right r, up u, forward f) a corner p is in
+        // the frustum of an eye e when |p_r - e_r| <= (p_f - e_f) tan_x, and
+        // likewise for u. Each pair of side planes touching the corners fixes
+        // e_f and the offset across; the farther e_f of the two pairs wins.
+        let corners = (0..8).map(|k| {
+            let pick = |bit: u32, lo: f32, hi: f32| if k & bit == 0 { lo } else { hi };
+            Vec3::new(
+                pick(1, bounds.min.x, bounds.max.x),
+                pick(2, bounds.min.y, bounds.max.y),
+                pick(4, bounds.min.z, bounds.max.z),
+            )
+        });
+        let fit = |axis: Vec3, tan: f32| {
+            let (mut plus, mut minus) = (f32::MIN, f32::MIN);
+            for p in corners.clone() {
+                let (across, along) = (p.dot(axis), p.dot(forward));
+                plus = plus.max(across - along * tan);
+                minus = minus.max(-across - along * tan);
+            }
+            (-(plus + minus) / (2.0 * tan), (plus - minus) * 0.5)
+        };
+        let ((f_x, r), (f_y, u)) = (fit(right, tan_x), fit(up, tan_y));
+        // Never at or in front of the nearest corner for a flat or
+        // point-sized scene.
+        let nearest = corners.map(|p| p.dot(forward)).fold(f32::MAX, f32::min);
+        let back = f_x.min(f_y).min(nearest - bounds.radius() * 0.1 - 1e-3);
+        Self {
+            position: right * r + up * u + forward * back,
+            forward,
+            up,
+            yfov,
+        }
+    }
+
     /// World-to-view matrix (right-handed, looking down -Z).
     pub fn view(&self) -> Mat4 {
         glam::camera::rh::view::look_to_mat4(self.position, self.forward, self.up)
@@ -233,6 +289,11 @@ impl Camera {
         (self.forward + right * (ndc_x * t * aspect) - self.up * (ndc_y * t)).normalize()
     }
 }
+
+/// The aspect (w/h) the default camera frames the scene for: that of the
+/// CLI's default size (1024x768). Wider images show more around the scene;
+/// narrower ones fit its height and may cut its sides.
+pub const DEFAULT_ASPECT: f32 = 4.0 / 3.0;
 
 /// Axis-aligned bounds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -448,7 +509,8 @@ impl Scene {
         self.indices.len() / 3
     }
 
-    /// Camera `index`, or one framing the scene's bounds when there is none.
+    /// Camera `index`, or one framing the scene's bounds when there is none
+    /// ([`Camera::framing`] for a [`DEFAULT_ASPECT`] image).
     pub fn camera(&self, index: Option<usize>) -> Result<Camera> {
         match index {
             Some(i) => self.cameras.get(i).cloned().ok_or_else(|| {
@@ -457,12 +519,11 @@ impl Scene {
                     self.cameras.len()
                 ))
             }),
-            None => Ok(self.cameras.first().cloned().unwrap_or_else(|| {
-                let b = self.bounds();
-                let yfov = 45f32.to_radians();
-                let distance = b.radius() / (yfov * 0.5).sin();
-                Camera::look_at(b.center() + Vec3::new(0.0, 0.0, distance), b.center(), yfov)
-            })),
+            None => Ok(self
+                .cameras
+                .first()
+                .cloned()
+                .unwrap_or_else(|| Camera::framing(&self.bounds(), DEFAULT_ASPECT))),
         }
     }
 

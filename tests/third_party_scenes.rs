@@ -1,0 +1,222 @@
+//! Scenes modelled the way third-party files model them
+//! (scripts/make-test-scenes.py writes tests/scenes/): emissive fixtures
+//! pressed against a ceiling, a closed room, an object whose only emission
+//! is a mostly black emissive texture, scenes without a camera. Each renders
+//! at the defaults for its size, validation on, against the CPU path tracer.
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use glam::{Mat4, Vec3};
+use ssbc::cpu::bvh::SceneBvh;
+use ssbc::cpu::reference::{Reference, ReferenceSettings};
+use ssbc::Scene;
+
+const SIZE: (u32, u32) = (64, 48);
+
+fn load(name: &str) -> Scene {
+    let path = format!("{}/tests/scenes/{name}.gltf", env!("CARGO_MANIFEST_DIR"));
+    let mut scene = ssbc::scene::load(&path).expect("test scene");
+    scene.ensure_light();
+    scene
+}
+
+/// Mean of the RGB channels over all pixels of an RGBA image.
+fn mean(rgba: &[f32]) -> f64 {
+    let sum: f64 = rgba
+        .chunks_exact(4)
+        .map(|p| (p[0] + p[1] + p[2]) as f64)
+        .sum();
+    sum / (rgba.len() / 4 * 3) as f64
+}
+
+/// Relative MSE on 4x4 blocks (the error that remains once pixel noise is
+/// blurred away): mean over blocks of (a - b)² / (b² + 1e-2 mean²).
+fn block_rel_mse(a: &[f32], b: &[f32], (w, h): (u32, u32)) -> f64 {
+    let block = |img: &[f32], bx: u32, by: u32| {
+        let mut s = 0.0f64;
+        for y in by * 4..by * 4 + 4 {
+            for x in bx * 4..bx * 4 + 4 {
+                let i = ((y * w + x) * 4) as usize;
+                s += (img[i] + img[i + 1] + img[i + 2]) as f64;
+            }
+        }
+        s / 48.0
+    };
+    let m = mean(b);
+    let mut sum = 0.0;
+    for by in 0..h / 4 {
+        for bx in 0..w / 4 {
+            let (x, y) = (block(a, bx, by), block(b, bx, by));
+            sum += (x - y).powi(2) / (y * y + 1e-2 * m * m);
+        }
+    }
+    sum / ((w / 4) * (h / 4)) as f64
+}
+
+/// Renders `name` at the defaults for [`SIZE`] and with the path tracer
+/// (256 spp: the mean's noise is about 0.2%); returns GPU mean / path-traced
+/// mean after printing it with the block error and the VPLs per light path.
+fn gpu_over_path_tracer(name: &str) -> (f64, ssbc::renderer::Frame) {
+    let scene = load(name);
+    let settings = common::small(SIZE.0, SIZE.1);
+    let frame = common::render_validated(&scene, &settings);
+    let reference = Reference::new(
+        &scene,
+        ReferenceSettings {
+            width: SIZE.0,
+            height: SIZE.1,
+            spp: 256,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .render(&AtomicBool::new(false), |_| {})
+    .0;
+    let ratio = mean(&frame.image.rgba) / mean(&reference);
+    let t = &frame.timings;
+    eprintln!(
+        "{name}: GPU / path tracer {ratio:.4}, relMSE on 4x4 blocks {:.4}; {} VPLs from {} light paths (at most {} from one), {:.3} W of emission into closed volumes left out",
+        block_rel_mse(&frame.image.rgba, &reference, SIZE),
+        t.vpl_count,
+        t.light_paths,
+        t.max_vpls_per_light_path,
+        t.enclosed_emission_w,
+    );
+    (ratio, frame)
+}
+
+/// Within 5% of the path tracer (the bar): what is left is the
+/// clamped energy SSBC does not give back (hidden surfaces) and the ISMs'
+/// false shadows, 2-4% on these scenes at 160x120.
+const TOLERANCE: f64 = 0.05;
+
+#[test]
+fn a_thin_closed_emissive_box_under_the_ceiling() {
+    let (ratio, frame) = gpu_over_path_tracer("fixture-thin-box");
+    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    // The inner sides' light stays in the box: half the emission is left
+    // out, and no path bounces there until the budget is spent.
+    assert!(frame.timings.enclosed_emission_w > 1.5);
+    assert!(frame.timings.max_vpls_per_light_path <= 64);
+    assert!(frame.timings.light_paths * 8 >= frame.timings.vpl_count as u64);
+}
+
+#[test]
+fn a_double_sided_quad_1cm_under_the_ceiling() {
+    let (ratio, _) = gpu_over_path_tracer("fixture-quad-gap");
+    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+}
+
+#[test]
+fn a_one_sided_quad_flush_with_the_ceiling() {
+    let (ratio, _) = gpu_over_path_tracer("fixture-quad-flush");
+    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+}
+
+#[test]
+fn a_closed_room_lit_by_a_point_light() {
+    let (ratio, _) = gpu_over_path_tracer("closed-room");
+    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+}
+
+#[test]
+fn emission_that_cannot_light_the_scene_gets_the_default_light_as_well() {
+    // A bottle whose label glows: its light leaves the convex bottle.
+    let label = load("glowing-label");
+    assert_eq!(label.lights.len(), 1, "the default light is added");
+    let (ratio, frame) = gpu_over_path_tracer("glowing-label");
+    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    // More than the label shows: the bottle is lit.
+    let lit = frame
+        .image
+        .rgba
+        .chunks_exact(4)
+        .filter(|p| p[1] > 1e-3)
+        .count();
+    assert!(lit > 300, "{lit} lit pixels");
+    // A lone emissive plane lights nothing but gets a light too; rooms lit by
+    // their fixtures keep only their own light.
+    assert_eq!(load("emissive-floor").lights.len(), 1);
+    for room in ["fixture-thin-box", "fixture-quad-gap", "fixture-quad-flush"] {
+        assert!(load(room).lights.is_empty(), "{room} got a default light");
+    }
+}
+
+/// Share of the pixels of a [`SIZE`] image from the default camera that
+/// show geometry.
+fn geometry_share(scene: &Scene) -> f64 {
+    let camera = scene.camera(None).unwrap();
+    let bvh = SceneBvh::new(scene);
+    let (w, h) = (160, 120);
+    let mut hits = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let dir = camera.pixel_ray(x as f32, y as f32, w, h);
+            hits += bvh.intersect_camera(scene, camera.position, dir).is_some() as u32;
+        }
+    }
+    hits as f64 / (w * h) as f64
+}
+
+/// A box of `size` standing on y = 0 at (`x`, `z`).
+fn add_box(scene: &mut Scene, x: f32, z: f32, size: Vec3, material: u32) {
+    let h = size * 0.5;
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let u = n.any_orthonormal_vector();
+            let v = n.cross(u);
+            let base = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push((n + u * a + v * b) * h + Vec3::new(x, h.y, z));
+            }
+            indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    scene
+        .add_mesh(&positions, &[], &[], &indices, Mat4::IDENTITY, material)
+        .unwrap();
+}
+
+#[test]
+fn the_default_camera_shows_wide_flat_and_tall_scenes() {
+    // A 40 m emissive plane (seen edge-on by a camera at its height).
+    let plane = load("emissive-floor");
+    // A wide, flat interior: 40 x 30 m of floor, rooms of 3 m walls.
+    let mut interior = Scene::new("interior");
+    let m = interior.add_material(Vec3::splat(0.6), None);
+    add_box(&mut interior, 0.0, 0.0, Vec3::new(40.0, 0.1, 30.0), m);
+    for i in 0..5 {
+        let x = -16.0 + 8.0 * i as f32;
+        add_box(&mut interior, x, 0.0, Vec3::new(0.2, 3.0, 30.0), m);
+        add_box(&mut interior, x + 4.0, -5.0, Vec3::new(2.0, 1.0, 1.0), m);
+    }
+    add_box(&mut interior, 0.0, 0.0, Vec3::new(40.0, 3.0, 0.2), m);
+    // A tall, narrow object: a 0.5 x 3 m column.
+    let mut column = Scene::new("column");
+    let m = column.add_material(Vec3::splat(0.6), None);
+    add_box(&mut column, 0.0, 0.0, Vec3::new(0.5, 3.0, 0.5), m);
+    // What each can fill: the plane and the interior much of the frame
+    // (a square seen from above at an angle is a diamond: half its bounding
+    // rectangle); the column at most its width over its height of a 4:3
+    // frame (about 15% seen from the side). The default camera measured 41%,
+    // 34% and 17%; the old one (level with the centre, looking along -Z at
+    // the bounding sphere) 0%, 3.5% and 12%.
+    for (scene, least) in [(&plane, 0.3), (&interior, 0.25), (&column, 0.1)] {
+        let share = geometry_share(scene);
+        eprintln!(
+            "{}: {:.1}% of the pixels show geometry",
+            scene.name,
+            share * 100.0
+        );
+        assert!(share >= least, "{}: {share}", scene.name);
+    }
+    // A glTF camera is still used.
+    let room = load("closed-room");
+    assert_eq!(room.camera(None).unwrap(), room.cameras[0]);
+}
