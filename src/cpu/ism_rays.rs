@@ -25,7 +25,7 @@ pub const BASE_GRID: u32 = 8;
 pub const RAYS_PER_VPL: u32 = (BASE_GRID + 1) * (BASE_GRID + 1);
 
 /// Unit direction leaving a VPL with normal `n` through paraboloid
-/// coordinate `uv` in [0,1]² (the inverse of `ism_paraboloid` in
+/// coordinate `uv` in `[0, 1]²` (the inverse of `ism_paraboloid` in
 /// shaders/include/ism.glsl); points outside the unit disc are moved onto
 /// it, just above the horizon.
 pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {

@@ -73,8 +73,8 @@ impl Default for VplSettings {
 /// 0.8^64 = 6e-7 of the light beyond it).
 pub const DEFAULT_BOUNCES: u32 = 64;
 
-/// The highest survival probability of Russian roulette: on white (albedo
-/// 1) surfaces, the default glTF material, a path would otherwise bounce
+/// The highest survival probability of Russian roulette: on white surfaces
+/// (albedo 1, the default glTF material) a path would otherwise bounce
 /// until the bounce limit, and a handful of paths would make every VPL.
 /// Unbiased (the flux is divided by it); paths average at most 10 bounces.
 pub const MAX_SURVIVAL: f32 = 0.9;
