@@ -244,31 +244,35 @@ impl SceneBvh {
             .ray_traverse_miss(ray, |r, id| self.candidate(r, id))
     }
 
-    /// The share of 14 rays from `p` (the 6 axes and the 8 diagonals, turned)
-    /// that
+    /// The share of the 14 rays from `p` (the 6 axes and the 8 diagonals,
+    /// turned) on the side `side` faces (all of them for `Vec3::ZERO`) that
     /// meet the back of a surface (the side its vertex normals do not point
     /// to): 1 deep inside a closed mesh whose normals point out, 0 in a room
     /// whose walls face in. Rays that meet nothing count as outside.
-    pub fn enclosed_fraction(&self, scene: &Scene, p: Vec3) -> f32 {
-        let back = ENCLOSURE_DIRECTIONS
-            .iter()
-            .filter(|&&d| {
-                // Turned off the axes: modelled geometry is axis-aligned and
-                // symmetric, and rays along its edges may slip between
-                // triangles.
-                let dir = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.11, 0.23, 0.37)
-                    * Vec3::from(d).normalize();
-                self.intersect(p, dir, 0.0, f32::INFINITY)
-                    .is_some_and(|hit| !self.surface(scene, &hit, -dir).front)
-            })
-            .count();
-        back as f32 / ENCLOSURE_DIRECTIONS.len() as f32
+    pub fn enclosed_fraction(&self, scene: &Scene, p: Vec3, side: Vec3) -> f32 {
+        // Turned off the axes: modelled geometry is axis-aligned and
+        // symmetric, and rays along its edges may slip between triangles.
+        let turn = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.11, 0.23, 0.37);
+        let (mut cast, mut back) = (0, 0);
+        for d in ENCLOSURE_DIRECTIONS {
+            let dir = turn * Vec3::from(d).normalize();
+            if dir.dot(side) < 0.0 {
+                continue;
+            }
+            cast += 1;
+            back += self
+                .intersect(p, dir, 0.0, f32::INFINITY)
+                .is_some_and(|hit| !self.surface(scene, &hit, -dir).front)
+                as u32;
+        }
+        back as f32 / cast.max(1) as f32
     }
 
-    /// Whether `p` is enclosed: every one of the 14 rays of
-    /// [`SceneBvh::enclosed_fraction`] meets the back of a surface.
-    pub fn enclosed(&self, scene: &Scene, p: Vec3) -> bool {
-        self.enclosed_fraction(scene, p) >= 1.0
+    /// Whether the light `p` emits on the side `side` faces stays in a closed
+    /// volume: every ray of [`SceneBvh::enclosed_fraction`] on that side
+    /// meets the back of a surface.
+    pub fn enclosed(&self, scene: &Scene, p: Vec3, side: Vec3) -> bool {
+        self.enclosed_fraction(scene, p, side) >= 1.0
     }
 
     /// The surface at `hit`, seen from direction `toward` (unit, pointing

@@ -24,7 +24,7 @@ pub const MIN_EMISSION_IRRADIANCE: f32 = 1e-3;
 /// What the scene's emitters do for its lighting, by light tracing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmissionReach {
-    /// Power (W, luminance) emitted, sides facing into closed volumes left out.
+    /// Power (W, luminance) emitted, less what goes into closed volumes.
     pub power: f32,
     /// Share of `power` whose first hit is a surface, weighted by the
     /// surface's albedo (what makes it visible).
@@ -36,8 +36,7 @@ pub struct EmissionReach {
 impl EmissionReach {
     /// Traces 4096 light paths' first segments from the emitters of `scene`.
     pub fn measure(scene: &Scene, bvh: &SceneBvh) -> Self {
-        let (emitters, _) = Emitters::new(scene).without_enclosed_sides(scene, bvh);
-        let power = luminance(emitters.power());
+        let emitters = Emitters::new(scene);
         let area: f32 = (0..scene.triangle_count())
             .map(|t| {
                 let i = &scene.indices[t * 3..t * 3 + 3];
@@ -48,12 +47,18 @@ impl EmissionReach {
             .sum();
         const PATHS: u64 = 4096;
         let halton = Halton::new(0x11C);
-        let mut reflected = 0.0f32;
+        let (mut reflected, mut open) = (0.0f32, 0u64);
+        let drop_enclosed = super::emitters::enclosed_light_is_unseen(scene, bvh);
         for k in 0..PATHS {
             let s = |d: usize| halton.sample(k, d);
             let Some(e) = emitters.sample(scene, Vec4::new(s(0), s(1), s(2), s(3))) else {
                 continue;
             };
+            // Light trapped in a closed volume lights nothing outside it.
+            if drop_enclosed && e.enclosed(scene, bvh) {
+                continue;
+            }
+            open += 1;
             let dir = cosine_hemisphere(e.normal, Vec2::new(s(4), s(5)));
             let origin =
                 e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
@@ -64,6 +69,7 @@ impl EmissionReach {
                 reflected += flux / PATHS as f32;
             }
         }
+        let power = luminance(emitters.power()) * open as f32 / PATHS as f32;
         Self {
             power,
             reach: if power > 0.0 { reflected / power } else { 0.0 },
@@ -129,7 +135,10 @@ impl Scene {
             });
         let position = candidates
             .into_iter()
-            .find(|&p| !bvh.occluded(camera.position, p) && bvh.enclosed_fraction(self, p) < 0.6)
+            .find(|&p| {
+                !bvh.occluded(camera.position, p)
+                    && bvh.enclosed_fraction(self, p, Vec3::ZERO) < 0.6
+            })
             .unwrap_or(camera.position);
         let d2 = (position - center).length_squared().max(1e-6);
         log::info!(

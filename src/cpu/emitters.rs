@@ -7,10 +7,9 @@
 //! over the triangle from a fixed set of points for the power (which only
 //! steers the sampling); the radiance at the sampled point is exact.
 //!
-//! Light tracing leaves out the sides that emit into a closed volume (the
-//! inside of a thin emissive box, say): that light can never leave it, and
-//! its paths would bounce there until the VPL budget is spent
-//! ([`Emitters::without_enclosed_sides`]).
+//! Light tracing leaves out light emitted into a closed volume (the inside
+//! of a thin emissive box, say): it can never leave, and its paths would
+//! bounce there until the VPL budget is spent ([`EmitterSample::enclosed`]).
 
 use glam::{Vec2, Vec3, Vec4};
 
@@ -32,10 +31,33 @@ pub struct EmitterSample {
     pub pdf_area: f32,
 }
 
+impl EmitterSample {
+    /// Whether the sample emits into a closed volume: every ray of 14 that
+    /// leaves its emitting side meets the back of a surface (the
+    /// inside of a closed mesh whose normals point out), so its light never
+    /// reaches anything outside ([`SceneBvh::enclosed`]). Tested per sample,
+    /// so that scenes with many emissive triangles pay only for the points
+    /// light tracing picks.
+    pub fn enclosed(&self, scene: &Scene, bvh: &SceneBvh) -> bool {
+        let offset = RAY_EPSILON * 10.0 * (1.0 + self.position.abs().max_element());
+        bvh.enclosed(scene, self.position + self.normal * offset, self.normal)
+    }
+}
+
+/// Whether light emitted into closed volumes can be left out: unless the
+/// scene's camera (its first, or the one framing it) is in a closed volume
+/// itself, as in a room modelled as a closed box whose normals point out,
+/// where it would see such light.
+pub fn enclosed_light_is_unseen(scene: &Scene, bvh: &SceneBvh) -> bool {
+    scene
+        .camera(None)
+        .map_or(true, |c| !bvh.enclosed(scene, c.position, Vec3::ZERO))
+}
+
 /// Every emitting triangle with its power.
 #[derive(Clone, Debug, Default)]
 pub struct Emitters {
-    /// Triangle index, area, emitting sides (bit 0 the front, bit 1 the back).
+    /// Triangle index, area, emitting sides (1 or 2).
     triangles: Vec<(u32, f32, u32)>,
     /// Power (W, rgb) per triangle.
     power: Vec<Vec3>,
@@ -80,8 +102,8 @@ impl Emitters {
             } else {
                 material.emission
             };
-            let sides = if material.double_sided { 3 } else { 1 };
-            let power = mean * std::f32::consts::PI * area * side_count(sides);
+            let sides = if material.double_sided { 2 } else { 1 };
+            let power = mean * std::f32::consts::PI * area * sides as f32;
             let weight = luminance(power).max(0.0);
             if weight <= 0.0 {
                 continue;
@@ -92,52 +114,6 @@ impl Emitters {
             e.cdf.push(total);
         }
         e
-    }
-
-    /// The same emitters without the sides that emit into a closed volume
-    /// (every ray from just off that side meets the back of a surface: the
-    /// inside of a closed mesh whose normals point out). Their light never
-    /// reaches anything outside, so light tracing does not start paths there.
-    /// Returns the emitters and the power (W, rgb) left out.
-    pub fn without_enclosed_sides(&self, scene: &Scene, bvh: &SceneBvh) -> (Self, Vec3) {
-        use rayon::prelude::*;
-        let kept: Vec<u32> = self
-            .triangles
-            .par_iter()
-            .map(|&(t, _, sides)| {
-                let idx = &scene.indices[t as usize * 3..t as usize * 3 + 3];
-                let p = |k: usize| Vec3::from(scene.vertices[idx[k] as usize].position);
-                // Off-centre: modelled lamps are symmetric, and rays through
-                // the centroid of one face meet edges of the opposite one.
-                let point = p(0) * 0.29 + p(1) * 0.33 + p(2) * 0.38;
-                let front = front_normal(scene, t, p(0), p(1), p(2));
-                let offset = RAY_EPSILON * 10.0 * (1.0 + point.abs().max_element());
-                let mut kept = sides;
-                for (bit, n) in [(1, front), (2, -front)] {
-                    if sides & bit != 0 && bvh.enclosed(scene, point + n * offset) {
-                        kept &= !bit;
-                    }
-                }
-                kept
-            })
-            .collect();
-        let mut out = Self::default();
-        let (mut total, mut dropped) = (0.0f32, Vec3::ZERO);
-        for ((&(t, area, sides), &power), kept) in self.triangles.iter().zip(&self.power).zip(kept)
-        {
-            let share = side_count(kept) / side_count(sides);
-            dropped += power * (1.0 - share);
-            let power = power * share;
-            let weight = luminance(power);
-            if kept == 0 || weight <= 0.0 {
-                continue;
-            }
-            total += weight;
-            out.triangles.push((t, area, kept));
-            out.power.push(power);
-            out.cdf.push(total);
-        }
-        (out, dropped)
     }
 
     /// No emitters.
@@ -170,24 +146,18 @@ impl Emitters {
         let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * b1 + Vec2::from(v(2).uv) * b2;
         let material = &scene.materials[v(0).material as usize];
         let front = front_normal(scene, t, p(0), p(1), p(2));
-        let normal = match sides {
-            1 => front,
-            2 => -front,
-            _ if u.w >= 0.5 => -front,
-            _ => front,
+        let normal = if sides == 2 && u.w >= 0.5 {
+            -front
+        } else {
+            front
         };
         Some(EmitterSample {
             position,
             normal,
             radiance: shading::emission(scene, material, uv),
-            pdf_area: p_triangle / (area * side_count(sides)),
+            pdf_area: p_triangle / (area * sides as f32),
         })
     }
-}
-
-/// Number of sides in a side mask.
-fn side_count(sides: u32) -> f32 {
-    sides.count_ones() as f32
 }
 
 /// Unit geometric normal of triangle `t` (corners `a`, `b`, `c`) on its
@@ -255,27 +225,23 @@ mod tests {
             Vec3::new(0.25, 1.99, 0.25),
         );
         let bvh = SceneBvh::new(&scene);
-        let all = Emitters::new(&scene);
-        let (outside, dropped) = all.without_enclosed_sides(&scene, &bvh);
-        let half = all.power() * 0.5;
-        assert!(
-            (outside.power() - half).abs().max_element() < 1e-3 * half.max_element(),
-            "kept {} of {}",
-            outside.power(),
-            all.power()
-        );
-        assert!((dropped - half).abs().max_element() < 1e-3 * half.max_element());
-        // Every sample leaves the box.
-        for i in 0..64 {
-            let u = glam::Vec4::new(
-                (i as f32 + 0.5) / 64.0,
-                0.3,
-                0.6,
-                (i % 2) as f32 * 0.5 + 0.25,
+        let emitters = Emitters::new(&scene);
+        let centre = Vec3::new(0.0, 1.98, 0.0);
+        let (mut inside, n) = (0, 256);
+        for i in 0..n {
+            let h = crate::cpu::sampling::Halton::new(1);
+            let u = Vec4::new(
+                h.sample(i, 0),
+                h.sample(i, 1),
+                h.sample(i, 2),
+                h.sample(i, 3),
             );
-            let e = outside.sample(&scene, u).unwrap();
-            let out_of_centre = e.position - Vec3::new(0.0, 1.98, 0.0);
-            assert!(e.normal.dot(out_of_centre) > 0.0, "{e:?} faces in");
+            let e = emitters.sample(&scene, u).unwrap();
+            // Exactly the samples whose side faces the box's inside.
+            let faces_in = e.normal.dot(e.position - centre) < 0.0;
+            assert_eq!(e.enclosed(&scene, &bvh), faces_in, "{e:?}");
+            inside += faces_in as u32;
         }
+        assert!((inside as i32 - n as i32 / 2).abs() < 16, "{inside} of {n}");
     }
 }

@@ -2,9 +2,9 @@
 //! (punctual lights and emissive triangles) with their share of the emitted
 //! power, deposit a VPL at every diffuse hit, and continue by cosine sampling
 //! with Russian roulette by albedo (at most [`MAX_SURVIVAL`]), which is what
-//! ends them (the bounce limit is only a safety net). Paths never start on a
-//! side of an emitter that faces into a closed volume, whose light cannot
-//! leave it. A path from an emitter first deposits a VPL
+//! ends them (the bounce limit is only a safety net). A path that starts on
+//! an emitter's side facing into a closed volume, whose light cannot leave
+//! it, deposits nothing. A path from an emitter first deposits a VPL
 //! on the emitter itself ("bounce 0", albedo 1): its clamped contribution
 //! near the fixture is what SSBC gives back.
 
@@ -89,7 +89,8 @@ pub struct VplSet {
     /// Most VPLs one path deposited.
     pub max_per_path: u32,
     /// Emitted power (W, rgb) left out because it goes into closed volumes
-    /// ([`Emitters::without_enclosed_sides`]).
+    /// ([`EmitterSample::enclosed`](super::emitters::EmitterSample::enclosed)),
+    /// estimated from the paths that started there.
     pub enclosed_power: Vec3,
 }
 
@@ -127,8 +128,6 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     if settings.count == 0 || (scene.lights.is_empty() && emitters.is_empty()) {
         return Ok(set);
     }
-    let (emitters, enclosed_power) = emitters.without_enclosed_sides(scene, bvh);
-    set.enclosed_power = enclosed_power;
     let bounds = scene.bounds();
     let radius = bounds.radius().max(1e-3);
     // Sources: every punctual light, then the emitters as one.
@@ -146,6 +145,8 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     let max_paths = settings.count as u64 * 64;
     let mut raw = Vec::with_capacity(settings.count);
     let mut path = 0u64;
+    let mut enclosed = Vec3::ZERO;
+    let drop_enclosed = super::emitters::enclosed_light_is_unseen(scene, bvh);
     while raw.len() < settings.count && path < max_paths {
         let before = raw.len();
         let s = |d: usize| halton.sample(path, d);
@@ -171,6 +172,13 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 continue;
             };
             let flux = e.radiance * std::f32::consts::PI / e.pdf_area;
+            // Light emitted into a closed volume never leaves it: the path
+            // counts (the estimate stays unbiased) but deposits nothing.
+            if drop_enclosed && e.enclosed(scene, bvh) {
+                enclosed += flux / p_light;
+                path += 1;
+                continue;
+            }
             raw.push(Vpl {
                 position: e.position,
                 normal: e.normal,
@@ -227,6 +235,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     }
     set.paths = path;
     let norm = 1.0 / path.max(1) as f32;
+    set.enclosed_power = enclosed * norm;
     set.vpls = raw
         .into_iter()
         .map(|v| Vpl {
@@ -346,6 +355,7 @@ pub fn bounded_radiance(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Scene;
 
     #[test]
     fn first_bounce_flux_equals_emitted_power_in_a_closed_box() {
@@ -462,6 +472,71 @@ mod tests {
         let mut same = vpls.clone();
         assert_eq!(interleave(&mut same, 1), vec![0, vpls.len() as u32]);
         assert_eq!(same, vpls);
+    }
+
+    /// A 4 m cube with faces pointing out (double-sided, as a scaled
+    /// default cube), an emissive quad under its ceiling, and a camera.
+    fn outward_room(camera: Vec3) -> Scene {
+        let mut scene = Scene::new("outward room");
+        let wall = scene.add_material(Vec3::splat(0.7), None);
+        let lamp = scene.add_material(Vec3::splat(0.7), None);
+        scene.materials[lamp as usize].emission = Vec3::ONE;
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let mut n = Vec3::ZERO;
+                n[axis] = sign;
+                let (u, v) = (
+                    n.any_orthonormal_vector(),
+                    n.cross(n.any_orthonormal_vector()),
+                );
+                let p = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+                    .map(|(a, b)| (n + u * a + v * b) * 2.0);
+                scene
+                    .add_mesh(
+                        &p,
+                        &[n; 4],
+                        &[],
+                        &[0, 1, 2, 0, 2, 3],
+                        glam::Mat4::IDENTITY,
+                        wall,
+                    )
+                    .unwrap();
+            }
+        }
+        let q =
+            [(-0.3, -0.3), (0.3, -0.3), (0.3, 0.3), (-0.3, 0.3)].map(|(x, z)| Vec3::new(x, 1.9, z));
+        scene
+            .add_mesh(
+                &q,
+                &[-Vec3::Y; 4],
+                &[],
+                &[0, 2, 1, 0, 3, 2],
+                glam::Mat4::IDENTITY,
+                lamp,
+            )
+            .unwrap();
+        scene
+            .cameras
+            .push(crate::scene::Camera::look_at(camera, Vec3::ZERO, 1.0));
+        scene
+    }
+
+    #[test]
+    fn light_in_a_closed_volume_is_kept_when_the_camera_is_in_there_too() {
+        let settings = VplSettings {
+            count: 256,
+            ..Default::default()
+        };
+        // Camera inside: the room is all it sees, the lamp lights it.
+        let inside = outward_room(Vec3::new(0.0, 0.0, 1.5));
+        let set = generate(&inside, &SceneBvh::new(&inside), &settings).unwrap();
+        assert_eq!(set.enclosed_power, Vec3::ZERO);
+        assert!(set.vpls.iter().any(|v| v.bounce >= 1));
+        // Camera outside: the lamp's light never leaves the room.
+        let outside = outward_room(Vec3::new(0.0, 0.0, 9.0));
+        let set = generate(&outside, &SceneBvh::new(&outside), &settings).unwrap();
+        assert!(set.enclosed_power.x > 0.0);
+        assert!(set.vpls.is_empty(), "{} VPLs", set.vpls.len());
     }
 
     #[test]
