@@ -507,6 +507,7 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                 yfov,
                 bound,
                 typical_depth: 2.0,
+                hidden: None,
             },
             &settings,
             PostOutput::Residual(1),

@@ -1,5 +1,5 @@
 #version 460
-// SSBC geometry pyramid, level 0, from the G-buffer: each pixel's world
+// SSBC geometry pyramid, level 0, from a G-buffer layer (pc.build_layer): each pixel's world
 // position and unit normal as one cluster, and the world-space area A_y seen
 // through it. Kept apart from the coarser levels (ssbc_geometry_mips.comp):
 // inside their kernel lavapipe ran this level 3x slower (45 vs 14 ms at
@@ -17,12 +17,14 @@ void main() {
     uint dst = texel_index(p, 0);
     vec4 position = vec4(0.0);
     vec3 n = vec3(0.0);
-    if (all(lessThan(uvec2(p), pc.size))) {
+    if (all(lessThan(uvec2(p), layer_image_size(pc.build_layer)))) {
         position = imageLoad(g_position, p);
         n = imageLoad(g_normal, p).xyz;
     }
     bool geometry = position.w != 0.0;
     geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), empty_cluster());
-    aux[dst] = GeoAux(geometry ? pixel_area(position.xyz, n) : 0.0, 0.0, geometry ? 1u : 0u,
+    // A layer-1 pixel is 2 x 2 image pixels.
+    float area = pixel_area(position.xyz, n) * float(1u << (2u * pc.build_layer));
+    aux[dst] = GeoAux(geometry ? area : 0.0, 0.0, geometry ? 1u : 0u,
                       geometry ? 1u : 0u);
 }

@@ -9,7 +9,7 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D term;  // S_{k-1}, full resolution
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D term;  // S_{k-1} of layer pc.build_layer
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -17,7 +17,7 @@ void main() {
     if (any(greaterThanEqual(p, level_size(level)))) return;
     uint dst = texel_index(p, level);
     if (level == 0) {
-        vec3 s = all(lessThan(uvec2(p), pc.size)) ? imageLoad(term, p).rgb : vec3(0.0);
+        vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.build_layer))) ? imageLoad(term, p).rgb : vec3(0.0);
         radiance[2u * dst] = vec4(aux[dst].front_area * s, 0.0);
         radiance[2u * dst + 1u] = vec4(0.0);
         return;

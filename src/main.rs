@@ -210,6 +210,16 @@ struct SceneOptions {
     /// SSBC integration: hierarchical (the paper's) or brute (reference).
     #[arg(long, value_enum, default_value_t = Integration::Hierarchical)]
     integration: Integration,
+    /// G-buffer layers SSBC gathers from: 1 (the visible surfaces) or 2 (also
+    /// a deep G-buffer's second layer at half resolution: the nearest
+    /// surfaces behind the visible ones, back faces included, which light
+    /// what the camera sees).
+    #[arg(long = "ssbc-layers", default_value_t = RenderSettings::default().ssbc.layers)]
+    ssbc_layers: u32,
+    /// Minimum separation of the second layer behind the first, as a
+    /// fraction of the scene's bounding-box diagonal.
+    #[arg(long, default_value_t = RenderSettings::default().ssbc.layer_separation)]
+    layer_separation: f32,
     /// Lower clamp of cos(view angle) in the pixel area A_y (grazing views).
     #[arg(long, default_value_t = RenderSettings::default().ssbc.min_cos_view)]
     min_cos_view: f32,
@@ -310,6 +320,8 @@ impl SceneOptions {
                 steps: self.steps,
                 integration: self.integration,
                 min_cos_view: self.min_cos_view,
+                layers: self.ssbc_layers,
+                layer_separation: self.layer_separation,
                 ..Default::default()
             },
             debug_readback: false,

@@ -15,6 +15,17 @@
 //! |---|---|---|---|---|
 //! | position (xyz world, w = 0 off geometry), normal (xyz), albedo (rgb), S0 (rgb) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
 //! | output | `R32G32B32A32_SFLOAT` | `TRANSFER_DST` | any (declared) | `TRANSFER_DST_OPTIMAL`, last written by a copy |
+//! | optional second layer ([`PostProcessInputs::hidden`]): position, normal, albedo, S0, each **half the size** (rounded up) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
+//!
+//! The second layer is a deep G-buffer's (Mara et al., HPG 2016): per
+//! half-resolution pixel `p` (covering pixels `2p .. 2p + 1`), the nearest
+//! surface at least a minimum separation farther from the camera than the
+//! visible ones under it, back faces included, with the normal of its own
+//! outward side (not turned to the camera), and its own clamped lighting
+//! `S0`; w = 0 in position where there is none. SSBC then also gathers from
+//! these hidden surfaces (receivers stay the visible pixels); with more
+//! than one step it computes their residual too, as the next step's
+//! sources. `ssbc::passes::deep_gbuffer` draws it by depth peeling.
 //!
 //! Barriers: ssbc's first barrier on each host image waits for all prior
 //! commands' writes (`ALL_COMMANDS` / `MEMORY_WRITE`) and moves it from the
@@ -32,7 +43,9 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::passes::ssbc::{SsbcCamera, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcPass, SsbcSettings};
+use crate::passes::ssbc::{
+    SsbcCamera, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings,
+};
 use crate::passes::PassSlot;
 use crate::vk::{DescriptorPool, Device, GpuProfiler, Image, ImageDesc, Recorder};
 
@@ -85,11 +98,27 @@ pub struct PostProcessInputs {
     /// Distance along the optical axis where most of the image lies (e.g.
     /// to the scene's centre): picks the coarsest evaluation level.
     pub typical_depth: f32,
+    /// An optional second G-buffer layer of hidden surfaces (see the module
+    /// documentation), whose surfaces SSBC gathers from as well.
+    pub hidden: Option<PostProcessLayer>,
+}
+
+/// The host's second G-buffer layer, at half resolution (rounded up).
+#[derive(Clone, Copy, Debug)]
+pub struct PostProcessLayer {
+    /// World-space position (xyz; w = 0 where there is no hidden surface).
+    pub position: HostImage,
+    /// The normal of the surface's own (outward) side, unit length.
+    pub normal: HostImage,
+    /// Diffuse albedo (rgb).
+    pub albedo: HostImage,
+    /// Its clamped lighting `S0` (rgb radiance).
+    pub s0: HostImage,
 }
 
 /// One slot's pyramids and images, for (width, height, steps, coarsest
-/// evaluation level).
-type SsbcSlot = PassSlot<(u32, u32, u32, u32), SsbcFrame>;
+/// evaluation level, layers).
+type SsbcSlot = PassSlot<(u32, u32, u32, u32, u32), SsbcFrame>;
 
 /// SSBC on the host's images (see the module documentation). Command
 /// buffers must be submitted in the order they were recorded.
@@ -120,23 +149,32 @@ impl SsbcPostProcess {
 
     fn check(inputs: &PostProcessInputs) -> Result<(u32, u32)> {
         let extent = inputs.position.extent;
-        let named = [
-            ("position", &inputs.position),
-            ("normal", &inputs.normal),
-            ("albedo", &inputs.albedo),
-            ("s0", &inputs.s0),
-            ("output", &inputs.output),
+        let half = crate::passes::deep_gbuffer::layer1_extent(extent);
+        let mut named = vec![
+            ("position", &inputs.position, extent),
+            ("normal", &inputs.normal, extent),
+            ("albedo", &inputs.albedo, extent),
+            ("s0", &inputs.s0, extent),
+            ("output", &inputs.output, extent),
         ];
-        for (name, image) in named {
+        if let Some(hidden) = &inputs.hidden {
+            named.extend([
+                ("second layer's position", &hidden.position, half),
+                ("second layer's normal", &hidden.normal, half),
+                ("second layer's albedo", &hidden.albedo, half),
+                ("second layer's s0", &hidden.s0, half),
+            ]);
+        }
+        for (name, image, wanted) in named {
             if image.format != vk::Format::R32G32B32A32_SFLOAT {
                 return Err(Error::InvalidParameter(format!(
                     "SSBC post-process: the {name} image is {:?}; it must be R32G32B32A32_SFLOAT",
                     image.format
                 )));
             }
-            if image.extent != extent {
+            if image.extent != wanted {
                 return Err(Error::InvalidParameter(format!(
-                    "SSBC post-process: the {name} image is {:?}, the position image {extent:?}",
+                    "SSBC post-process: the {name} image is {:?}; it must be {wanted:?} (the position image is {extent:?})",
                     image.extent
                 )));
             }
@@ -185,15 +223,16 @@ impl SsbcPostProcess {
             .slots
             .get_mut(slot)
             .ok_or_else(|| Error::InvalidParameter(format!("frame slot {slot} of {slot_count}")))?;
-        crate::passes::ssbc::check_size(&self.device, w, h)?;
+        let layers = 1 + inputs.hidden.is_some() as u32;
+        crate::passes::ssbc::check_size(&self.device, w, h, layers)?;
         // The host finished this slot's previous frame (its promise).
         let (pass, device) = (&self.pass, &self.device);
         let steps = settings.steps;
         let held = PassSlot::refresh(
             entry,
-            (w, h, steps, settings.max_eval_level),
+            (w, h, steps, settings.max_eval_level, layers),
             |_| Ok(false),
-            || pass.allocate(device, (w, h), steps, settings.max_eval_level),
+            || pass.allocate(device, (w, h), steps, settings.max_eval_level, layers),
             |frame| {
                 let pool = DescriptorPool::new(device, &pass.frame_layouts(frame))?;
                 pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
@@ -203,6 +242,7 @@ impl SsbcPostProcess {
         let (frame, pool) = (&held.resources, &held.pool);
 
         let wrap = |image: &HostImage, usage| {
+            let (w, h) = image.extent;
             Image::from_host(
                 &self.device,
                 image.image,
@@ -219,6 +259,9 @@ impl SsbcPostProcess {
             wrap(&inputs.s0, storage),
         );
         let out = wrap(&inputs.output, vk::ImageUsageFlags::TRANSFER_DST);
+        let hidden = inputs
+            .hidden
+            .map(|l| [l.position, l.normal, l.albedo, l.s0].map(|image| wrap(&image, storage)));
         let camera = SsbcCamera {
             position: inputs.camera_position,
             forward: inputs.camera_forward.normalize(),
@@ -239,12 +282,24 @@ impl SsbcPostProcess {
             &mut rec,
             &mut self.profiler,
             pool,
-            SsbcGBuffer {
-                position: &position,
-                normal: &normal,
-                albedo: &albedo,
+            SsbcLayer {
+                gbuffer: SsbcGBuffer {
+                    position: &position,
+                    normal: &normal,
+                    albedo: &albedo,
+                },
+                s0: &s0,
             },
-            &s0,
+            hidden
+                .as_ref()
+                .map(|[position, normal, albedo, s0]| SsbcLayer {
+                    gbuffer: SsbcGBuffer {
+                        position,
+                        normal,
+                        albedo,
+                    },
+                    s0,
+                }),
             &SsbcInputs {
                 camera: &camera,
                 bound: inputs.bound,

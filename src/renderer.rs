@@ -20,12 +20,13 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 use crate::gpu_scene::GpuScene;
+use crate::passes::deep_gbuffer::DeepGBufferPass;
 use crate::passes::direct_lighting::DirectLightingPass;
 use crate::passes::gbuffer::GBufferPass;
 use crate::passes::indirect_bounded::IndirectBoundedPass;
 use crate::passes::ism::IsmPass;
 use crate::passes::shadow_maps::ShadowMapPass;
-use crate::passes::ssbc::{SsbcCamera, SsbcPass};
+use crate::passes::ssbc::{SsbcCamera, SsbcLayer, SsbcPass};
 use crate::passes::{FrameView, Recording, SlotSetup, Stage};
 use crate::postprocess::HostImage;
 use crate::resident::{ResidentScene, SceneVersions};
@@ -48,6 +49,10 @@ struct Passes {
     gbuffer: Stage<GBufferPass>,
     direct_lighting: Stage<DirectLightingPass>,
     indirect_bounded: Stage<IndirectBoundedPass>,
+    /// The deep G-buffer's second layer and its `S0` (`ssbc.layers` 2).
+    gbuffer_layer1: Stage<DeepGBufferPass>,
+    direct_lighting_layer1: Stage<DirectLightingPass>,
+    indirect_bounded_layer1: Stage<IndirectBoundedPass>,
     ssbc: Stage<SsbcPass>,
 }
 
@@ -57,8 +62,11 @@ impl Passes {
             shadow_maps: Stage::new(ShadowMapPass::new(device)?, FRAME_SLOTS),
             ism: Stage::new(IsmPass::new(device)?, FRAME_SLOTS),
             gbuffer: Stage::new(GBufferPass::new(device)?, FRAME_SLOTS),
-            direct_lighting: Stage::new(DirectLightingPass::new(device)?, FRAME_SLOTS),
-            indirect_bounded: Stage::new(IndirectBoundedPass::new(device)?, FRAME_SLOTS),
+            direct_lighting: Stage::new(DirectLightingPass::new(device, 0)?, FRAME_SLOTS),
+            indirect_bounded: Stage::new(IndirectBoundedPass::new(device, 0)?, FRAME_SLOTS),
+            gbuffer_layer1: Stage::new(DeepGBufferPass::new(device)?, FRAME_SLOTS),
+            direct_lighting_layer1: Stage::new(DirectLightingPass::new(device, 1)?, FRAME_SLOTS),
+            indirect_bounded_layer1: Stage::new(IndirectBoundedPass::new(device, 1)?, FRAME_SLOTS),
             ssbc: Stage::new(SsbcPass::new(device)?, FRAME_SLOTS),
         })
     }
@@ -78,8 +86,39 @@ impl Passes {
         let bounded = self
             .indirect_bounded
             .run(cx, setup, (gbuffer, direct, ism))?;
-        self.ssbc.run(cx, setup, (gbuffer.into(), &bounded.s0))?;
+        let visible = SsbcLayer {
+            gbuffer: gbuffer.into(),
+            s0: &bounded.s0,
+        };
+        let ssbc = &setup.settings.ssbc;
+        let hidden = if ssbc.layers == 2 && ssbc.steps > 0 {
+            let layer1 = self.gbuffer_layer1.run(cx, setup, (scene, gbuffer))?;
+            let direct = self
+                .direct_lighting_layer1
+                .run(cx, setup, (layer1, shadows))?;
+            let bounded = self
+                .indirect_bounded_layer1
+                .run(cx, setup, (layer1, direct, ism))?;
+            Some(SsbcLayer {
+                gbuffer: layer1.into(),
+                s0: &bounded.s0,
+            })
+        } else {
+            // Not drawn this frame: free what an earlier frame held.
+            self.gbuffer_layer1.forget(setup.slot);
+            self.direct_lighting_layer1.forget(setup.slot);
+            self.indirect_bounded_layer1.forget(setup.slot);
+            None
+        };
+        self.ssbc.run(cx, setup, (visible, hidden))?;
         Ok(())
+    }
+
+    /// Drops the slot's second-layer resources.
+    fn forget_layer1(&mut self, slot: usize) {
+        self.gbuffer_layer1.forget(slot);
+        self.direct_lighting_layer1.forget(slot);
+        self.indirect_bounded_layer1.forget(slot);
     }
 
     /// The images the slot's last recorded frame wrote.
@@ -100,6 +139,7 @@ impl Passes {
         self.gbuffer.forget(slot);
         self.direct_lighting.forget(slot);
         self.indirect_bounded.forget(slot);
+        self.forget_layer1(slot);
         self.ssbc.forget(slot);
     }
 }
@@ -211,6 +251,7 @@ fn frame_view(scene: &Scene, settings: &RenderSettings, cache: &SceneCache) -> R
         view_proj: camera.projection(w as f32 / h as f32, near, far) * camera.view(),
         centre_depth: (bounds.center() - camera.position).dot(camera.forward),
         bound: settings.bound.resolve(cache.diagonal()),
+        diagonal: cache.diagonal(),
     })
 }
 

@@ -216,6 +216,16 @@ pub struct SsbcSettings {
     /// contributing surface, with 22% fewer texels on tori at 640x480 (which
     /// that limit sent pixel by pixel inside its concave rings).
     pub scale_fraction: f32,
+    /// G-buffer layers SSBC gathers from: 1 (the visible surfaces), or 2: a
+    /// deep G-buffer's second layer at half resolution, the nearest surfaces
+    /// at least `layer_separation` behind the visible ones, back faces
+    /// included, with their own direct and bounded VPL lighting (Mara et
+    /// al., HPG 2016). Surfaces hidden from the camera then give back the
+    /// light they send to visible ones.
+    pub layers: u32,
+    /// Minimum separation of layer 1 behind layer 0, as a fraction of the
+    /// scene's bounding-box diagonal.
+    pub layer_separation: f32,
 }
 
 impl Default for SsbcSettings {
@@ -231,6 +241,8 @@ impl Default for SsbcSettings {
             texels_per_radius: 8.0,
             max_eval_level: 4,
             scale_fraction: 0.2,
+            layers: 1,
+            layer_separation: 0.02,
         }
     }
 }
@@ -241,6 +253,15 @@ impl SsbcSettings {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         if self.steps > 16 {
             return bad(format!("--steps {} (at most 16)", self.steps));
+        }
+        if !(1..=2).contains(&self.layers) {
+            return bad(format!("--ssbc-layers {} must be 1 or 2", self.layers));
+        }
+        if !(self.layer_separation >= 0.0 && self.layer_separation <= 1.0) {
+            return bad(format!(
+                "layer separation {} must be in [0, 1] (of the scene's diagonal)",
+                self.layer_separation
+            ));
         }
         if !(self.min_cos_view > 0.0 && self.min_cos_view <= 1.0) {
             return bad(format!(

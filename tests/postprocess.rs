@@ -67,6 +67,7 @@ fn bad_host_inputs_are_clear_errors() {
         yfov: 0.8,
         bound: 4.0,
         typical_depth: 3.0,
+        hidden: None,
     };
     let one = SsbcSettings {
         steps: 1,

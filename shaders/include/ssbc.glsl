@@ -8,6 +8,10 @@
 //   aux[]       areas, pixels with geometry, continuity, how the children's
 //               clusters were grouped (pyramid builds and evaluation points only)
 //   radiance[]  sum of A_y S_{k-1}(y) per cluster (rebuilt every step)
+// With a second layer (a deep G-buffer's layer 1: the nearest surfaces at
+// least a separation behind the visible ones, at half resolution), its
+// pyramid follows the first in the same buffers: level l of it covers the
+// screen as level l + 1 of the first does (see Pyramid).
 //
 // A texel's pixels are grouped by depth into a front and a back cluster
 // (split at the largest gap in depth between its children's clusters): at a
@@ -118,24 +122,54 @@ layout(push_constant) uniform SsbcPush {
     uint generation;          // evaluation points of this step carry this stamp
     uint from_list;           // 1: work items come from a list; 0: every texel of `level`
     float refine_excess;      // ...only if G may exceed (1 + this) b somewhere in it
-    uint pad1;
-    uint pad2;
+    uint layers;              // pyramids the residual gathers from: 1, or 2 with a second layer
+    uint build_layer;         // the pyramid the build kernels (and texel_index) address
 } pc;
 
-// Texels of pyramid level l.
-ivec2 level_size(int l) {
-    return ivec2(pc.pyramid_size) >> l;
-}
+// One layer's pyramid: where it starts in the buffers, its level 0 (padded)
+// and its levels. Layer 1 is at half resolution: its pixel p covers the
+// full-resolution pixels 2p .. 2p + 1.
+struct Pyramid {
+    uint base;
+    uvec2 size;
+    int levels;
+    int shift;                // log2 of its pixel's side in image pixels
+};
 
-// Index of texel t of level l in the pyramid buffers. Level l starts after
-// N + N/4 + ... + N/4^(l-1) = (4N - 4 N/4^l) / 3 texels (N = texels of
-// level 0); the division by 3 is a multiply-high (exact below 2^32), which
-// keeps integer division out of the traversal's inner loop.
-uint texel_index(ivec2 t, int l) {
-    uint n = pc.pyramid_size.x * pc.pyramid_size.y;
+// First texel of level l in a pyramid of n texels at level 0: after
+// n + n/4 + ... + n/4^(l-1) = (4n - 4 n/4^l) / 3 texels; the division by 3
+// is a multiply-high (exact below 2^32), which keeps integer division out
+// of the traversal's inner loop.
+uint level_start(uint n, int l) {
     uint high, low;
     umulExtended(4u * n - 4u * (n >> (2 * l)), 0xaaaaaaabu, high, low);
-    return (high >> 1) + uint(t.y) * (pc.pyramid_size.x >> l) + uint(t.x);
+    return high >> 1;
+}
+
+Pyramid pyramid_of(uint layer) {
+    if (layer == 0u) return Pyramid(0u, pc.pyramid_size, int(pc.levels), 0);
+    uint n = pc.pyramid_size.x * pc.pyramid_size.y;
+    return Pyramid(level_start(n, int(pc.levels)), pc.pyramid_size >> 1, int(pc.levels) - 1, 1);
+}
+
+// The image size of a layer (layer 1: half, rounded up).
+uvec2 layer_image_size(uint layer) {
+    return (pc.size + (1u << layer) - 1u) >> layer;
+}
+
+// Index of texel t of level l of pyramid p in the buffers.
+uint texel_index_in(Pyramid p, ivec2 t, int l) {
+    return p.base + level_start(p.size.x * p.size.y, l) + uint(t.y) * (p.size.x >> l) + uint(t.x);
+}
+
+// Texels of level l of the pyramid pc.build_layer names.
+ivec2 level_size(int l) {
+    return ivec2(pyramid_of(pc.build_layer).size) >> l;
+}
+
+// Index of texel t of level l of the pyramid pc.build_layer names.
+uint texel_index(ivec2 t, int l) {
+    return texel_index_in(pyramid_of(pc.build_layer), t, l);
 }
 
 // The pixel that is the evaluation point of texel t of level l: the one at
@@ -228,15 +262,16 @@ void add_to_scale(inout vec2 scale, float c, float inv_d) {
     scale += vec2(c, c * inv_d);
 }
 
-// Every texel of level 0 in the window (the reference).
-void integrate_brute(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
+// Every texel of level 0 of pyramid p in the window (the reference);
+// `center` and `radius_px` in that pyramid's pixels.
+void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
                      inout uint count, inout vec2 scale) {
     ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
-    ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(pc.size) - 1);
+    ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(layer_image_size(uint(p.shift))) - 1);
     for (int py = lo.y; py <= hi.y; py++) {
         for (int px = lo.x; px <= hi.x; px++) {
             count++;
-            uint i = texel_index(ivec2(px, py), 0);
+            uint i = texel_index_in(p, ivec2(px, py), 0);
             GeoCluster g = geo_cluster(i, 0u);  // a pixel is one cluster
             vec3 d = g.position_extent.xyz - x;
             float d2 = dot(d, d);
@@ -369,19 +404,19 @@ void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
 // every texel four children, visited in the order (0,0) (1,0) (0,1) (1,1);
 // after a texel comes its first child if refined, else its next sibling,
 // climbing first over every level where it was the fourth child.
-void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
-                            inout uint count, inout vec2 scale) {
-    int top = int(pc.levels) - 1;
+void integrate_hierarchical(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center, float radius_px,
+                            float r_world, inout uint count, inout vec2 scale) {
+    int top = p.levels - 1;
     int root_level = clamp(int(ceil(log2(max(radius_px, 1.0) * 0.5))), 0, top);
     ivec2 lo = max(ivec2(floor(center - radius_px)) >> root_level, ivec2(0));
-    ivec2 hi = min(ivec2(ceil(center + radius_px)) >> root_level, level_size(root_level) - 1);
+    ivec2 hi = min(ivec2(ceil(center + radius_px)) >> root_level, (ivec2(p.size) >> root_level) - 1);
     // Roots in rows, x fastest (stepped, not divided: lavapipe has no vector
     // integer division and would run eight scalar ones per iteration).
     ivec3 t = ivec3(lo, root_level);
     bool more = all(lessThanEqual(lo, hi));
     while (more) {
         count++;
-        uint i = texel_index(t.xy, t.z);
+        uint i = texel_index_in(p, t.xy, t.z);
         Visit front = visit(geo_cluster(i, 0u), x, nx, r_world, t.z);
         Visit back = visit(geo_cluster(i, 1u), x, nx, r_world, t.z);
         bool refine = front.action == REFINE || back.action == REFINE;
@@ -422,10 +457,18 @@ Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out f
     if (!(r_world > 0.0)) return acc;
     float radius_px = screen_radius(x, r_world);
     vec2 scale = vec2(0.0);
-    if (pc.mode == MODE_BRUTE) {
-        integrate_brute(acc, x, nx, center, radius_px, r_world, count, scale);
-    } else {
-        integrate_hierarchical(acc, x, nx, center, radius_px, r_world, count, scale);
+    // Every layer's surfaces are sources (the separation between layers
+    // keeps one surface from being counted twice); layer 1's pixels are
+    // twice as large: its window is half as many pixels across.
+    for (uint layer = 0u; layer < pc.layers; layer++) {
+        Pyramid p = pyramid_of(layer);
+        float to_layer = 1.0 / float(1 << p.shift);
+        vec2 c = (center + 0.5) * to_layer - 0.5;
+        if (pc.mode == MODE_BRUTE) {
+            integrate_brute(acc, p, x, nx, c, radius_px * to_layer, r_world, count, scale);
+        } else {
+            integrate_hierarchical(acc, p, x, nx, c, radius_px * to_layer, r_world, count, scale);
+        }
     }
     if (scale.x > 0.0) variation = min(scale.x / scale.y, r_world);
     return acc;

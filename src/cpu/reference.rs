@@ -154,6 +154,16 @@ impl<'a> Reference<'a> {
         })
     }
 
+    /// The BVH it casts rays with.
+    pub fn bvh(&self) -> &SceneBvh {
+        &self.bvh
+    }
+
+    /// The camera it renders from.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
     /// The VPLs used by the VPL methods.
     pub fn vpls(&self) -> &[Vpl] {
         &self.vpls

@@ -16,10 +16,11 @@ use crate::vk::{
     Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler,
 };
 
-/// The direct-lighting compute kernel.
+/// The direct-lighting compute kernel, for one G-buffer layer.
 pub struct DirectLightingPass {
     kernel: ComputeKernel,
     shadow_sampler: Sampler,
+    layer: u32,
 }
 
 #[repr(C)]
@@ -30,8 +31,9 @@ struct Push {
 }
 
 impl DirectLightingPass {
-    /// Creates the kernel.
-    pub fn new(device: &Arc<Device>) -> Result<Self> {
+    /// Creates the kernel for G-buffer layer `layer` (0: the visible
+    /// surfaces; 1: the deep G-buffer's second layer).
+    pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
         use vk::DescriptorType as T;
         let bindings = [
             T::STORAGE_IMAGE,          // g_position
@@ -57,6 +59,7 @@ impl DirectLightingPass {
                 vk::SamplerAddressMode::CLAMP_TO_EDGE,
             )?
             .named("shadow_maps.sampler"),
+            layer,
         })
     }
 }
@@ -70,11 +73,12 @@ impl Pass for DirectLightingPass {
     type Reads<'a> = (&'a GBuffer, &'a ShadowMaps);
 
     fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
-        setup.extent()
+        setup.layer_extent(self.layer)
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Image> {
-        super::radiance_image(setup.device, "lighting.direct", setup.extent())
+        let name = super::layer_name("lighting.direct", self.layer);
+        super::radiance_image(setup.device, &name, setup.layer_extent(self.layer))
     }
 
     fn set_layouts(&self, _: &Image) -> Vec<&DescriptorSetLayout> {
@@ -90,7 +94,7 @@ impl Pass for DirectLightingPass {
         direct: &Image,
     ) -> Result<()> {
         let Recording { rec, profiler, .. } = cx;
-        let scope = profiler.begin(rec.cmd, "direct_lighting");
+        let scope = profiler.begin(rec.cmd, &super::layer_name("direct_lighting", self.layer));
         gbuffer.read_in_compute(rec);
         rec.use_image(&gbuffer.emission, Access::ComputeRead);
         rec.use_image(&shadows.depth, Access::ComputeSampled);

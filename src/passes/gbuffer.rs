@@ -34,25 +34,25 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
-    /// Allocates the images for `extent`.
-    pub fn new(device: &Arc<Device>, extent: (u32, u32)) -> Result<Self> {
-        let color = |name| {
+    /// Allocates the images for `extent`, named `{prefix}.position` etc.
+    pub fn new(device: &Arc<Device>, prefix: &str, extent: (u32, u32)) -> Result<Self> {
+        let color = |name: &str| {
             super::storage_image(
                 device,
-                name,
+                &format!("{prefix}.{name}"),
                 GBUFFER_FORMAT,
                 extent,
                 vk::ImageUsageFlags::COLOR_ATTACHMENT,
             )
         };
         Ok(Self {
-            position: color("gbuffer.position")?,
-            normal: color("gbuffer.normal")?,
-            albedo: color("gbuffer.albedo")?,
-            emission: color("gbuffer.emission")?,
+            position: color("position")?,
+            normal: color("normal")?,
+            albedo: color("albedo")?,
+            emission: color("emission")?,
             depth: Image::new(
                 device,
-                "gbuffer.depth",
+                &format!("{prefix}.depth"),
                 ImageDesc::new_2d(
                     vk::Format::D32_SFLOAT,
                     extent.0,
@@ -85,14 +85,95 @@ impl GBuffer {
     pub fn extent(&self) -> (u32, u32) {
         (self.position.desc.width, self.position.desc.height)
     }
+
+    /// Rasterizes `scene` into the G-buffer with `pipeline` (bound with
+    /// `set` and `push`): declares the accesses, begins and ends rendering.
+    pub(crate) fn draw(
+        &self,
+        rec: &mut Recorder<'_>,
+        scene: &GpuScene,
+        pipeline: &Pipeline,
+        set: vk::DescriptorSet,
+        push: &[u8],
+    ) {
+        for target in self.targets() {
+            rec.use_image(target, Access::ColorAttachmentWrite);
+        }
+        rec.use_image(&self.emission, Access::ColorAttachmentWrite);
+        rec.use_image(&self.depth, Access::DepthAttachmentWrite);
+        rec.use_image(&scene.color_textures, Access::FragmentSampled);
+        rec.use_image(&scene.linear_textures, Access::FragmentSampled);
+        rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
+        rec.use_buffer(&scene.vertices, Access::VertexInput);
+        rec.use_buffer(&scene.indices, Access::VertexInput);
+        rec.flush_barriers();
+        super::begin_rendering(
+            rec.device,
+            rec.cmd,
+            self.extent(),
+            &[
+                self.position.view,
+                self.normal.view,
+                self.albedo.view,
+                self.emission.view,
+            ],
+            self.depth.view,
+        );
+        pipeline.bind(rec.cmd, set, push);
+        // SAFETY: recording inside the rendering scope with the pipeline bound.
+        unsafe {
+            let d = &rec.device.raw;
+            d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
+            d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
+            d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
+            d.cmd_end_rendering(rec.cmd);
+        }
+    }
+}
+
+/// The G-buffer's graphics pipeline description for `fragment`.
+pub(crate) fn pipeline_desc(fragment: &[u8]) -> GraphicsDesc<'_> {
+    GraphicsDesc {
+        vertex: shaders::GBUFFER_VERT,
+        fragment: Some(fragment),
+        vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+        attributes: &[
+            (0, vk::Format::R32G32B32_SFLOAT, 0),
+            (1, vk::Format::R32G32B32_SFLOAT, 12),
+            (2, vk::Format::R32G32_SFLOAT, 24),
+            (3, vk::Format::R32_UINT, 32),
+            (4, vk::Format::R32G32B32A32_SFLOAT, 36),
+        ],
+        color_formats: &[GBUFFER_FORMAT; 4],
+        depth_format: vk::Format::D32_SFLOAT,
+        depth_bias: (0.0, 0.0),
+    }
+}
+
+/// The scene's materials and textures, the first three bindings of both
+/// G-buffer layers' fragment shaders.
+pub(crate) const MATERIAL_BINDINGS: [vk::DescriptorType; 3] = [
+    vk::DescriptorType::STORAGE_BUFFER,
+    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+];
+
+/// Bindings of [`MATERIAL_BINDINGS`] for `scene`.
+pub(crate) fn material_bindings(scene: &GpuScene) -> [Binding<'_>; 3] {
+    [
+        Binding::StorageBuffer(&scene.materials),
+        Binding::sampled(&scene.color_textures, &scene.texture_sampler),
+        Binding::sampled(&scene.linear_textures, &scene.texture_sampler),
+    ]
 }
 
 /// Push constants of the G-buffer shaders.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    view_proj: [f32; 16],
-    camera_position: [f32; 4],
+pub(crate) struct Push {
+    pub view_proj: [f32; 16],
+    /// xyz eye; w the separation behind layer 0 (layer 1 only).
+    pub camera_position: [f32; 4],
 }
 
 /// The G-buffer pipeline and its descriptor layout.
@@ -104,32 +185,11 @@ pub struct GBufferPass {
 impl GBufferPass {
     /// Creates the pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
-        let layout = DescriptorSetLayout::new(
-            device,
-            &[
-                vk::DescriptorType::STORAGE_BUFFER,
-                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-            ],
-            vk::ShaderStageFlags::FRAGMENT,
-        )?;
+        let layout =
+            DescriptorSetLayout::new(device, &MATERIAL_BINDINGS, vk::ShaderStageFlags::FRAGMENT)?;
         let pipeline = Pipeline::graphics(
             device,
-            &GraphicsDesc {
-                vertex: shaders::GBUFFER_VERT,
-                fragment: Some(shaders::GBUFFER_FRAG),
-                vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
-                attributes: &[
-                    (0, vk::Format::R32G32B32_SFLOAT, 0),
-                    (1, vk::Format::R32G32B32_SFLOAT, 12),
-                    (2, vk::Format::R32G32_SFLOAT, 24),
-                    (3, vk::Format::R32_UINT, 32),
-                    (4, vk::Format::R32G32B32A32_SFLOAT, 36),
-                ],
-                color_formats: &[GBUFFER_FORMAT; 4],
-                depth_format: vk::Format::D32_SFLOAT,
-                depth_bias: (0.0, 0.0),
-            },
+            &pipeline_desc(shaders::GBUFFER_FRAG),
             &[&layout],
             std::mem::size_of::<Push>() as u32,
         )?;
@@ -151,7 +211,7 @@ impl Pass for GBufferPass {
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
-        GBuffer::new(setup.device, setup.extent())
+        GBuffer::new(setup.device, "gbuffer", setup.extent())
     }
 
     fn set_layouts(&self, _: &GBuffer) -> Vec<&DescriptorSetLayout> {
@@ -172,51 +232,13 @@ impl Pass for GBufferPass {
             view,
             ..
         } = cx;
-        let set = pool.allocate(
-            &self.layout,
-            &[
-                Binding::StorageBuffer(&scene.materials),
-                Binding::sampled(&scene.color_textures, &scene.texture_sampler),
-                Binding::sampled(&scene.linear_textures, &scene.texture_sampler),
-            ],
-        )?;
+        let set = pool.allocate(&self.layout, &material_bindings(scene))?;
         let scope = profiler.begin(rec.cmd, "gbuffer");
-        for target in gbuffer.targets() {
-            rec.use_image(target, Access::ColorAttachmentWrite);
-        }
-        rec.use_image(&gbuffer.emission, Access::ColorAttachmentWrite);
-        rec.use_image(&gbuffer.depth, Access::DepthAttachmentWrite);
-        rec.use_image(&scene.color_textures, Access::FragmentSampled);
-        rec.use_image(&scene.linear_textures, Access::FragmentSampled);
-        rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
-        rec.use_buffer(&scene.vertices, Access::VertexInput);
-        rec.use_buffer(&scene.indices, Access::VertexInput);
-        rec.flush_barriers();
-        super::begin_rendering(
-            rec.device,
-            rec.cmd,
-            gbuffer.extent(),
-            &[
-                gbuffer.position.view,
-                gbuffer.normal.view,
-                gbuffer.albedo.view,
-                gbuffer.emission.view,
-            ],
-            gbuffer.depth.view,
-        );
         let push = Push {
             view_proj: view.view_proj.to_cols_array(),
             camera_position: view.camera.position.extend(1.0).into(),
         };
-        self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-        // SAFETY: recording inside the rendering scope with the pipeline bound.
-        unsafe {
-            let d = &rec.device.raw;
-            d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
-            d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
-            d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
-            d.cmd_end_rendering(rec.cmd);
-        }
+        gbuffer.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);
         Ok(())
     }

@@ -81,12 +81,14 @@ pub struct Interleaved {
     pub creases: Buffer,
 }
 
-/// The gathers, the reconstruction filter and the crease kernel.
+/// The gathers, the reconstruction filter and the crease kernel, for one
+/// G-buffer layer.
 pub struct IndirectBoundedPass {
     full: ComputeKernel,
     interleaved: ComputeKernel,
     filter: ComputeKernel,
     creases: ComputeKernel,
+    layer: u32,
 }
 
 /// Push constants of the kernels that sum VPLs (`vpl_gather.glsl`); `count`
@@ -131,8 +133,9 @@ struct FilterPush {
 }
 
 impl IndirectBoundedPass {
-    /// Creates the kernels.
-    pub fn new(device: &Arc<Device>) -> Result<Self> {
+    /// Creates the kernels for G-buffer layer `layer` (0: the visible
+    /// surfaces; 1: the deep G-buffer's second layer).
+    pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
         use vk::DescriptorType as T;
         let kernel = |spirv, bindings: &[T], push, name| -> Result<ComputeKernel> {
             Ok(ComputeKernel::new(device, spirv, bindings, push)?.named(name))
@@ -185,6 +188,7 @@ impl IndirectBoundedPass {
                 gather_push,
                 "indirect_creases",
             )?,
+            layer,
         })
     }
 
@@ -348,27 +352,28 @@ impl Pass for IndirectBoundedPass {
     type Reads<'a> = (&'a GBuffer, &'a Image, &'a Ism);
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
-        let (w, h) = setup.extent();
+        let (w, h) = setup.layer_extent(self.layer);
         (w, h, setup.settings.pattern_side())
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<BoundedLighting> {
-        let (device, extent) = (setup.device, setup.extent());
-        let image = |name| super::radiance_image(device, name, extent);
+        let (device, extent) = (setup.device, setup.layer_extent(self.layer));
+        let name = |base: &str| super::layer_name(base, self.layer);
+        let image = |base: &str| super::radiance_image(device, &name(base), extent);
         let interleaved = match setup.settings.gather {
             Gather::Full => None,
             Gather::Interleaved => Some(Interleaved {
                 sums: image("lighting.interleaved")?,
                 guide: super::storage_image(
                     device,
-                    "lighting.interleaved_guide",
+                    &name("lighting.interleaved_guide"),
                     vk::Format::R32G32B32A32_UINT,
                     extent,
                     vk::ImageUsageFlags::empty(),
                 )?,
                 creases: Buffer::new(
                     device,
-                    "lighting.creases",
+                    &name("lighting.creases"),
                     16 + 4 * extent.0 as u64 * extent.1 as u64,
                     vk::BufferUsageFlags::STORAGE_BUFFER
                         | vk::BufferUsageFlags::INDIRECT_BUFFER
@@ -403,19 +408,20 @@ impl Pass for IndirectBoundedPass {
         reads: (&GBuffer, &Image, &Ism),
         out: &BoundedLighting,
     ) -> Result<()> {
-        let scope = cx.profiler.begin(cx.rec.cmd, "indirect_bounded");
+        let name = super::layer_name("indirect_bounded", self.layer);
+        let scope = cx.profiler.begin(cx.rec.cmd, &name);
         let (gbuffer, direct, ism) = reads;
         match &out.interleaved {
             None => self.record_full(cx, pool, reads, out)?,
             Some(interleaved) => {
-                let part = cx.profiler.begin(cx.rec.cmd, "indirect_bounded/gather");
+                let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/gather"));
                 self.record_interleaved(cx, pool, (gbuffer, ism), interleaved)?;
                 cx.profiler.end(cx.rec.cmd, part);
-                let part = cx.profiler.begin(cx.rec.cmd, "indirect_bounded/filter");
+                let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/filter"));
                 let side = ism.subset_count.isqrt();
                 self.record_filter(cx, pool, (gbuffer, direct, side), interleaved, out)?;
                 cx.profiler.end(cx.rec.cmd, part);
-                let part = cx.profiler.begin(cx.rec.cmd, "indirect_bounded/creases");
+                let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/creases"));
                 self.record_creases(cx, pool, reads, &interleaved.creases, out)?;
                 cx.profiler.end(cx.rec.cmd, part);
             }

@@ -11,6 +11,7 @@
 //! the renderer's `Passes`, and one line in the renderer's list of passes,
 //! naming what it reads.
 
+pub mod deep_gbuffer;
 pub mod direct_lighting;
 pub mod gbuffer;
 pub mod indirect_bounded;
@@ -46,6 +47,15 @@ pub struct SlotSetup<'a> {
 }
 
 impl SlotSetup<'_> {
+    /// The extent of G-buffer layer `layer` (1: half resolution, see
+    /// [`deep_gbuffer`]).
+    pub fn layer_extent(&self, layer: u32) -> (u32, u32) {
+        match layer {
+            0 => self.extent(),
+            _ => deep_gbuffer::layer1_extent(self.extent()),
+        }
+    }
+
     /// The image size.
     pub fn extent(&self) -> (u32, u32) {
         (self.settings.width, self.settings.height)
@@ -63,6 +73,8 @@ pub struct FrameView {
     pub centre_depth: f32,
     /// The clamping bound b (1/m²).
     pub bound: f32,
+    /// Length of the scene bounds' diagonal (m).
+    pub diagonal: f32,
 }
 
 /// What a pass records with besides its own resources and what it reads.
@@ -318,4 +330,13 @@ pub(crate) fn radiance_image(
         extent,
         vk::ImageUsageFlags::empty(),
     )
+}
+
+/// A pass's profiling and resource name on G-buffer layer `layer`:
+/// `base` on layer 0, `base_layer1` on layer 1.
+pub(crate) fn layer_name(base: &str, layer: u32) -> String {
+    match layer {
+        0 => base.to_string(),
+        l => format!("{base}_layer{l}"),
+    }
 }

@@ -42,6 +42,7 @@ pub struct SsbcPass {
     resolve: ComputeKernel,
     fallback: ComputeKernel,
     samples: ComputeKernel,
+    layer_residual: ComputeKernel,
 }
 
 /// One frame's SSBC resources.
@@ -78,6 +79,11 @@ pub struct SsbcFrame {
     pub samples: Vec<Image>,
     /// `S0 + residual_1 + ... + residual_K`.
     pub final_image: Image,
+    /// With a second layer: its `residual_k` for k = 1..K-1 (half
+    /// resolution), the next step's sources there.
+    pub layer1_residuals: Vec<Image>,
+    /// Layers the pyramids hold (1 or 2).
+    layers: u32,
     levels: u32,
     pyramid_size: (u32, u32),
     /// The coarsest evaluation level the descriptor sets are counted for.
@@ -93,6 +99,12 @@ impl SsbcFrame {
     /// Steps the frame holds residuals for.
     pub fn steps(&self) -> u32 {
         self.residuals.len() as u32
+    }
+
+    /// G-buffer layers the pyramids hold (1, or 2 with a deep G-buffer's
+    /// second layer).
+    pub fn layers(&self) -> u32 {
+        self.layers
     }
 
     /// Pixels evaluated alone in each step (after the frame has finished;
@@ -125,7 +137,8 @@ struct SsbcPush {
     generation: u32,
     from_list: u32,
     refine_excess: f32,
-    pad: [u32; 2],
+    layers: u32,
+    build_layer: u32,
 }
 
 /// Level 0 of the pyramids for an image (padded so that every level halves
@@ -143,12 +156,14 @@ fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
 }
 
 /// Fails with a clear message if SSBC's largest storage buffer (the
-/// evaluation points, 64 bytes per texel of every pyramid level) exceeds
-/// what the device can bind (maxStorageBufferRange; 128 MiB on lavapipe,
-/// which allows about 1400x1050).
-pub fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
+/// evaluation points, 64 bytes per texel of every pyramid level; with a
+/// second layer the geometry pyramid, a quarter larger) exceeds what the
+/// device can bind (maxStorageBufferRange; 128 MiB on lavapipe, which allows
+/// about 1400x1050 with one layer).
+pub fn check_size(device: &Device, width: u32, height: u32, layers: u32) -> Result<()> {
     let (size, levels) = pyramid_layout(width, height);
-    let largest = pyramid_texels(size, levels) * EVAL_POINT_BYTES.max(GEO_TEXEL_BYTES);
+    let layers = effective_layers(layers, levels);
+    let largest = all_layers_texels(size, levels, layers) * EVAL_POINT_BYTES.max(GEO_TEXEL_BYTES);
     let max = device.limits().max_storage_buffer_range as u64;
     if largest > max {
         return Err(Error::InvalidParameter(format!(
@@ -171,6 +186,26 @@ pub fn pyramid_levels(width: u32, height: u32) -> u32 {
 fn pyramid_texels(size: (u32, u32), levels: u32) -> u64 {
     let n = size.0 as u64 * size.1 as u64;
     (4 * n - 4 * (n >> (2 * levels))) / 3
+}
+
+/// Texels of layer 0's pyramid and, with two layers, layer 1's after it
+/// (half the size, one level fewer: `pyramid_of` in ssbc.glsl).
+fn all_layers_texels(size: (u32, u32), levels: u32, layers: u32) -> u64 {
+    let first = pyramid_texels(size, levels);
+    match layers {
+        1 => first,
+        _ => first + pyramid_texels((size.0 / 2, size.1 / 2), levels - 1),
+    }
+}
+
+/// The layers a pyramid of `levels` levels can hold: a second layer needs
+/// a level to spare (images of at least 2 pixels on the short side).
+fn effective_layers(layers: u32, levels: u32) -> u32 {
+    if levels >= 2 {
+        layers.clamp(1, 2)
+    } else {
+        1
+    }
 }
 
 /// Sizes of the GLSL structs, in bytes.
@@ -244,16 +279,30 @@ impl SsbcPass {
                 &[T::UNIFORM_TEXEL_BUFFER, T::STORAGE_IMAGE],
             )?
             .named("ssbc_samples"),
+            // Layer 1's G-buffer (3), its residual.
+            layer_residual: reader(shaders::SSBC_LAYER_RESIDUAL_COMP, &[T::STORAGE_IMAGE; 4])?
+                .named("ssbc_layer1_residual"),
         })
     }
 
     /// Layouts of every set one frame of `frame` allocates.
     pub fn frame_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
         let levels = frame.levels as usize;
-        let mut v = vec![self.geometry_base.set_layout()];
-        v.extend(std::iter::repeat_n(self.geometry.set_layout(), levels - 1));
-        for _ in 0..frame.steps() {
-            v.extend(std::iter::repeat_n(self.radiance.set_layout(), levels));
+        // Layer 0's pyramid levels, then layer 1's (one fewer).
+        let built = levels + (frame.layers as usize - 1) * (levels - 1);
+        let mut v = Vec::new();
+        for layer in 0..frame.layers as usize {
+            v.push(self.geometry_base.set_layout());
+            v.extend(std::iter::repeat_n(
+                self.geometry.set_layout(),
+                levels - 1 - layer,
+            ));
+        }
+        for step in 0..frame.steps() {
+            v.extend(std::iter::repeat_n(self.radiance.set_layout(), built));
+            if frame.layers == 2 && step + 1 < frame.steps() {
+                v.push(self.layer_residual.set_layout());
+            }
             for _ in 0..=frame.max_eval_level {
                 v.push(self.eval.set_layout());
                 v.push(self.resolve.set_layout());
@@ -299,10 +348,14 @@ impl SsbcPass {
         extent: (u32, u32),
         steps: u32,
         max_eval_level: u32,
+        layers: u32,
     ) -> Result<SsbcFrame> {
         // Level 0 padded so every level halves exactly (padding has no geometry).
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
+        let layers = effective_layers(layers, levels);
+        // Evaluation points exist for layer 0's texels only.
         let texels = pyramid_texels(pyramid_size, levels);
+        let all_texels = all_layers_texels(pyramid_size, levels, layers);
         let storage = |name: &str, size: u64, extra: vk::BufferUsageFlags| {
             Buffer::new(
                 device,
@@ -340,14 +393,21 @@ impl SsbcPass {
         let texel_usage = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
         let geo = storage(
             "ssbc.pyramid.geometry",
-            texels * GEO_TEXEL_BYTES,
+            all_texels * GEO_TEXEL_BYTES,
             texel_usage,
         )?;
         let radiance = storage(
             "ssbc.pyramid.radiance",
-            texels * RADIANCE_BYTES,
+            all_texels * RADIANCE_BYTES,
             texel_usage,
         )?;
+        let layer1_extent = super::deep_gbuffer::layer1_extent(extent);
+        let layer1_residuals = (1..steps)
+            .filter(|_| layers == 2)
+            .map(|k| {
+                super::radiance_image(device, &format!("ssbc.layer1_residual_{k}"), layer1_extent)
+            })
+            .collect::<Result<_>>()?;
         let view =
             |buffer: &Buffer, format, name: &str| BufferView::new(device, buffer, format, 16, name);
         let points = storage(
@@ -372,7 +432,7 @@ impl SsbcPass {
                 "ssbc.pyramid.radiance texels",
             )?,
             geo,
-            aux: storage("ssbc.pyramid.aux", texels * AUX_BYTES, none)?,
+            aux: storage("ssbc.pyramid.aux", all_texels * AUX_BYTES, none)?,
             radiance,
             points,
             pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
@@ -388,6 +448,8 @@ impl SsbcPass {
             residuals,
             samples,
             final_image: image("ssbc.final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
+            layer1_residuals,
+            layers,
             levels,
             pyramid_size,
             max_eval_level: max_eval_level.min(levels - 1),
@@ -415,7 +477,8 @@ impl SsbcPass {
             generation: 0,
             from_list: 0,
             refine_excess: settings.refine_excess,
-            pad: [0; 2],
+            layers: frame.layers,
+            build_layer: 0,
         }
     }
 
@@ -437,23 +500,93 @@ impl SsbcPass {
         ]
     }
 
-    /// Records the geometry pyramid and every step; `s0` is `T Le + T_b L^`.
+    /// Records the geometry pyramids and every step: `visible` is layer 0
+    /// (its G-buffer and `S0 = T Le + T_b L^`, where the residual is
+    /// written), `hidden` the optional second layer (half resolution),
+    /// whose surfaces are sources too.
     #[allow(clippy::too_many_arguments)]
     pub fn record_steps(
         &self,
         rec: &mut Recorder<'_>,
         profiler: &mut GpuProfiler,
         pool: &DescriptorPool,
-        gbuffer: SsbcGBuffer<'_>,
-        s0: &Image,
+        visible: SsbcLayer<'_>,
+        hidden: Option<SsbcLayer<'_>>,
         inputs: &SsbcInputs<'_>,
         frame: &SsbcFrame,
     ) -> Result<()> {
-        let extent = gbuffer.extent();
+        let extent = visible.gbuffer.extent();
+        let hidden = hidden.filter(|_| frame.layers == 2);
         let mut push = self.push(inputs, extent, frame);
+        push.layers = 1 + hidden.is_some() as u32;
 
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
-        for level in 0..frame.levels {
+        for (layer, source) in std::iter::once(visible).chain(hidden).enumerate() {
+            self.record_geometry(rec, pool, source.gbuffer, layer as u32, &mut push, frame)?;
+        }
+        push.build_layer = 0;
+        // Evaluation points are stamped with the step's generation (1, 2, ...).
+        rec.fill_buffer(&frame.points, 0);
+        profiler.end(rec.cmd, scope);
+
+        let steps = inputs.settings.steps as usize;
+        for step in 0..steps {
+            let previous = if step == 0 {
+                visible.s0
+            } else {
+                &frame.final_image
+            };
+            let term = if step == 0 {
+                visible.s0
+            } else {
+                &frame.residuals[step - 1]
+            };
+            push.generation = step as u32 + 1;
+            let name = format!("ssbc_step_{}", step + 1);
+            let scope = profiler.begin(rec.cmd, &name);
+            let sub = profiler.begin(rec.cmd, &format!("{name}/radiance_mips"));
+            self.record_radiance_mips(rec, pool, term, 0, &mut push, frame)?;
+            if let Some(hidden) = hidden {
+                let term = if step == 0 {
+                    hidden.s0
+                } else {
+                    &frame.layer1_residuals[step - 1]
+                };
+                self.record_radiance_mips(rec, pool, term, 1, &mut push, frame)?;
+            }
+            push.build_layer = 0;
+            profiler.end(rec.cmd, sub);
+            let step_out = StepOutput {
+                gbuffer: visible.gbuffer,
+                previous,
+                final_image: &frame.final_image,
+                residual: &frame.residuals[step],
+                samples: &frame.samples[step],
+            };
+            self.record_residual(rec, profiler, &name, pool, &step_out, &mut push, frame)?;
+            rec.copy_buffer(&frame.fallback, 0, &frame.stats, 16 * step as u64, 16);
+            if let (Some(hidden), true) = (hidden, step + 1 < steps) {
+                let sub = profiler.begin(rec.cmd, &format!("{name}/layer1_residual"));
+                self.record_layer1_residual(rec, pool, hidden.gbuffer, step, &push, frame)?;
+                profiler.end(rec.cmd, sub);
+            }
+            profiler.end(rec.cmd, scope);
+        }
+        Ok(())
+    }
+
+    /// The geometry pyramid of layer `layer` from its G-buffer.
+    fn record_geometry(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        gbuffer: SsbcGBuffer<'_>,
+        layer: u32,
+        push: &mut SsbcPush,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        push.build_layer = layer;
+        for level in 0..frame.levels - layer {
             if level == 0 {
                 rec.use_image(gbuffer.position, Access::ComputeRead);
                 rec.use_image(gbuffer.normal, Access::ComputeRead);
@@ -477,43 +610,50 @@ impl SsbcPass {
                 rec.cmd,
                 pool,
                 &bindings,
-                bytemuck::bytes_of(&push),
-                Self::level_extent(frame, level),
+                bytemuck::bytes_of(push),
+                Self::level_extent(frame, layer, level),
             )?;
-        }
-        // Evaluation points are stamped with the step's generation (1, 2, ...).
-        rec.fill_buffer(&frame.points, 0);
-        profiler.end(rec.cmd, scope);
-
-        for step in 0..inputs.settings.steps as usize {
-            let previous = if step == 0 { s0 } else { &frame.final_image };
-            let term = if step == 0 {
-                s0
-            } else {
-                &frame.residuals[step - 1]
-            };
-            push.generation = step as u32 + 1;
-            let name = format!("ssbc_step_{}", step + 1);
-            let scope = profiler.begin(rec.cmd, &name);
-            let sub = profiler.begin(rec.cmd, &format!("{name}/radiance_mips"));
-            self.record_radiance_mips(rec, pool, term, &mut push, frame)?;
-            profiler.end(rec.cmd, sub);
-            let step_out = StepOutput {
-                gbuffer,
-                previous,
-                final_image: &frame.final_image,
-                residual: &frame.residuals[step],
-                samples: &frame.samples[step],
-            };
-            self.record_residual(rec, profiler, &name, pool, &step_out, &mut push, frame)?;
-            rec.copy_buffer(&frame.fallback, 0, &frame.stats, 16 * step as u64, 16);
-            profiler.end(rec.cmd, scope);
         }
         Ok(())
     }
 
-    fn level_extent(frame: &SsbcFrame, level: u32) -> (u32, u32) {
-        (frame.pyramid_size.0 >> level, frame.pyramid_size.1 >> level)
+    /// Layer 1's residual of step `step` (its sources in the next step).
+    fn record_layer1_residual(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        gbuffer: SsbcGBuffer<'_>,
+        step: usize,
+        push: &SsbcPush,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        let out = &frame.layer1_residuals[step];
+        Self::read_pyramids(rec, frame);
+        gbuffer.read_in_compute(rec);
+        rec.use_image(out, Access::ComputeWrite);
+        rec.flush_barriers();
+        let bindings = [
+            &Self::pyramid_read_bindings(frame)[..],
+            &gbuffer.storage_bindings()[..],
+            &[Binding::storage(out)],
+        ]
+        .concat();
+        self.layer_residual.dispatch_2d(
+            rec.cmd,
+            pool,
+            &bindings,
+            bytemuck::bytes_of(push),
+            gbuffer.extent(),
+        )
+    }
+
+    /// Texels of level `level` of layer `layer`'s pyramid (layer 1: half
+    /// the size).
+    fn level_extent(frame: &SsbcFrame, layer: u32, level: u32) -> (u32, u32) {
+        (
+            frame.pyramid_size.0 >> (level + layer),
+            frame.pyramid_size.1 >> (level + layer),
+        )
     }
 
     fn record_radiance_mips(
@@ -521,10 +661,12 @@ impl SsbcPass {
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
         term: &Image,
+        layer: u32,
         push: &mut SsbcPush,
         frame: &SsbcFrame,
     ) -> Result<()> {
-        for level in 0..frame.levels {
+        push.build_layer = layer;
+        for level in 0..frame.levels - layer {
             rec.use_image(term, Access::ComputeRead);
             rec.use_buffer(&frame.geo, Access::ComputeRead);
             rec.use_buffer(&frame.aux, Access::ComputeRead);
@@ -541,7 +683,7 @@ impl SsbcPass {
                 pool,
                 &bindings,
                 bytemuck::bytes_of(push),
-                Self::level_extent(frame, level),
+                Self::level_extent(frame, layer, level),
             )?;
         }
         Ok(())
@@ -574,7 +716,7 @@ impl SsbcPass {
         // tries to interpolate.
         push.level = top;
         push.from_list = 0;
-        let (w, h) = Self::level_extent(frame, top);
+        let (w, h) = Self::level_extent(frame, 0, top);
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{top}"));
         self.record_eval(rec, pool, push, frame, [w.div_ceil(64), h, 1])?;
         profiler.end(rec.cmd, sub);
@@ -778,6 +920,15 @@ impl SsbcGBuffer<'_> {
     }
 }
 
+/// One G-buffer layer SSBC gathers from: its G-buffer and its `S0`.
+#[derive(Clone, Copy)]
+pub struct SsbcLayer<'a> {
+    /// Position, normal, albedo.
+    pub gbuffer: SsbcGBuffer<'a>,
+    /// `S0 = T Le + T_b L^` at its pixels.
+    pub s0: &'a Image,
+}
+
 /// What a step writes, and what it reads from the frame besides the pyramids.
 struct StepOutput<'a> {
     gbuffer: SsbcGBuffer<'a>,
@@ -833,16 +984,16 @@ impl StepOutput<'_> {
 
 impl Pass for SsbcPass {
     const NAME: &'static str = "ssbc";
-    /// (width, height, steps, coarsest evaluation level).
-    type Key = (u32, u32, u32, u32);
+    /// (width, height, steps, coarsest evaluation level, layers).
+    type Key = (u32, u32, u32, u32, u32);
     type Resources = SsbcFrame;
-    /// The G-buffer and `S0`.
-    type Reads<'a> = (SsbcGBuffer<'a>, &'a Image);
+    /// The visible layer and, with `layers` 2, the hidden one.
+    type Reads<'a> = (SsbcLayer<'a>, Option<SsbcLayer<'a>>);
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let (w, h) = setup.extent();
         let ssbc = &setup.settings.ssbc;
-        (w, h, ssbc.steps, ssbc.max_eval_level)
+        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.layers)
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<SsbcFrame> {
@@ -852,6 +1003,7 @@ impl Pass for SsbcPass {
             setup.extent(),
             ssbc.steps,
             ssbc.max_eval_level,
+            ssbc.layers,
         )
     }
 
@@ -864,7 +1016,7 @@ impl Pass for SsbcPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, s0): (SsbcGBuffer<'_>, &Image),
+        (visible, hidden): (SsbcLayer<'_>, Option<SsbcLayer<'_>>),
         frame: &SsbcFrame,
     ) -> Result<()> {
         let settings = &cx.settings.ssbc;
@@ -884,6 +1036,6 @@ impl Pass for SsbcPass {
             ),
             settings,
         };
-        self.record_steps(cx.rec, cx.profiler, pool, gbuffer, s0, &inputs, frame)
+        self.record_steps(cx.rec, cx.profiler, pool, visible, hidden, &inputs, frame)
     }
 }

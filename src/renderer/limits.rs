@@ -59,7 +59,12 @@ pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Resu
         )));
     }
     if settings.ssbc.steps > 0 {
-        crate::passes::ssbc::check_size(device, settings.width, settings.height)?;
+        crate::passes::ssbc::check_size(
+            device,
+            settings.width,
+            settings.height,
+            settings.ssbc.layers,
+        )?;
     }
     if settings.vpl.count as u64 * settings.points_per_vpl as u64 > MAX_ISM_POINTS {
         return Err(Error::InvalidParameter(format!(

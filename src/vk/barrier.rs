@@ -25,7 +25,7 @@ pub enum Access {
     DepthAttachmentWrite,
     /// Sampled (texture) read from a fragment shader.
     FragmentSampled,
-    /// Storage-buffer read from a vertex or fragment shader.
+    /// Storage buffer or image read from a vertex or fragment shader.
     GraphicsStorageRead,
     /// Sampled (texture) read from a compute shader.
     ComputeSampled,

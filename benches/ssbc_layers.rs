@@ -1,0 +1,149 @@
+//! SSBC with a second G-buffer layer against one layer, in one run (the
+//! machines are shared: only ratios within a run mean much). Run with
+//! `cargo bench --bench ssbc_layers` (`-- --frames N`: median of N warm
+//! frames, default 3; `--quick`: 320x240 only).
+//!
+//! 1. Cost, at the defaults otherwise: one SSBC step with two layers
+//!    against one layer, and what the second layer's own passes cost (its
+//!    G-buffer by depth peeling, direct and bounded VPL lighting at half
+//!    resolution, its geometry pyramid), against the one-layer frame.
+//!    Configurations alternate frame by frame, so drift hits both alike.
+//! 2. Accuracy: the hierarchical step against brute force over both
+//!    layers (relative RMSE and mean of `residual_1`), 320x240.
+
+use ssbc::passes::ssbc::Integration;
+use ssbc::profile::render_frames;
+use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+
+/// Median GPU ms of the pass `name` (0 if it did not run).
+fn pass_ms(f: &Frame, name: &str) -> f64 {
+    f.timings
+        .stats
+        .as_ref()
+        .expect("measured with render_frames")
+        .passes
+        .iter()
+        .find(|p| p.name == name)
+        .map_or(0.0, |p| p.ms.median)
+}
+
+fn settings(size: (u32, u32), layers: u32) -> RenderSettings {
+    let mut s = RenderSettings::new(size.0, size.1);
+    s.ssbc.layers = layers;
+    s
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let frames: u32 = args
+        .iter()
+        .position(|a| a == "--frames")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(3);
+    let sizes: &[(u32, u32)] = if quick {
+        &[(320, 240)]
+    } else {
+        &[(320, 240), (1024, 768)]
+    };
+    let scenes = ["cornell", "tori", "assets/open-front-box.gltf"];
+    let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
+    println!(
+        "# SSBC layers on {}, defaults, median of {frames} warm frames\n",
+        renderer.device().name()
+    );
+    println!("| scene | size | step, 1 layer ms | step, 2 layers ms | ratio | layer 1: G-buffer + direct + bounded ms | geometry pyramids 1 / 2 layers ms | frame 1 / 2 layers ms | frame ratio |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let layer1_passes = [
+        "gbuffer_layer1",
+        "direct_lighting_layer1",
+        "indirect_bounded_layer1",
+    ];
+    for name in scenes {
+        let scene = ssbc::scene::load(name).expect("scene");
+        let mut scene = scene;
+        scene.ensure_light();
+        for &size in sizes {
+            // Alternate: one frame of each, `frames` times, keeping them all.
+            let mut runs: [Vec<Frame>; 2] = [Vec::new(), Vec::new()];
+            for _ in 0..frames {
+                for (k, layers) in [1, 2].into_iter().enumerate() {
+                    let s = settings(size, layers);
+                    runs[k].push(render_frames(&mut renderer, &scene, &s, 1, None).expect("frame"));
+                }
+            }
+            let median = |frames: &[Frame], f: &dyn Fn(&Frame) -> f64| {
+                let mut v: Vec<f64> = frames.iter().map(f).collect();
+                v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+                v[v.len() / 2]
+            };
+            let step = |k: usize| median(&runs[k], &|f| pass_ms(f, "ssbc_step_1"));
+            let pyramid = |k: usize| median(&runs[k], &|f| pass_ms(f, "ssbc_geometry_mips"));
+            let frame = |k: usize| {
+                median(&runs[k], &|f| {
+                    f.timings
+                        .stats
+                        .as_ref()
+                        .unwrap()
+                        .frame_gpu_ms
+                        .unwrap()
+                        .median
+                })
+            };
+            let own = median(&runs[1], &|f| {
+                layer1_passes.iter().map(|p| pass_ms(f, p)).sum()
+            });
+            println!(
+                "| {} | {}x{} | {:.1} | {:.1} | {:.2}x | {own:.1} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x |",
+                scene.name,
+                size.0,
+                size.1,
+                step(0),
+                step(1),
+                step(1) / step(0),
+                pyramid(0),
+                pyramid(1),
+                frame(0),
+                frame(1),
+                frame(1) / frame(0),
+            );
+        }
+    }
+
+    println!("\n## Hierarchical vs brute force (over every layer), one step, 320x240\n");
+    println!("| scene | layers | relative RMSE of residual_1 | mean ratio |\n|---|---|---|---|");
+    for name in scenes {
+        let mut scene = ssbc::scene::load(name).expect("scene");
+        scene.ensure_light();
+        for layers in [1, 2] {
+            let residual = |renderer: &mut Renderer, integration| {
+                let mut s = settings((320, 240), layers);
+                s.ssbc.integration = integration;
+                s.debug_readback = true;
+                let f = renderer.render(&scene, &s).expect("frame");
+                f.layer("residual_1").expect("residual_1").rgba.clone()
+            };
+            let hier = residual(&mut renderer, Integration::Hierarchical);
+            let brute = residual(&mut renderer, Integration::Brute);
+            // As tests/ssbc.rs measures against the CPU twin: sqrt(sum |h -
+            // b|² / sum |b|²) and sum h / sum b over RGB.
+            let (mut num, mut den, mut sum_h, mut sum_b) = (0f64, 0f64, 0f64, 0f64);
+            for (h, b) in hier.chunks_exact(4).zip(brute.chunks_exact(4)) {
+                for c in 0..3 {
+                    let (h, b) = (h[c] as f64, b[c] as f64);
+                    num += (h - b) * (h - b);
+                    den += b * b;
+                    sum_h += h;
+                    sum_b += b;
+                }
+            }
+            println!(
+                "| {} | {layers} | {:.2}% | {:.4} |",
+                scene.name,
+                100.0 * (num / den.max(1e-300)).sqrt(),
+                sum_h / sum_b.max(1e-300)
+            );
+        }
+    }
+}

@@ -1,0 +1,94 @@
+// G-buffer fragment shader (gbuffer.frag, and gbuffer_peel.frag with PEEL
+// defined): world position (w = 1 on geometry), shading normal (normal-
+// mapped), linear albedo, and the radiance emitted towards the camera.
+// Texels below an alpha mask's cutoff are discarded. Layer 0 (the visible
+// surfaces): a one-sided surface seen from behind (the side its vertex
+// normals do not point to) is culled, and the normal faces the camera.
+// Layer 1 (PEEL, a deep G-buffer's second layer, Mara et al. 2016): only
+// fragments at least a separation (camera_position.w) farther from the
+// camera than layer 0 at their pixel pass, back faces included, with the
+// normal of the side the vertex normals point to (hidden faces of closed
+// objects face away from the camera, towards what they light). The CPU twin
+// is src/cpu/bvh.rs (SceneBvh::surface).
+#ifndef SSBC_GBUFFER_FRAG_GLSL
+#define SSBC_GBUFFER_FRAG_GLSL
+#include "common.glsl"
+
+layout(location = 0) in vec3 v_position;
+layout(location = 1) in vec3 v_normal;
+layout(location = 2) in vec2 v_uv;
+layout(location = 3) flat in uint v_material;
+layout(location = 4) in vec4 v_tangent;
+
+layout(push_constant) uniform Push {
+    mat4 view_proj;
+    vec4 camera_position;  // xyz eye; w (PEEL) the separation behind layer 0 [m]
+} pc;
+
+layout(set = 0, binding = 0) readonly buffer Materials { GpuMaterial materials[]; };
+layout(set = 0, binding = 1) uniform sampler2DArray color_textures;
+layout(set = 0, binding = 2) uniform sampler2DArray linear_textures;
+
+#include "material.glsl"
+
+#ifdef PEEL
+// Layer 0 at full resolution: a layer-1 pixel p covers its pixels 2p .. 2p + 1.
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D layer0_position;
+
+// Whether the fragment lies at least the separation behind layer 0 at all
+// the (geometry) pixels of layer 0 under it.
+bool behind_layer0() {
+    ivec2 base = ivec2(gl_FragCoord.xy) * 2;
+    ivec2 size = imageSize(layer0_position);
+    float eye = distance(v_position, pc.camera_position.xyz);
+    bool any_geometry = false;
+    bool behind = true;
+    for (int k = 0; k < 4; k++) {
+        ivec2 q = min(base + ivec2(k & 1, k >> 1), size - 1);
+        vec4 first = imageLoad(layer0_position, q);
+        if (first.w != 0.0) {
+            any_geometry = true;
+            behind = behind && eye > distance(first.xyz, pc.camera_position.xyz) + pc.camera_position.w;
+        }
+    }
+    return any_geometry && behind;
+}
+#endif
+
+layout(location = 0) out vec4 out_position;
+layout(location = 1) out vec4 out_normal;
+layout(location = 2) out vec4 out_albedo;
+layout(location = 3) out vec4 out_emission;
+
+void main() {
+    GpuMaterial m = materials[v_material];
+    if (!material_opaque(m, v_uv)) discard;
+#ifdef PEEL
+    if (!behind_layer0()) discard;
+#endif
+    vec3 n = normalize(v_normal);
+    bool front = dot(n, pc.camera_position.xyz - v_position) >= 0.0;
+#ifndef PEEL
+    if (!front && !material_double_sided(m)) discard;
+#endif
+    // Normal map in the frame of the interpolated tangent.
+    vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
+    if (m.textures.z >= 0 && dot(t, t) > 1e-12) {
+        vec3 tex = sample_texture(linear_textures, m.textures.z, m.samplers.z, v_uv).xyz * 2.0 - 1.0;
+        vec3 local = vec3(tex.xy * m.normal.x, tex.z);
+        t = normalize(t);
+        vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);
+        vec3 mapped = t * local.x + b * local.y + n * local.z;
+        if (dot(mapped, mapped) > 0.0) n = normalize(mapped);
+    }
+#ifndef PEEL
+    // Two-sided shading: the normal faces the viewer.
+    if (!front) n = -n;
+#endif
+    out_position = vec4(v_position, 1.0);
+    out_normal = vec4(n, 0.0);
+    out_albedo = vec4(material_base_color(m, v_uv).rgb, 1.0);
+    out_emission = vec4(material_emission(m, v_uv), 1.0);
+}
+
+#endif

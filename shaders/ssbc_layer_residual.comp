@@ -1,0 +1,29 @@
+#version 460
+// SSBC with a second layer, before a further step: the residual S_k at the
+// pixels of layer 1 (half resolution), each evaluated alone over both
+// layers' pyramids: what layer 1's surfaces send in the next step.
+#define SSBC_READ_PYRAMIDS
+#include "ssbc.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;  // layer 1
+layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D residual;   // layer 1's S_k
+
+void main() {
+    ivec2 q = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(q), layer_image_size(1u)))) return;
+    vec4 position = imageLoad(g_position, q);
+    vec3 s = vec3(0.0);
+    if (position.w != 0.0) {
+        vec3 nx = imageLoad(g_normal, q).xyz;
+        uint count = 0u;
+        float variation;
+        // Its centre in image pixels (pixel centres at integers).
+        Residual r = residual_integral(position.xyz, nx, vec2(q) * 2.0 + 0.5, count, variation);
+        s = imageLoad(g_albedo, q).rgb / PI * residual_at(r, nx);
+    }
+    imageStore(residual, q, vec4(s, 1.0));
+}

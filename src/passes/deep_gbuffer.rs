@@ -1,0 +1,108 @@
+//! A deep G-buffer's second layer (Mara, McGuire, Nowrouzezahrai, Luebke,
+//! "Deep G-Buffers for Stable Global Illumination Approximation", HPG 2016)
+//! by depth peeling, at half resolution: per pixel the nearest surface at
+//! least a separation farther from the camera than the visible one (layer
+//! 0) under it, back faces included. SSBC gathers from its surfaces too:
+//! the hidden faces of objects light the visible surfaces around them.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::gbuffer::{self, GBuffer, Push};
+use super::{Pass, Recording, SlotSetup};
+use crate::error::Result;
+use crate::gpu_scene::GpuScene;
+use crate::shaders;
+use crate::vk::{Access, Binding, DescriptorPool, DescriptorSetLayout, Device, Pipeline};
+
+/// The peeling pipeline and its descriptor layout.
+pub struct DeepGBufferPass {
+    layout: DescriptorSetLayout,
+    pipeline: Pipeline,
+}
+
+/// The extent of layer 1 for an image of `extent`: half, rounded up (as
+/// `layer_image_size` in shaders/include/ssbc.glsl).
+pub fn layer1_extent(extent: (u32, u32)) -> (u32, u32) {
+    (extent.0.div_ceil(2), extent.1.div_ceil(2))
+}
+
+impl DeepGBufferPass {
+    /// Creates the pipeline.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        let bindings = [
+            &gbuffer::MATERIAL_BINDINGS[..],
+            &[vk::DescriptorType::STORAGE_IMAGE], // layer 0's positions
+        ]
+        .concat();
+        let layout = DescriptorSetLayout::new(device, &bindings, vk::ShaderStageFlags::FRAGMENT)?;
+        let pipeline = Pipeline::graphics(
+            device,
+            &gbuffer::pipeline_desc(shaders::GBUFFER_PEEL_FRAG),
+            &[&layout],
+            std::mem::size_of::<Push>() as u32,
+        )?;
+        pipeline.name("gbuffer_layer1");
+        layout.name("gbuffer_layer1 set layout");
+        Ok(Self { layout, pipeline })
+    }
+}
+
+impl Pass for DeepGBufferPass {
+    const NAME: &'static str = "gbuffer_layer1";
+    /// Width and height of layer 1.
+    type Key = (u32, u32);
+    type Resources = GBuffer;
+    /// The scene and layer 0.
+    type Reads<'a> = (&'a GpuScene, &'a GBuffer);
+
+    fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
+        layer1_extent(setup.extent())
+    }
+
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
+        GBuffer::new(
+            setup.device,
+            "gbuffer_layer1",
+            layer1_extent(setup.extent()),
+        )
+    }
+
+    fn set_layouts(&self, _: &GBuffer) -> Vec<&DescriptorSetLayout> {
+        vec![&self.layout]
+    }
+
+    /// Rasterizes the scene again, keeping what lies behind layer 0.
+    fn record(
+        &self,
+        cx: &mut Recording<'_, '_>,
+        pool: &DescriptorPool,
+        (scene, layer0): (&GpuScene, &GBuffer),
+        layer1: &GBuffer,
+    ) -> Result<()> {
+        let Recording {
+            rec,
+            profiler,
+            view,
+            settings,
+            ..
+        } = cx;
+        let bindings = [
+            &gbuffer::material_bindings(scene)[..],
+            &[Binding::storage(&layer0.position)],
+        ]
+        .concat();
+        let set = pool.allocate(&self.layout, &bindings)?;
+        let scope = profiler.begin(rec.cmd, "gbuffer_layer1");
+        rec.use_image(&layer0.position, Access::GraphicsStorageRead);
+        let separation = settings.ssbc.layer_separation * view.diagonal;
+        let push = Push {
+            view_proj: view.view_proj.to_cols_array(),
+            camera_position: view.camera.position.extend(separation).into(),
+        };
+        layer1.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
+        profiler.end(rec.cmd, scope);
+        Ok(())
+    }
+}
