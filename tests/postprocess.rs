@@ -135,6 +135,22 @@ fn bad_host_inputs_are_clear_errors() {
             5,
             "frame slot 5 of 2",
         ),
+        (
+            // The second layer is half the size.
+            PostProcessInputs {
+                hidden: Some(ssbc::postprocess::PostProcessLayer {
+                    position: image,
+                    normal: image,
+                    albedo: image,
+                    s0: image,
+                }),
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "second layer's position image is (64, 48); it must be (32, 24)",
+        ),
     ];
     for (inputs, settings, output, slot, expected) in cases {
         let err = post
