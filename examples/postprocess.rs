@@ -19,7 +19,9 @@ use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 use ssbc::cpu::ssbc::{BruteForceTwin, GBufferView, TwinCamera};
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
-use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+use ssbc::postprocess::{
+    HostImage, PostOutput, PostProcessInputs, PostProcessLayer, SsbcPostProcess,
+};
 use ssbc::vk::{Buffer, Device, DeviceSelector, Image, ImageDesc, Instance, Validation};
 
 /// The host's G-buffer pass: a camera ray per pixel against three quads.
@@ -30,15 +32,30 @@ layout(set = 0, binding = 1, rgba32f) uniform writeonly image2D g_normal;
 layout(set = 0, binding = 2, rgba32f) uniform writeonly image2D g_albedo;
 layout(push_constant) uniform Camera { vec4 eye; vec4 forward; vec4 right; vec4 up; } cam;
 
-void try_plane(vec3 o, vec3 d, vec3 n, float offset, vec3 lo, vec3 hi, vec3 albedo,
-               inout float best, inout vec3 hit_n, inout vec3 hit_albedo) {
+// A rectangle of the plane n.p = offset within [lo, hi], hit beyond tmin;
+// with `front_only`, only from the side n faces.
+void try_plane(vec3 o, vec3 d, vec3 n, float offset, vec3 lo, vec3 hi, vec3 albedo, bool front_only,
+               float tmin, inout float best, inout vec3 hit_n, inout vec3 hit_albedo) {
     float denom = dot(n, d);
-    if (abs(denom) < 1e-6) return;
+    if (abs(denom) < 1e-6 || (front_only && denom > 0.0)) return;
     float t = (offset - dot(n, o)) / denom;
     vec3 p = o + t * d;
-    if (t > 1e-4 && t < best && all(greaterThanEqual(p, lo - 1e-4)) && all(lessThanEqual(p, hi + 1e-4))) {
+    if (t > tmin && t < best && all(greaterThanEqual(p, lo - 1e-4)) && all(lessThanEqual(p, hi + 1e-4))) {
         best = t; hit_n = n; hit_albedo = albedo;
     }
+}
+
+// The corner (floor, back wall, left wall) and a box standing in it.
+void trace(vec3 o, vec3 d, bool front_only, float tmin, inout float best, inout vec3 n, inout vec3 albedo) {
+    try_plane(o, d, vec3(0, 1, 0), 0.0, vec3(-1, 0, -1), vec3(1, 0, 1), vec3(0.7, 0.7, 0.7), front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 0, 1), -1.0, vec3(-1, 0, -1), vec3(1, 2, -1), vec3(0.8, 0.6, 0.4), front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(1, 0, 0), -1.0, vec3(-1, 0, -1), vec3(-1, 2, 1), vec3(0.3, 0.6, 0.8), front_only, tmin, best, n, albedo);
+    vec3 lo = vec3(-0.7, 0.0, -0.6), hi = vec3(-0.3, 0.5, -0.2), a = vec3(0.6);
+    try_plane(o, d, vec3(1, 0, 0), hi.x, vec3(hi.x, lo.yz), hi, a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(-1, 0, 0), -lo.x, lo, vec3(lo.x, hi.yz), a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 0, 1), hi.z, vec3(lo.xy, hi.z), hi, a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 0, -1), -lo.z, lo, vec3(hi.xy, lo.z), a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 1, 0), hi.y, vec3(lo.x, hi.y, lo.z), hi, a, front_only, tmin, best, n, albedo);
 }
 
 void main() {
@@ -49,9 +66,15 @@ void main() {
     vec3 d = normalize(cam.forward.xyz + ndc.x * cam.right.xyz - ndc.y * cam.up.xyz);
     vec3 o = cam.eye.xyz;
     float best = 1e30; vec3 n = vec3(0); vec3 albedo = vec3(0);
-    try_plane(o, d, vec3(0, 1, 0), 0.0, vec3(-1, 0, -1), vec3(1, 0, 1), vec3(0.7, 0.7, 0.7), best, n, albedo);
-    try_plane(o, d, vec3(0, 0, 1), -1.0, vec3(-1, 0, -1), vec3(1, 2, -1), vec3(0.8, 0.6, 0.4), best, n, albedo);
-    try_plane(o, d, vec3(1, 0, 0), -1.0, vec3(-1, 0, -1), vec3(-1, 2, 1), vec3(0.3, 0.6, 0.8), best, n, albedo);
+    trace(o, d, true, 1e-4, best, n, albedo);
+    // A second layer (eye.w = the separation; this G-buffer is then half
+    // the size): the nearest surface that far behind the visible one, back
+    // faces included, with its own outward normal.
+    if (cam.eye.w > 0.0 && best < 1e29) {
+        float first = best;
+        best = 1e30;
+        trace(o, d, false, first + cam.eye.w, best, n, albedo);
+    }
     bool hit = best < 1e29;
     imageStore(g_position, p, hit ? vec4(o + best * d, 1.0) : vec4(0.0));
     imageStore(g_normal, p, vec4(n, 0.0));
@@ -92,13 +115,19 @@ void main() {
 /// What the example measured.
 #[derive(Debug)]
 pub struct PostProcessReport {
-    /// Relative RMSE of the GPU residual against the CPU twin, per
-    /// integration (brute force, hierarchical).
-    pub relative_rmse: Vec<(Integration, f64)>,
-    /// Mean of the residual over the twin's mean, per integration.
-    pub mean_ratio: Vec<(Integration, f64)>,
-    /// Mean residual radiance (the energy the bound removed and SSBC gives back).
+    /// Relative RMSE of the GPU residual against the CPU twin, per G-buffer
+    /// layers (1, or 2 with the hidden surfaces) and integration (brute
+    /// force, hierarchical).
+    pub relative_rmse: Vec<(u32, Integration, f64)>,
+    /// Mean of the residual over the twin's mean, likewise.
+    pub mean_ratio: Vec<(u32, Integration, f64)>,
+    /// Mean residual radiance (the energy the bound removed and SSBC gives
+    /// back), with one layer.
     pub mean_residual: f64,
+    /// The same with the second layer: what the hidden surfaces add.
+    pub mean_residual_two_layers: f64,
+    /// Pixels of the second layer with a surface.
+    pub hidden_pixels: usize,
     /// Mean of the host's clamped lighting S0.
     pub mean_s0: f64,
     /// Validation messages.
@@ -121,6 +150,32 @@ struct HostKernel {
 }
 
 impl HostKernel {
+    /// Records the kernel over `groups` work groups with `set` and `push`.
+    fn dispatch(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: vk::DescriptorSet,
+        push: &[u8],
+        groups: (u32, u32),
+    ) {
+        let raw = &self.device.raw;
+        // SAFETY: recording into the host's command buffer; the pipeline,
+        // its layout and the set are live and match.
+        unsafe {
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[set],
+                &[],
+            );
+            raw.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
+        }
+    }
+
     fn new(
         device: &Arc<Device>,
         spirv: &[u32],
@@ -247,6 +302,21 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         image("host.s0")?,
         image("host.output")?,
     );
+    // The second layer (hidden surfaces), at half resolution.
+    let (w1, h1) = (w.div_ceil(2), h.div_ceil(2));
+    let half_image = |name: &str| {
+        Image::new(
+            &device,
+            name,
+            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w1, h1, usage),
+        )
+    };
+    let hidden = [
+        half_image("host.layer1.position")?,
+        half_image("host.layer1.normal")?,
+        half_image("host.layer1.albedo")?,
+        half_image("host.layer1.s0")?,
+    ];
     // 64 VPLs on the floor near the corner, facing up.
     let vpl_data: Vec<[f32; 12]> = (0..64)
         .map(|i| {
@@ -273,12 +343,13 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         &vpl_data,
         vk::BufferUsageFlags::STORAGE_BUFFER,
     )?;
-    let readback: Vec<Buffer> = (0..5)
+    let readback: Vec<Buffer> = (0..9)
         .map(|i| {
+            let texels = if i < 5 { w * h } else { w1 * h1 };
             Buffer::new(
                 &device,
                 &format!("host.readback{i}"),
-                w as u64 * h as u64 * 16,
+                texels as u64 * 16,
                 vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )
@@ -306,17 +377,17 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         let sizes = [
             vk::DescriptorPoolSize {
                 ty: storage,
-                descriptor_count: 7,
+                descriptor_count: 14,
             },
             vk::DescriptorPoolSize {
                 ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: 1,
+                descriptor_count: 2,
             },
         ];
         (
             raw.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(2)
+                    .max_sets(4)
                     .pool_sizes(&sizes),
                 None,
             )?,
@@ -329,8 +400,9 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
             raw.create_fence(&vk::FenceCreateInfo::default(), None)?,
         )
     };
-    let layouts = [gbuffer_kernel.set_layout, lighting_kernel.set_layout];
-    // SAFETY: the pool was sized for these two sets.
+    // G-buffer and lighting sets of layer 0, then of layer 1.
+    let layouts = [gbuffer_kernel.set_layout, lighting_kernel.set_layout].repeat(2);
+    // SAFETY: the pool was sized for these four sets.
     let sets = unsafe {
         raw.allocate_descriptor_sets(
             &vk::DescriptorSetAllocateInfo::default()
@@ -344,33 +416,34 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
             .image_layout(vk::ImageLayout::GENERAL)]
     };
     let infos = [
-        image_info(&position),
-        image_info(&normal),
-        image_info(&albedo),
-        image_info(&s0),
+        [&position, &normal, &albedo, &s0].map(image_info),
+        [&hidden[0], &hidden[1], &hidden[2], &hidden[3]].map(image_info),
     ];
     let buffer_info = [vk::DescriptorBufferInfo::default()
         .buffer(vpls.raw)
         .range(vk::WHOLE_SIZE)];
     let mut writes = Vec::new();
-    for (set, count) in [(sets[0], 3), (sets[1], 4)] {
-        for (i, info) in infos.iter().take(count).enumerate() {
-            writes.push(
-                vk::WriteDescriptorSet::default()
-                    .dst_set(set)
-                    .dst_binding(i as u32)
-                    .descriptor_type(storage)
-                    .image_info(info),
-            );
+    for (layer, infos) in infos.iter().enumerate() {
+        let (gbuffer_set, lighting_set) = (sets[2 * layer], sets[2 * layer + 1]);
+        for (set, count) in [(gbuffer_set, 3), (lighting_set, 4)] {
+            for (i, info) in infos.iter().take(count).enumerate() {
+                writes.push(
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(set)
+                        .dst_binding(i as u32)
+                        .descriptor_type(storage)
+                        .image_info(info),
+                );
+            }
         }
+        writes.push(
+            vk::WriteDescriptorSet::default()
+                .dst_set(lighting_set)
+                .dst_binding(4)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .buffer_info(&buffer_info),
+        );
     }
-    writes.push(
-        vk::WriteDescriptorSet::default()
-            .dst_set(sets[1])
-            .dst_binding(4)
-            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-            .buffer_info(&buffer_info),
-    );
     // SAFETY: every write points at live descriptors of matching types.
     unsafe { raw.update_descriptor_sets(&writes, &[]) };
     // SAFETY: allocating one primary buffer from the host's pool.
@@ -394,6 +467,9 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         .iter()
         .flat_map(|v| [v.x, v.y, v.z, 0.0])
         .collect();
+    // Layer 1: at least 5 cm behind layer 0 (eye.w).
+    let mut layer1_push = camera_push.clone();
+    layer1_push[3] = 0.05;
     let bound = 1.0f32;
     let mut light_push = 64u32.to_ne_bytes().to_vec();
     light_push.extend(bound.to_ne_bytes());
@@ -403,24 +479,33 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         image: img.raw,
         view: img.view,
         format: vk::Format::R32G32B32A32_SFLOAT,
-        extent: (w, h),
+        extent: (img.desc.width, img.desc.height),
         layout: vk::ImageLayout::GENERAL,
     };
+    let half_host_image = host_image;
     let mut report = PostProcessReport {
         relative_rmse: Vec::new(),
         mean_ratio: Vec::new(),
         mean_residual: 0.0,
+        mean_residual_two_layers: 0.0,
+        hidden_pixels: 0,
         mean_s0: 0.0,
         validation_messages: 0,
     };
-    for integration in [Integration::Brute, Integration::Hierarchical] {
+    // One layer, then with the second layer of hidden surfaces.
+    let runs = [1, 2].into_iter().flat_map(|layers| {
+        [Integration::Brute, Integration::Hierarchical].map(|integration| (layers, integration))
+    });
+    for (layers, integration) in runs {
         let settings = SsbcSettings {
             steps: 1,
             integration,
             ..Default::default()
         };
         let groups = (w.div_ceil(8), h.div_ceil(8));
+        let groups1 = (w1.div_ceil(8), h1.div_ceil(8));
         let all = [&position, &normal, &albedo, &s0, &output];
+        let everything: Vec<&Image> = all.iter().copied().chain(&hidden).collect();
         // SAFETY (recording): the host's command buffer, pipelines and sets
         // are live; the previous submission's fence was waited on.
         unsafe {
@@ -430,67 +515,37 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                 &vk::CommandBufferBeginInfo::default()
                     .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )?;
-            let to_general: Vec<_> = all
-                .iter()
-                .map(|&i| (i, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL))
-                .collect();
-            host_barrier(
-                &device,
-                cmd,
-                &to_general,
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            );
-            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, gbuffer_kernel.pipeline);
-            raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                gbuffer_kernel.layout,
-                0,
-                &[sets[0]],
-                &[],
-            );
-            raw.cmd_push_constants(
-                cmd,
-                gbuffer_kernel.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::cast_slice(&camera_push),
-            );
-            raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
-            let gbuffer_done: Vec<_> = all[..3]
-                .iter()
-                .map(|&i| (i, vk::ImageLayout::GENERAL, vk::ImageLayout::GENERAL))
-                .collect();
-            host_barrier(
-                &device,
-                cmd,
-                &gbuffer_done,
-                vk::PipelineStageFlags2::COMPUTE_SHADER,
-                vk::AccessFlags2::SHADER_STORAGE_READ,
-            );
-            raw.cmd_bind_pipeline(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                lighting_kernel.pipeline,
-            );
-            raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                lighting_kernel.layout,
-                0,
-                &[sets[1]],
-                &[],
-            );
-            raw.cmd_push_constants(
-                cmd,
-                lighting_kernel.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                &light_push,
-            );
-            raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
         }
+        let to_general: Vec<_> = everything
+            .iter()
+            .map(|&i| (i, vk::ImageLayout::UNDEFINED, vk::ImageLayout::GENERAL))
+            .collect();
+        host_barrier(
+            &device,
+            cmd,
+            &to_general,
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        );
+        // Both layers' G-buffers, then both layers' lighting.
+        let camera = bytemuck::cast_slice(&camera_push);
+        let camera1 = bytemuck::cast_slice(&layer1_push);
+        gbuffer_kernel.dispatch(cmd, sets[0], camera, groups);
+        gbuffer_kernel.dispatch(cmd, sets[2], camera1, groups1);
+        let gbuffer_done: Vec<_> = [&all[..3], &[&hidden[0], &hidden[1], &hidden[2]][..]]
+            .concat()
+            .into_iter()
+            .map(|i| (i, vk::ImageLayout::GENERAL, vk::ImageLayout::GENERAL))
+            .collect();
+        host_barrier(
+            &device,
+            cmd,
+            &gbuffer_done,
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ,
+        );
+        lighting_kernel.dispatch(cmd, sets[1], &light_push, groups);
+        lighting_kernel.dispatch(cmd, sets[3], &light_push, groups1);
 
         // --- SSBC, recorded into the host's command buffer. ---
         post.record(
@@ -507,7 +562,12 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                 yfov,
                 bound,
                 typical_depth: 2.0,
-                hidden: None,
+                hidden: (layers == 2).then(|| PostProcessLayer {
+                    position: half_host_image(&hidden[0]),
+                    normal: half_host_image(&hidden[1]),
+                    albedo: half_host_image(&hidden[2]),
+                    s0: half_host_image(&hidden[3]),
+                }),
             },
             &settings,
             PostOutput::Residual(1),
@@ -518,6 +578,7 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         unsafe {
             let mut layouts: Vec<_> = all[..4]
                 .iter()
+                .chain(&hidden.iter().collect::<Vec<_>>())
                 .map(|&i| {
                     (
                         i,
@@ -538,7 +599,8 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                 vk::PipelineStageFlags2::COPY,
                 vk::AccessFlags2::TRANSFER_READ,
             );
-            for (img, buffer) in all.iter().zip(&readback) {
+            let order: Vec<&Image> = all.iter().copied().chain(&hidden).collect();
+            for (img, buffer) in order.iter().zip(&readback) {
                 let region = vk::BufferImageCopy::default()
                     .image_subresource(vk::ImageSubresourceLayers {
                         aspect_mask: vk::ImageAspectFlags::COLOR,
@@ -547,8 +609,8 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                         layer_count: 1,
                     })
                     .image_extent(vk::Extent3D {
-                        width: w,
-                        height: h,
+                        width: img.desc.width,
+                        height: img.desc.height,
                         depth: 1,
                     });
                 raw.cmd_copy_image_to_buffer(
@@ -589,18 +651,24 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
             normal: &read[1],
             albedo: &read[2],
         };
-        let twin = BruteForceTwin::new(
-            &g,
-            &read[3],
-            TwinCamera {
-                position: eye,
-                forward,
-                pixel_side: 2.0 * tan / h as f32,
-                min_cos_view: settings.min_cos_view,
-            },
-            bound,
-        )
-        .image();
+        let twin_camera = TwinCamera {
+            position: eye,
+            forward,
+            pixel_side: 2.0 * tan / h as f32,
+            min_cos_view: settings.min_cos_view,
+        };
+        let g1 = GBufferView {
+            width: w1,
+            height: h1,
+            position: &read[5],
+            normal: &read[6],
+            albedo: &read[7],
+        };
+        let mut twin = BruteForceTwin::new(&g, &read[3], twin_camera, bound);
+        if layers == 2 {
+            twin = twin.with_second_layer(&g1, &read[8], twin_camera);
+        }
+        let twin = twin.image();
         let gpu = &read[4];
         let (mut err, mut norm, mut sum_gpu, mut sum_twin) = (0f64, 0f64, 0f64, 0f64);
         for (i, (a, b)) in gpu.iter().zip(&twin).enumerate() {
@@ -614,12 +682,17 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         }
         report
             .relative_rmse
-            .push((integration, (err / norm.max(1e-30)).sqrt()));
+            .push((layers, integration, (err / norm.max(1e-30)).sqrt()));
         report
             .mean_ratio
-            .push((integration, sum_gpu / sum_twin.max(1e-30)));
+            .push((layers, integration, sum_gpu / sum_twin.max(1e-30)));
         let pixels = w as f64 * h as f64;
-        report.mean_residual = sum_twin / (pixels * 3.0);
+        if layers == 1 {
+            report.mean_residual = sum_twin / (pixels * 3.0);
+        } else {
+            report.mean_residual_two_layers = sum_twin / (pixels * 3.0);
+        }
+        report.hidden_pixels = read[5].chunks_exact(4).filter(|p| p[3] != 0.0).count();
         report.mean_s0 = read[3]
             .chunks_exact(4)
             .map(|p| (p[0] + p[1] + p[2]) as f64)
@@ -635,7 +708,7 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         raw.destroy_descriptor_pool(descriptor_pool, None);
     }
     drop((gbuffer_kernel, lighting_kernel));
-    drop((position, normal, albedo, s0, output, vpls, readback));
+    drop((position, normal, albedo, s0, output, hidden, vpls, readback));
     drop(device);
     report.validation_messages = log.total();
     Ok(report)
@@ -643,17 +716,21 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let report = run(160, 120)?;
-    for ((integration, rmse), (_, ratio)) in report.relative_rmse.iter().zip(&report.mean_ratio) {
+    for ((layers, integration, rmse), (.., ratio)) in
+        report.relative_rmse.iter().zip(&report.mean_ratio)
+    {
         println!(
-            "{integration:?}: residual vs CPU twin: relative RMSE {:.2e}, mean ratio {ratio:.5}",
+            "{layers} layer(s), {integration:?}: residual vs CPU twin: relative RMSE {:.2e}, mean ratio {ratio:.5}",
             rmse
         );
     }
     println!(
-        "mean S0 {:.4}, mean residual {:.4} ({:.1}% of S0); {} validation messages",
+        "mean S0 {:.4}, mean residual {:.4} ({:.1}% of S0), {:.4} with the second layer ({} hidden pixels); {} validation messages",
         report.mean_s0,
         report.mean_residual,
         100.0 * report.mean_residual / report.mean_s0,
+        report.mean_residual_two_layers,
+        report.hidden_pixels,
         report.validation_messages
     );
     Ok(())

@@ -13,6 +13,18 @@ use ssbc::passes::ssbc::Integration;
 fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
     let report = postprocess::run(96, 72).expect("post-process example");
     assert_eq!(report.validation_messages, 0);
+    // The second layer holds hidden surfaces, and they add light.
+    assert!(
+        report.hidden_pixels > 30,
+        "{} hidden pixels",
+        report.hidden_pixels
+    );
+    assert!(
+        report.mean_residual_two_layers > 1.02 * report.mean_residual,
+        "residual {} with two layers, {} with one",
+        report.mean_residual_two_layers,
+        report.mean_residual
+    );
     // The bound must bite for the check to mean anything.
     assert!(
         report.mean_residual > 0.01 * report.mean_s0,
@@ -20,8 +32,12 @@ fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
         report.mean_residual,
         report.mean_s0
     );
-    for ((integration, rmse), (_, ratio)) in report.relative_rmse.iter().zip(&report.mean_ratio) {
-        eprintln!("{integration:?}: relative RMSE {rmse:.2e}, mean ratio {ratio:.5}");
+    for ((layers, integration, rmse), (.., ratio)) in
+        report.relative_rmse.iter().zip(&report.mean_ratio)
+    {
+        eprintln!(
+            "{layers} layer(s), {integration:?}: relative RMSE {rmse:.2e}, mean ratio {ratio:.5}"
+        );
         let (max_rmse, max_mean) = match integration {
             Integration::Brute => (1e-4, 1e-4),
             Integration::Hierarchical => (0.03, 0.02),

@@ -58,6 +58,9 @@ pub struct BruteForceTwin<'a> {
     bound: f32,
     geometry: Vec<usize>,
     area: Vec<f32>,
+    /// Sources only: a second G-buffer layer, its term, and its pixels'
+    /// (position, normal, area x term).
+    hidden: Vec<(Vec3, Vec3, Vec3)>,
 }
 
 fn vec3_at(buf: &[f32], i: usize) -> Vec3 {
@@ -90,7 +93,36 @@ impl<'a> BruteForceTwin<'a> {
             bound,
             geometry,
             area,
+            hidden: Vec::new(),
         }
+    }
+
+    /// Adds the pixels of a second G-buffer layer at half resolution (a
+    /// deep G-buffer's, as `SsbcPostProcess` takes it) as sources: each
+    /// stands for 2 x 2 pixels of the image (four times the area).
+    pub fn with_second_layer(
+        mut self,
+        g: &GBufferView<'_>,
+        s_prev: &[f32],
+        camera: TwinCamera,
+    ) -> Self {
+        let n = (g.width * g.height) as usize;
+        self.hidden = (0..n)
+            .filter(|&i| g.position[i * 4 + 3] != 0.0)
+            .map(|i| {
+                let (p, normal) = (vec3_at(g.position, i), vec3_at(g.normal, i));
+                let area = pixel_area(
+                    p,
+                    normal,
+                    camera.position,
+                    camera.forward,
+                    2.0 * camera.pixel_side,
+                    camera.min_cos_view,
+                );
+                (p, normal, area * vec3_at(s_prev, i))
+            })
+            .collect();
+        self
     }
 
     /// The residual (RGB) at pixel index `i` (row-major).
@@ -111,6 +143,16 @@ impl<'a> BruteForceTwin<'a> {
             let w = d / d2.sqrt();
             let gterm = nx.dot(w).max(0.0) * (-vec3_at(g.normal, j).dot(w)).max(0.0) / d2;
             sum += (gterm - self.bound).max(0.0) * self.area[j] * vec3_at(self.s_prev, j);
+        }
+        for &(y, ny, area_s) in &self.hidden {
+            let d = y - x;
+            let d2 = d.length_squared();
+            if d2 >= r2 || d2 < 1e-12 {
+                continue;
+            }
+            let w = d / d2.sqrt();
+            let gterm = nx.dot(w).max(0.0) * (-ny.dot(w)).max(0.0) / d2;
+            sum += (gterm - self.bound).max(0.0) * area_s;
         }
         vec3_at(g.albedo, i) / std::f32::consts::PI * sum
     }
