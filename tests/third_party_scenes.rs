@@ -8,7 +8,7 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::reference::{Reference, ReferenceSettings};
 use ssbc::Scene;
@@ -162,25 +162,8 @@ fn geometry_share(scene: &Scene) -> f64 {
 
 /// A box of `size` standing on y = 0 at (`x`, `z`).
 fn add_box(scene: &mut Scene, x: f32, z: f32, size: Vec3, material: u32) {
-    let h = size * 0.5;
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
-    for axis in 0..3 {
-        for sign in [-1.0f32, 1.0] {
-            let mut n = Vec3::ZERO;
-            n[axis] = sign;
-            let u = n.any_orthonormal_vector();
-            let v = n.cross(u);
-            let base = positions.len() as u32;
-            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                positions.push((n + u * a + v * b) * h + Vec3::new(x, h.y, z));
-            }
-            indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
-        }
-    }
-    scene
-        .add_mesh(&positions, &[], &[], &indices, Mat4::IDENTITY, material)
-        .unwrap();
+    let lo = Vec3::new(x - size.x * 0.5, 0.0, z - size.z * 0.5);
+    ssbc::scene::builtin::axis_box(scene, lo, lo + size, material).unwrap();
 }
 
 #[test]

@@ -190,30 +190,7 @@ mod tests {
     fn thin_emissive_box(scene: &mut Scene, lo: Vec3, hi: Vec3) {
         let m = scene.add_material(Vec3::ONE, None);
         scene.materials[m as usize].emission = Vec3::ONE;
-        let (d, c) = (hi - lo, (hi + lo) * 0.5);
-        let mut positions = Vec::new();
-        let mut normals = Vec::new();
-        let mut indices = Vec::new();
-        for axis in 0..3 {
-            for sign in [-1.0f32, 1.0] {
-                let mut n = Vec3::ZERO;
-                n[axis] = sign;
-                let (u, v) = (
-                    n.any_orthonormal_vector(),
-                    n.cross(n.any_orthonormal_vector()),
-                );
-                let base = positions.len() as u32;
-                for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                    positions.push(c + (n + u * a + v * b) * d * 0.5);
-                    normals.push(n);
-                }
-                // Counter-clockwise seen from outside.
-                indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
-            }
-        }
-        scene
-            .add_mesh(&positions, &normals, &[], &indices, glam::Mat4::IDENTITY, m)
-            .unwrap();
+        crate::scene::builtin::axis_box(scene, lo, hi, m).unwrap();
     }
 
     #[test]

@@ -481,28 +481,8 @@ mod tests {
         let wall = scene.add_material(Vec3::splat(0.7), None);
         let lamp = scene.add_material(Vec3::splat(0.7), None);
         scene.materials[lamp as usize].emission = Vec3::ONE;
-        for axis in 0..3 {
-            for sign in [-1.0f32, 1.0] {
-                let mut n = Vec3::ZERO;
-                n[axis] = sign;
-                let (u, v) = (
-                    n.any_orthonormal_vector(),
-                    n.cross(n.any_orthonormal_vector()),
-                );
-                let p = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-                    .map(|(a, b)| (n + u * a + v * b) * 2.0);
-                scene
-                    .add_mesh(
-                        &p,
-                        &[n; 4],
-                        &[],
-                        &[0, 1, 2, 0, 2, 3],
-                        glam::Mat4::IDENTITY,
-                        wall,
-                    )
-                    .unwrap();
-            }
-        }
+        crate::scene::builtin::axis_box(&mut scene, Vec3::splat(-2.0), Vec3::splat(2.0), wall)
+            .unwrap();
         let q =
             [(-0.3, -0.3), (0.3, -0.3), (0.3, 0.3), (-0.3, 0.3)].map(|(x, z)| Vec3::new(x, 1.9, z));
         scene

@@ -36,15 +36,12 @@ impl DeepGBufferPass {
             &[vk::DescriptorType::STORAGE_IMAGE], // layer 0's positions
         ]
         .concat();
-        let layout = DescriptorSetLayout::new(device, &bindings, vk::ShaderStageFlags::FRAGMENT)?;
-        let pipeline = Pipeline::graphics(
+        let (layout, pipeline) = gbuffer::raster_pipeline(
             device,
-            &gbuffer::pipeline_desc(shaders::GBUFFER_PEEL_FRAG),
-            &[&layout],
-            std::mem::size_of::<Push>() as u32,
+            shaders::GBUFFER_PEEL_FRAG,
+            &bindings,
+            "gbuffer_layer1",
         )?;
-        pipeline.name("gbuffer_layer1");
-        layout.name("gbuffer_layer1 set layout");
         Ok(Self { layout, pipeline })
     }
 }

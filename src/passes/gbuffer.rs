@@ -150,6 +150,26 @@ pub(crate) fn pipeline_desc(fragment: &[u8]) -> GraphicsDesc<'_> {
     }
 }
 
+/// A G-buffer pipeline with `fragment` and its set layout of `bindings`
+/// (fragment stage), named `name`.
+pub(crate) fn raster_pipeline(
+    device: &Arc<Device>,
+    fragment: &[u8],
+    bindings: &[vk::DescriptorType],
+    name: &str,
+) -> Result<(DescriptorSetLayout, Pipeline)> {
+    let layout = DescriptorSetLayout::new(device, bindings, vk::ShaderStageFlags::FRAGMENT)?;
+    let pipeline = Pipeline::graphics(
+        device,
+        &pipeline_desc(fragment),
+        &[&layout],
+        std::mem::size_of::<Push>() as u32,
+    )?;
+    pipeline.name(name);
+    layout.name(&format!("{name} set layout"));
+    Ok((layout, pipeline))
+}
+
 /// The scene's materials and textures, the first three bindings of both
 /// G-buffer layers' fragment shaders.
 pub(crate) const MATERIAL_BINDINGS: [vk::DescriptorType; 3] = [
@@ -185,16 +205,8 @@ pub struct GBufferPass {
 impl GBufferPass {
     /// Creates the pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
-        let layout =
-            DescriptorSetLayout::new(device, &MATERIAL_BINDINGS, vk::ShaderStageFlags::FRAGMENT)?;
-        let pipeline = Pipeline::graphics(
-            device,
-            &pipeline_desc(shaders::GBUFFER_FRAG),
-            &[&layout],
-            std::mem::size_of::<Push>() as u32,
-        )?;
-        pipeline.name("gbuffer");
-        layout.name("gbuffer set layout");
+        let (layout, pipeline) =
+            raster_pipeline(device, shaders::GBUFFER_FRAG, &MATERIAL_BINDINGS, "gbuffer")?;
         Ok(Self { layout, pipeline })
     }
 }

@@ -219,3 +219,36 @@ pub fn tori() -> Scene {
     ));
     s
 }
+
+/// Adds a closed axis-aligned box from `lo` to `hi` whose faces (winding
+/// and normals) point out: the shape of a modelled cube, a lamp housing or
+/// a room made from one.
+pub fn axis_box(scene: &mut Scene, lo: Vec3, hi: Vec3, material: u32) -> crate::Result<()> {
+    let (half, centre) = ((hi - lo) * 0.5, (hi + lo) * 0.5);
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut indices = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let u = n.any_orthonormal_vector();
+            let v = n.cross(u);
+            let base = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(centre + (n + u * a + v * b) * half);
+                normals.push(n);
+            }
+            // Counter-clockwise seen from outside (u x v = n).
+            indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    scene.add_mesh(
+        &positions,
+        &normals,
+        &[],
+        &indices,
+        Mat4::IDENTITY,
+        material,
+    )
+}
