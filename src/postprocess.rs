@@ -192,18 +192,7 @@ impl SsbcPostProcess {
         Ok(extent)
     }
 
-    /// Records SSBC for the frame in `slot` into the host's command buffer
-    /// `cmd` (recording, outside any render pass). See the module
-    /// documentation for layouts and synchronisation.
-    pub fn record(
-        &mut self,
-        cmd: vk::CommandBuffer,
-        slot: usize,
-        inputs: &PostProcessInputs,
-        settings: &SsbcSettings,
-        output: PostOutput,
-    ) -> Result<()> {
-        let (w, h) = Self::check(inputs)?;
+    fn check_settings(settings: &SsbcSettings, output: PostOutput) -> Result<()> {
         settings.validate()?;
         if settings.steps == 0 {
             return Err(Error::InvalidParameter(
@@ -218,6 +207,22 @@ impl SsbcPostProcess {
                 )));
             }
         }
+        Ok(())
+    }
+
+    /// Records SSBC for the frame in `slot` into the host's command buffer
+    /// `cmd` (recording, outside any render pass). See the module
+    /// documentation for layouts and synchronisation.
+    pub fn record(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        inputs: &PostProcessInputs,
+        settings: &SsbcSettings,
+        output: PostOutput,
+    ) -> Result<()> {
+        let (w, h) = Self::check(inputs)?;
+        Self::check_settings(settings, output)?;
         let slot_count = self.slots.len();
         let entry = self
             .slots

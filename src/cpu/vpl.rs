@@ -192,31 +192,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
             (origin, dir, flux)
         } else {
-            let light = &scene.lights[li];
-            match light.kind {
-                LightKind::Point => (
-                    light.position,
-                    uniform_sphere(u1),
-                    light_power(light, radius),
-                ),
-                LightKind::Spot { outer_cone, .. } => {
-                    let cos_max = outer_cone.cos();
-                    let dir = uniform_cone(light.direction, cos_max, u1);
-                    let pdf = 1.0 / (2.0 * std::f32::consts::PI * (1.0 - cos_max));
-                    (
-                        light.position,
-                        dir,
-                        light.intensity * light.spot_factor(dir) / pdf,
-                    )
-                }
-                LightKind::Directional => {
-                    let (t, b) = super::sampling::basis(light.direction);
-                    let d = uniform_disk(u2) * radius;
-                    let origin =
-                        bounds.center() - light.direction * (2.0 * radius) + t * d.x + b * d.y;
-                    (origin, light.direction, light_power(light, radius))
-                }
-            }
+            punctual_start(&scene.lights[li], radius, &bounds, u1, u2)
         };
         flux /= p_light;
         path += 1;
@@ -244,6 +220,42 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         })
         .collect();
     Ok(set)
+}
+
+/// Where a light path from the punctual light `light` starts, in which
+/// direction, and with which flux (before dividing by the light's choice
+/// probability); `radius` sizes the disk standing in for a directional
+/// light, `u1` and `u2` are its random numbers.
+fn punctual_start(
+    light: &Light,
+    radius: f32,
+    bounds: &crate::scene::Bounds,
+    u1: Vec2,
+    u2: Vec2,
+) -> (Vec3, Vec3, Vec3) {
+    match light.kind {
+        LightKind::Point => (
+            light.position,
+            uniform_sphere(u1),
+            light_power(light, radius),
+        ),
+        LightKind::Spot { outer_cone, .. } => {
+            let cos_max = outer_cone.cos();
+            let dir = uniform_cone(light.direction, cos_max, u1);
+            let pdf = 1.0 / (2.0 * std::f32::consts::PI * (1.0 - cos_max));
+            (
+                light.position,
+                dir,
+                light.intensity * light.spot_factor(dir) / pdf,
+            )
+        }
+        LightKind::Directional => {
+            let (t, b) = super::sampling::basis(light.direction);
+            let d = uniform_disk(u2) * radius;
+            let origin = bounds.center() - light.direction * (2.0 * radius) + t * d.x + b * d.y;
+            (origin, light.direction, light_power(light, radius))
+        }
+    }
 }
 
 /// Follows light path `path` from `origin` along `dir` carrying `flux`: a
