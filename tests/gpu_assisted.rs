@@ -1,5 +1,6 @@
 //! Shaders checked for out-of-bounds accesses: the ISM, bounded-gather
-//! (interleaved with 4x4 and 3x3 patterns, and full) and SSBC passes (and
+//! (interleaved with 4x4 and 3x3 patterns, and full) and SSBC passes (with
+//! one and two G-buffer layers; and
 //! the rest of the frame) under GPU-assisted validation, which instruments
 //! every buffer and image access; a deliberately out-of-bounds kernel shows
 //! the check can fail. And no layer of a frame holds a NaN or an infinity.
@@ -32,10 +33,18 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
         open_box,
     ];
     for scene in &scenes {
-        for (size, integration, bound, pattern) in [
-            ((96, 72), Integration::Hierarchical, Bound::Auto, 4),
-            ((130, 98), Integration::Hierarchical, Bound::Value(2.0), 3),
-            ((40, 30), Integration::Brute, Bound::Auto, 1),
+        // (The odd size and brute force also with the second G-buffer layer:
+        // its half-resolution images and pyramid, 65 x 49 and 20 x 15.)
+        for (size, integration, bound, pattern, layers) in [
+            ((96, 72), Integration::Hierarchical, Bound::Auto, 4, 1),
+            (
+                (130, 98),
+                Integration::Hierarchical,
+                Bound::Value(2.0),
+                3,
+                2,
+            ),
+            ((40, 30), Integration::Brute, Bound::Auto, 1, 2),
         ] {
             let mut s = common::small(size.0, size.1);
             match pattern {
@@ -49,6 +58,7 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
             s.bound = bound;
             s.ssbc.steps = 2;
             s.ssbc.integration = integration;
+            s.ssbc.layers = layers;
             renderer.render(scene, &s).expect("render");
         }
     }
