@@ -34,9 +34,8 @@ pub struct EmissionReach {
 }
 
 impl EmissionReach {
-    /// Traces 4096 light paths' first segments from the emitters of `scene`.
-    pub fn measure(scene: &Scene, bvh: &SceneBvh) -> Self {
-        let emitters = Emitters::new(scene);
+    /// Traces 4096 light paths' first segments from `emitters`, those of `scene`.
+    pub fn measure(scene: &Scene, bvh: &SceneBvh, emitters: &Emitters) -> Self {
         let area: f32 = (0..scene.triangle_count())
             .map(|t| {
                 let i = &scene.indices[t * 3..t * 3 + 3];
@@ -98,10 +97,11 @@ impl Scene {
         let bvh = SceneBvh::new(self);
         // Emissive triangles light the scene, not emissive materials: a
         // file may define an emissive material no triangle uses.
-        let reason = if Emitters::new(self).is_empty() {
+        let emitters = Emitters::new(self);
+        let reason = if emitters.is_empty() {
             "has no lights".to_string()
         } else {
-            let e = EmissionReach::measure(self, &bvh);
+            let e = EmissionReach::measure(self, &bvh, &emitters);
             if e.lights_the_scene() {
                 log::info!(
                     "scene '{}' is lit by its emitters: {:.3} W, {:.1}% of it reflected by the first surface it meets, {:.2e} W/m² over the scene",
