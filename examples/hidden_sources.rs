@@ -13,18 +13,27 @@
 //! SSBC with Kollig–Keller and the clamped VPL sum of the CPU reference
 //! (the same VPLs).
 //!
-//! `cargo run --release --example hidden_sources -- [SCENE] [--size WxH] [--vpls N] [--bound B] [--spp N]`
+//! `--twin` adds the CPU twin: SSBC's brute force on exact G-buffers (ray
+//! cast at pixel centres) with exact S0, and the ceiling over all steps
+//! (Kollig–Keller's residual paths whose every source lies on layer 0, or on
+//! layers 0 and 1). `--camera-shift DX,DY` moves the camera sideways (metres)
+//! to change the pixel grid's phase against the scene's edges.
+//!
+//! `cargo run --release --example hidden_sources -- [SCENE] [--size WxH] [--vpls N] [--bound B] [--spp N] [--twin] [--camera-shift DX,DY]`
 //! (default: assets/open-front-box.gltf, 160x120, 256 VPLs, b = 0.5, 64 spp).
 
 use std::sync::atomic::AtomicBool;
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use ssbc::cpu::bvh::Surface;
 use ssbc::cpu::emitters::luminance;
 use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::sampling::{cosine_hemisphere, Halton};
+use ssbc::cpu::ssbc::pixel_area;
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
+use ssbc::scene::Scene;
 
 /// Where a residual source lies.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -63,7 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let i = args.iter().position(|a| a == flag)?;
         args.get(i + 1).cloned()
     };
-    let flags = ["--size", "--vpls", "--bound", "--spp"];
+    let flags = ["--size", "--vpls", "--bound", "--spp", "--camera-shift"];
     let scene_name = args
         .iter()
         .enumerate()
@@ -80,6 +89,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spp: u32 = value("--spp").and_then(|v| v.parse().ok()).unwrap_or(64);
     let mut scene = ssbc::scene::load(&scene_name)?;
     scene.ensure_light();
+    if let Some((dx, dy)) = value("--camera-shift").and_then(|v| {
+        let (x, y) = v.split_once(',')?;
+        Some((x.parse::<f32>().ok()?, y.parse::<f32>().ok()?))
+    }) {
+        // Moves the camera sideways (metres, in its own right/up axes): the
+        // pixel grid's phase against the scene's edges changes.
+        let mut camera = scene.camera(None)?;
+        let right = camera.forward.cross(camera.up).normalize();
+        camera.position += right * dx + camera.up * dy;
+        scene.cameras = vec![camera];
+    }
     let centre = |i: usize| {
         let (x, y) = ((i as u32) % w, (i as u32) / w);
         (w / 4..3 * w / 4).contains(&x) && (h / 4..3 * h / 4).contains(&y)
@@ -136,6 +156,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 100.0 * share(&centre)
             );
         }
+    }
+
+    if args.iter().any(|a| a == "--twin") {
+        let truth = Truth {
+            kk: &kk,
+            clamped: &clamped,
+            width: w,
+            height: h,
+        };
+        twin_report(&scene, &truth, bound, spp, &vpl)?;
     }
 
     // The ceiling: where the true residual's sources lie.
@@ -279,5 +309,309 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
     }
+    Ok(())
+}
+
+/// The true residual per pixel (Kollig–Keller minus the clamped VPL sum).
+struct Truth<'a> {
+    kk: &'a [f32],
+    clamped: &'a [f32],
+    width: u32,
+    height: u32,
+}
+
+impl Truth<'_> {
+    fn in_centre(&self, i: usize) -> bool {
+        let (w, h) = (self.width, self.height);
+        let (x, y) = ((i as u32) % w, (i as u32) / w);
+        (w / 4..3 * w / 4).contains(&x) && (h / 4..3 * h / 4).contains(&y)
+    }
+
+    /// Mean true residual (luminance) over the whole image and its centre.
+    fn means(&self) -> (f64, f64) {
+        let at = |i: usize| {
+            let (a, b) = (&self.kk[i * 4..i * 4 + 3], &self.clamped[i * 4..i * 4 + 3]);
+            luminance(Vec3::from_slice(a) - Vec3::from_slice(b)) as f64
+        };
+        let n = (self.width * self.height) as usize;
+        let whole = (0..n).map(at).sum::<f64>() / n as f64;
+        let centre: Vec<usize> = (0..n).filter(|&i| self.in_centre(i)).collect();
+        let c = centre.iter().map(|&i| at(i)).sum::<f64>() / centre.len() as f64;
+        (whole, c)
+    }
+}
+
+/// A screen-space source and receiver of the CPU twin: a layer-0 pixel or
+/// a layer-1 (half-resolution) pixel, on exact geometry.
+struct TwinPoint {
+    surface: Surface,
+    area: f32,
+    /// S0: direct light plus the clamped VPL sum with exact visibility.
+    s0: Vec3,
+    /// The layer-0 pixel, or None on layer 1.
+    pixel: Option<usize>,
+}
+
+/// Ray-cast G-buffers at pixel centres: layer 0, then (with `layers` 2)
+/// layer 1 as the GPU peels it: per 2 x 2 block, the nearest surface at least
+/// `separation` beyond the farthest of its four layer-0 depths, back faces
+/// included, with outward normals.
+fn twin_points(
+    tracer: &Reference,
+    scene: &Scene,
+    truth: &Truth,
+    layers: u32,
+    separation: f32,
+) -> Vec<TwinPoint> {
+    let (bvh, camera) = (tracer.bvh(), tracer.camera());
+    let (w, h) = (truth.width, truth.height);
+    let pixel_side = 2.0 * (camera.yfov * 0.5).tan() / h as f32;
+    let min_cos_view = ssbc::settings::SsbcSettings::default().min_cos_view;
+    let point = |surface: Surface, side: f32, pixel: Option<usize>| TwinPoint {
+        area: pixel_area(
+            surface.position,
+            surface.normal,
+            camera.position,
+            camera.forward,
+            side,
+            min_cos_view,
+        ),
+        s0: tracer.clamped_radiance(&surface),
+        surface,
+        pixel,
+    };
+    let mut depth = vec![f32::INFINITY; (w * h) as usize];
+    let mut points = Vec::new();
+    for (i, d) in depth.iter_mut().enumerate() {
+        let dir = camera.pixel_ray((i as u32 % w) as f32, (i as u32 / w) as f32, w, h);
+        if let Some(hit) = bvh.intersect_camera(scene, camera.position, dir) {
+            *d = hit.t * dir.dot(camera.forward);
+            points.push(point(bvh.surface(scene, &hit, -dir), pixel_side, Some(i)));
+        }
+    }
+    if layers < 2 {
+        return points;
+    }
+    for y in 0..h / 2 {
+        for x in 0..w / 2 {
+            let far = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                .map(|(dx, dy)| depth[((2 * y + dy) * w + 2 * x + dx) as usize])
+                .into_iter()
+                .fold(0.0f32, f32::max);
+            if !far.is_finite() {
+                continue;
+            }
+            let dir = camera.pixel_ray(2.0 * x as f32 + 0.5, 2.0 * y as f32 + 0.5, w, h);
+            let tmin = (far + separation) / dir.dot(camera.forward);
+            if let Some(hit) = bvh.intersect(camera.position, dir, tmin, f32::INFINITY) {
+                let mut s = bvh.surface(scene, &hit, -dir);
+                if !s.front {
+                    s.normal = -s.normal;
+                    s.geometric_normal = -s.geometric_normal;
+                }
+                points.push(point(s, 2.0 * pixel_side, None));
+            }
+        }
+    }
+    points
+}
+
+/// K brute-force SSBC steps over every point pair (no visibility, as on the
+/// GPU): per step, the recovered share of the true residual (whole, centre).
+fn twin_steps(points: &[TwinPoint], truth: &Truth, bound: f32, steps: u32) -> Vec<(f64, f64)> {
+    let r2 = 1.0 / bound;
+    let (truth_whole, truth_centre) = truth.means();
+    let n = (truth.width * truth.height) as usize;
+    let n_centre = (0..n).filter(|&i| truth.in_centre(i)).count() as f64;
+    let mut source: Vec<Vec3> = points.iter().map(|p| p.s0).collect();
+    let mut total = vec![Vec3::ZERO; points.len()];
+    let mut shares = Vec::new();
+    for _ in 0..steps {
+        source = points
+            .par_iter()
+            .map(|x| {
+                let (px, nx) = (x.surface.position, x.surface.normal);
+                let mut sum = Vec3::ZERO;
+                for (y, s) in points.iter().zip(&source) {
+                    let d = y.surface.position - px;
+                    let d2 = d.length_squared();
+                    if d2 >= r2 || d2 < 1e-12 {
+                        continue;
+                    }
+                    let dir = d / d2.sqrt();
+                    let g = nx.dot(dir).max(0.0) * (-y.surface.normal.dot(dir)).max(0.0) / d2;
+                    sum += (g - bound).max(0.0) * y.area * *s;
+                }
+                x.surface.albedo / std::f32::consts::PI * sum
+            })
+            .collect();
+        let (mut whole, mut centre) = (0.0, 0.0);
+        for ((p, t), s) in points.iter().zip(&mut total).zip(&source) {
+            *t += *s;
+            if let Some(i) = p.pixel {
+                let v = luminance(*t) as f64;
+                whole += v;
+                if truth.in_centre(i) {
+                    centre += v;
+                }
+            }
+        }
+        shares.push((
+            whole / n as f64 / truth_whole,
+            centre / n_centre / truth_centre,
+        ));
+    }
+    shares
+}
+
+/// Kollig–Keller's residual paths from every layer-0 pixel (8 hops), the
+/// whole and the part whose every residual source is on layer 0 (or on
+/// layers 0 and 1): what a perfect screen-space integration over those
+/// layers could give back, over all steps. Shares of the true residual
+/// (whole, centre) in that order: [layer 0, layers 0 + 1, all].
+fn screen_space_ceiling(
+    tracer: &Reference,
+    scene: &Scene,
+    points: &[TwinPoint],
+    truth: &Truth,
+    bound: f32,
+    spp: u32,
+    separation: f32,
+) -> [(f64, f64); 3] {
+    let (bvh, camera) = (tracer.bvh(), tracer.camera());
+    let layer_of = |q: Vec3| -> u8 {
+        let v = q - camera.position;
+        let t = v.length();
+        let dir = v / t;
+        let tolerance = 1e-3 * t + 1e-4;
+        match bvh.intersect_camera(scene, camera.position, dir) {
+            Some(first) if (first.t - t).abs() <= tolerance => 0,
+            Some(first) => {
+                match bvh.intersect(camera.position, dir, first.t + separation, f32::INFINITY) {
+                    Some(second) if (second.t - t).abs() <= tolerance => 1,
+                    _ => 2,
+                }
+            }
+            None => 2,
+        }
+    };
+    let per_pixel: Vec<(usize, [f64; 3])> = points
+        .par_iter()
+        .filter_map(|p| Some((p.pixel?, p)))
+        .map(|(i, p)| {
+            let halton = Halton::new(i as u64 ^ 0x5EED);
+            let mut out = [0.0; 3];
+            for k in 0..spp as u64 {
+                let (mut s, mut weight, mut deepest) = (p.surface, Vec3::ONE, 0u8);
+                for bounce in 0..8usize {
+                    let u = Vec2::new(
+                        halton.sample(k, 2 * bounce),
+                        halton.sample(k, 2 * bounce + 1),
+                    );
+                    let Some((y, w)) = residual_hop(tracer, scene, &s, u, bound) else {
+                        break;
+                    };
+                    weight *= w;
+                    deepest = deepest.max(layer_of(y.position));
+                    let c = luminance(weight * tracer.clamped_radiance(&y)) as f64 / spp as f64;
+                    for (layer, o) in out.iter_mut().enumerate() {
+                        if usize::from(deepest) <= layer {
+                            *o += c;
+                        }
+                    }
+                    s = y;
+                }
+            }
+            (i, out)
+        })
+        .collect();
+    let (truth_whole, truth_centre) = truth.means();
+    let n = (truth.width * truth.height) as f64;
+    let n_centre = (0..n as usize).filter(|&i| truth.in_centre(i)).count() as f64;
+    [0, 1, 2].map(|k| {
+        let whole: f64 = per_pixel.iter().map(|(_, o)| o[k]).sum();
+        let centre: f64 = per_pixel
+            .iter()
+            .filter(|(i, _)| truth.in_centre(*i))
+            .map(|(_, o)| o[k])
+            .sum();
+        (whole / n / truth_whole, centre / n_centre / truth_centre)
+    })
+}
+
+/// One hop of a residual path: a cosine-sampled ray from `s` to y, kept
+/// where G > b, with the weight albedo (1 - b/G).
+fn residual_hop(
+    tracer: &Reference,
+    scene: &Scene,
+    s: &Surface,
+    u: Vec2,
+    bound: f32,
+) -> Option<(Surface, Vec3)> {
+    let d = cosine_hemisphere(s.normal, u);
+    if d.dot(s.geometric_normal) <= 0.0 {
+        return None;
+    }
+    let origin = s.position + s.geometric_normal * 1e-4 * (1.0 + s.position.abs().max_element());
+    let hit = tracer.bvh().intersect(origin, d, 0.0, f32::INFINITY)?;
+    let y = tracer.bvh().surface(scene, &hit, -d);
+    let g = s.normal.dot(d) * y.normal.dot(-d) / (hit.t * hit.t);
+    (g > bound).then(|| (y, s.albedo * (1.0 - bound / g)))
+}
+
+/// The CPU twin: SSBC's brute force on exact G-buffers with exact S0 (no
+/// GPU approximation left), against the true residual and against the
+/// ceiling of a perfect screen-space integration.
+fn twin_report(
+    scene: &Scene,
+    truth: &Truth,
+    bound: f32,
+    spp: u32,
+    vpl: &VplSettings,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let tracer = Reference::new(
+        scene,
+        ReferenceSettings {
+            width: truth.width,
+            height: truth.height,
+            spp: 1,
+            bounces: 16,
+            method: Method::Vpl,
+            vpl: vpl.clone(),
+            bound,
+            ..Default::default()
+        },
+    )?;
+    let separation =
+        ssbc::settings::SsbcSettings::default().layer_separation * 2.0 * scene.bounds().radius();
+    println!("\n### CPU twin: exact G-buffers, exact S0, brute force\n");
+    println!("| G-buffer layers | 1 step | 2 steps | 3 steps | 3 steps, centre | ceiling, all steps | ceiling, centre |");
+    println!("|---|---|---|---|---|---|---|");
+    let points = twin_points(&tracer, scene, truth, 2, separation);
+    let ceiling = screen_space_ceiling(&tracer, scene, &points, truth, bound, spp, separation);
+    for layers in [1, 2] {
+        let kept: Vec<TwinPoint> = if layers == 1 {
+            twin_points(&tracer, scene, truth, 1, separation)
+        } else {
+            Vec::new()
+        };
+        let pts: &[TwinPoint] = if layers == 1 { &kept } else { &points };
+        let shares = twin_steps(pts, truth, bound, 3);
+        let c = ceiling[layers as usize - 1];
+        println!(
+            "| {layers} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.1}% |",
+            100.0 * shares[0].0,
+            100.0 * shares[1].0,
+            100.0 * shares[2].0,
+            100.0 * shares[2].1,
+            100.0 * c.0,
+            100.0 * c.1
+        );
+    }
+    println!(
+        "\nAll residual paths (8 hops, {spp} per pixel) over Kollig–Keller: {:.1}% (whole), {:.1}% (centre)",
+        100.0 * ceiling[2].0,
+        100.0 * ceiling[2].1
+    );
     Ok(())
 }

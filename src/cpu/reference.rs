@@ -232,6 +232,12 @@ impl<'a> Reference<'a> {
         s.albedo / std::f32::consts::PI * e.radiance * (cos_x * cos_e / d2 / e.pdf_area)
     }
 
+    /// What the VPL method shows at `s`: direct light plus the clamped VPL
+    /// sum with exact visibility (a screen-space method's first source, S0).
+    pub fn clamped_radiance(&self, s: &Surface) -> Vec3 {
+        self.direct(s) + self.vpl_sum(s)
+    }
+
     /// The clamped VPL sum at `s` with exact visibility.
     fn vpl_sum(&self, s: &Surface) -> Vec3 {
         let origin = offset(s);
