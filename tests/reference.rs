@@ -321,3 +321,43 @@ fn unclamped_vpl_lighting_converges_to_the_path_tracer() {
         "relMSE should fall as VPLs grow: {errors:?}"
     );
 }
+
+#[test]
+fn clamped_radiance_is_what_the_vpl_method_shows() {
+    // A screen-space twin takes S0 at any surface point from
+    // `clamped_radiance`; at a pixel centre it must equal the VPL image.
+    let scene = ssbc::scene::builtin::cornell();
+    let (w, h) = (32, 24);
+    let settings = ReferenceSettings {
+        width: w,
+        height: h,
+        method: Method::Vpl,
+        vpl: VplSettings {
+            count: 64,
+            bounces: 8,
+            seed: 3,
+        },
+        bound: 0.5,
+        ..Default::default()
+    };
+    let image = render(&scene, settings.clone());
+    let tracer = Reference::new(&scene, settings).unwrap();
+    let camera = tracer.camera();
+    let mut checked = 0;
+    for (i, px) in image.chunks_exact(4).enumerate() {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let dir = camera.pixel_ray(x as f32, y as f32, w, h);
+        let Some(hit) = tracer.bvh().intersect_camera(&scene, camera.position, dir) else {
+            continue;
+        };
+        let s: Surface = tracer.bvh().surface(&scene, &hit, -dir);
+        let l = s.emission + tracer.clamped_radiance(&s);
+        let want = Vec3::new(px[0], px[1], px[2]);
+        assert!(
+            (l - want).abs().max_element() <= 1e-5 * (1.0 + want.max_element()),
+            "pixel ({x}, {y}): {l} vs {want}"
+        );
+        checked += 1;
+    }
+    assert!(checked > w * h / 2, "{checked} geometry pixels");
+}
