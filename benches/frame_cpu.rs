@@ -9,6 +9,8 @@
 //! Frames are 320x240 with the defaults for that size (2048 VPLs, one SSBC
 //! step).
 
+mod common;
+
 use glam::{Mat4, Vec3};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::resident::ResidentScene;
@@ -64,13 +66,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let frames: usize = args
-        .iter()
-        .position(|a| a == "--frames")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(20);
+    let args = common::BenchArgs::parse(20);
+    let frames = args.frames as usize;
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     let settings = RenderSettings::new(320, 240);
     println!(

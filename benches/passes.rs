@@ -16,6 +16,8 @@
 //! 5. hierarchical vs brute-force integration: time and texel ratios (at
 //!    256x192: brute force is quadratic in the radius).
 
+mod common;
+
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::profile::{render_frames, FrameStats};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
@@ -66,19 +68,9 @@ fn geometry_pixels(f: &Frame) -> usize {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let quick = args.iter().any(|a| a == "--quick");
-    let reps: u32 = args
-        .iter()
-        .position(|a| a == "--frames")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(3);
-    let sizes: &[(u32, u32)] = if quick {
-        &[(320, 240)]
-    } else {
-        &[(320, 240), (1024, 768)]
-    };
+    let args = common::BenchArgs::parse(3);
+    let reps = args.frames;
+    let sizes = args.sizes();
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     let device = renderer.device().name().to_string();
     println!("# ssbc benchmark on {device}, defaults, median of {reps} warm frames\n");

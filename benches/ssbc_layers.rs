@@ -11,6 +11,8 @@
 //! 2. Accuracy: the hierarchical step against brute force over both
 //!    layers (relative RMSE and mean of `residual_1`), 320x240.
 
+mod common;
+
 use ssbc::passes::ssbc::Integration;
 use ssbc::profile::render_frames;
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
@@ -34,19 +36,9 @@ fn settings(size: (u32, u32), layers: u32) -> RenderSettings {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let quick = args.iter().any(|a| a == "--quick");
-    let frames: u32 = args
-        .iter()
-        .position(|a| a == "--frames")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(3);
-    let sizes: &[(u32, u32)] = if quick {
-        &[(320, 240)]
-    } else {
-        &[(320, 240), (1024, 768)]
-    };
+    let args = common::BenchArgs::parse(3);
+    let frames = args.frames;
+    let sizes = args.sizes();
     let scenes = ["cornell", "tori", "assets/open-front-box.gltf"];
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     println!(

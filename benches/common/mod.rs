@@ -1,0 +1,34 @@
+//! Command-line arguments the benchmarks share.
+
+/// `--frames N` (or `default`) and `--quick` from the command line.
+pub struct BenchArgs {
+    /// Frames to measure per configuration.
+    pub frames: u32,
+    /// Measure 320x240 only.
+    pub quick: bool,
+}
+
+impl BenchArgs {
+    /// Reads the process's arguments.
+    pub fn parse(default_frames: u32) -> Self {
+        let args: Vec<String> = std::env::args().collect();
+        let frames = args
+            .iter()
+            .position(|a| a == "--frames")
+            .and_then(|i| args.get(i + 1))
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(default_frames);
+        let quick = args.iter().any(|a| a == "--quick");
+        Self { frames, quick }
+    }
+
+    /// The image sizes to measure: 320x240, and 1024x768 unless quick.
+    #[allow(dead_code)] // not every benchmark measures several sizes
+    pub fn sizes(&self) -> &'static [(u32, u32)] {
+        if self.quick {
+            &[(320, 240)]
+        } else {
+            &[(320, 240), (1024, 768)]
+        }
+    }
+}
