@@ -30,7 +30,7 @@ use ssbc::cpu::bvh::Surface;
 use ssbc::cpu::emitters::luminance;
 use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::sampling::{cosine_hemisphere, Halton};
-use ssbc::cpu::ssbc::pixel_area;
+use ssbc::cpu::ssbc::{footprint, pixel_area, GBufferView, TwinCamera};
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 use ssbc::scene::Scene;
@@ -350,6 +350,10 @@ struct TwinPoint {
     s0: Vec3,
     /// The layer-0 pixel, or None on layer 1.
     pixel: Option<usize>,
+    /// A layer-0 pixel's part beyond a crease, as the GPU reconstructs it
+    /// (`ssbc::cpu::ssbc::footprint`): centroid, normal, area, and the
+    /// point whose S it carries.
+    other: Option<(Vec3, Vec3, f32, usize)>,
 }
 
 /// Ray-cast G-buffers at pixel centres: layer 0, then (with `layers` 2)
@@ -368,6 +372,7 @@ fn twin_points(
     let pixel_side = 2.0 * (camera.yfov * 0.5).tan() / h as f32;
     let min_cos_view = ssbc::settings::SsbcSettings::default().min_cos_view;
     let point = |surface: Surface, side: f32, pixel: Option<usize>| TwinPoint {
+        other: None,
         area: pixel_area(
             surface.position,
             surface.normal,
@@ -388,6 +393,38 @@ fn twin_points(
             *d = hit.t * dir.dot(camera.forward);
             points.push(point(bvh.surface(scene, &hit, -dir), pixel_side, Some(i)));
         }
+    }
+    // Layer 0's footprints, split at creases as the GPU splits them.
+    let (mut position, mut normal) = (
+        vec![0.0; (w * h * 4) as usize],
+        vec![0.0; (w * h * 4) as usize],
+    );
+    let mut point_at = vec![usize::MAX; (w * h) as usize];
+    for (k, p) in points.iter().enumerate() {
+        let i = p.pixel.expect("layer 0");
+        position[i * 4..i * 4 + 4].copy_from_slice(&p.surface.position.extend(1.0).to_array());
+        normal[i * 4..i * 4 + 3].copy_from_slice(&p.surface.normal.to_array());
+        point_at[i] = k;
+    }
+    let view = GBufferView {
+        width: w,
+        height: h,
+        position: &position,
+        normal: &normal,
+        albedo: &normal,
+    };
+    let twin_camera = TwinCamera {
+        position: camera.position,
+        forward: camera.forward,
+        up: camera.up,
+        pixel_side,
+        min_cos_view,
+    };
+    for p in &mut points {
+        let i = p.pixel.expect("layer 0") as u32;
+        let f = footprint(&view, &twin_camera, i % w, i / w);
+        p.area = f.own_area;
+        p.other = f.other.map(|(c, n, a, j)| (c, n, a, point_at[j]));
     }
     if layers < 2 {
         return points;
@@ -432,15 +469,23 @@ fn twin_steps(points: &[TwinPoint], truth: &Truth, bound: f32, steps: u32) -> Ve
             .map(|x| {
                 let (px, nx) = (x.surface.position, x.surface.normal);
                 let mut sum = Vec3::ZERO;
-                for (y, s) in points.iter().zip(&source) {
-                    let d = y.surface.position - px;
+                let own = points
+                    .iter()
+                    .zip(&source)
+                    .map(|(y, s)| (y.surface.position, y.surface.normal, y.area, *s));
+                let across = points
+                    .iter()
+                    .filter_map(|y| y.other)
+                    .map(|(c, n, a, j)| (c, n, a, source[j]));
+                for (y, ny, area, s) in own.chain(across) {
+                    let d = y - px;
                     let d2 = d.length_squared();
                     if d2 >= r2 || d2 < 1e-12 {
                         continue;
                     }
                     let dir = d / d2.sqrt();
-                    let g = nx.dot(dir).max(0.0) * (-y.surface.normal.dot(dir)).max(0.0) / d2;
-                    sum += (g - bound).max(0.0) * y.area * *s;
+                    let g = nx.dot(dir).max(0.0) * (-ny.dot(dir)).max(0.0) / d2;
+                    sum += (g - bound).max(0.0) * area * s;
                 }
                 x.surface.albedo / std::f32::consts::PI * sum
             })

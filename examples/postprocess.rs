@@ -559,6 +559,7 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                 output: host_image(&output),
                 camera_position: eye,
                 camera_forward: forward,
+                camera_up: up,
                 yfov,
                 bound,
                 typical_depth: 2.0,
@@ -654,6 +655,7 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         let twin_camera = TwinCamera {
             position: eye,
             forward,
+            up,
             pixel_side: 2.0 * tan / h as f32,
             min_cos_view: settings.min_cos_view,
         };

@@ -1,15 +1,180 @@
 #version 460
-// SSBC geometry pyramid, level 0, from a G-buffer layer (pc.build_layer): each pixel's world
-// position and unit normal as one cluster, and the world-space area A_y seen
-// through it. Kept apart from the coarser levels (ssbc_geometry_mips.comp):
-// inside their kernel lavapipe ran this level 3x slower (45 vs 14 ms at
-// 1024x768), paying per invocation for code it does not run.
+#extension GL_EXT_control_flow_attributes : require
+// SSBC geometry pyramid, level 0, from a G-buffer layer (pc.build_layer):
+// each pixel's world position and unit normal as its front cluster, and the
+// world-space area A_y it stands for. Kept apart from the coarser levels
+// (ssbc_geometry_mips.comp): inside their kernel lavapipe ran this level 3x
+// slower (45 vs 14 ms at 1024x768), paying per invocation for code it does
+// not run.
+//
+// Footprints (layer 0): a pixel stands for the surface seen through its
+// square, on its tangent plane. Where the line along which that plane
+// meets a neighbour's crosses the square between the two pixel centres (a
+// crease: the two are one surface, not a silhouette), the part beyond the
+// line is the neighbour's surface: it becomes the pixel's back cluster, at
+// that part's centroid, with the neighbour's normal, and carries the
+// neighbour's radiance (its offset in GeoAux.flags bits 1..4, read by
+// ssbc_radiance_mips.comp). Pixel centres alone miss the strip of a grazing
+// surface next to a crease, where G is largest: in the CPU twin on the
+// open-front box (160x120) recovery went from 65.0 to 74.2% with one layer
+// (its ceiling: 75.7%). Mirrored by `footprint` in src/cpu/ssbc.rs.
 #include "ssbc.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
+
+// A convex polygon in image coordinates: the square clipped by at most
+// eight lines, one vertex more per line.
+const int MAX_VERTS = 12;
+struct Polygon {
+    vec2 v[MAX_VERTS];
+    int n;
+};
+
+// The unnormalised ray through image point uv (pixel x spans [x, x + 1];
+// the optical axis at the image's centre) is r0 + u du + v dv.
+struct ImageRays {
+    vec3 r0;
+    vec3 du;
+    vec3 dv;
+};
+
+ImageRays image_rays() {
+    vec3 f = pc.camera_forward.xyz;
+    vec3 up = pc.camera_up.xyz;
+    float s = pc.camera_position.w;
+    vec3 du = normalize(cross(f, up)) * s;
+    vec3 dv = -up * s;
+    return ImageRays(f - du * (0.5 * float(pc.size.x)) - dv * (0.5 * float(pc.size.y)), du, dv);
+}
+
+vec3 image_ray(vec2 uv) {
+    ImageRays r = image_rays();
+    return r.r0 + r.du * uv.x + r.dv * uv.y;
+}
+
+// Where the ray through uv meets the plane (c, n); `hit` false if not in front.
+vec3 on_plane(vec2 uv, vec3 c, vec3 n, out bool hit) {
+    vec3 r = image_ray(uv);
+    float t = dot(n, c - pc.camera_position.xyz) / dot(n, r);
+    hit = t > 0.0 && !isinf(t);
+    return pc.camera_position.xyz + r * t;
+}
+
+// Sutherland–Hodgman: the part of `a` where side(uv) = k.x + k.y u + k.z v >= 0.
+Polygon clip(Polygon a, vec3 k) {
+    Polygon out_poly;
+    out_poly.n = 0;
+    for (int i = 0; i < a.n; i++) {
+        vec2 p = a.v[i];
+        vec2 q = a.v[i + 1 < a.n ? i + 1 : 0];
+        float sp = k.x + dot(k.yz, p);
+        float sq = k.x + dot(k.yz, q);
+        if (sp >= 0.0 && out_poly.n < MAX_VERTS) out_poly.v[out_poly.n++] = p;
+        if ((sp >= 0.0) != (sq >= 0.0) && out_poly.n < MAX_VERTS) out_poly.v[out_poly.n++] = p + (q - p) * (sp / (sp - sq));
+    }
+    return out_poly;
+}
+
+// The polygon lifted onto the plane (c, n): its area, its centroid (`middle`) and its
+// size (largest distance of a vertex from the centroid); false if a vertex
+// is not in front of the camera or the polygon is degenerate.
+bool lift(Polygon a, vec3 c, vec3 n, out float area, out vec3 middle, out float size) {
+    area = 0.0;
+    middle = vec3(0.0);
+    size = 0.0;
+    if (a.n < 3) return false;
+    vec3 v[MAX_VERTS];
+    bool ok = true;
+    for (int i = 0; i < a.n; i++) {
+        bool hit;
+        v[i] = on_plane(a.v[i], c, n, hit);
+        ok = ok && hit;
+    }
+    if (!ok) return false;
+    vec3 cross_sum = vec3(0.0);
+    float weight = 0.0;
+    for (int i = 1; i + 1 < a.n; i++) {
+        vec3 t = cross(v[i] - v[0], v[i + 1] - v[0]);
+        cross_sum += t;
+        middle += (v[0] + v[i] + v[i + 1]) * (length(t) / 3.0);
+        weight += length(t);
+    }
+    if (!(weight > 0.0)) return false;
+    middle /= weight;
+    for (int i = 0; i < a.n; i++) size = max(size, length(v[i] - middle));
+    area = 0.5 * length(cross_sum);
+    return true;
+}
+
+// Pixel p's footprint (see the top): its own area, and the largest part
+// beyond a crease (back cluster, its area, neighbour code k + 1; 0: none).
+// A side and a diagonal neighbour on one plane cut the same part: the first
+// (a side neighbour) keeps it unless another is clearly (0.1%) larger, so
+// that rounding does not pick whose radiance it carries.
+void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoCluster back,
+               out float back_area, out uint code) {
+    vec3 eye = pc.camera_position.xyz;
+    Polygon square;
+    square.n = 4;
+    square.v[0] = vec2(p);
+    square.v[1] = vec2(p) + vec2(1.0, 0.0);
+    square.v[2] = vec2(p) + vec2(1.0, 1.0);
+    square.v[3] = vec2(p) + vec2(0.0, 1.0);
+    Polygon own = square;
+    back = empty_cluster();
+    back_area = 0.0;
+    code = 0u;
+    vec2 centre_p = vec2(p) + 0.5;
+    ivec2 size = ivec2(layer_image_size(0u));
+    for (int k = 0; k < 8; k++) {
+        ivec2 q = p + CREASE_NEIGHBOURS[k];
+        if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) continue;
+        vec4 position_q = imageLoad(g_position, q);
+        if (position_q.w == 0.0) continue;
+        vec3 cq = position_q.xyz;
+        vec3 nq = imageLoad(g_normal, q).xyz;
+        float aq = pixel_area(cq, nq);
+        if (dot(np, nq) > 0.999 || length(cq - cp) > 3.0 * (sqrt(ap) + sqrt(aq))) continue;
+        // Zero where both planes are at the same depth: k_p (n_q . r) - k_q (n_p . r),
+        // affine in uv as r is.
+        float kp = dot(np, cp - eye);
+        float kq = dot(nq, cq - eye);
+        ImageRays r = image_rays();
+        vec3 line = vec3(kp * dot(nq, r.r0) - kq * dot(np, r.r0), kp * dot(nq, r.du) - kq * dot(np, r.du),
+                         kp * dot(nq, r.dv) - kq * dot(np, r.dv));
+        vec2 centre_q = vec2(q) + 0.5;
+        float fp = line.x + dot(line.yz, centre_p);
+        float fq = line.x + dot(line.yz, centre_q);
+        if (fp == 0.0 || (fp > 0.0) == (fq > 0.0)) continue;
+        bool hit;
+        vec3 crease = on_plane(centre_p + (centre_q - centre_p) * (fp / (fp - fq)), cp, np, hit);
+        if (!hit || length(crease - cp) > 2.0 * length(cq - cp)) continue;
+        line *= sign(fp);
+        own = clip(own, line);
+        float area, extent;
+        vec3 middle;
+        if (lift(clip(square, -line), cq, nq, area, middle, extent) && extent <= 20.0 * sqrt(aq)
+            && area > 1.001 * back_area) {
+            back = make_cluster(middle, 0.0, 0.0, nq, 1.0);
+            back_area = area;
+            code = uint(k) + 1u;
+        }
+    }
+    float extent;
+    vec3 middle;
+    bool lifted = lift(own, cp, np, own_area, middle, extent);
+    // A plane seen nearly edge-on lifts the square far away: keep the
+    // clamped area (min_cos_view) and no crease.
+    if (!lifted || extent > 20.0 * sqrt(ap)) {
+        own_area = ap;
+        back = empty_cluster();
+        back_area = 0.0;
+        code = 0u;
+    }
+}
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
@@ -22,9 +187,15 @@ void main() {
         n = imageLoad(g_normal, p).xyz;
     }
     bool geometry = position.w != 0.0;
-    geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), empty_cluster());
-    // A layer-1 pixel is 2 x 2 image pixels.
+    // A layer-1 pixel is 2 x 2 image pixels (and a point: its neighbours
+    // are often other surfaces, and footprints did not help there).
     float area = pixel_area(position.xyz, n) * float(1u << (2u * pc.build_layer));
-    aux[dst] = GeoAux(geometry ? area : 0.0, 0.0, geometry ? 1u : 0u,
-                      geometry ? 1u : 0u);
+    GeoCluster back = empty_cluster();
+    float back_area = 0.0;
+    uint code = 0u;
+    if (geometry && pc.build_layer == 0u) {
+        footprint(p, position.xyz, n, area, area, back, back_area, code);
+    }
+    geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), back);
+    aux[dst] = GeoAux(geometry ? area : 0.0, back_area, geometry ? 1u : 0u, (geometry ? 1u : 0u) | (code << 1));
 }

@@ -17,9 +17,14 @@ void main() {
     if (any(greaterThanEqual(p, level_size(level)))) return;
     uint dst = texel_index(p, level);
     if (level == 0) {
+        // The back cluster is a neighbour's surface beyond a crease and
+        // carries that neighbour's term (ssbc_geometry_base.comp).
+        GeoAux a = aux[dst];
+        uint code = (a.flags >> 1) & 15u;
         vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.build_layer))) ? imageLoad(term, p).rgb : vec3(0.0);
-        radiance[2u * dst] = vec4(aux[dst].front_area * s, 0.0);
-        radiance[2u * dst + 1u] = vec4(0.0);
+        vec3 s_back = code > 0u ? imageLoad(term, p + CREASE_NEIGHBOURS[code - 1u]).rgb : vec3(0.0);
+        radiance[2u * dst] = vec4(a.front_area * s, 0.0);
+        radiance[2u * dst + 1u] = vec4(a.back_area * s_back, 0.0);
         return;
     }
     uint back_mask = aux[dst].flags >> 8;

@@ -91,6 +91,10 @@ pub struct PostProcessInputs {
     pub camera_position: glam::Vec3,
     /// Unit optical axis.
     pub camera_forward: glam::Vec3,
+    /// The image's up direction (row 0 is the top; made orthogonal to the
+    /// optical axis). With the axis, it places each pixel's square in the
+    /// world, which SSBC needs to split pixels at creases.
+    pub camera_up: glam::Vec3,
     /// Vertical field of view (radians).
     pub yfov: f32,
     /// The clamping bound b (1/m²) the host's `S0` was clamped with.
@@ -179,13 +183,16 @@ impl SsbcPostProcess {
                 )));
             }
         }
+        let up = inputs.camera_up.reject_from(inputs.camera_forward);
         let finite = inputs.camera_position.is_finite()
             && inputs.camera_forward.is_finite()
+            && up.is_finite()
+            && up.length_squared() > 0.0
             && inputs.yfov.is_finite()
             && inputs.typical_depth.is_finite();
         if !finite || inputs.yfov <= 0.0 || inputs.bound.is_nan() || inputs.bound <= 0.0 {
             return Err(Error::InvalidParameter(
-                "SSBC post-process: camera, field of view, depth and bound must be finite and positive"
+                "SSBC post-process: camera (with an up vector not along the optical axis), field of view, depth and bound must be finite and positive"
                     .into(),
             ));
         }
@@ -270,6 +277,10 @@ impl SsbcPostProcess {
         let camera = SsbcCamera {
             position: inputs.camera_position,
             forward: inputs.camera_forward.normalize(),
+            up: inputs
+                .camera_up
+                .reject_from(inputs.camera_forward)
+                .normalize(),
             pixel_side: 2.0 * (inputs.yfov * 0.5).tan() / h as f32,
         };
         let eval_level = SsbcPass::eval_level(

@@ -246,6 +246,7 @@ fn frame_view(scene: &Scene, settings: &RenderSettings, cache: &SceneCache) -> R
         camera: SsbcCamera {
             position: camera.position,
             forward: camera.forward,
+            up: camera.up,
             pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
         },
         view_proj: camera.projection(w as f32 / h as f32, near, far) * camera.view(),

@@ -80,6 +80,7 @@ fn bad_host_inputs_are_clear_errors() {
         output: image,
         camera_position: glam::Vec3::new(0.0, 1.0, 3.0),
         camera_forward: -glam::Vec3::Z,
+        camera_up: glam::Vec3::Y,
         yfov: 0.8,
         bound: 4.0,
         typical_depth: 3.0,

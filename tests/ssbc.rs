@@ -76,6 +76,7 @@ fn gpu_brute_force_step_equals_cpu_twin() {
     let twin_camera = TwinCamera {
         position: camera.position,
         forward: camera.forward,
+        up: camera.up,
         pixel_side,
         min_cos_view: 0.2,
     };

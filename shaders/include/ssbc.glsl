@@ -67,8 +67,15 @@ struct GeoAux {
     float back_area;
     uint pixels;              // pixels with geometry under the texel
     uint flags;               // bit 0: one smooth surface (may stand for its pixels);
-                              // bit 8 + 2k + c: cluster c of child k went to the back cluster
+                              // level 0, bits 1..4: k + 1 if the back cluster is the
+                              // part of the pixel on neighbour CREASE_NEIGHBOURS[k]'s surface;
+                              // levels >= 1, bit 8 + 2k + c: cluster c of child k went
+                              // to the back cluster
 };
+
+// The neighbours a pixel's footprint looks at (ssbc_geometry_base.comp).
+const ivec2 CREASE_NEIGHBOURS[8] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -1), ivec2(0, 1),
+                                           ivec2(-1, -1), ivec2(1, -1), ivec2(-1, 1), ivec2(1, 1));
 
 #ifdef SSBC_READ_PYRAMIDS
 layout(set = 0, binding = 0) uniform usamplerBuffer geo_texels;       // four per GeoTexel
@@ -106,6 +113,7 @@ const uint MODE_BRUTE = 1u;
 layout(push_constant) uniform SsbcPush {
     vec4 camera_position;     // xyz eye; w pixel side s on the image plane at distance 1
     vec4 camera_forward;      // xyz unit optical axis; w focal length in pixels (1 / s)
+    vec4 camera_up;           // xyz unit up direction of the image (orthogonal to the axis)
     uvec2 size;               // image size
     uvec2 pyramid_size;       // level 0 of the pyramids (padded)
     uint levels;              // pyramid levels
@@ -272,14 +280,17 @@ void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center
         for (int px = lo.x; px <= hi.x; px++) {
             count++;
             uint i = texel_index_in(p, ivec2(px, py), 0);
-            GeoCluster g = geo_cluster(i, 0u);  // a pixel is one cluster
-            vec3 d = g.position_extent.xyz - x;
-            float d2 = dot(d, d);
-            if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
-                vec3 as = cluster_radiance(i, 0u);
-                float dist = sqrt(d2);
-                float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
-                add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
+            // A pixel's own surface, and its part beyond a crease (if any).
+            for (uint c = 0u; c < 2u; c++) {
+                GeoCluster g = geo_cluster(i, c);
+                vec3 d = g.position_extent.xyz - x;
+                float d2 = dot(d, d);
+                if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
+                    vec3 as = cluster_radiance(i, c);
+                    float dist = sqrt(d2);
+                    float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
+                    add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
+                }
             }
         }
     }

@@ -43,10 +43,176 @@ pub struct TwinCamera {
     pub position: Vec3,
     /// Unit optical axis.
     pub forward: Vec3,
+    /// Unit up vector of the image (orthogonal to `forward`).
+    pub up: Vec3,
     /// Pixel side on the image plane at distance 1.
     pub pixel_side: f32,
     /// Lower clamp of cos(theta_view).
     pub min_cos_view: f32,
+}
+
+impl TwinCamera {
+    /// The unnormalised ray through the image point `uv` (continuous pixel
+    /// coordinates: pixel x spans [x, x + 1]; the optical axis at the
+    /// image's centre) of a `width` x `height` image, as
+    /// (ray at (0, 0), change per unit of u, change per unit of v).
+    fn image_rays(&self, width: u32, height: u32) -> (Vec3, Vec3, Vec3) {
+        let right = self.forward.cross(self.up).normalize();
+        let (du, dv) = (right * self.pixel_side, -self.up * self.pixel_side);
+        (
+            self.forward - du * (0.5 * width as f32) - dv * (0.5 * height as f32),
+            du,
+            dv,
+        )
+    }
+}
+
+/// What a layer-0 source pixel stands for (ssbc_geometry_base.comp): its
+/// own surface, and the neighbour's surface beyond a crease that crosses
+/// its square.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    /// The area of its own surface seen through the pixel, A_y.
+    pub own_area: f32,
+    /// The part of the pixel on a neighbour's surface: (centroid, that
+    /// surface's normal, area, the neighbour's pixel index).
+    pub other: Option<(Vec3, Vec3, f32, usize)>,
+}
+
+/// Offsets of the neighbours `footprint` looks at, in its order.
+const NEIGHBOURS: [(i32, i32); 8] = [
+    (-1, 0),
+    (1, 0),
+    (0, -1),
+    (0, 1),
+    (-1, -1),
+    (1, -1),
+    (-1, 1),
+    (1, 1),
+];
+
+/// Sutherland–Hodgman: the part of a convex polygon where `side` >= 0.
+fn clip(poly: &[glam::Vec2], side: impl Fn(glam::Vec2) -> f32) -> Vec<glam::Vec2> {
+    let mut out = Vec::with_capacity(poly.len() + 1);
+    for (i, &a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        let (sa, sb) = (side(a), side(b));
+        if sa >= 0.0 {
+            out.push(a);
+        }
+        if (sa >= 0.0) != (sb >= 0.0) {
+            out.push(a + (b - a) * (sa / (sa - sb)));
+        }
+    }
+    out
+}
+
+/// The footprint of layer-0 pixel (x, y) on its tangent plane, split at
+/// creases: where the line along which its tangent plane meets a
+/// neighbour's passes between the two pixel centres, and the two are one
+/// surface (close, the meeting point near both), the part of its square
+/// beyond that line is the neighbour's surface. The largest such part is
+/// kept. A pixel whose own part would lift far away (a plane seen edge-on)
+/// keeps the clamped `pixel_area` and no other part.
+pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Footprint {
+    let (w, h) = (g.width as i32, g.height as i32);
+    let index = |x: i32, y: i32| (y * w + x) as usize;
+    let i = index(x as i32, y as i32);
+    let (cp, np) = (vec3_at(g.position, i), vec3_at(g.normal, i));
+    let clamped_area = |c: Vec3, n: Vec3| {
+        pixel_area(
+            c,
+            n,
+            camera.position,
+            camera.forward,
+            camera.pixel_side,
+            camera.min_cos_view,
+        )
+    };
+    let ap = clamped_area(cp, np);
+    let (base, du, dv) = camera.image_rays(g.width, g.height);
+    let ray = |uv: glam::Vec2| base + du * uv.x + dv * uv.y;
+    let eye = camera.position;
+    // Where the ray through uv meets the plane (c, n), if in front.
+    let on_plane = |uv: glam::Vec2, c: Vec3, n: Vec3| {
+        let r = ray(uv);
+        let t = n.dot(c - eye) / n.dot(r);
+        (t.is_finite() && t > 0.0).then(|| eye + r * t)
+    };
+    // Area, centroid and size (largest distance of a vertex from the
+    // centroid) of the polygon lifted onto the plane (c, n).
+    let lift = |poly: &[glam::Vec2], c: Vec3, n: Vec3| -> Option<(f32, Vec3, f32)> {
+        let v = poly
+            .iter()
+            .map(|&uv| on_plane(uv, c, n))
+            .collect::<Option<Vec<Vec3>>>()?;
+        let (mut cross, mut centroid, mut weight) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+        for k in 1..v.len().saturating_sub(1) {
+            let t = (v[k] - v[0]).cross(v[k + 1] - v[0]);
+            cross += t;
+            centroid += (v[0] + v[k] + v[k + 1]) * (t.length() / 3.0);
+            weight += t.length();
+        }
+        if v.len() < 3 || !(weight > 0.0) {
+            return None;
+        }
+        let centroid = centroid / weight;
+        let size = v
+            .iter()
+            .map(|p| (*p - centroid).length())
+            .fold(0.0, f32::max);
+        Some((0.5 * cross.length(), centroid, size))
+    };
+    let corner = glam::Vec2::new(x as f32, y as f32);
+    let square: Vec<glam::Vec2> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+        .iter()
+        .map(|&(a, b)| corner + glam::Vec2::new(a, b))
+        .collect();
+    let centre_p = corner + 0.5;
+    let mut own = square.clone();
+    let mut other: Option<(Vec3, Vec3, f32, usize)> = None;
+    for (dx, dy) in NEIGHBOURS {
+        let (qx, qy) = (x as i32 + dx, y as i32 + dy);
+        if qx < 0 || qy < 0 || qx >= w || qy >= h || g.position[index(qx, qy) * 4 + 3] == 0.0 {
+            continue;
+        }
+        let j = index(qx, qy);
+        let (cq, nq) = (vec3_at(g.position, j), vec3_at(g.normal, j));
+        let aq = clamped_area(cq, nq);
+        if np.dot(nq) > 0.999 || (cq - cp).length() > 3.0 * (ap.sqrt() + aq.sqrt()) {
+            continue;
+        }
+        // Zero where both planes are at the same depth: k_p (n_q . r) - k_q (n_p . r).
+        let (kp, kq) = (np.dot(cp - eye), nq.dot(cq - eye));
+        let f = |d: Vec3| kp * nq.dot(d) - kq * np.dot(d);
+        let (l0, lu, lv) = (f(base), f(du), f(dv));
+        let line = |uv: glam::Vec2| l0 + lu * uv.x + lv * uv.y;
+        let centre_q = glam::Vec2::new(qx as f32 + 0.5, qy as f32 + 0.5);
+        let (fp, fq) = (line(centre_p), line(centre_q));
+        if fp == 0.0 || (fp > 0.0) == (fq > 0.0) {
+            continue;
+        }
+        let m = centre_p + (centre_q - centre_p) * (fp / (fp - fq));
+        match on_plane(m, cp, np) {
+            Some(crease) if (crease - cp).length() <= 2.0 * (cq - cp).length() => {}
+            _ => continue,
+        }
+        let sign = fp.signum();
+        own = clip(&own, |uv| sign * line(uv));
+        let theirs = clip(&square, |uv| -sign * line(uv));
+        if let Some((area, centroid, size)) = lift(&theirs, cq, nq) {
+            if size <= 20.0 * aq.sqrt() && other.is_none_or(|o| area > 1.001 * o.2) {
+                other = Some((centroid, nq, area, j));
+            }
+        }
+    }
+    match lift(&own, cp, np) {
+        Some((own_area, _, size)) if size <= 20.0 * ap.sqrt() => Footprint { own_area, other },
+        _ => Footprint {
+            own_area: ap,
+            other: None,
+        },
+    }
 }
 
 /// One brute-force step, `S(x) = albedo(x)/pi * sum_y max(G - b, 0) A_y
@@ -58,6 +224,9 @@ pub struct BruteForceTwin<'a> {
     bound: f32,
     geometry: Vec<usize>,
     area: Vec<f32>,
+    /// Parts of pixels beyond a crease: (centroid, normal, area, the
+    /// neighbour whose term they carry).
+    across_creases: Vec<(Vec3, Vec3, f32, usize)>,
     /// Sources only: a second G-buffer layer, its term, and its pixels'
     /// (position, normal, area x term).
     hidden: Vec<(Vec3, Vec3, Vec3)>,
@@ -68,31 +237,25 @@ fn vec3_at(buf: &[f32], i: usize) -> Vec3 {
 }
 
 impl<'a> BruteForceTwin<'a> {
-    /// Prepares the pixel areas of `g` for the term `s_prev` (RGBA).
+    /// Prepares the pixels' footprints (see [`footprint`]) of `g` for the
+    /// term `s_prev` (RGBA).
     pub fn new(g: &'a GBufferView<'a>, s_prev: &'a [f32], camera: TwinCamera, bound: f32) -> Self {
         let n = (g.width * g.height) as usize;
         let geometry: Vec<usize> = (0..n).filter(|&i| g.position[i * 4 + 3] != 0.0).collect();
-        let area = (0..n)
-            .map(|i| {
-                if g.position[i * 4 + 3] == 0.0 {
-                    return 0.0;
-                }
-                pixel_area(
-                    vec3_at(g.position, i),
-                    vec3_at(g.normal, i),
-                    camera.position,
-                    camera.forward,
-                    camera.pixel_side,
-                    camera.min_cos_view,
-                )
-            })
-            .collect();
+        let mut area = vec![0.0; n];
+        let mut across_creases = Vec::new();
+        for &i in &geometry {
+            let f = footprint(g, &camera, i as u32 % g.width, i as u32 / g.width);
+            area[i] = f.own_area;
+            across_creases.extend(f.other);
+        }
         Self {
             g,
             s_prev,
             bound,
             geometry,
             area,
+            across_creases,
             hidden: Vec::new(),
         }
     }
@@ -144,7 +307,9 @@ impl<'a> BruteForceTwin<'a> {
             let gterm = nx.dot(w).max(0.0) * (-vec3_at(g.normal, j).dot(w)).max(0.0) / d2;
             sum += (gterm - self.bound).max(0.0) * self.area[j] * vec3_at(self.s_prev, j);
         }
-        for &(y, ny, area_s) in &self.hidden {
+        let across = self.across_creases.iter();
+        let others = across.map(|&(y, ny, a, j)| (y, ny, a * vec3_at(self.s_prev, j)));
+        for (y, ny, area_s) in others.chain(self.hidden.iter().copied()) {
             let d = y - x;
             let d2 = d.length_squared();
             if d2 >= r2 || d2 < 1e-12 {

@@ -29,6 +29,9 @@ pub struct SsbcCamera {
     pub position: glam::Vec3,
     /// Unit optical axis.
     pub forward: glam::Vec3,
+    /// Unit up direction of the image, orthogonal to `forward` (row 0 is
+    /// the top).
+    pub up: glam::Vec3,
     /// Pixel side on the image plane at distance 1: 2 tan(fov/2) / height.
     pub pixel_side: f32,
 }
@@ -121,6 +124,7 @@ impl SsbcFrame {
 struct SsbcPush {
     camera_position: [f32; 4],
     camera_forward: [f32; 4],
+    camera_up: [f32; 4],
     size: [u32; 2],
     pyramid_size: [u32; 2],
     levels: u32,
@@ -461,6 +465,7 @@ impl SsbcPass {
         SsbcPush {
             camera_position: camera.position.extend(camera.pixel_side).into(),
             camera_forward: camera.forward.extend(1.0 / camera.pixel_side).into(),
+            camera_up: camera.up.extend(0.0).into(),
             size: [extent.0, extent.1],
             pyramid_size: [frame.pyramid_size.0, frame.pyramid_size.1],
             levels: frame.levels,

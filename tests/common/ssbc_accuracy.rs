@@ -173,6 +173,7 @@ pub fn residual_vs_twin(
     let twin_camera = TwinCamera {
         position: camera.position,
         forward: camera.forward,
+        up: camera.up,
         pixel_side: 2.0 * (camera.yfov * 0.5).tan() / frame.height as f32,
         min_cos_view: settings.ssbc.min_cos_view,
     };
