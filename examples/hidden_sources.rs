@@ -14,7 +14,8 @@
 //! (the same VPLs).
 //!
 //! `--twin` adds the CPU twin: SSBC's brute force on exact G-buffers (ray
-//! cast at pixel centres) with exact S0, and the ceiling over all steps
+//! cast at pixel centres, layer-0 pixels split at creases as the GPU splits
+//! them: `ssbc::cpu::ssbc::footprint`) with exact S0, and the ceiling over all steps
 //! (Kollig–Keller's residual paths whose every source lies on layer 0, or on
 //! layers 0 and 1). `--camera-shift DX,DY` moves the camera sideways (metres)
 //! to change the pixel grid's phase against the scene's edges.

@@ -153,7 +153,7 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
             centroid += (v[0] + v[k] + v[k + 1]) * (t.length() / 3.0);
             weight += t.length();
         }
-        if v.len() < 3 || !(weight > 0.0) {
+        if v.len() < 3 || weight.is_nan() || weight <= 0.0 {
             return None;
         }
         let centroid = centroid / weight;
