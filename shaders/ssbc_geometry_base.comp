@@ -28,6 +28,11 @@ layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
 // A convex polygon in image coordinates: the square clipped by at most
 // eight lines, one vertex more per line.
 const int MAX_VERTS = 12;
+
+// Neighbours whose normals differ by less (cosine above this) are one flat
+// surface: no crease between them. 0.95 (18 degrees) keeps curved
+// surfaces seen at fine pitches out of the polygon code.
+const float CREASE_COS = 0.95;
 struct Polygon {
     vec2 v[MAX_VERTS];
     int n;
@@ -109,6 +114,35 @@ bool lift(Polygon a, vec3 c, vec3 n, out float area, out vec3 middle, out float 
     return true;
 }
 
+// The pixel's square lifted onto the plane (c, n), when no crease cuts it:
+// the planar quad's area from its diagonals, and its size from the
+// corners' mean; false if a corner is not in front of the camera.
+bool lift_square(vec2 corner, vec3 c, vec3 n, out float area, out float size) {
+    bool h0, h1, h2, h3;
+    vec3 v0 = on_plane(corner, c, n, h0);
+    vec3 v1 = on_plane(corner + vec2(1.0, 0.0), c, n, h1);
+    vec3 v2 = on_plane(corner + vec2(1.0, 1.0), c, n, h2);
+    vec3 v3 = on_plane(corner + vec2(0.0, 1.0), c, n, h3);
+    area = 0.5 * length(cross(v2 - v0, v3 - v1));
+    vec3 mean = 0.25 * (v0 + v1 + v2 + v3);
+    size = max(max(length(v0 - mean), length(v1 - mean)), max(length(v2 - mean), length(v3 - mean)));
+    return h0 && h1 && h2 && h3;
+}
+
+// Whether a neighbour's normal differs enough for a crease (cheap test
+// first: most pixels have none, and lavapipe runs the polygon code only
+// for SIMD groups where one does).
+bool any_crease_normal(ivec2 p, vec3 np) {
+    ivec2 size = ivec2(layer_image_size(0u));
+    bool any_found = false;
+    for (int k = 0; k < 8; k++) {
+        ivec2 q = clamp(p + CREASE_NEIGHBOURS[k], ivec2(0), size - 1);
+        vec4 nq = imageLoad(g_normal, q);
+        any_found = any_found || dot(np, nq.xyz) <= CREASE_COS;
+    }
+    return any_found;
+}
+
 // Pixel p's footprint (see the top): its own area, and the largest part
 // beyond a crease (back cluster, its area, neighbour code k + 1; 0: none).
 // A side and a diagonal neighbour on one plane cut the same part: the first
@@ -124,6 +158,7 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
     square.v[2] = vec2(p) + vec2(1.0, 1.0);
     square.v[3] = vec2(p) + vec2(0.0, 1.0);
     Polygon own = square;
+    bool cut = false;  // by a crease line
     back = empty_cluster();
     back_area = 0.0;
     code = 0u;
@@ -137,7 +172,7 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
         vec3 cq = position_q.xyz;
         vec3 nq = imageLoad(g_normal, q).xyz;
         float aq = pixel_area(cq, nq);
-        if (dot(np, nq) > 0.999 || length(cq - cp) > 3.0 * (sqrt(ap) + sqrt(aq))) continue;
+        if (dot(np, nq) > CREASE_COS || length(cq - cp) > 3.0 * (sqrt(ap) + sqrt(aq))) continue;
         // Zero where both planes are at the same depth: k_p (n_q . r) - k_q (n_p . r),
         // affine in uv as r is.
         float kp = dot(np, cp - eye);
@@ -154,6 +189,7 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
         if (!hit || length(crease - cp) > 2.0 * length(cq - cp)) continue;
         line *= sign(fp);
         own = clip(own, line);
+        cut = true;
         float area, extent;
         vec3 middle;
         if (lift(clip(square, -line), cq, nq, area, middle, extent) && extent <= 20.0 * sqrt(aq)
@@ -165,7 +201,8 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
     }
     float extent;
     vec3 middle;
-    bool lifted = lift(own, cp, np, own_area, middle, extent);
+    bool lifted = !cut ? lift_square(vec2(p), cp, np, own_area, extent)
+        : lift(own, cp, np, own_area, middle, extent);
     // A plane seen nearly edge-on lifts the square far away: keep the
     // clamped area (min_cos_view) and no crease.
     if (!lifted || extent > 20.0 * sqrt(ap)) {
@@ -194,7 +231,12 @@ void main() {
     float back_area = 0.0;
     uint code = 0u;
     if (geometry && pc.build_layer == 0u) {
-        footprint(p, position.xyz, n, area, area, back, back_area, code);
+        if (any_crease_normal(p, n)) {
+            footprint(p, position.xyz, n, area, area, back, back_area, code);
+        } else {
+            float own_area, extent;
+            if (lift_square(vec2(p), position.xyz, n, own_area, extent) && extent <= 20.0 * sqrt(area)) area = own_area;
+        }
     }
     geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), back);
     aux[dst] = GeoAux(geometry ? area : 0.0, back_area, geometry ? 1u : 0u, (geometry ? 1u : 0u) | (code << 1));

@@ -79,6 +79,9 @@ pub struct Footprint {
     pub other: Option<(Vec3, Vec3, f32, usize)>,
 }
 
+/// Neighbours whose normals agree better are one flat surface.
+const CREASE_COS: f32 = 0.95;
+
 /// Offsets of the neighbours `footprint` looks at, in its order.
 const NEIGHBOURS: [(i32, i32); 8] = [
     (-1, 0),
@@ -170,6 +173,7 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
         .collect();
     let centre_p = corner + 0.5;
     let mut own = square.clone();
+    let mut cut = false;
     let mut other: Option<(Vec3, Vec3, f32, usize)> = None;
     for (dx, dy) in NEIGHBOURS {
         let (qx, qy) = (x as i32 + dx, y as i32 + dy);
@@ -179,7 +183,7 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
         let j = index(qx, qy);
         let (cq, nq) = (vec3_at(g.position, j), vec3_at(g.normal, j));
         let aq = clamped_area(cq, nq);
-        if np.dot(nq) > 0.999 || (cq - cp).length() > 3.0 * (ap.sqrt() + aq.sqrt()) {
+        if np.dot(nq) > CREASE_COS || (cq - cp).length() > 3.0 * (ap.sqrt() + aq.sqrt()) {
             continue;
         }
         // Zero where both planes are at the same depth: k_p (n_q . r) - k_q (n_p . r).
@@ -199,6 +203,7 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
         }
         let sign = fp.signum();
         own = clip(&own, |uv| sign * line(uv));
+        cut = true;
         let theirs = clip(&square, |uv| -sign * line(uv));
         if let Some((area, centroid, size)) = lift(&theirs, cq, nq) {
             if size <= 20.0 * aq.sqrt() && other.is_none_or(|o| area > 1.001 * o.2) {
@@ -206,7 +211,17 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
             }
         }
     }
-    match lift(&own, cp, np) {
+    // Uncut: the planar quad's area from its diagonals, its size from the
+    // corners' mean (as the GPU's fast path).
+    let lift_square = || -> Option<(f32, Vec3, f32)> {
+        let v = square.iter().map(|&uv| on_plane(uv, cp, np)).collect::<Option<Vec<Vec3>>>()?;
+        let area = 0.5 * (v[2] - v[0]).cross(v[3] - v[1]).length();
+        let mean = (v[0] + v[1] + v[2] + v[3]) * 0.25;
+        let size = v.iter().map(|p| (*p - mean).length()).fold(0.0, f32::max);
+        Some((area, mean, size))
+    };
+    let lifted = if cut { lift(&own, cp, np) } else { lift_square() };
+    match lifted {
         Some((own_area, _, size)) if size <= 20.0 * ap.sqrt() => Footprint { own_area, other },
         _ => Footprint {
             own_area: ap,
