@@ -214,13 +214,20 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
     // Uncut: the planar quad's area from its diagonals, its size from the
     // corners' mean (as the GPU's fast path).
     let lift_square = || -> Option<(f32, Vec3, f32)> {
-        let v = square.iter().map(|&uv| on_plane(uv, cp, np)).collect::<Option<Vec<Vec3>>>()?;
+        let v = square
+            .iter()
+            .map(|&uv| on_plane(uv, cp, np))
+            .collect::<Option<Vec<Vec3>>>()?;
         let area = 0.5 * (v[2] - v[0]).cross(v[3] - v[1]).length();
         let mean = (v[0] + v[1] + v[2] + v[3]) * 0.25;
         let size = v.iter().map(|p| (*p - mean).length()).fold(0.0, f32::max);
         Some((area, mean, size))
     };
-    let lifted = if cut { lift(&own, cp, np) } else { lift_square() };
+    let lifted = if cut {
+        lift(&own, cp, np)
+    } else {
+        lift_square()
+    };
     match lifted {
         Some((own_area, _, size)) if size <= 20.0 * ap.sqrt() => Footprint { own_area, other },
         _ => Footprint {
