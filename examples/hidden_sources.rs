@@ -31,7 +31,7 @@ use ssbc::cpu::bvh::Surface;
 use ssbc::cpu::emitters::luminance;
 use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::sampling::{cosine_hemisphere, Halton};
-use ssbc::cpu::ssbc::{footprint, pixel_area, GBufferView, TwinCamera};
+use ssbc::cpu::ssbc::{footprint, pixel_area, residual_weight, GBufferView, TwinCamera};
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 use ssbc::scene::Scene;
@@ -457,7 +457,6 @@ fn twin_points(
 /// K brute-force SSBC steps over every point pair (no visibility, as on the
 /// GPU): per step, the recovered share of the true residual (whole, centre).
 fn twin_steps(points: &[TwinPoint], truth: &Truth, bound: f32, steps: u32) -> Vec<(f64, f64)> {
-    let r2 = 1.0 / bound;
     let (truth_whole, truth_centre) = truth.means();
     let n = (truth.width * truth.height) as usize;
     let n_centre = (0..n).filter(|&i| truth.in_centre(i)).count() as f64;
@@ -469,7 +468,6 @@ fn twin_steps(points: &[TwinPoint], truth: &Truth, bound: f32, steps: u32) -> Ve
             .par_iter()
             .map(|x| {
                 let (px, nx) = (x.surface.position, x.surface.normal);
-                let mut sum = Vec3::ZERO;
                 let own = points
                     .iter()
                     .zip(&source)
@@ -478,16 +476,10 @@ fn twin_steps(points: &[TwinPoint], truth: &Truth, bound: f32, steps: u32) -> Ve
                     .iter()
                     .filter_map(|y| y.other)
                     .map(|(c, n, a, j)| (c, n, a, source[j]));
-                for (y, ny, area, s) in own.chain(across) {
-                    let d = y - px;
-                    let d2 = d.length_squared();
-                    if d2 >= r2 || d2 < 1e-12 {
-                        continue;
-                    }
-                    let dir = d / d2.sqrt();
-                    let g = nx.dot(dir).max(0.0) * (-ny.dot(dir)).max(0.0) / d2;
-                    sum += (g - bound).max(0.0) * area * s;
-                }
+                let sum: Vec3 = own
+                    .chain(across)
+                    .map(|(y, ny, area, s)| residual_weight(px, nx, y, ny, bound) * area * s)
+                    .sum();
                 x.surface.albedo / std::f32::consts::PI * sum
             })
             .collect();

@@ -36,6 +36,21 @@ pub fn pixel_area(
     t * t * pixel_side * pixel_side * cos_alpha.powi(3) / cos_view
 }
 
+/// What a source at y (unit normal ny) adds per unit of A_y S(y) to the
+/// residual integral at x (unit normal nx): max(G - b, 0), with G =
+/// cos θ_x cos θ_y / d² and no visibility (0 beyond 1/sqrt(b) and for
+/// y at x).
+pub fn residual_weight(x: Vec3, nx: Vec3, y: Vec3, ny: Vec3, bound: f32) -> f32 {
+    let d = y - x;
+    let d2 = d.length_squared();
+    if d2 * bound >= 1.0 || d2 < 1e-12 {
+        return 0.0;
+    }
+    let w = d / d2.sqrt();
+    let g = nx.dot(w).max(0.0) * (-ny.dot(w)).max(0.0) / d2;
+    (g - bound).max(0.0)
+}
+
 /// The camera quantities of [`pixel_area`].
 #[derive(Clone, Copy, Debug)]
 pub struct TwinCamera {
@@ -316,31 +331,17 @@ impl<'a> BruteForceTwin<'a> {
         if g.position[i * 4 + 3] == 0.0 || !self.bound.is_finite() {
             return Vec3::ZERO;
         }
-        let r2 = 1.0 / self.bound;
         let (x, nx) = (vec3_at(g.position, i), vec3_at(g.normal, i));
-        let mut sum = Vec3::ZERO;
-        for &j in &self.geometry {
-            let d = vec3_at(g.position, j) - x;
-            let d2 = d.length_squared();
-            if d2 >= r2 || d2 < 1e-12 {
-                continue;
-            }
-            let w = d / d2.sqrt();
-            let gterm = nx.dot(w).max(0.0) * (-vec3_at(g.normal, j).dot(w)).max(0.0) / d2;
-            sum += (gterm - self.bound).max(0.0) * self.area[j] * vec3_at(self.s_prev, j);
-        }
+        let own = self.geometry.iter().map(|&j| {
+            let area_s = self.area[j] * vec3_at(self.s_prev, j);
+            (vec3_at(g.position, j), vec3_at(g.normal, j), area_s)
+        });
         let across = self.across_creases.iter();
         let others = across.map(|&(y, ny, a, j)| (y, ny, a * vec3_at(self.s_prev, j)));
-        for (y, ny, area_s) in others.chain(self.hidden.iter().copied()) {
-            let d = y - x;
-            let d2 = d.length_squared();
-            if d2 >= r2 || d2 < 1e-12 {
-                continue;
-            }
-            let w = d / d2.sqrt();
-            let gterm = nx.dot(w).max(0.0) * (-ny.dot(w)).max(0.0) / d2;
-            sum += (gterm - self.bound).max(0.0) * area_s;
-        }
+        let sources = own.chain(others).chain(self.hidden.iter().copied());
+        let sum: Vec3 = sources
+            .map(|(y, ny, area_s)| residual_weight(x, nx, y, ny, self.bound) * area_s)
+            .sum();
         vec3_at(g.albedo, i) / std::f32::consts::PI * sum
     }
 
