@@ -35,6 +35,7 @@ use ssbc::cpu::ssbc::{footprint, pixel_area, residual_weight, GBufferView, TwinC
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 use ssbc::scene::Scene;
+use ssbc::settings::LayerResolution;
 
 /// Where a residual source lies.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -135,18 +136,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut renderer = Renderer::new(&RendererConfig::default())?;
     println!("## {scene_name}, {w}x{h}, {vpls} VPLs, b = {bound}\n");
     println!("| G-buffer layers | SSBC steps | recovered (whole image) | recovered (centre) |\n|---|---|---|---|");
-    let render = |renderer: &mut Renderer, steps: u32, layers: u32| {
+    let render = |renderer: &mut Renderer, steps: u32, layer1: Option<LayerResolution>| {
         let mut s = RenderSettings::new(w, h);
         s.vpl = vpl.clone();
         s.bound = Bound::Value(bound);
         s.ssbc.steps = steps;
-        s.ssbc.layers = layers;
+        s.ssbc.layers = 1 + layer1.is_some() as u32;
+        s.ssbc.layer1_resolution = layer1.unwrap_or_default();
         renderer.render(&scene, &s).map(|f| f.image.rgba)
     };
-    let clamped_gpu = render(&mut renderer, 0, 1)?;
-    for layers in [1, 2] {
+    let clamped_gpu = render(&mut renderer, 0, None)?;
+    let configs = [
+        ("1", None),
+        ("2 (layer 1 half)", Some(LayerResolution::Half)),
+        ("2 (layer 1 full)", Some(LayerResolution::Full)),
+    ];
+    for (layers, layer1) in configs {
         for steps in 1..=3 {
-            let gpu = render(&mut renderer, steps, layers)?;
+            let gpu = render(&mut renderer, steps, layer1)?;
             let share = |keep: &dyn Fn(usize) -> bool| {
                 (mean_luminance(&gpu, keep) - mean_luminance(&clamped_gpu, keep))
                     / (mean_luminance(&kk, keep) - mean_luminance(&clamped, keep))

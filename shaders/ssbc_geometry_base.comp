@@ -7,7 +7,7 @@
 // slower (45 vs 14 ms at 1024x768), paying per invocation for code it does
 // not run.
 //
-// Footprints (layer 0): a pixel stands for the surface seen through its
+// Footprints (full-resolution layers): a pixel stands for the surface seen through its
 // square, on its tangent plane. Where the line along which that plane
 // meets a neighbour's crosses the square between the two pixel centres (a
 // crease: the two are one surface, not a silhouette), the part beyond the
@@ -224,13 +224,14 @@ void main() {
         n = imageLoad(g_normal, p).xyz;
     }
     bool geometry = position.w != 0.0;
-    // A layer-1 pixel is 2 x 2 image pixels (and a point: its neighbours
-    // are often other surfaces, and footprints did not help there).
-    float area = pixel_area(position.xyz, n) * float(1u << (2u * pc.build_layer));
+    // A half-resolution layer-1 pixel is 2 x 2 image pixels (and a point:
+    // footprints are for full-resolution layers).
+    uint shift = layer_shift(pc.build_layer);
+    float area = pixel_area(position.xyz, n) * float(1u << (2u * shift));
     GeoCluster back = empty_cluster();
     float back_area = 0.0;
     uint code = 0u;
-    if (geometry && pc.build_layer == 0u) {
+    if (geometry && shift == 0u) {
         if (any_crease_normal(p, n)) {
             footprint(p, position.xyz, n, area, area, back, back_area, code);
         } else {

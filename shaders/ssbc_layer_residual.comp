@@ -1,6 +1,6 @@
 #version 460
 // SSBC with a second layer, before a further step: the residual S_k at the
-// pixels of layer 1 (half resolution), each evaluated alone over both
+// pixels of layer 1 (full or half resolution), each evaluated alone over both
 // layers' pyramids: what layer 1's surfaces send in the next step.
 #define SSBC_READ_PYRAMIDS
 #include "ssbc.glsl"
@@ -22,7 +22,8 @@ void main() {
         uint count = 0u;
         float variation;
         // Its centre in image pixels (pixel centres at integers).
-        Residual r = residual_integral(position.xyz, nx, vec2(q) * 2.0 + 0.5, count, variation);
+        vec2 centre = (vec2(q) + 0.5) * float(1u << layer_shift(1u)) - 0.5;
+        Residual r = residual_integral(position.xyz, nx, centre, count, variation);
         s = imageLoad(g_albedo, q).rgb / PI * residual_at(r, nx);
     }
     imageStore(residual, q, vec4(s, 1.0));

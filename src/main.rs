@@ -9,7 +9,7 @@ use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::vpl::VplSettings;
 use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
-use ssbc::settings::Gather;
+use ssbc::settings::{Gather, LayerResolution};
 use ssbc::vk::DeviceSelector;
 
 #[derive(Parser)]
@@ -211,11 +211,15 @@ struct SceneOptions {
     #[arg(long, value_enum, default_value_t = Integration::Hierarchical)]
     integration: Integration,
     /// G-buffer layers SSBC gathers from: 1 (the visible surfaces) or 2 (also
-    /// a deep G-buffer's second layer at half resolution: the nearest
+    /// a deep G-buffer's second layer: the nearest
     /// surfaces behind the visible ones, back faces included, which light
     /// what the camera sees).
     #[arg(long = "ssbc-layers", default_value_t = RenderSettings::default().ssbc.layers)]
     ssbc_layers: u32,
+    /// Resolution of the second layer: full (its pixels split at creases
+    /// like the first's) or half (a quarter of its cost).
+    #[arg(long = "ssbc-layer1", value_enum, default_value_t = LayerResolution::Full)]
+    ssbc_layer1: LayerResolution,
     /// Minimum separation of the second layer behind the first, as a
     /// fraction of the scene's bounding-box diagonal.
     #[arg(long, default_value_t = RenderSettings::default().ssbc.layer_separation)]
@@ -321,6 +325,7 @@ impl SceneOptions {
                 integration: self.integration,
                 min_cos_view: self.min_cos_view,
                 layers: self.ssbc_layers,
+                layer1_resolution: self.ssbc_layer1,
                 layer_separation: self.layer_separation,
                 ..Default::default()
             },

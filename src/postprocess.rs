@@ -15,17 +15,20 @@
 //! |---|---|---|---|---|
 //! | position (xyz world, w = 0 off geometry), normal (xyz), albedo (rgb), S0 (rgb) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
 //! | output | `R32G32B32A32_SFLOAT` | `TRANSFER_DST` | any (declared) | `TRANSFER_DST_OPTIMAL`, last written by a copy |
-//! | optional second layer ([`PostProcessInputs::hidden`]): position, normal, albedo, S0, each **half the size** (rounded up) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
+//! | optional second layer ([`PostProcessInputs::hidden`]): position, normal, albedo, S0, all four **the same size as the others or half of it** (rounded up) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
 //!
 //! The second layer is a deep G-buffer's (Mara et al., HPG 2016): per
-//! half-resolution pixel `p` (covering pixels `2p .. 2p + 1`), the nearest
+//! pixel `p` (at half resolution covering pixels `2p .. 2p + 1`), the nearest
 //! surface at least a minimum separation farther from the camera than the
 //! visible ones under it, back faces included, with the normal of its own
 //! outward side (not turned to the camera), and its own clamped lighting
 //! `S0`; w = 0 in position where there is none. SSBC then also gathers from
 //! these hidden surfaces (receivers stay the visible pixels); with more
 //! than one step it computes their residual too, as the next step's
-//! sources. `ssbc::passes::deep_gbuffer` draws it by depth peeling.
+//! sources. `ssbc::passes::deep_gbuffer` draws it by depth peeling. At full
+//! resolution its pixels are split at creases like the first layer's, and
+//! it gives back more of what clamping removed; at half resolution it costs
+//! a quarter (docs/ssbc-implementation.md has the figures).
 //!
 //! Barriers: ssbc's first barrier on each host image waits for all prior
 //! commands' writes (`ALL_COMMANDS` / `MEMORY_WRITE`) and moves it from the
@@ -47,6 +50,7 @@ use crate::passes::ssbc::{
     SsbcCamera, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings,
 };
 use crate::passes::PassSlot;
+use crate::settings::LayerResolution;
 use crate::vk::{DescriptorPool, Device, GpuProfiler, Image, ImageDesc, Recorder};
 
 /// One of the host's images: handle, a 2D view of it, its size and the
@@ -107,7 +111,8 @@ pub struct PostProcessInputs {
     pub hidden: Option<PostProcessLayer>,
 }
 
-/// The host's second G-buffer layer, at half resolution (rounded up).
+/// The host's second G-buffer layer, at full or half resolution (rounded
+/// up): the position image's size says which.
 #[derive(Clone, Copy, Debug)]
 pub struct PostProcessLayer {
     /// World-space position (xyz; w = 0 where there is no hidden surface).
@@ -121,8 +126,8 @@ pub struct PostProcessLayer {
 }
 
 /// One slot's pyramids and images, for (width, height, steps, coarsest
-/// evaluation level, layers).
-type SsbcSlot = PassSlot<(u32, u32, u32, u32, u32), SsbcFrame>;
+/// evaluation level, second layer).
+type SsbcSlot = PassSlot<(u32, u32, u32, u32, Option<LayerResolution>), SsbcFrame>;
 
 /// SSBC on the host's images (see the module documentation). Command
 /// buffers must be submitted in the order they were recorded.
@@ -151,9 +156,17 @@ impl SsbcPostProcess {
         })
     }
 
-    fn check(inputs: &PostProcessInputs) -> Result<(u32, u32)> {
+    /// The image size and the second layer's resolution, if the inputs are
+    /// valid.
+    fn check(inputs: &PostProcessInputs) -> Result<((u32, u32), Option<LayerResolution>)> {
         let extent = inputs.position.extent;
-        let half = crate::passes::deep_gbuffer::layer1_extent(extent);
+        let layer1 = inputs.hidden.map(|hidden| {
+            let sizes = [LayerResolution::Full, LayerResolution::Half];
+            sizes
+                .into_iter()
+                .find(|r| r.extent(extent) == hidden.position.extent)
+                .unwrap_or(LayerResolution::Full)
+        });
         let mut named = vec![
             ("position", &inputs.position, extent),
             ("normal", &inputs.normal, extent),
@@ -161,7 +174,8 @@ impl SsbcPostProcess {
             ("s0", &inputs.s0, extent),
             ("output", &inputs.output, extent),
         ];
-        if let Some(hidden) = &inputs.hidden {
+        if let (Some(hidden), Some(r)) = (&inputs.hidden, layer1) {
+            let half = r.extent(extent);
             named.extend([
                 ("second layer's position", &hidden.position, half),
                 ("second layer's normal", &hidden.normal, half),
@@ -177,8 +191,16 @@ impl SsbcPostProcess {
                 )));
             }
             if image.extent != wanted {
+                let what = if name.starts_with("second") {
+                    format!(
+                        "the size of the position image ({extent:?}) or half of it, rounded up ({:?}), like the second layer's position",
+                        LayerResolution::Half.extent(extent)
+                    )
+                } else {
+                    format!("the size of the position image, {extent:?}")
+                };
                 return Err(Error::InvalidParameter(format!(
-                    "SSBC post-process: the {name} image is {:?}; it must be {wanted:?} (the position image is {extent:?})",
+                    "SSBC post-process: the {name} image is {:?}; it must be {what}",
                     image.extent
                 )));
             }
@@ -196,7 +218,7 @@ impl SsbcPostProcess {
                     .into(),
             ));
         }
-        Ok(extent)
+        Ok((extent, layer1))
     }
 
     fn check_settings(settings: &SsbcSettings, output: PostOutput) -> Result<()> {
@@ -228,23 +250,22 @@ impl SsbcPostProcess {
         settings: &SsbcSettings,
         output: PostOutput,
     ) -> Result<()> {
-        let (w, h) = Self::check(inputs)?;
+        let ((w, h), layer1) = Self::check(inputs)?;
         Self::check_settings(settings, output)?;
         let slot_count = self.slots.len();
         let entry = self
             .slots
             .get_mut(slot)
             .ok_or_else(|| Error::InvalidParameter(format!("frame slot {slot} of {slot_count}")))?;
-        let layers = 1 + inputs.hidden.is_some() as u32;
-        crate::passes::ssbc::check_size(&self.device, w, h, layers)?;
+        crate::passes::ssbc::check_size(&self.device, w, h, layer1)?;
         // The host finished this slot's previous frame (its promise).
         let (pass, device) = (&self.pass, &self.device);
         let steps = settings.steps;
         let held = PassSlot::refresh(
             entry,
-            (w, h, steps, settings.max_eval_level, layers),
+            (w, h, steps, settings.max_eval_level, layer1),
             |_| Ok(false),
-            || pass.allocate(device, (w, h), steps, settings.max_eval_level, layers),
+            || pass.allocate(device, (w, h), steps, settings.max_eval_level, layer1),
             |frame| {
                 let pool = DescriptorPool::new(device, &pass.frame_layouts(frame))?;
                 pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));

@@ -172,6 +172,35 @@ pub enum Integration {
     Brute,
 }
 
+/// The resolution of the deep G-buffer's second layer (`--ssbc-layers 2`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LayerResolution {
+    /// One layer-1 pixel per image pixel: its pixels are split at creases
+    /// like layer 0's, and it gives back most (see docs/ssbc-implementation.md).
+    #[default]
+    Full,
+    /// One per 2 x 2 image pixels (a quarter of its G-buffer, lighting and
+    /// pyramid cost).
+    Half,
+}
+
+impl LayerResolution {
+    /// log2 of a pixel's side in image pixels.
+    pub fn shift(self) -> u32 {
+        match self {
+            Self::Full => 0,
+            Self::Half => 1,
+        }
+    }
+
+    /// The layer's extent for an image of `extent` (rounded up).
+    pub fn extent(self, extent: (u32, u32)) -> (u32, u32) {
+        let side = 1 << self.shift();
+        (extent.0.div_ceil(side), extent.1.div_ceil(side))
+    }
+}
+
 /// SSBC parameters.
 #[derive(Clone, Debug)]
 pub struct SsbcSettings {
@@ -217,12 +246,14 @@ pub struct SsbcSettings {
     /// that limit sent pixel by pixel inside its concave rings).
     pub scale_fraction: f32,
     /// G-buffer layers SSBC gathers from: 1 (the visible surfaces), or 2: a
-    /// deep G-buffer's second layer at half resolution, the nearest surfaces
+    /// deep G-buffer's second layer (at `layer1_resolution`), the nearest surfaces
     /// at least `layer_separation` behind the visible ones, back faces
     /// included, with their own direct and bounded VPL lighting (Mara et
     /// al., HPG 2016). Surfaces hidden from the camera then give back the
     /// light they send to visible ones.
     pub layers: u32,
+    /// The second layer's resolution.
+    pub layer1_resolution: LayerResolution,
     /// Minimum separation of layer 1 behind layer 0, as a fraction of the
     /// scene's bounding-box diagonal.
     pub layer_separation: f32,
@@ -242,12 +273,18 @@ impl Default for SsbcSettings {
             max_eval_level: 4,
             scale_fraction: 0.2,
             layers: 1,
+            layer1_resolution: LayerResolution::Full,
             layer_separation: 0.02,
         }
     }
 }
 
 impl SsbcSettings {
+    /// The second layer's resolution with `layers` 2, else None.
+    pub fn second_layer(&self) -> Option<LayerResolution> {
+        (self.layers >= 2).then_some(self.layer1_resolution)
+    }
+
     /// Checks the parameters.
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));

@@ -23,6 +23,7 @@ layout(location = 4) in vec4 v_tangent;
 layout(push_constant) uniform Push {
     mat4 view_proj;
     vec4 camera_position;  // xyz eye; w (PEEL) the separation behind layer 0 [m]
+    uint layer1_shift;     // (PEEL) log2 of layer 1's pixel side in layer-0 pixels (0 or 1)
 } pc;
 
 layout(set = 0, binding = 0) readonly buffer Materials { GpuMaterial materials[]; };
@@ -32,19 +33,21 @@ layout(set = 0, binding = 2) uniform sampler2DArray linear_textures;
 #include "material.glsl"
 
 #ifdef PEEL
-// Layer 0 at full resolution: a layer-1 pixel p covers its pixels 2p .. 2p + 1.
+// Layer 0 at full resolution: a layer-1 pixel p covers its pixels
+// p << shift .. ((p + 1) << shift) - 1.
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D layer0_position;
 
 // Whether the fragment lies at least the separation behind layer 0 at all
 // the (geometry) pixels of layer 0 under it.
 bool behind_layer0() {
-    ivec2 base = ivec2(gl_FragCoord.xy) * 2;
+    int side = 1 << pc.layer1_shift;
+    ivec2 base = ivec2(gl_FragCoord.xy) * side;
     ivec2 size = imageSize(layer0_position);
     float eye = distance(v_position, pc.camera_position.xyz);
     bool any_geometry = false;
     bool behind = true;
-    for (int k = 0; k < 4; k++) {
-        ivec2 q = min(base + ivec2(k & 1, k >> 1), size - 1);
+    for (int k = 0; k < side * side; k++) {
+        ivec2 q = min(base + ivec2(k % side, k / side), size - 1);
         vec4 first = imageLoad(layer0_position, q);
         if (first.w != 0.0) {
             any_geometry = true;

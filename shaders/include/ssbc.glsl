@@ -9,9 +9,10 @@
 //               clusters were grouped (pyramid builds and evaluation points only)
 //   radiance[]  sum of A_y S_{k-1}(y) per cluster (rebuilt every step)
 // With a second layer (a deep G-buffer's layer 1: the nearest surfaces at
-// least a separation behind the visible ones, at half resolution), its
-// pyramid follows the first in the same buffers: level l of it covers the
-// screen as level l + 1 of the first does (see Pyramid).
+// least a separation behind the visible ones, at full or half resolution),
+// its pyramid follows the first in the same buffers; at half resolution
+// level l of it covers the screen as level l + 1 of the first does (see
+// Pyramid).
 //
 // A texel's pixels are grouped by depth into a front and a back cluster
 // (split at the largest gap in depth between its children's clusters): at a
@@ -130,13 +131,14 @@ layout(push_constant) uniform SsbcPush {
     uint generation;          // evaluation points of this step carry this stamp
     uint from_list;           // 1: work items come from a list; 0: every texel of `level`
     float refine_excess;      // ...only if G may exceed (1 + this) b somewhere in it
-    uint layers;              // pyramids the residual gathers from: 1, or 2 with a second layer
+    uint layers;              // bits 0..3: pyramids the residual gathers from (1, or 2 with a
+                              // second layer); bits 4..7: log2 of layer 1's pixel side
     uint build_layer;         // the pyramid the build kernels (and texel_index) address
 } pc;
 
 // One layer's pyramid: where it starts in the buffers, its level 0 (padded)
-// and its levels. Layer 1 is at half resolution: its pixel p covers the
-// full-resolution pixels 2p .. 2p + 1.
+// and its levels. Layer 1 is at full or half resolution: at half, its pixel
+// p covers the full-resolution pixels 2p .. 2p + 1.
 struct Pyramid {
     uint base;
     uvec2 size;
@@ -154,15 +156,31 @@ uint level_start(uint n, int l) {
     return high >> 1;
 }
 
+// Pyramids the residual gathers from.
+uint layer_count() {
+    return pc.layers & 15u;
+}
+
+// log2 of a layer's pixel side in image pixels (layer 0: 0).
+uint layer_shift(uint layer) {
+    return layer == 0u ? 0u : (pc.layers >> 4) & 15u;
+}
+
 Pyramid pyramid_of(uint layer) {
     if (layer == 0u) return Pyramid(0u, pc.pyramid_size, int(pc.levels), 0);
     uint n = pc.pyramid_size.x * pc.pyramid_size.y;
-    return Pyramid(level_start(n, int(pc.levels)), pc.pyramid_size >> 1, int(pc.levels) - 1, 1);
+    uint shift = layer_shift(layer);
+    return Pyramid(level_start(n, int(pc.levels)), pc.pyramid_size >> shift, int(pc.levels - shift), int(shift));
 }
 
-// The image size of a layer (layer 1: half, rounded up).
+// The size of an image whose pixel side is 2^shift image pixels (rounded up).
+uvec2 image_size_at(uint shift) {
+    return (pc.size + (1u << shift) - 1u) >> shift;
+}
+
+// The image size of a layer.
 uvec2 layer_image_size(uint layer) {
-    return (pc.size + (1u << layer) - 1u) >> layer;
+    return image_size_at(layer_shift(layer));
 }
 
 // Index of texel t of level l of pyramid p in the buffers.
@@ -275,7 +293,7 @@ void add_to_scale(inout vec2 scale, float c, float inv_d) {
 void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
                      inout uint count, inout vec2 scale) {
     ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
-    ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(layer_image_size(uint(p.shift))) - 1);
+    ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(image_size_at(uint(p.shift))) - 1);
     for (int py = lo.y; py <= hi.y; py++) {
         for (int px = lo.x; px <= hi.x; px++) {
             count++;
@@ -469,9 +487,9 @@ Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out f
     float radius_px = screen_radius(x, r_world);
     vec2 scale = vec2(0.0);
     // Every layer's surfaces are sources (the separation between layers
-    // keeps one surface from being counted twice); layer 1's pixels are
-    // twice as large: its window is half as many pixels across.
-    for (uint layer = 0u; layer < pc.layers; layer++) {
+    // keeps one surface from being counted twice); at half resolution
+    // layer 1's window is half as many pixels across.
+    for (uint layer = 0u; layer < layer_count(); layer++) {
         Pyramid p = pyramid_of(layer);
         float to_layer = 1.0 / float(1 << p.shift);
         vec2 c = (center + 0.5) * to_layer - 0.5;

@@ -1,6 +1,7 @@
 //! A deep G-buffer's second layer (Mara, McGuire, Nowrouzezahrai, Luebke,
 //! "Deep G-Buffers for Stable Global Illumination Approximation", HPG 2016)
-//! by depth peeling, at half resolution: per pixel the nearest surface at
+//! by depth peeling, at full or half resolution
+//! ([`crate::settings::LayerResolution`]): per pixel the nearest surface at
 //! least a separation farther from the camera than the visible one (layer
 //! 0) under it, back faces included. SSBC gathers from its surfaces too:
 //! the hidden faces of objects light the visible surfaces around them.
@@ -20,12 +21,6 @@ use crate::vk::{Access, Binding, DescriptorPool, DescriptorSetLayout, Device, Pi
 pub struct DeepGBufferPass {
     layout: DescriptorSetLayout,
     pipeline: Pipeline,
-}
-
-/// The extent of layer 1 for an image of `extent`: half, rounded up (as
-/// `layer_image_size` in shaders/include/ssbc.glsl).
-pub fn layer1_extent(extent: (u32, u32)) -> (u32, u32) {
-    (extent.0.div_ceil(2), extent.1.div_ceil(2))
 }
 
 impl DeepGBufferPass {
@@ -55,14 +50,14 @@ impl Pass for DeepGBufferPass {
     type Reads<'a> = (&'a GpuScene, &'a GBuffer);
 
     fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
-        layer1_extent(setup.extent())
+        setup.layer_extent(1)
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
         GBuffer::new(
             setup.device,
             "gbuffer_layer1",
-            layer1_extent(setup.extent()),
+            setup.layer_extent(1),
         )
     }
 
@@ -97,6 +92,8 @@ impl Pass for DeepGBufferPass {
         let push = Push {
             view_proj: view.view_proj.to_cols_array(),
             camera_position: view.camera.position.extend(separation).into(),
+            layer1_shift: settings.ssbc.layer1_resolution.shift(),
+            pad: [0; 3],
         };
         layer1.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);

@@ -194,6 +194,9 @@ pub(crate) struct Push {
     pub view_proj: [f32; 16],
     /// xyz eye; w the separation behind layer 0 (layer 1 only).
     pub camera_position: [f32; 4],
+    /// log2 of a layer-1 pixel's side in layer-0 pixels (layer 1 only).
+    pub layer1_shift: u32,
+    pub pad: [u32; 3],
 }
 
 /// The G-buffer pipeline and its descriptor layout.
@@ -249,6 +252,8 @@ impl Pass for GBufferPass {
         let push = Push {
             view_proj: view.view_proj.to_cols_array(),
             camera_position: view.camera.position.extend(1.0).into(),
+            layer1_shift: 0,
+            pad: [0; 3],
         };
         gbuffer.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);

@@ -47,12 +47,12 @@ pub struct SlotSetup<'a> {
 }
 
 impl SlotSetup<'_> {
-    /// The extent of G-buffer layer `layer` (1: half resolution, see
-    /// [`deep_gbuffer`]).
+    /// The extent of G-buffer layer `layer` (layer 1 at
+    /// `ssbc.layer1_resolution`, see [`deep_gbuffer`]).
     pub fn layer_extent(&self, layer: u32) -> (u32, u32) {
         match layer {
             0 => self.extent(),
-            _ => deep_gbuffer::layer1_extent(self.extent()),
+            _ => self.settings.ssbc.layer1_resolution.extent(self.extent()),
         }
     }
 

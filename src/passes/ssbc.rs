@@ -15,7 +15,7 @@ use gpu_allocator::MemoryLocation;
 use super::gbuffer::GBuffer;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::{Error, Result};
-pub use crate::settings::{Integration, SsbcSettings};
+pub use crate::settings::{Integration, LayerResolution, SsbcSettings};
 use crate::shaders;
 use crate::vk::{
     Access, Binding, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout,
@@ -82,11 +82,11 @@ pub struct SsbcFrame {
     pub samples: Vec<Image>,
     /// `S0 + residual_1 + ... + residual_K`.
     pub final_image: Image,
-    /// With a second layer: its `residual_k` for k = 1..K-1 (half
+    /// With a second layer: its `residual_k` for k = 1..K-1 (at its
     /// resolution), the next step's sources there.
     pub layer1_residuals: Vec<Image>,
-    /// Layers the pyramids hold (1 or 2).
-    layers: u32,
+    /// The second layer's resolution, if the pyramids hold one.
+    layer1: Option<LayerResolution>,
     levels: u32,
     pyramid_size: (u32, u32),
     /// The coarsest evaluation level the descriptor sets are counted for.
@@ -107,7 +107,12 @@ impl SsbcFrame {
     /// G-buffer layers the pyramids hold (1, or 2 with a deep G-buffer's
     /// second layer).
     pub fn layers(&self) -> u32 {
-        self.layers
+        1 + self.layer1.is_some() as u32
+    }
+
+    /// The second layer's resolution, if the pyramids hold one.
+    pub fn layer1(&self) -> Option<LayerResolution> {
+        self.layer1
     }
 
     /// Pixels evaluated alone in each step (after the frame has finished;
@@ -164,10 +169,16 @@ fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
 /// second layer the geometry pyramid, a quarter larger) exceeds what the
 /// device can bind (maxStorageBufferRange; 128 MiB on lavapipe, which allows
 /// about 1400x1050 with one layer).
-pub fn check_size(device: &Device, width: u32, height: u32, layers: u32) -> Result<()> {
+pub fn check_size(
+    device: &Device,
+    width: u32,
+    height: u32,
+    layer1: Option<LayerResolution>,
+) -> Result<()> {
     let (size, levels) = pyramid_layout(width, height);
-    let layers = effective_layers(layers, levels);
-    let largest = all_layers_texels(size, levels, layers) * EVAL_POINT_BYTES.max(GEO_TEXEL_BYTES);
+    let layer1 = effective_layer1(layer1, levels);
+    let all = all_layers_texels(size, levels, layer1);
+    let largest = (all * GEO_TEXEL_BYTES).max(pyramid_texels(size, levels) * EVAL_POINT_BYTES);
     let max = device.limits().max_storage_buffer_range as u64;
     if largest > max {
         return Err(Error::InvalidParameter(format!(
@@ -192,24 +203,25 @@ fn pyramid_texels(size: (u32, u32), levels: u32) -> u64 {
     (4 * n - 4 * (n >> (2 * levels))) / 3
 }
 
-/// Texels of layer 0's pyramid and, with two layers, layer 1's after it
-/// (half the size, one level fewer: `pyramid_of` in ssbc.glsl).
-fn all_layers_texels(size: (u32, u32), levels: u32, layers: u32) -> u64 {
+/// Texels of layer 0's pyramid and, with a second layer, layer 1's after it
+/// (at half resolution half the size, one level fewer: `pyramid_of` in
+/// ssbc.glsl).
+fn all_layers_texels(size: (u32, u32), levels: u32, layer1: Option<LayerResolution>) -> u64 {
     let first = pyramid_texels(size, levels);
-    match layers {
-        1 => first,
-        _ => first + pyramid_texels((size.0 / 2, size.1 / 2), levels - 1),
+    match layer1 {
+        None => first,
+        Some(r) => {
+            let shift = r.shift();
+            first + pyramid_texels((size.0 >> shift, size.1 >> shift), levels - shift)
+        }
     }
 }
 
-/// The layers a pyramid of `levels` levels can hold: a second layer needs
-/// a level to spare (images of at least 2 pixels on the short side).
-fn effective_layers(layers: u32, levels: u32) -> u32 {
-    if levels >= 2 {
-        layers.clamp(1, 2)
-    } else {
-        1
-    }
+/// The second layer a pyramid of `levels` levels can hold: at half
+/// resolution it needs a level to spare (images of at least 2 pixels on the
+/// short side).
+fn effective_layer1(layer1: Option<LayerResolution>, levels: u32) -> Option<LayerResolution> {
+    layer1.filter(|r| levels > r.shift())
 }
 
 /// Sizes of the GLSL structs, in bytes.
@@ -292,19 +304,22 @@ impl SsbcPass {
     /// Layouts of every set one frame of `frame` allocates.
     pub fn frame_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
         let levels = frame.levels as usize;
-        // Layer 0's pyramid levels, then layer 1's (one fewer).
-        let built = levels + (frame.layers as usize - 1) * (levels - 1);
+        // Layer 0's pyramid levels, then layer 1's (one fewer at half resolution).
+        let per_layer: Vec<usize> = std::iter::once(levels)
+            .chain(frame.layer1.map(|r| levels - r.shift() as usize))
+            .collect();
+        let built: usize = per_layer.iter().sum();
         let mut v = Vec::new();
-        for layer in 0..frame.layers as usize {
+        for &layer_levels in &per_layer {
             v.push(self.geometry_base.set_layout());
             v.extend(std::iter::repeat_n(
                 self.geometry.set_layout(),
-                levels - 1 - layer,
+                layer_levels - 1,
             ));
         }
         for step in 0..frame.steps() {
             v.extend(std::iter::repeat_n(self.radiance.set_layout(), built));
-            if frame.layers == 2 && step + 1 < frame.steps() {
+            if frame.layer1.is_some() && step + 1 < frame.steps() {
                 v.push(self.layer_residual.set_layout());
             }
             for _ in 0..=frame.max_eval_level {
@@ -352,14 +367,14 @@ impl SsbcPass {
         extent: (u32, u32),
         steps: u32,
         max_eval_level: u32,
-        layers: u32,
+        layer1: Option<LayerResolution>,
     ) -> Result<SsbcFrame> {
         // Level 0 padded so every level halves exactly (padding has no geometry).
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
-        let layers = effective_layers(layers, levels);
+        let layer1 = effective_layer1(layer1, levels);
         // Evaluation points exist for layer 0's texels only.
         let texels = pyramid_texels(pyramid_size, levels);
-        let all_texels = all_layers_texels(pyramid_size, levels, layers);
+        let all_texels = all_layers_texels(pyramid_size, levels, layer1);
         let storage = |name: &str, size: u64, extra: vk::BufferUsageFlags| {
             Buffer::new(
                 device,
@@ -405,13 +420,15 @@ impl SsbcPass {
             all_texels * RADIANCE_BYTES,
             texel_usage,
         )?;
-        let layer1_extent = super::deep_gbuffer::layer1_extent(extent);
-        let layer1_residuals = (1..steps)
-            .filter(|_| layers == 2)
-            .map(|k| {
-                super::radiance_image(device, &format!("ssbc.layer1_residual_{k}"), layer1_extent)
-            })
-            .collect::<Result<_>>()?;
+        let layer1_residuals = match layer1 {
+            Some(r) => (1..steps)
+                .map(|k| {
+                    let name = format!("ssbc.layer1_residual_{k}");
+                    super::radiance_image(device, &name, r.extent(extent))
+                })
+                .collect::<Result<_>>()?,
+            None => Vec::new(),
+        };
         let view =
             |buffer: &Buffer, format, name: &str| BufferView::new(device, buffer, format, 16, name);
         let points = storage(
@@ -453,7 +470,7 @@ impl SsbcPass {
             samples,
             final_image: image("ssbc.final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
             layer1_residuals,
-            layers,
+            layer1,
             levels,
             pyramid_size,
             max_eval_level: max_eval_level.min(levels - 1),
@@ -482,7 +499,7 @@ impl SsbcPass {
             generation: 0,
             from_list: 0,
             refine_excess: settings.refine_excess,
-            layers: frame.layers,
+            layers: 1,
             build_layer: 0,
         }
     }
@@ -507,8 +524,8 @@ impl SsbcPass {
 
     /// Records the geometry pyramids and every step: `visible` is layer 0
     /// (its G-buffer and `S0 = T Le + T_b L^`, where the residual is
-    /// written), `hidden` the optional second layer (half resolution),
-    /// whose surfaces are sources too.
+    /// written), `hidden` the optional second layer (at the frame's
+    /// [`SsbcFrame::layer1`] resolution), whose surfaces are sources too.
     #[allow(clippy::too_many_arguments)]
     pub fn record_steps(
         &self,
@@ -521,9 +538,11 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         let extent = visible.gbuffer.extent();
-        let hidden = hidden.filter(|_| frame.layers == 2);
+        let hidden = hidden.filter(|_| frame.layer1.is_some());
         let mut push = self.push(inputs, extent, frame);
-        push.layers = 1 + hidden.is_some() as u32;
+        if let (Some(_), Some(r)) = (hidden, frame.layer1) {
+            push.layers = 2 | r.shift() << 4;
+        }
 
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
         for (layer, source) in std::iter::once(visible).chain(hidden).enumerate() {
@@ -591,7 +610,7 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         push.build_layer = layer;
-        for level in 0..frame.levels - layer {
+        for level in 0..frame.levels - Self::layer_shift(frame, layer) {
             if level == 0 {
                 rec.use_image(gbuffer.position, Access::ComputeRead);
                 rec.use_image(gbuffer.normal, Access::ComputeRead);
@@ -652,13 +671,19 @@ impl SsbcPass {
         )
     }
 
-    /// Texels of level `level` of layer `layer`'s pyramid (layer 1: half
-    /// the size).
+    /// log2 of layer `layer`'s pixel side in image pixels.
+    fn layer_shift(frame: &SsbcFrame, layer: u32) -> u32 {
+        match (layer, frame.layer1) {
+            (1, Some(r)) => r.shift(),
+            _ => 0,
+        }
+    }
+
+    /// Texels of level `level` of layer `layer`'s pyramid (at half
+    /// resolution half the size).
     fn level_extent(frame: &SsbcFrame, layer: u32, level: u32) -> (u32, u32) {
-        (
-            frame.pyramid_size.0 >> (level + layer),
-            frame.pyramid_size.1 >> (level + layer),
-        )
+        let shift = level + Self::layer_shift(frame, layer);
+        (frame.pyramid_size.0 >> shift, frame.pyramid_size.1 >> shift)
     }
 
     fn record_radiance_mips(
@@ -671,7 +696,7 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         push.build_layer = layer;
-        for level in 0..frame.levels - layer {
+        for level in 0..frame.levels - Self::layer_shift(frame, layer) {
             rec.use_image(term, Access::ComputeRead);
             rec.use_buffer(&frame.geo, Access::ComputeRead);
             rec.use_buffer(&frame.aux, Access::ComputeRead);
@@ -989,8 +1014,8 @@ impl StepOutput<'_> {
 
 impl Pass for SsbcPass {
     const NAME: &'static str = "ssbc";
-    /// (width, height, steps, coarsest evaluation level, layers).
-    type Key = (u32, u32, u32, u32, u32);
+    /// (width, height, steps, coarsest evaluation level, second layer).
+    type Key = (u32, u32, u32, u32, Option<LayerResolution>);
     type Resources = SsbcFrame;
     /// The visible layer and, with `layers` 2, the hidden one.
     type Reads<'a> = (SsbcLayer<'a>, Option<SsbcLayer<'a>>);
@@ -998,7 +1023,7 @@ impl Pass for SsbcPass {
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let (w, h) = setup.extent();
         let ssbc = &setup.settings.ssbc;
-        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.layers)
+        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.second_layer())
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<SsbcFrame> {
@@ -1008,7 +1033,7 @@ impl Pass for SsbcPass {
             setup.extent(),
             ssbc.steps,
             ssbc.max_eval_level,
-            ssbc.layers,
+            ssbc.second_layer(),
         )
     }
 

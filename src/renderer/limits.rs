@@ -63,7 +63,7 @@ pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Resu
             device,
             settings.width,
             settings.height,
-            settings.ssbc.layers,
+            settings.ssbc.second_layer(),
         )?;
     }
     if settings.vpl.count as u64 * settings.points_per_vpl as u64 > MAX_ISM_POINTS {
