@@ -3,11 +3,12 @@
 //! `cargo bench --bench ssbc_layers` (`-- --frames N`: median of N warm
 //! frames, default 3; `--quick`: 320x240 only).
 //!
-//! 1. Cost, at the defaults otherwise: one SSBC step with two layers
-//!    against one layer, and what the second layer's own passes cost (its
-//!    G-buffer by depth peeling, direct and bounded VPL lighting at half
-//!    resolution, its geometry pyramid), against the one-layer frame.
-//!    Configurations alternate frame by frame, so drift hits both alike.
+//! 1. Cost, at the defaults otherwise: one SSBC step with two layers (the
+//!    second at half and at full resolution) against one layer, and what
+//!    the second layer's own passes cost (its G-buffer by depth peeling,
+//!    direct and bounded VPL lighting, its geometry pyramid), against the
+//!    one-layer frame. Configurations alternate frame by frame, so drift
+//!    hits all alike.
 //! 2. Accuracy: the hierarchical step against brute force over both
 //!    layers (relative RMSE and mean of `residual_1`), 320x240.
 
@@ -16,6 +17,14 @@ mod common;
 use ssbc::passes::ssbc::Integration;
 use ssbc::profile::render_frames;
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::settings::LayerResolution;
+
+/// One layer; two with the second at half resolution; at full.
+const CONFIGS: [(&str, Option<LayerResolution>); 3] = [
+    ("1", None),
+    ("2, half", Some(LayerResolution::Half)),
+    ("2, full", Some(LayerResolution::Full)),
+];
 
 /// Median GPU ms of the pass `name` (0 if it did not run).
 fn pass_ms(f: &Frame, name: &str) -> f64 {
@@ -29,9 +38,10 @@ fn pass_ms(f: &Frame, name: &str) -> f64 {
         .map_or(0.0, |p| p.ms.median)
 }
 
-fn settings(size: (u32, u32), layers: u32) -> RenderSettings {
+fn settings(size: (u32, u32), layer1: Option<LayerResolution>) -> RenderSettings {
     let mut s = RenderSettings::new(size.0, size.1);
-    s.ssbc.layers = layers;
+    s.ssbc.layers = 1 + layer1.is_some() as u32;
+    s.ssbc.layer1_resolution = layer1.unwrap_or_default();
     s
 }
 
@@ -45,8 +55,9 @@ fn main() {
         "# SSBC layers on {}, defaults, median of {frames} warm frames\n",
         renderer.device().name()
     );
-    println!("| scene | size | step, 1 layer ms | step, 2 layers ms | ratio | layer 1: G-buffer + direct + bounded ms | geometry pyramids 1 / 2 layers ms | frame 1 / 2 layers ms | frame ratio |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("Per configuration (1 layer / 2, layer 1 at half resolution / 2, at full):\n");
+    println!("| scene | size | step ms | step ratios | layer 1: G-buffer + direct + bounded ms | geometry pyramids ms | frame ms | frame ratios |");
+    println!("|---|---|---|---|---|---|---|---|");
     let layer1_passes = [
         "gbuffer_layer1",
         "direct_lighting_layer1",
@@ -58,10 +69,10 @@ fn main() {
         scene.ensure_light();
         for &size in sizes {
             // Alternate: one frame of each, `frames` times, keeping them all.
-            let mut runs: [Vec<Frame>; 2] = [Vec::new(), Vec::new()];
+            let mut runs: [Vec<Frame>; 3] = Default::default();
             for _ in 0..frames {
-                for (k, layers) in [1, 2].into_iter().enumerate() {
-                    let s = settings(size, layers);
+                for (k, (_, layer1)) in CONFIGS.into_iter().enumerate() {
+                    let s = settings(size, layer1);
                     runs[k].push(render_frames(&mut renderer, &scene, &s, 1, None).expect("frame"));
                 }
             }
@@ -83,22 +94,28 @@ fn main() {
                         .median
                 })
             };
-            let own = median(&runs[1], &|f| {
-                layer1_passes.iter().map(|p| pass_ms(f, p)).sum()
-            });
+            let own =
+                |k: usize| median(&runs[k], &|f| layer1_passes.iter().map(|p| pass_ms(f, p)).sum());
             println!(
-                "| {} | {}x{} | {:.1} | {:.1} | {:.2}x | {own:.1} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x |",
+                "| {} | {}x{} | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x |",
                 scene.name,
                 size.0,
                 size.1,
                 step(0),
                 step(1),
+                step(2),
                 step(1) / step(0),
+                step(2) / step(0),
+                own(1),
+                own(2),
                 pyramid(0),
                 pyramid(1),
+                pyramid(2),
                 frame(0),
                 frame(1),
+                frame(2),
                 frame(1) / frame(0),
+                frame(2) / frame(0),
             );
         }
     }
@@ -108,9 +125,9 @@ fn main() {
     for name in scenes {
         let mut scene = ssbc::scene::load(name).expect("scene");
         scene.ensure_light();
-        for layers in [1, 2] {
+        for (layers, layer1) in CONFIGS {
             let residual = |renderer: &mut Renderer, integration| {
-                let mut s = settings((320, 240), layers);
+                let mut s = settings((320, 240), layer1);
                 s.ssbc.integration = integration;
                 s.debug_readback = true;
                 let f = renderer.render(&scene, &s).expect("frame");

@@ -20,7 +20,10 @@
 //! layers 0 and 1). `--camera-shift DX,DY` moves the camera sideways (metres)
 //! to change the pixel grid's phase against the scene's edges.
 //!
-//! `cargo run --release --example hidden_sources -- [SCENE] [--size WxH] [--vpls N] [--bound B] [--spp N] [--twin] [--camera-shift DX,DY]`
+//! `--separation F` sets layer 1's minimum separation (a fraction of the
+//! scene's diagonal; default: the renderer's).
+//!
+//! `cargo run --release --example hidden_sources -- [SCENE] [--size WxH] [--vpls N] [--bound B] [--spp N] [--twin] [--camera-shift DX,DY] [--separation F]`
 //! (default: assets/open-front-box.gltf, 160x120, 256 VPLs, b = 0.5, 64 spp).
 
 use std::sync::atomic::AtomicBool;
@@ -74,7 +77,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let i = args.iter().position(|a| a == flag)?;
         args.get(i + 1).cloned()
     };
-    let flags = ["--size", "--vpls", "--bound", "--spp", "--camera-shift"];
+    let flags = ["--size", "--vpls", "--bound", "--spp", "--camera-shift", "--separation"];
     let scene_name = args
         .iter()
         .enumerate()
@@ -89,6 +92,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let vpls: usize = value("--vpls").and_then(|v| v.parse().ok()).unwrap_or(256);
     let bound: f32 = value("--bound").and_then(|v| v.parse().ok()).unwrap_or(0.5);
     let spp: u32 = value("--spp").and_then(|v| v.parse().ok()).unwrap_or(64);
+    let separation: f32 = value("--separation")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(ssbc::settings::SsbcSettings::default().layer_separation);
     let mut scene = ssbc::scene::load(&scene_name)?;
     scene.ensure_light();
     if let Some((dx, dy)) = value("--camera-shift").and_then(|v| {
@@ -141,6 +147,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.vpl = vpl.clone();
         s.bound = Bound::Value(bound);
         s.ssbc.steps = steps;
+        s.ssbc.layer_separation = separation;
         s.ssbc.layers = 1 + layer1.is_some() as u32;
         s.ssbc.layer1_resolution = layer1.unwrap_or_default();
         renderer.render(&scene, &s).map(|f| f.image.rgba)
@@ -173,7 +180,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             width: w,
             height: h,
         };
-        twin_report(&scene, &truth, bound, spp, &vpl)?;
+        twin_report(&scene, &truth, bound, spp, &vpl, separation)?;
     }
 
     // The ceiling: where the true residual's sources lie.
@@ -211,7 +218,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let diagonal = 2.0 * scene.bounds().radius();
     println!("| separation | region | layer 0 | layer 1 | deeper | guard band, layer 0 | guard band, layer 1 | outside | 0 + 1 | 0 + 1 + guard |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
-    for separation in [0.02 * diagonal, 0.05 * diagonal, 0.1 * diagonal] {
+    for separation in [0.002, 0.02, 0.1].map(|f| f * diagonal) {
         let place = |p: Vec3| {
             let v = p - camera.position;
             let depth = v.dot(camera.forward);
@@ -350,7 +357,7 @@ impl Truth<'_> {
 }
 
 /// A screen-space source and receiver of the CPU twin: a layer-0 pixel or
-/// a layer-1 (half-resolution) pixel, on exact geometry.
+/// a layer-1 pixel, on exact geometry.
 struct TwinPoint {
     surface: Surface,
     area: f32,
@@ -364,15 +371,17 @@ struct TwinPoint {
     other: Option<(Vec3, Vec3, f32, usize)>,
 }
 
-/// Ray-cast G-buffers at pixel centres: layer 0, then (with `layers` 2)
-/// layer 1 as the GPU peels it: per 2 x 2 block, the nearest surface at least
-/// `separation` beyond the farthest of its four layer-0 depths, back faces
-/// included, with outward normals.
+/// Ray-cast G-buffers at pixel centres: layer 0, then (with `layer1`)
+/// layer 1 as the GPU peels it: per layer-1 pixel (at half resolution 2 x 2
+/// image pixels), the nearest surface at least `separation` beyond the
+/// farthest of the layer-0 depths under it, back faces included, with
+/// outward normals. Full-resolution layers are split at creases as the GPU
+/// splits them.
 fn twin_points(
     tracer: &Reference,
     scene: &Scene,
     truth: &Truth,
-    layers: u32,
+    layer1: Option<LayerResolution>,
     separation: f32,
 ) -> Vec<TwinPoint> {
     let (bvh, camera) = (tracer.bvh(), tracer.camera());
@@ -393,23 +402,79 @@ fn twin_points(
         surface,
         pixel,
     };
+    let twin_camera = TwinCamera {
+        position: camera.position,
+        forward: camera.forward,
+        up: camera.up,
+        pixel_side,
+        min_cos_view,
+    };
     let mut depth = vec![f32::INFINITY; (w * h) as usize];
     let mut points = Vec::new();
+    let mut at = Vec::new();
     for (i, d) in depth.iter_mut().enumerate() {
         let dir = camera.pixel_ray((i as u32 % w) as f32, (i as u32 / w) as f32, w, h);
         if let Some(hit) = bvh.intersect_camera(scene, camera.position, dir) {
             *d = hit.t * dir.dot(camera.forward);
             points.push(point(bvh.surface(scene, &hit, -dir), pixel_side, Some(i)));
+            at.push(i);
         }
     }
-    // Layer 0's footprints, split at creases as the GPU splits them.
+    split_at_creases(&mut points, &at, w, h, &twin_camera);
+    let Some(layer1) = layer1 else {
+        return points;
+    };
+    let side = 1u32 << layer1.shift();
+    let (w1, h1) = layer1.extent((w, h));
+    let (mut hidden, mut at) = (Vec::new(), Vec::new());
+    for y in 0..h1 {
+        for x in 0..w1 {
+            let under = (0..side * side).filter_map(|k| {
+                let (px, py) = (x * side + k % side, y * side + k / side);
+                (px < w && py < h).then(|| depth[(py * w + px) as usize])
+            });
+            let far = under.fold(0.0f32, f32::max);
+            if !far.is_finite() {
+                continue;
+            }
+            let centre = (Vec2::new(x as f32, y as f32) + 0.5) * side as f32 - 0.5;
+            let dir = camera.pixel_ray(centre.x, centre.y, w, h);
+            let tmin = (far + separation) / dir.dot(camera.forward);
+            if let Some(hit) = bvh.intersect(camera.position, dir, tmin, f32::INFINITY) {
+                let mut s = bvh.surface(scene, &hit, -dir);
+                if !s.front {
+                    s.normal = -s.normal;
+                    s.geometric_normal = -s.geometric_normal;
+                }
+                hidden.push(point(s, side as f32 * pixel_side, None));
+                at.push((y * w1 + x) as usize);
+            }
+        }
+    }
+    if layer1 == LayerResolution::Full {
+        split_at_creases(&mut hidden, &at, w, h, &twin_camera);
+        // Crease parts point into this layer's points, which follow layer 0's.
+        let offset = points.len();
+        for p in &mut hidden {
+            if let Some(o) = &mut p.other {
+                o.3 += offset;
+            }
+        }
+    }
+    points.extend(hidden);
+    points
+}
+
+/// The footprints of one full-resolution layer's points (`points[k]` at
+/// pixel `at[k]`), split at creases as the GPU splits them; a part beyond a
+/// crease carries the index (in `points`) of the point whose S it takes.
+fn split_at_creases(points: &mut [TwinPoint], at: &[usize], w: u32, h: u32, camera: &TwinCamera) {
     let (mut position, mut normal) = (
         vec![0.0; (w * h * 4) as usize],
         vec![0.0; (w * h * 4) as usize],
     );
     let mut point_at = vec![usize::MAX; (w * h) as usize];
-    for (k, p) in points.iter().enumerate() {
-        let i = p.pixel.expect("layer 0");
+    for (k, (p, &i)) in points.iter().zip(at).enumerate() {
         position[i * 4..i * 4 + 4].copy_from_slice(&p.surface.position.extend(1.0).to_array());
         normal[i * 4..i * 4 + 3].copy_from_slice(&p.surface.normal.to_array());
         point_at[i] = k;
@@ -421,44 +486,11 @@ fn twin_points(
         normal: &normal,
         albedo: &normal,
     };
-    let twin_camera = TwinCamera {
-        position: camera.position,
-        forward: camera.forward,
-        up: camera.up,
-        pixel_side,
-        min_cos_view,
-    };
-    for p in &mut points {
-        let i = p.pixel.expect("layer 0") as u32;
-        let f = footprint(&view, &twin_camera, i % w, i / w);
+    for (p, &i) in points.iter_mut().zip(at) {
+        let f = footprint(&view, camera, i as u32 % w, i as u32 / w);
         p.area = f.own_area;
         p.other = f.other.map(|(c, n, a, j)| (c, n, a, point_at[j]));
     }
-    if layers < 2 {
-        return points;
-    }
-    for y in 0..h / 2 {
-        for x in 0..w / 2 {
-            let far = [(0, 0), (1, 0), (0, 1), (1, 1)]
-                .map(|(dx, dy)| depth[((2 * y + dy) * w + 2 * x + dx) as usize])
-                .into_iter()
-                .fold(0.0f32, f32::max);
-            if !far.is_finite() {
-                continue;
-            }
-            let dir = camera.pixel_ray(2.0 * x as f32 + 0.5, 2.0 * y as f32 + 0.5, w, h);
-            let tmin = (far + separation) / dir.dot(camera.forward);
-            if let Some(hit) = bvh.intersect(camera.position, dir, tmin, f32::INFINITY) {
-                let mut s = bvh.surface(scene, &hit, -dir);
-                if !s.front {
-                    s.normal = -s.normal;
-                    s.geometric_normal = -s.geometric_normal;
-                }
-                points.push(point(s, 2.0 * pixel_side, None));
-            }
-        }
-    }
-    points
 }
 
 /// K brute-force SSBC steps over every point pair (no visibility, as on the
@@ -613,6 +645,7 @@ fn twin_report(
     bound: f32,
     spp: u32,
     vpl: &VplSettings,
+    separation: f32,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let tracer = Reference::new(
         scene,
@@ -627,22 +660,23 @@ fn twin_report(
             ..Default::default()
         },
     )?;
-    let separation =
-        ssbc::settings::SsbcSettings::default().layer_separation * 2.0 * scene.bounds().radius();
+    let separation = separation * 2.0 * scene.bounds().radius();
     println!("\n### CPU twin: exact G-buffers, exact S0, brute force\n");
     println!("| G-buffer layers | 1 step | 2 steps | 3 steps | 3 steps, centre | ceiling, all steps | ceiling, centre |");
     println!("|---|---|---|---|---|---|---|");
-    let points = twin_points(&tracer, scene, truth, 2, separation);
-    let ceiling = screen_space_ceiling(&tracer, scene, &points, truth, bound, spp, separation);
-    for layers in [1, 2] {
-        let kept: Vec<TwinPoint> = if layers == 1 {
-            twin_points(&tracer, scene, truth, 1, separation)
-        } else {
-            Vec::new()
-        };
-        let pts: &[TwinPoint] = if layers == 1 { &kept } else { &points };
-        let shares = twin_steps(pts, truth, bound, 3);
-        let c = ceiling[layers as usize - 1];
+    let configs = [
+        ("1", None),
+        ("2 (layer 1 half)", Some(LayerResolution::Half)),
+        ("2 (layer 1 full)", Some(LayerResolution::Full)),
+    ];
+    let mut ceiling = None;
+    for (layers, layer1) in configs {
+        let points = twin_points(&tracer, scene, truth, layer1, separation);
+        let ceiling = *ceiling.get_or_insert_with(|| {
+            screen_space_ceiling(&tracer, scene, &points, truth, bound, spp, separation)
+        });
+        let shares = twin_steps(&points, truth, bound, 3);
+        let c = ceiling[layer1.is_some() as usize];
         println!(
             "| {layers} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.1}% |",
             100.0 * shares[0].0,
@@ -653,10 +687,12 @@ fn twin_report(
             100.0 * c.1
         );
     }
-    println!(
-        "\nAll residual paths (8 hops, {spp} per pixel) over Kollig–Keller: {:.1}% (whole), {:.1}% (centre)",
-        100.0 * ceiling[2].0,
-        100.0 * ceiling[2].1
-    );
+    if let Some(ceiling) = ceiling {
+        println!(
+            "\nAll residual paths (8 hops, {spp} per pixel) over Kollig–Keller: {:.1}% (whole), {:.1}% (centre)",
+            100.0 * ceiling[2].0,
+            100.0 * ceiling[2].1
+        );
+    }
     Ok(())
 }

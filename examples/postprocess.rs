@@ -10,7 +10,8 @@
 //! the residual against the CPU twin of SSBC on the read-back G-buffer.
 //! (Memory comes from ssbc's `Image`/`Buffer` helpers, for brevity.)
 //!
-//! `cargo run --release --example postprocess`
+//! `cargo run --release --example postprocess [-- --half]` (`--half`: the
+//! second layer at half resolution).
 
 use std::sync::Arc;
 
@@ -18,7 +19,7 @@ use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 use ssbc::cpu::ssbc::{BruteForceTwin, GBufferView, TwinCamera};
-use ssbc::passes::ssbc::{Integration, SsbcSettings};
+use ssbc::passes::ssbc::{Integration, LayerResolution, SsbcSettings};
 use ssbc::postprocess::{
     HostImage, PostOutput, PostProcessInputs, PostProcessLayer, SsbcPostProcess,
 };
@@ -67,8 +68,8 @@ void main() {
     vec3 o = cam.eye.xyz;
     float best = 1e30; vec3 n = vec3(0); vec3 albedo = vec3(0);
     trace(o, d, true, 1e-4, best, n, albedo);
-    // A second layer (eye.w = the separation; this G-buffer is then half
-    // the size): the nearest surface that far behind the visible one, back
+    // A second layer (eye.w = the separation; this G-buffer may be half the
+    // size): the nearest surface that far behind the visible one, back
     // faces included, with its own outward normal.
     if (cam.eye.w > 0.0 && best < 1e29) {
         float first = best;
@@ -278,7 +279,11 @@ fn host_barrier(
 }
 
 /// Runs the host frame at `w` x `h` with each integration method.
-pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Error>> {
+pub fn run(
+    w: u32,
+    h: u32,
+    layer1: LayerResolution,
+) -> Result<PostProcessReport, Box<dyn std::error::Error>> {
     let instance = Instance::with_validation(Validation::Synchronization, &[])?;
     let log = instance.validation_log();
     let device = Device::new(instance, &DeviceSelector::default(), &[])?;
@@ -302,9 +307,9 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         image("host.s0")?,
         image("host.output")?,
     );
-    // The second layer (hidden surfaces), at half resolution.
-    let (w1, h1) = (w.div_ceil(2), h.div_ceil(2));
-    let half_image = |name: &str| {
+    // The second layer (hidden surfaces), at full or half resolution.
+    let (w1, h1) = layer1.extent((w, h));
+    let layer1_image = |name: &str| {
         Image::new(
             &device,
             name,
@@ -312,10 +317,10 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         )
     };
     let hidden = [
-        half_image("host.layer1.position")?,
-        half_image("host.layer1.normal")?,
-        half_image("host.layer1.albedo")?,
-        half_image("host.layer1.s0")?,
+        layer1_image("host.layer1.position")?,
+        layer1_image("host.layer1.normal")?,
+        layer1_image("host.layer1.albedo")?,
+        layer1_image("host.layer1.s0")?,
     ];
     // 64 VPLs on the floor near the corner, facing up.
     let vpl_data: Vec<[f32; 12]> = (0..64)
@@ -482,7 +487,6 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         extent: (img.desc.width, img.desc.height),
         layout: vk::ImageLayout::GENERAL,
     };
-    let half_host_image = host_image;
     let mut report = PostProcessReport {
         relative_rmse: Vec::new(),
         mean_ratio: Vec::new(),
@@ -564,10 +568,10 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
                 bound,
                 typical_depth: 2.0,
                 hidden: (layers == 2).then(|| PostProcessLayer {
-                    position: half_host_image(&hidden[0]),
-                    normal: half_host_image(&hidden[1]),
-                    albedo: half_host_image(&hidden[2]),
-                    s0: half_host_image(&hidden[3]),
+                    position: host_image(&hidden[0]),
+                    normal: host_image(&hidden[1]),
+                    albedo: host_image(&hidden[2]),
+                    s0: host_image(&hidden[3]),
                 }),
             },
             &settings,
@@ -668,7 +672,7 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
         };
         let mut twin = BruteForceTwin::new(&g, &read[3], twin_camera, bound);
         if layers == 2 {
-            twin = twin.with_second_layer(&g1, &read[8], twin_camera);
+            twin = twin.with_second_layer(&g1, &read[8], twin_camera, layer1);
         }
         let twin = twin.image();
         let gpu = &read[4];
@@ -717,7 +721,14 @@ pub fn run(w: u32, h: u32) -> Result<PostProcessReport, Box<dyn std::error::Erro
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let report = run(160, 120)?;
+    // `--half`: the second layer at half resolution.
+    let layer1 = if std::env::args().any(|a| a == "--half") {
+        LayerResolution::Half
+    } else {
+        LayerResolution::Full
+    };
+    let report = run(160, 120, layer1)?;
+    println!("second layer at {layer1:?} resolution");
     for ((layers, integration, rmse), (.., ratio)) in
         report.relative_rmse.iter().zip(&report.mean_ratio)
     {

@@ -160,30 +160,38 @@ impl SsbcPostProcess {
     /// valid.
     fn check(inputs: &PostProcessInputs) -> Result<((u32, u32), Option<LayerResolution>)> {
         let extent = inputs.position.extent;
-        let layer1 = inputs.hidden.map(|hidden| {
-            let sizes = [LayerResolution::Full, LayerResolution::Half];
-            sizes
-                .into_iter()
-                .find(|r| r.extent(extent) == hidden.position.extent)
-                .unwrap_or(LayerResolution::Full)
-        });
+        let same = format!("the size of the position image, {extent:?}");
         let mut named = vec![
-            ("position", &inputs.position, extent),
-            ("normal", &inputs.normal, extent),
-            ("albedo", &inputs.albedo, extent),
-            ("s0", &inputs.s0, extent),
-            ("output", &inputs.output, extent),
+            ("position", &inputs.position, extent, same.clone()),
+            ("normal", &inputs.normal, extent, same.clone()),
+            ("albedo", &inputs.albedo, extent, same.clone()),
+            ("s0", &inputs.s0, extent, same.clone()),
+            ("output", &inputs.output, extent, same.clone()),
         ];
-        if let (Some(hidden), Some(r)) = (&inputs.hidden, layer1) {
-            let half = r.extent(extent);
+        // The second layer's position image says its resolution; the other
+        // three follow it.
+        let mut layer1 = None;
+        if let Some(hidden) = &inputs.hidden {
+            let half = LayerResolution::Half.extent(extent);
+            let r = if hidden.position.extent == half && half != extent {
+                LayerResolution::Half
+            } else {
+                LayerResolution::Full
+            };
+            let layer1_extent = r.extent(extent);
+            let either = format!(
+                "the size of the position image ({extent:?}) or half of it, rounded up ({half:?})"
+            );
+            let like = format!("{layer1_extent:?}, the size of the second layer's position image");
             named.extend([
-                ("second layer's position", &hidden.position, half),
-                ("second layer's normal", &hidden.normal, half),
-                ("second layer's albedo", &hidden.albedo, half),
-                ("second layer's s0", &hidden.s0, half),
+                ("second layer's position", &hidden.position, layer1_extent, either),
+                ("second layer's normal", &hidden.normal, layer1_extent, like.clone()),
+                ("second layer's albedo", &hidden.albedo, layer1_extent, like.clone()),
+                ("second layer's s0", &hidden.s0, layer1_extent, like),
             ]);
+            layer1 = Some(r);
         }
-        for (name, image, wanted) in named {
+        for (name, image, wanted, what) in named {
             if image.format != vk::Format::R32G32B32A32_SFLOAT {
                 return Err(Error::InvalidParameter(format!(
                     "SSBC post-process: the {name} image is {:?}; it must be R32G32B32A32_SFLOAT",
@@ -191,14 +199,6 @@ impl SsbcPostProcess {
                 )));
             }
             if image.extent != wanted {
-                let what = if name.starts_with("second") {
-                    format!(
-                        "the size of the position image ({extent:?}) or half of it, rounded up ({:?}), like the second layer's position",
-                        LayerResolution::Half.extent(extent)
-                    )
-                } else {
-                    format!("the size of the position image, {extent:?}")
-                };
                 return Err(Error::InvalidParameter(format!(
                     "SSBC post-process: the {name} image is {:?}; it must be {what}",
                     image.extent

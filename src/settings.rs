@@ -274,7 +274,7 @@ impl Default for SsbcSettings {
             scale_fraction: 0.2,
             layers: 1,
             layer1_resolution: LayerResolution::Full,
-            layer_separation: 0.02,
+            layer_separation: 0.002,
         }
     }
 }

@@ -7,11 +7,17 @@
 #[allow(dead_code)]
 mod postprocess;
 
-use ssbc::passes::ssbc::Integration;
+use ssbc::passes::ssbc::{Integration, LayerResolution};
 
 #[test]
 fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
-    let report = postprocess::run(96, 72).expect("post-process example");
+    for layer1 in [LayerResolution::Full, LayerResolution::Half] {
+        eprintln!("second layer at {layer1:?} resolution");
+        check_report(postprocess::run(96, 72, layer1).expect("post-process example"));
+    }
+}
+
+fn check_report(report: postprocess::PostProcessReport) {
     assert_eq!(report.validation_messages, 0);
     // The second layer holds hidden surfaces, and they add light.
     assert!(
@@ -71,6 +77,14 @@ fn bad_host_inputs_are_clear_errors() {
         format: vk::Format::R32G32B32A32_SFLOAT,
         extent: (64, 48),
         layout: vk::ImageLayout::GENERAL,
+    };
+    let half = HostImage {
+        extent: (32, 24),
+        ..image
+    };
+    let third = HostImage {
+        extent: (22, 16),
+        ..image
     };
     let inputs = PostProcessInputs {
         position: image,
@@ -153,11 +167,27 @@ fn bad_host_inputs_are_clear_errors() {
             "frame slot 5 of 2",
         ),
         (
-            // The second layer is half the size.
+            // The second layer is the full size or half of it.
+            PostProcessInputs {
+                hidden: Some(ssbc::postprocess::PostProcessLayer {
+                    position: third,
+                    normal: third,
+                    albedo: third,
+                    s0: third,
+                }),
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "second layer's position image is (22, 16); it must be the size of the position image ((64, 48)) or half of it, rounded up ((32, 24))",
+        ),
+        (
+            // ...all four images alike.
             PostProcessInputs {
                 hidden: Some(ssbc::postprocess::PostProcessLayer {
                     position: image,
-                    normal: image,
+                    normal: half,
                     albedo: image,
                     s0: image,
                 }),
@@ -166,7 +196,7 @@ fn bad_host_inputs_are_clear_errors() {
             one.clone(),
             PostOutput::Compensated,
             0,
-            "second layer's position image is (64, 48); it must be (32, 24)",
+            "second layer's normal image is (32, 24); it must be (64, 48), the size of the second layer's position image",
         ),
     ];
     for (inputs, settings, output, slot, expected) in cases {

@@ -4,6 +4,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::settings::LayerResolution;
+
 /// The G-buffer as read back (RGBA per pixel, rows top to bottom).
 pub struct GBufferView<'a> {
     /// Width.
@@ -297,31 +299,41 @@ impl<'a> BruteForceTwin<'a> {
         }
     }
 
-    /// Adds the pixels of a second G-buffer layer at half resolution (a
-    /// deep G-buffer's, as `SsbcPostProcess` takes it) as sources: each
-    /// stands for 2 x 2 pixels of the image (four times the area).
+    /// Adds the pixels of a second G-buffer layer (a deep G-buffer's, as
+    /// `SsbcPostProcess` takes it) at `resolution` as sources: at half
+    /// resolution each stands for 2 x 2 pixels of the image (four times the
+    /// area); at full resolution they are split at creases like the first
+    /// layer's.
     pub fn with_second_layer(
         mut self,
         g: &GBufferView<'_>,
         s_prev: &[f32],
         camera: TwinCamera,
+        resolution: LayerResolution,
     ) -> Self {
         let n = (g.width * g.height) as usize;
-        self.hidden = (0..n)
-            .filter(|&i| g.position[i * 4 + 3] != 0.0)
-            .map(|i| {
-                let (p, normal) = (vec3_at(g.position, i), vec3_at(g.normal, i));
-                let area = pixel_area(
+        let side = (1u32 << resolution.shift()) as f32;
+        for i in (0..n).filter(|&i| g.position[i * 4 + 3] != 0.0) {
+            let (p, normal) = (vec3_at(g.position, i), vec3_at(g.normal, i));
+            let s = vec3_at(s_prev, i);
+            let area = match resolution {
+                LayerResolution::Full => {
+                    let f = footprint(g, &camera, i as u32 % g.width, i as u32 / g.width);
+                    let across = f.other.map(|(c, nc, a, j)| (c, nc, a * vec3_at(s_prev, j)));
+                    self.hidden.extend(across);
+                    f.own_area
+                }
+                LayerResolution::Half => pixel_area(
                     p,
                     normal,
                     camera.position,
                     camera.forward,
-                    2.0 * camera.pixel_side,
+                    side * camera.pixel_side,
                     camera.min_cos_view,
-                );
-                (p, normal, area * vec3_at(s_prev, i))
-            })
-            .collect();
+                ),
+            };
+            self.hidden.push((p, normal, area * s));
+        }
         self
     }
 
