@@ -94,8 +94,11 @@ fn main() {
                         .median
                 })
             };
-            let own =
-                |k: usize| median(&runs[k], &|f| layer1_passes.iter().map(|p| pass_ms(f, p)).sum());
+            let own = |k: usize| {
+                median(&runs[k], &|f| {
+                    layer1_passes.iter().map(|p| pass_ms(f, p)).sum()
+                })
+            };
             println!(
                 "| {} | {}x{} | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x | {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x |",
                 scene.name,

@@ -77,7 +77,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let i = args.iter().position(|a| a == flag)?;
         args.get(i + 1).cloned()
     };
-    let flags = ["--size", "--vpls", "--bound", "--spp", "--camera-shift", "--separation"];
+    let flags = [
+        "--size",
+        "--vpls",
+        "--bound",
+        "--spp",
+        "--camera-shift",
+        "--separation",
+    ];
     let scene_name = args
         .iter()
         .enumerate()

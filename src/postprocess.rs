@@ -184,9 +184,24 @@ impl SsbcPostProcess {
             );
             let like = format!("{layer1_extent:?}, the size of the second layer's position image");
             named.extend([
-                ("second layer's position", &hidden.position, layer1_extent, either),
-                ("second layer's normal", &hidden.normal, layer1_extent, like.clone()),
-                ("second layer's albedo", &hidden.albedo, layer1_extent, like.clone()),
+                (
+                    "second layer's position",
+                    &hidden.position,
+                    layer1_extent,
+                    either,
+                ),
+                (
+                    "second layer's normal",
+                    &hidden.normal,
+                    layer1_extent,
+                    like.clone(),
+                ),
+                (
+                    "second layer's albedo",
+                    &hidden.albedo,
+                    layer1_extent,
+                    like.clone(),
+                ),
                 ("second layer's s0", &hidden.s0, layer1_extent, like),
             ]);
             layer1 = Some(r);

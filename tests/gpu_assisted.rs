@@ -10,7 +10,7 @@ mod common;
 use ash::vk;
 use ssbc::passes::ssbc::Integration;
 use ssbc::renderer::{Bound, Renderer, RendererConfig};
-use ssbc::settings::Gather;
+use ssbc::settings::{Gather, LayerResolution};
 use ssbc::vk::{Binding, Buffer, ComputeKernel, DescriptorPool, Device, Instance, Validation};
 
 fn gpu_assisted_renderer() -> Renderer {
@@ -33,18 +33,32 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
         open_box,
     ];
     for scene in &scenes {
-        // (The odd size and brute force also with the second G-buffer layer:
-        // its half-resolution images and pyramid, 65 x 49 and 20 x 15.)
-        for (size, integration, bound, pattern, layers) in [
-            ((96, 72), Integration::Hierarchical, Bound::Auto, 4, 1),
+        // (The odd size also with a half-resolution second G-buffer layer:
+        // its images and pyramid 65 x 49 and 20 x 15; brute force with a
+        // full-resolution one.)
+        for (size, integration, bound, pattern, layer1) in [
+            ((96, 72), Integration::Hierarchical, Bound::Auto, 4, None),
             (
                 (130, 98),
                 Integration::Hierarchical,
                 Bound::Value(2.0),
                 3,
-                2,
+                Some(LayerResolution::Half),
             ),
-            ((40, 30), Integration::Brute, Bound::Auto, 1, 2),
+            (
+                (64, 48),
+                Integration::Hierarchical,
+                Bound::Auto,
+                4,
+                Some(LayerResolution::Full),
+            ),
+            (
+                (40, 30),
+                Integration::Brute,
+                Bound::Auto,
+                1,
+                Some(LayerResolution::Full),
+            ),
         ] {
             let mut s = common::small(size.0, size.1);
             match pattern {
@@ -58,7 +72,8 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
             s.bound = bound;
             s.ssbc.steps = 2;
             s.ssbc.integration = integration;
-            s.ssbc.layers = layers;
+            s.ssbc.layers = 1 + layer1.is_some() as u32;
+            s.ssbc.layer1_resolution = layer1.unwrap_or_default();
             renderer.render(scene, &s).expect("render");
         }
     }

@@ -54,11 +54,7 @@ impl Pass for DeepGBufferPass {
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
-        GBuffer::new(
-            setup.device,
-            "gbuffer_layer1",
-            setup.layer_extent(1),
-        )
+        GBuffer::new(setup.device, "gbuffer_layer1", setup.layer_extent(1))
     }
 
     fn set_layouts(&self, _: &GBuffer) -> Vec<&DescriptorSetLayout> {
