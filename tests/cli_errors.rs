@@ -198,6 +198,32 @@ fn bad_instant_radiosity_parameters() {
     );
     fails_with(&["--size", "8x8", "--ism-res", "48"], &[], "power of two");
     fails_with(&["--size", "8x8", "--steps", "100"], &[], "--steps");
+    fails_with(
+        &[
+            "--size",
+            "8x8",
+            "--ssbc-layers",
+            "2",
+            "--ssbc-layer1",
+            "quarter",
+        ],
+        &[],
+        "--ssbc-layer1",
+    );
+    // SSBC's buffers above lavapipe's 128 MiB storage-buffer range: the
+    // error names the cheaper second layer.
+    fails_with(
+        &[
+            "--size",
+            "1280x960",
+            "--ssbc-layers",
+            "2",
+            "-o",
+            "/tmp/never.exr",
+        ],
+        &[],
+        "--ssbc-layer1 half",
+    );
 }
 
 #[test]

@@ -166,9 +166,10 @@ fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
 
 /// Fails with a clear message if SSBC's largest storage buffer (the
 /// evaluation points, 64 bytes per texel of every pyramid level; with a
-/// second layer the geometry pyramid, a quarter larger) exceeds what the
-/// device can bind (maxStorageBufferRange; 128 MiB on lavapipe, which allows
-/// about 1400x1050 with one layer).
+/// second layer the geometry pyramid: a quarter larger at half resolution,
+/// twice at full) exceeds what the device can bind (maxStorageBufferRange;
+/// 128 MiB on lavapipe, which allows about 1400x1050 with one layer and
+/// 1024x768 with a full-resolution second layer).
 pub fn check_size(
     device: &Device,
     width: u32,
@@ -183,9 +184,14 @@ pub fn check_size(
     if largest > max {
         return Err(Error::InvalidParameter(format!(
             "SSBC at {width}x{height} needs {} MiB storage buffers; this device binds at most \
-             {} MiB (maxStorageBufferRange): render smaller or with --steps 0",
+             {} MiB (maxStorageBufferRange): render smaller{} or with --steps 0",
             largest >> 20,
-            max >> 20
+            max >> 20,
+            match layer1 {
+                Some(LayerResolution::Full) => ", with --ssbc-layer1 half",
+                Some(LayerResolution::Half) => ", with --ssbc-layers 1",
+                None => "",
+            }
         )));
     }
     Ok(())
