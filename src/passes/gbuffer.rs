@@ -196,6 +196,7 @@ pub(crate) struct Push {
     pub camera_position: [f32; 4],
     /// log2 of a layer-1 pixel's side in layer-0 pixels (layer 1 only).
     pub layer1_shift: u32,
+    /// Keeps the block a multiple of 16 bytes.
     pub pad: [u32; 3],
 }
 
