@@ -2,7 +2,8 @@
 // SSBC texels read per pixel: to each pixel's own reads (fallback) add its
 // share of every evaluation point of this step whose block it is in (the
 // point's reads divided by the block's pixels with geometry), so that the
-// image sums to every texel read in the step.
+// image sums to every texel read in the step. At least CUT_SHORT: the
+// residual there was cut short by the device's loop limit.
 #define SSBC_READ_PYRAMIDS
 #include "ssbc.glsl"
 
@@ -20,7 +21,9 @@ void main() {
         uint index = texel_index(p >> l, l);
         EvalPoint point = load_point(point_texels, index);
         if (point.generation == pc.generation && point.reads > 0.0) {
-            reads += point.reads / float(aux[index].pixels);
+            // A point whose loops were cut short marks every pixel of its block.
+            bool cut_short = point.reads >= float(CUT_SHORT);
+            reads += cut_short ? float(CUT_SHORT) : point.reads / float(aux[index].pixels);
         }
     }
     imageStore(samples, p, vec4(reads));

@@ -123,12 +123,21 @@ impl Passes {
 
     /// The images the slot's last recorded frame wrote.
     fn images(&self, slot: usize) -> Option<FrameImages<'_>> {
+        let ssbc = self.ssbc.resources(slot)?;
+        // Stale resources of an earlier two-layer frame are not this frame's.
+        let layer1 = ssbc.layer1().and_then(|_| {
+            Some((
+                self.gbuffer_layer1.resources(slot)?,
+                self.indirect_bounded_layer1.resources(slot)?,
+            ))
+        });
         Some(FrameImages {
             gbuffer: self.gbuffer.resources(slot)?,
             direct: self.direct_lighting.resources(slot)?,
             bounded: self.indirect_bounded.resources(slot)?,
-            ssbc: self.ssbc.resources(slot)?,
+            ssbc,
             ism: self.ism.resources(slot)?,
+            layer1,
         })
     }
 

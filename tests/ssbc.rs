@@ -95,6 +95,34 @@ fn gpu_brute_force_step_equals_cpu_twin() {
 }
 
 /// Texels read per pixel: hierarchical (with evaluation points) and brute force.
+/// A residual sum that lavapipe's loop budget (65535 iterations per shader
+/// invocation) cuts short is an error, not a silently partial image: a small
+/// plane in a wide image with a tiny bound, so that every window is the
+/// whole image (600 rows x 128 segments of 16 pixels). The same at 256x192
+/// fits.
+#[test]
+fn a_residual_cut_short_by_the_loop_limit_is_an_error() {
+    let mut scene = common::plane_scene(0.5, 0.2);
+    scene.ensure_light();
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut s = settings(Integration::Brute, 1, Bound::Value(1e-4));
+    s.debug_readback = false;
+    s.vpl.count = 16;
+    let small = renderer
+        .render(&scene, &s)
+        .expect("256x192 fits the budget");
+    assert!(layer(&small, "residual_1").iter().all(|v| v.is_finite()));
+    (s.width, s.height) = (2048, 600);
+    let message = match renderer.render(&scene, &s) {
+        Ok(_) => panic!("a 2048x600 brute-force window was not reported"),
+        Err(e) => e.to_string(),
+    };
+    assert!(message.contains("cut short"), "{message}");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+}
+
 fn sample_ratio(scene: ssbc::Scene) -> f64 {
     let mut scene = scene;
     scene.ensure_light();

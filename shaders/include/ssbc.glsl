@@ -29,6 +29,8 @@
 #ifndef SSBC_GLSL
 #define SSBC_GLSL
 
+#extension GL_EXT_control_flow_attributes : require
+
 #include "common.glsl"
 
 struct GeoCluster {
@@ -288,30 +290,60 @@ void add_to_scale(inout vec2 scale, float c, float inv_d) {
     scale += vec2(c, c * inv_d);
 }
 
+// Adds cluster c of level-0 texel i (a pixel's own surface, or its part
+// beyond a crease) if G > b there (brute force).
+void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, float r_world, inout vec2 scale) {
+    GeoCluster g = geo_cluster(i, c);
+    vec3 d = g.position_extent.xyz - x;
+    float d2 = dot(d, d);
+    if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
+        vec3 as = cluster_radiance(i, c);
+        float dist = sqrt(d2);
+        float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
+        add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
+    }
+}
+
+// lavapipe ends a shader invocation's loops after 65535 iterations in all
+// (LP_MAX_TGSI_LOOP_ITERATIONS, shared by every loop a SIMD group runs). A
+// loop cut short that way (it visited fewer pixels or roots than its window
+// holds; its own exit condition cannot tell, the compiler folds it) ORs
+// CUT_SHORT into `count`, and the renderer reports an error instead of
+// returning a partial sum.
+const uint CUT_SHORT = 1u << 30;
+
+// The brute-force loop takes BRUTE_SPAN pixels of a row per iteration,
+// unrolled. One per iteration cut windows short from a radius of about 128
+// pixels, 90 with two layers (tori 640x480: half the residual missing; 320x240
+// with two layers: 1.2% relative RMSE against the CPU twin); 16 fit a
+// 1024x768 window of one layer, or of two with a radius up to about 500
+// pixels. (Blocks of 4 x 16 took 12 s more to compile.)
+const int BRUTE_SPAN = 16;
+
 // Every texel of level 0 of pyramid p in the window (the reference);
 // `center` and `radius_px` in that pyramid's pixels.
 void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
                      inout uint count, inout vec2 scale) {
     ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
     ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(image_size_at(uint(p.shift))) - 1);
-    for (int py = lo.y; py <= hi.y; py++) {
-        for (int px = lo.x; px <= hi.x; px++) {
-            count++;
-            uint i = texel_index_in(p, ivec2(px, py), 0);
-            // A pixel's own surface, and its part beyond a crease (if any).
-            for (uint c = 0u; c < 2u; c++) {
-                GeoCluster g = geo_cluster(i, c);
-                vec3 d = g.position_extent.xyz - x;
-                float d2 = dot(d, d);
-                if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
-                    vec3 as = cluster_radiance(i, c);
-                    float dist = sqrt(d2);
-                    float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
-                    add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
-                }
+    // Row segments in rows (stepped, one loop: see the walk).
+    ivec2 q = lo;
+    bool more = all(lessThanEqual(lo, hi));
+    uint start = count;
+    uint window = more ? uint((hi.x - lo.x + 1) * (hi.y - lo.y + 1)) : 0u;
+    while (more) {
+        [[unroll]] for (int k = 0; k < BRUTE_SPAN; k++) {
+            if (q.x + k <= hi.x) {
+                count++;
+                uint i = texel_index_in(p, ivec2(q.x + k, q.y), 0);
+                add_pixel_cluster(acc, i, 0u, x, nx, r_world, scale);
+                add_pixel_cluster(acc, i, 1u, x, nx, r_world, scale);
             }
         }
+        q = q.x + BRUTE_SPAN <= hi.x ? ivec2(q.x + BRUTE_SPAN, q.y) : ivec2(lo.x, q.y + 1);
+        more = q.y <= hi.y;
     }
+    if (count - start != window) count |= CUT_SHORT;
 }
 
 // Largest cos(theta_y) = n_y . (x - y) / |x - y| over a texel whose normals
@@ -443,6 +475,9 @@ void integrate_hierarchical(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2
     // integer division and would run eight scalar ones per iteration).
     ivec3 t = ivec3(lo, root_level);
     bool more = all(lessThanEqual(lo, hi));
+    // Roots finished, against the window's (see CUT_SHORT).
+    uint roots = 0u;
+    uint window = more ? uint((hi.x - lo.x + 1) * (hi.y - lo.y + 1)) : 0u;
     while (more) {
         count++;
         uint i = texel_index_in(p, t.xy, t.z);
@@ -460,6 +495,7 @@ void integrate_hierarchical(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2
             int climb = min(findLSB(~(t.x & t.y)), root_level - t.z);
             t = ivec3(t.xy >> climb, t.z + climb);
             if (t.z == root_level) {
+                roots++;
                 t.xy = t.x < hi.x ? ivec2(t.x + 1, t.y) : ivec2(lo.x, t.y + 1);
                 more = t.y <= hi.y;
             } else {
@@ -467,6 +503,7 @@ void integrate_hierarchical(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2
             }
         }
     }
+    if (roots != window) count |= CUT_SHORT;
 }
 
 // One layer's part of the residual integral (see residual_integral).
@@ -502,11 +539,9 @@ Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out f
     // Every layer's surfaces are sources (the separation between layers
     // keeps one surface from being counted twice); at half resolution
     // layer 1's window is half as many pixels across.
-    // Two calls, not a loop over the layers: lavapipe dropped layer 1's
-    // brute-force sum for whole SIMD groups from that loop (tori 320x240,
-    // full-resolution layer 1: 2950 pixels got layer 0's sum alone).
-    integrate_layer(acc, 0u, x, nx, center, radius_px, r_world, count, scale);
-    if (layer_count() > 1u) integrate_layer(acc, 1u, x, nx, center, radius_px, r_world, count, scale);
+    for (uint layer = 0u; layer < layer_count(); layer++) {
+        integrate_layer(acc, layer, x, nx, center, radius_px, r_world, count, scale);
+    }
     if (scale.x > 0.0) variation = min(scale.x / scale.y, r_world);
     return acc;
 }

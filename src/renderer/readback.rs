@@ -6,11 +6,11 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::cpu::vpl::Vpl;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::passes::gbuffer::GBuffer;
 use crate::passes::indirect_bounded::BoundedLighting;
 use crate::passes::ism::Ism;
-use crate::passes::ssbc::{SsbcFrame, SsbcPass};
+use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass};
 use crate::passes::FrameView;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
@@ -85,7 +85,8 @@ pub struct Frame {
     pub image: Layer,
     /// Component layers (`direct`, `indirect_bounded`, `residual_k`, and with
     /// debug readback `gbuffer_position`, `gbuffer_normal`, `gbuffer_albedo`,
-    /// `gbuffer_emission`).
+    /// `gbuffer_emission`; with a second layer also `layer1_position`,
+    /// `layer1_normal`, `layer1_albedo` and `layer1_s0`, at its resolution).
     pub layers: Vec<Layer>,
     /// Per-pass GPU timings.
     pub timings: Timings,
@@ -127,6 +128,8 @@ pub(crate) struct FrameImages<'a> {
     pub bounded: &'a BoundedLighting,
     pub ssbc: &'a SsbcFrame,
     pub ism: &'a Ism,
+    /// The deep G-buffer's second layer and its lighting, if the frame had one.
+    pub layer1: Option<(&'a GBuffer, &'a BoundedLighting)>,
 }
 
 impl<'a> FrameImages<'a> {
@@ -175,6 +178,12 @@ impl<'a> FrameImages<'a> {
         }
         if debug {
             v.push(("ism_atlas".into(), &self.ism.atlas));
+            if let Some((g, lighting)) = self.layer1 {
+                v.push(("layer1_position".into(), &g.position));
+                v.push(("layer1_normal".into(), &g.normal));
+                v.push(("layer1_albedo".into(), &g.albedo));
+                v.push(("layer1_s0".into(), &lighting.s0));
+            }
         }
         v
     }
@@ -352,6 +361,20 @@ fn ssbc_figures(
         images.ssbc.levels(),
         &settings.ssbc,
     );
+    // CUT_SHORT in shaders/include/ssbc.glsl.
+    let cut_short = (1u32 << 30) as f32;
+    if samples.iter().flatten().any(|&c| c >= cut_short) {
+        return Err(Error::InvalidParameter(format!(
+            "{}x{}: an SSBC residual sum needed more loop iterations than the device runs in one \
+             invocation (lavapipe: 65535) and was cut short; use a smaller --size{}",
+            settings.width,
+            settings.height,
+            match settings.ssbc.integration {
+                Integration::Brute => " or --integration hierarchical",
+                Integration::Hierarchical => "",
+            }
+        )));
+    }
     let steps = samples.iter().enumerate().map(|(k, counts)| {
         let on_geometry: Vec<f32> = counts
             .iter()

@@ -29,7 +29,6 @@ pub fn render_validated(scene: &Scene, settings: &RenderSettings) -> Frame {
     frame
 }
 
-/// Settings for a small test image.
 /// A renderer with validation and synchronization validation.
 pub fn validated_renderer() -> Renderer {
     Renderer::new(&RendererConfig {
