@@ -94,7 +94,6 @@ fn gpu_brute_force_step_equals_cpu_twin() {
     assert!(err < 1e-3, "relative RMSE {err}");
 }
 
-/// Texels read per pixel: hierarchical (with evaluation points) and brute force.
 /// A residual sum that lavapipe's loop budget (65535 iterations per shader
 /// invocation) cuts short is an error, not a silently partial image: a small
 /// plane in a wide image with a tiny bound, so that every window is the
@@ -123,6 +122,7 @@ fn a_residual_cut_short_by_the_loop_limit_is_an_error() {
     assert_eq!(log.total(), 0, "validation messages");
 }
 
+/// Texels read per pixel: hierarchical (with evaluation points) and brute force.
 fn sample_ratio(scene: ssbc::Scene) -> f64 {
     let mut scene = scene;
     scene.ensure_light();

@@ -123,6 +123,11 @@ impl SsbcFrame {
     }
 }
 
+/// A texels-read count at least this (`CUT_SHORT` in ssbc.glsl) marks a
+/// residual sum whose loops the device cut short (lavapipe runs 65535 loop
+/// iterations per shader invocation, then stops them silently).
+pub(crate) const CUT_SHORT: u32 = 1 << 30;
+
 /// Push constants of every SSBC kernel (`SsbcPush` in ssbc.glsl).
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]

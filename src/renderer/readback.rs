@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::passes::gbuffer::GBuffer;
 use crate::passes::indirect_bounded::BoundedLighting;
 use crate::passes::ism::Ism;
-use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass};
+use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
 use crate::passes::FrameView;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
@@ -288,6 +288,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         .chunks_exact(4)
         .map(|p| p[3] != 0.0)
         .collect();
+    check_not_cut_short(&samples, settings)?;
     let ssbc_steps = ssbc_figures(&samples, &geometry, &images, view, settings, &gpu_times)?;
     let vpl_set = &cache.vpls().set;
     let bound = view.bound;
@@ -344,6 +345,24 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
     })
 }
 
+/// An error if a pixel's sample count says its residual sum was cut short
+/// by the device's loop limit (see [`CUT_SHORT`]).
+fn check_not_cut_short(samples: &[Vec<f32>], settings: &RenderSettings) -> Result<()> {
+    if !samples.iter().flatten().any(|&c| c >= CUT_SHORT as f32) {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter(format!(
+        "{}x{}: an SSBC residual sum needed more loop iterations than the device runs in one \
+         invocation (lavapipe: 65535) and was cut short; use a smaller --size{}",
+        settings.width,
+        settings.height,
+        match settings.ssbc.integration {
+            Integration::Brute => " or --integration hierarchical",
+            Integration::Hierarchical => "",
+        }
+    )))
+}
+
 /// Per-step SSBC figures from the per-pixel sample counts of each step.
 fn ssbc_figures(
     samples: &[Vec<f32>],
@@ -361,20 +380,6 @@ fn ssbc_figures(
         images.ssbc.levels(),
         &settings.ssbc,
     );
-    // CUT_SHORT in shaders/include/ssbc.glsl.
-    let cut_short = (1u32 << 30) as f32;
-    if samples.iter().flatten().any(|&c| c >= cut_short) {
-        return Err(Error::InvalidParameter(format!(
-            "{}x{}: an SSBC residual sum needed more loop iterations than the device runs in one \
-             invocation (lavapipe: 65535) and was cut short; use a smaller --size{}",
-            settings.width,
-            settings.height,
-            match settings.ssbc.integration {
-                Integration::Brute => " or --integration hierarchical",
-                Integration::Hierarchical => "",
-            }
-        )));
-    }
     let steps = samples.iter().enumerate().map(|(k, counts)| {
         let on_geometry: Vec<f32> = counts
             .iter()
