@@ -9,6 +9,8 @@
 //!    direct and bounded VPL lighting, its geometry pyramid), against the
 //!    one-layer frame. Configurations alternate frame by frame, so drift
 //!    hits all alike.
+//!    With a guard band (one layer, and two at full resolution): its
+//!    margin and the same ratios.
 //! 2. Accuracy: the hierarchical step against brute force over both
 //!    layers (relative RMSE and mean of `residual_1`), 320x240.
 
@@ -19,12 +21,16 @@ use ssbc::profile::render_frames;
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::settings::LayerResolution;
 
-/// One layer; two with the second at half resolution; at full.
+/// One layer; two with the second at half resolution; at full (the
+/// accuracy section compares these three)...
 const CONFIGS: [(&str, Option<LayerResolution>); 3] = [
     ("1", None),
     ("2, half", Some(LayerResolution::Half)),
     ("2, full", Some(LayerResolution::Full)),
 ];
+
+/// ...and with a guard band: one layer, two at full.
+const BANDED: [Option<LayerResolution>; 2] = [None, Some(LayerResolution::Full)];
 
 /// Median GPU ms of the pass `name` (0 if it did not run).
 fn pass_ms(f: &Frame, name: &str) -> f64 {
@@ -39,7 +45,12 @@ fn pass_ms(f: &Frame, name: &str) -> f64 {
 }
 
 fn settings(size: (u32, u32), layer1: Option<LayerResolution>) -> RenderSettings {
+    banded(size, layer1, false)
+}
+
+fn banded(size: (u32, u32), layer1: Option<LayerResolution>, guard_band: bool) -> RenderSettings {
     let mut s = RenderSettings::new(size.0, size.1);
+    s.ssbc.guard_band = guard_band;
     s.ssbc.layers = 1 + layer1.is_some() as u32;
     s.ssbc.layer1_resolution = layer1.unwrap_or_default();
     s
@@ -63,17 +74,22 @@ fn main() {
         "direct_lighting_layer1",
         "indirect_bounded_layer1",
     ];
+    let mut band_rows = Vec::new();
     for name in scenes {
         let scene = ssbc::scene::load(name).expect("scene");
         let mut scene = scene;
         scene.ensure_light();
         for &size in sizes {
             // Alternate: one frame of each, `frames` times, keeping them all.
-            let mut runs: [Vec<Frame>; 3] = Default::default();
+            let mut runs: [Vec<Frame>; 5] = Default::default();
+            let all = CONFIGS
+                .map(|(_, layer1)| banded(size, layer1, false))
+                .into_iter()
+                .chain(BANDED.map(|layer1| banded(size, layer1, true)));
+            let all: Vec<RenderSettings> = all.collect();
             for _ in 0..frames {
-                for (k, (_, layer1)) in CONFIGS.into_iter().enumerate() {
-                    let s = settings(size, layer1);
-                    runs[k].push(render_frames(&mut renderer, &scene, &s, 1, None).expect("frame"));
+                for (k, s) in all.iter().enumerate() {
+                    runs[k].push(render_frames(&mut renderer, &scene, s, 1, None).expect("frame"));
                 }
             }
             let median = |frames: &[Frame], f: &dyn Fn(&Frame) -> f64| {
@@ -120,7 +136,33 @@ fn main() {
                 frame(1) / frame(0),
                 frame(2) / frame(0),
             );
+            let margin = runs[3][0].timings.guard_band;
+            band_rows.push(format!(
+                "| {} | {}x{} | {margin} ({:.2}x) | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x |",
+                scene.name,
+                size.0,
+                size.1,
+                ((size.0 + 2 * margin) * (size.1 + 2 * margin)) as f64 / (size.0 * size.1) as f64,
+                step(0),
+                step(3),
+                step(4),
+                step(3) / step(0),
+                step(4) / step(0),
+                frame(0),
+                frame(3),
+                frame(4),
+                frame(3) / frame(0),
+                frame(4) / frame(0),
+            ));
         }
+    }
+    println!("\n## Guard band\n\nOne layer / one with a guard band / two (full) with a guard band, same runs:\n");
+    println!(
+        "| scene | size | margin px (pixels) | step ms | step ratios | frame ms | frame ratios |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for row in band_rows {
+        println!("{row}");
     }
 
     println!("\n## Hierarchical vs brute force (over every layer), one step, 320x240\n");

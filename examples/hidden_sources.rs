@@ -149,25 +149,33 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut renderer = Renderer::new(&RendererConfig::default())?;
     println!("## {scene_name}, {w}x{h}, {vpls} VPLs, b = {bound}\n");
     println!("| G-buffer layers | SSBC steps | recovered (whole image) | recovered (centre) |\n|---|---|---|---|");
-    let render = |renderer: &mut Renderer, steps: u32, layer1: Option<LayerResolution>| {
-        let mut s = RenderSettings::new(w, h);
-        s.vpl = vpl.clone();
-        s.bound = Bound::Value(bound);
-        s.ssbc.steps = steps;
-        s.ssbc.layer_separation = separation;
-        s.ssbc.layers = 1 + layer1.is_some() as u32;
-        s.ssbc.layer1_resolution = layer1.unwrap_or_default();
-        renderer.render(&scene, &s).map(|f| f.image.rgba)
-    };
-    let clamped_gpu = render(&mut renderer, 0, None)?;
+    let render =
+        |renderer: &mut Renderer, steps: u32, layer1: Option<LayerResolution>, guard_band: bool| {
+            let mut s = RenderSettings::new(w, h);
+            s.ssbc.guard_band = guard_band;
+            s.vpl = vpl.clone();
+            s.bound = Bound::Value(bound);
+            s.ssbc.steps = steps;
+            s.ssbc.layer_separation = separation;
+            s.ssbc.layers = 1 + layer1.is_some() as u32;
+            s.ssbc.layer1_resolution = layer1.unwrap_or_default();
+            renderer.render(&scene, &s).map(|f| f.image.rgba)
+        };
+    let clamped_gpu = render(&mut renderer, 0, None, false)?;
     let configs = [
-        ("1", None),
-        ("2 (layer 1 half)", Some(LayerResolution::Half)),
-        ("2 (layer 1 full)", Some(LayerResolution::Full)),
+        ("1", None, false),
+        ("1, guard band", None, true),
+        ("2 (layer 1 half)", Some(LayerResolution::Half), false),
+        ("2 (layer 1 full)", Some(LayerResolution::Full), false),
+        (
+            "2 (layer 1 full), guard band",
+            Some(LayerResolution::Full),
+            true,
+        ),
     ];
-    for (layers, layer1) in configs {
+    for (layers, layer1, guard_band) in configs {
         for steps in 1..=3 {
-            let gpu = render(&mut renderer, steps, layer1)?;
+            let gpu = render(&mut renderer, steps, layer1, guard_band)?;
             let share = |keep: &dyn Fn(usize) -> bool| {
                 (mean_luminance(&gpu, keep) - mean_luminance(&clamped_gpu, keep))
                     / (mean_luminance(&kk, keep) - mean_luminance(&clamped, keep))

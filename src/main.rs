@@ -224,6 +224,11 @@ struct SceneOptions {
     /// fraction of the scene's bounding-box diagonal.
     #[arg(long, default_value_t = RenderSettings::default().ssbc.layer_separation)]
     layer_separation: f32,
+    /// Also gather from a guard band: the view widened on every side by
+    /// 1/sqrt(b) at the nearest visible depth (at most half the shorter
+    /// side), cropped back (not in the viewer).
+    #[arg(long)]
+    guard_band: bool,
     /// Lower clamp of cos(view angle) in the pixel area A_y (grazing views).
     #[arg(long, default_value_t = RenderSettings::default().ssbc.min_cos_view)]
     min_cos_view: f32,
@@ -327,6 +332,7 @@ impl SceneOptions {
                 layers: self.ssbc_layers,
                 layer1_resolution: self.ssbc_layer1,
                 layer_separation: self.layer_separation,
+                guard_band: self.guard_band,
                 ..Default::default()
             },
             debug_readback: false,

@@ -370,7 +370,7 @@ impl SsbcPostProcess {
             PostOutput::Compensated => &frame.final_image,
             PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
         };
-        rec.copy_image(result, &out, (w, h));
+        rec.copy_image(result, (0, 0), &out, (w, h));
         rec.flush_barriers();
         self.profiler.end(cmd, scope);
         Ok(())

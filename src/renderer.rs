@@ -11,6 +11,7 @@
 //! `Passes::record` is the list of passes in frame order; each pass owns
 //! its per-slot resources (see [`crate::passes`]).
 
+mod guard_band;
 mod limits;
 mod readback;
 
@@ -39,8 +40,9 @@ use crate::vk::{
     Access, CommandPool, Device, GpuFrameTimes, GpuProfiler, Image, Instance, Recorder, Validation,
     ValidationLog,
 };
+use guard_band::GuardBand;
+use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
 pub use readback::{layer_names, Frame, IsmReadback, Layer};
-use readback::{FrameImages, FrameRecord, ReadbackBuffers};
 
 /// The technique passes, each with its resources in every frame slot.
 struct Passes {
@@ -182,6 +184,8 @@ struct FrameOutput {
     slot: usize,
     layer: String,
     done: u64,
+    /// The guard band's margin around the image.
+    margin: u32,
 }
 
 /// The last frame's final image, left on the GPU for a host engine. Valid
@@ -194,7 +198,10 @@ pub struct GpuImage {
     pub view: vk::ImageView,
     /// Its format.
     pub format: vk::Format,
-    /// Width and height.
+    /// Where the frame starts in it: (0, 0), or the guard band's margin
+    /// (`ssbc.guard_band`; the image is then larger than the frame).
+    pub origin: (u32, u32),
+    /// The frame's width and height.
     pub extent: (u32, u32),
     /// The layout it is in.
     pub layout: vk::ImageLayout,
@@ -245,9 +252,18 @@ enum Sink<'a> {
 
 /// The camera and bound of a frame: near and far planes enclose the
 /// scene's bounding sphere.
-fn frame_view(scene: &Scene, settings: &RenderSettings, cache: &SceneCache) -> Result<FrameView> {
-    let camera = scene.camera(settings.camera)?;
+/// With a guard band, `settings` are the wider frame's.
+fn frame_view(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cache: &SceneCache,
+    band: Option<GuardBand>,
+) -> Result<FrameView> {
+    let mut camera = scene.camera(settings.camera)?;
     let (w, h) = (settings.width, settings.height);
+    if let Some(band) = band {
+        camera.yfov = band.widen_yfov(camera.yfov, h - 2 * band.margin);
+    }
     let bounds = cache.bounds;
     let far = (camera.position - bounds.center()).length() + bounds.radius() * 1.05;
     let near = (far * 1e-4).max(1e-4);
@@ -265,28 +281,26 @@ fn frame_view(scene: &Scene, settings: &RenderSettings, cache: &SceneCache) -> R
     })
 }
 
-/// Copies `layer` into the host's `output` image (recorded into the host's
-/// command buffer).
-fn hand_off_to_host(
-    rec: &mut Recorder<'_>,
-    images: &FrameImages<'_>,
-    output: &HostImage,
-    layer: &str,
-) -> Result<()> {
-    let source = images
-        .layer(layer)
-        .ok_or_else(|| Error::InvalidParameter(format!("no layer '{layer}'")))?;
-    let (w, h) = output.extent;
-    let out = Image::from_host(
-        rec.device,
-        output.image,
-        output.view,
-        crate::vk::ImageDesc::new_2d(output.format, w, h, vk::ImageUsageFlags::TRANSFER_DST),
-        output.layout,
-    );
-    rec.copy_image(source, &out, (w, h));
-    rec.flush_barriers();
-    Ok(())
+/// The frame's recorder: ssbc's command buffer, or the host's.
+fn begin_recording<'a>(
+    commands: &'a mut CommandPool,
+    device: &'a Arc<Device>,
+    sink: Sink<'_>,
+    cache: &mut SceneCache,
+) -> Result<Recorder<'a>> {
+    let Sink::Host { cmd, .. } = sink else {
+        return commands.begin();
+    };
+    if cache.gpu_scene.has_pending_uploads() {
+        // Texture copies go through ssbc's own submission here (ssbc's
+        // timeline cannot see when the host's command buffer finishes, so
+        // staging could not be freed safely).
+        let mut upload = commands.begin()?;
+        cache.gpu_scene.record_uploads(&mut upload);
+        device.wait(upload.submit()?)?;
+        cache.gpu_scene.release_staging();
+    }
+    Ok(Recorder::for_host(device, cmd))
 }
 
 impl Renderer {
@@ -364,12 +378,13 @@ impl Renderer {
     /// The last frame's final image, on the GPU, with its layout and the
     /// timeline semaphore value to wait for (None before the first frame).
     pub fn output_image(&self) -> Option<GpuImage> {
-        let done = self.output.as_ref()?.done;
+        let (done, m) = self.output.as_ref().map(|o| (o.done, o.margin))?;
         self.output().map(|image| GpuImage {
             image: image.raw,
             view: image.view,
             format: image.desc.format,
-            extent: (image.desc.width, image.desc.height),
+            origin: (m, m),
+            extent: (image.desc.width - 2 * m, image.desc.height - 2 * m),
             layout: image.state.get().layout,
             semaphore: self.device.timeline(),
             value: done,
@@ -589,24 +604,13 @@ impl Renderer {
             settings,
             &mut spans,
         )?;
-        let view = frame_view(scene, settings, cache)?;
+        // With a guard band every pass renders the wider frame (`settings`).
+        let (band, wide) = GuardBand::widen_frame(&device, scene, settings, cache)?;
+        let (inner, settings) = (settings, wide.as_ref().unwrap_or(settings));
+        let view = frame_view(scene, settings, cache, band)?;
 
         let record_start = monotonic_ns();
-        let mut rec = match sink {
-            Sink::Host { cmd, .. } => {
-                if cache.gpu_scene.has_pending_uploads() {
-                    // Texture copies go through ssbc's own submission here
-                    // (ssbc's timeline cannot see when the host's command
-                    // buffer finishes, so staging could not be freed safely).
-                    let mut upload = self.commands[slot].begin()?;
-                    cache.gpu_scene.record_uploads(&mut upload);
-                    device.wait(upload.submit()?)?;
-                    cache.gpu_scene.release_staging();
-                }
-                Recorder::for_host(&device, cmd)
-            }
-            _ => self.commands[slot].begin()?,
-        };
+        let mut rec = begin_recording(&mut self.commands[slot], &device, sink, cache)?;
         // The first frame after an upload copies the scene's textures.
         cache.gpu_scene.record_uploads(&mut rec);
         let cache = &*cache;
@@ -635,7 +639,7 @@ impl Renderer {
         rec.use_buffer(&images.ssbc.stats, Access::HostRead);
         let readback = match sink {
             Sink::Host { output, layer, .. } => {
-                hand_off_to_host(&mut rec, &images, output, layer)?;
+                hand_off_to_host(&mut rec, &images, output, layer, band)?;
                 return Ok(Outcome::Host);
             }
             Sink::Gpu(_) => None,
@@ -664,6 +668,7 @@ impl Renderer {
             slot,
             layer: layer.to_string(),
             done,
+            margin: band.map_or(0, |b| b.margin),
         });
         let Some(buffers) = readback else {
             return Ok(Outcome::Gpu(GpuSubmission {
@@ -679,7 +684,8 @@ impl Renderer {
             buffers,
             FrameRecord {
                 device: &device,
-                settings,
+                settings: inner,
+                band,
                 view: &view,
                 images,
                 cache,

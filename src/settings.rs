@@ -257,6 +257,13 @@ pub struct SsbcSettings {
     /// Minimum separation of layer 1 behind layer 0, as a fraction of the
     /// scene's bounding-box diagonal.
     pub layer_separation: f32,
+    /// Render a guard band: the view widened on every side by 1/sqrt(b)
+    /// seen at the nearest visible depth (at most half the image's shorter
+    /// side), so that surfaces just outside the image are sources too; the
+    /// image is cropped back. Off by default: on the built-ins and the open
+    /// box 0-0.2% of the true residual comes from there, for up to 4x the
+    /// pixels (docs/ssbc-implementation.md). Not in the viewer.
+    pub guard_band: bool,
 }
 
 impl Default for SsbcSettings {
@@ -275,6 +282,7 @@ impl Default for SsbcSettings {
             layers: 1,
             layer1_resolution: LayerResolution::Full,
             layer_separation: 0.002,
+            guard_band: false,
         }
     }
 }

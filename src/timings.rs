@@ -225,6 +225,9 @@ pub struct Timings {
     pub width: u32,
     /// Image height.
     pub height: u32,
+    /// Pixels the guard band added on each side (0: none; the passes ran
+    /// on width + 2 x this by height + 2 x this).
+    pub guard_band: u32,
     /// Per-pass GPU time, in recording order. A name `pass/part` is a part of
     /// the pass `pass` (timed inside it; not to be added to it). None (JSON
     /// `null`) when the device's queue has no timestamps.

@@ -214,7 +214,7 @@ impl Gpu {
                     bytemuck::bytes_of(&push),
                     (width, height),
                 )?;
-                rec.copy_image(display, image, (width, height));
+                rec.copy_image(display, (0, 0), image, (width, height));
             }
         }
         rec.use_image(image, Access::Present);
@@ -352,6 +352,10 @@ fn diagnose_window_system(
 pub fn run(options: ViewOptions) -> Result<u32> {
     let event_loop = EventLoop::new().map_err(|e| window_system_error(&e.to_string()))?;
     let mut options = options;
+    if std::mem::take(&mut options.settings.ssbc.guard_band) {
+        // It presents the renderer's image whole (the band included).
+        log::warn!("the viewer does not render a guard band; --guard-band ignored");
+    }
     // The scene moves into the resident scene (the viewer keeps no copy).
     let mut scene = std::mem::replace(&mut options.scene, Scene::new("(resident)"));
     scene.ensure_light();

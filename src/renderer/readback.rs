@@ -12,10 +12,13 @@ use crate::passes::indirect_bounded::BoundedLighting;
 use crate::passes::ism::Ism;
 use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
 use crate::passes::FrameView;
+use crate::postprocess::HostImage;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
 use crate::timings::{CpuSpan, CpuTimings, SsbcStepTiming, Timings};
-use crate::vk::{Buffer, Device, GpuFrameTimes, Image};
+use crate::vk::{Buffer, Device, GpuFrameTimes, Image, Recorder};
+
+use super::guard_band::GuardBand;
 
 /// One named image of linear radiance, RGBA f32 per pixel, rows top to bottom.
 #[derive(Clone, Debug)]
@@ -235,7 +238,10 @@ pub(crate) fn ensure_buffers(
 /// What besides the read-back buffers goes into a [`Frame`].
 pub(crate) struct FrameRecord<'a> {
     pub device: &'a Device,
+    /// The image's (not a guard band's wider frame's).
     pub settings: &'a RenderSettings,
+    /// The buffers hold the wider frame: crop them.
+    pub band: Option<GuardBand>,
     pub view: &'a FrameView,
     pub images: FrameImages<'a>,
     pub cache: &'a SceneCache,
@@ -259,6 +265,11 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
     let mut layers = Vec::new();
     let mut samples = Vec::new();
     let mut ism_depth = None;
+    let extent = (record.settings.width, record.settings.height);
+    let crop = |data: Vec<f32>, channels| match record.band {
+        Some(band) => band.crop(&data, channels, extent),
+        None => data,
+    };
     for (name, buffer) in buffers {
         if let Some(k) = name.strip_prefix("samples_") {
             debug_assert_eq!(k.parse::<usize>().ok(), Some(samples.len() + 1));
@@ -268,14 +279,19 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         } else {
             layers.push(Layer {
                 name: name.clone(),
-                rgba: buffer.read::<f32>()?,
+                rgba: crop(buffer.read::<f32>()?, 4),
             });
         }
     }
     let image = layers.remove(0);
+    // A sum cut short in the band fails the frame too (its receivers are
+    // the image's sources' neighbours, not sources).
+    check_not_cut_short(&samples, record.settings)?;
+    let samples: Vec<Vec<f32>> = samples.into_iter().map(|s| crop(s, 1)).collect();
     let FrameRecord {
         device,
         settings,
+        band,
         view,
         images,
         cache,
@@ -288,7 +304,6 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         .chunks_exact(4)
         .map(|p| p[3] != 0.0)
         .collect();
-    check_not_cut_short(&samples, settings)?;
     let ssbc_steps = ssbc_figures(&samples, &geometry, &images, view, settings, &gpu_times)?;
     let vpl_set = &cache.vpls().set;
     let bound = view.bound;
@@ -296,6 +311,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         device: device.name().to_string(),
         width: settings.width,
         height: settings.height,
+        guard_band: band.map_or(0, |b| b.margin),
         frame_gpu_ms: gpu_times.as_ref().map(|t| t.frame_ms),
         gpu_start_ns: gpu_times.as_ref().and_then(|t| t.start_monotonic_ns),
         passes: gpu_times.map(|t| t.passes),
@@ -401,4 +417,30 @@ fn ssbc_figures(
         }
     });
     Ok(steps.collect())
+}
+
+/// Copies `layer` into the host's `output` image (recorded into the host's
+/// command buffer).
+pub(super) fn hand_off_to_host(
+    rec: &mut Recorder<'_>,
+    images: &FrameImages<'_>,
+    output: &HostImage,
+    layer: &str,
+    band: Option<GuardBand>,
+) -> Result<()> {
+    let source = images
+        .layer(layer)
+        .ok_or_else(|| Error::InvalidParameter(format!("no layer '{layer}'")))?;
+    let (w, h) = output.extent;
+    let out = Image::from_host(
+        rec.device,
+        output.image,
+        output.view,
+        crate::vk::ImageDesc::new_2d(output.format, w, h, vk::ImageUsageFlags::TRANSFER_DST),
+        output.layout,
+    );
+    let m = band.map_or(0, |b| b.margin);
+    rec.copy_image(source, (m, m), &out, (w, h));
+    rec.flush_barriers();
+    Ok(())
 }

@@ -279,9 +279,16 @@ impl Recorder<'_> {
         };
     }
 
-    /// Copies mip 0 / layer 0 of `src` into `dst` (size-compatible formats,
-    /// both `extent` large), e.g. into a swapchain image.
-    pub fn copy_image(&mut self, src: &Image, dst: &impl TrackedImage, extent: (u32, u32)) {
+    /// Copies `extent` of mip 0 / layer 0 of `src` from `src_origin` into
+    /// `dst` at its origin (size-compatible formats), e.g. into a swapchain
+    /// image.
+    pub fn copy_image(
+        &mut self,
+        src: &Image,
+        src_origin: (u32, u32),
+        dst: &impl TrackedImage,
+        extent: (u32, u32),
+    ) {
         self.use_image(src, Access::TransferRead);
         self.use_image(dst, Access::TransferWrite);
         self.flush_barriers();
@@ -293,13 +300,19 @@ impl Recorder<'_> {
         };
         let region = vk::ImageCopy::default()
             .src_subresource(layers)
+            .src_offset(vk::Offset3D {
+                x: src_origin.0 as i32,
+                y: src_origin.1 as i32,
+                z: 0,
+            })
             .dst_subresource(layers)
             .extent(vk::Extent3D {
                 width: extent.0,
                 height: extent.1,
                 depth: 1,
             });
-        // SAFETY: layouts set by the barrier above; both images hold `extent`.
+        // SAFETY: layouts set by the barrier above; the caller keeps `extent` (at
+        // `src_origin` in `src`) inside both images.
         unsafe {
             self.device.raw.cmd_copy_image(
                 self.cmd,
