@@ -9,9 +9,10 @@
 //!    direct and bounded VPL lighting, its geometry pyramid), against the
 //!    one-layer frame. Configurations alternate frame by frame, so drift
 //!    hits all alike.
-//!    With a guard band (one layer, and two at full resolution): its
-//!    margin and the same ratios.
-//! 2. Accuracy: the hierarchical step against brute force over both
+//! 2. The guard band: one layer without and with it, and two (full) with
+//!    it, at 320x240 and 640x480 (larger wider frames exceed lavapipe's
+//!    128 MiB storage buffers): its margin, step and frame ratios.
+//! 3. Accuracy: the hierarchical step against brute force over both
 //!    layers (relative RMSE and mean of `residual_1`), 320x240.
 
 mod common;
@@ -21,16 +22,12 @@ use ssbc::profile::render_frames;
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::settings::LayerResolution;
 
-/// One layer; two with the second at half resolution; at full (the
-/// accuracy section compares these three)...
+/// One layer; two with the second at half resolution; at full.
 const CONFIGS: [(&str, Option<LayerResolution>); 3] = [
     ("1", None),
     ("2, half", Some(LayerResolution::Half)),
     ("2, full", Some(LayerResolution::Full)),
 ];
-
-/// ...and with a guard band: one layer, two at full.
-const BANDED: [Option<LayerResolution>; 2] = [None, Some(LayerResolution::Full)];
 
 /// Median GPU ms of the pass `name` (0 if it did not run).
 fn pass_ms(f: &Frame, name: &str) -> f64 {
@@ -74,29 +71,19 @@ fn main() {
         "direct_lighting_layer1",
         "indirect_bounded_layer1",
     ];
-    let mut band_rows = Vec::new();
     for name in scenes {
         let scene = ssbc::scene::load(name).expect("scene");
         let mut scene = scene;
         scene.ensure_light();
         for &size in sizes {
             // Alternate: one frame of each, `frames` times, keeping them all.
-            let mut runs: [Vec<Frame>; 5] = Default::default();
-            let all = CONFIGS
-                .map(|(_, layer1)| banded(size, layer1, false))
-                .into_iter()
-                .chain(BANDED.map(|layer1| banded(size, layer1, true)));
-            let all: Vec<RenderSettings> = all.collect();
+            let mut runs: [Vec<Frame>; 3] = Default::default();
             for _ in 0..frames {
-                for (k, s) in all.iter().enumerate() {
-                    runs[k].push(render_frames(&mut renderer, &scene, s, 1, None).expect("frame"));
+                for (k, (_, layer1)) in CONFIGS.into_iter().enumerate() {
+                    let s = settings(size, layer1);
+                    runs[k].push(render_frames(&mut renderer, &scene, &s, 1, None).expect("frame"));
                 }
             }
-            let median = |frames: &[Frame], f: &dyn Fn(&Frame) -> f64| {
-                let mut v: Vec<f64> = frames.iter().map(f).collect();
-                v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-                v[v.len() / 2]
-            };
             let step = |k: usize| median(&runs[k], &|f| pass_ms(f, "ssbc_step_1"));
             let pyramid = |k: usize| median(&runs[k], &|f| pass_ms(f, "ssbc_geometry_mips"));
             let frame = |k: usize| {
@@ -136,34 +123,10 @@ fn main() {
                 frame(1) / frame(0),
                 frame(2) / frame(0),
             );
-            let margin = runs[3][0].timings.guard_band;
-            band_rows.push(format!(
-                "| {} | {}x{} | {margin} ({:.2}x) | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x | {:.1} / {:.1} / {:.1} | {:.2}x / {:.2}x |",
-                scene.name,
-                size.0,
-                size.1,
-                ((size.0 + 2 * margin) * (size.1 + 2 * margin)) as f64 / (size.0 * size.1) as f64,
-                step(0),
-                step(3),
-                step(4),
-                step(3) / step(0),
-                step(4) / step(0),
-                frame(0),
-                frame(3),
-                frame(4),
-                frame(3) / frame(0),
-                frame(4) / frame(0),
-            ));
         }
     }
-    println!("\n## Guard band\n\nOne layer / one with a guard band / two (full) with a guard band, same runs:\n");
-    println!(
-        "| scene | size | margin px (pixels) | step ms | step ratios | frame ms | frame ratios |"
-    );
-    println!("|---|---|---|---|---|---|---|");
-    for row in band_rows {
-        println!("{row}");
-    }
+
+    guard_band_table(&mut renderer, &scenes, frames, args.quick);
 
     println!("\n## Hierarchical vs brute force (over every layer), one step, 320x240\n");
     println!("| scene | layers | relative RMSE of residual_1 | mean ratio |\n|---|---|---|---|");
@@ -197,6 +160,91 @@ fn main() {
                 scene.name,
                 100.0 * (num / den.max(1e-300)).sqrt(),
                 sum_h / sum_b.max(1e-300)
+            );
+        }
+    }
+}
+
+/// Median of `f` over `frames`.
+fn median(frames: &[Frame], f: &dyn Fn(&Frame) -> f64) -> f64 {
+    let mut v: Vec<f64> = frames.iter().map(f).collect();
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v[v.len() / 2]
+}
+
+/// One layer / one with a guard band / two (full) with one, alternating.
+fn guard_band_table(renderer: &mut Renderer, scenes: &[&str], frames: u32, quick: bool) {
+    let sizes: &[(u32, u32)] = if quick {
+        &[(320, 240)]
+    } else {
+        &[(320, 240), (640, 480)]
+    };
+    println!("\n## Guard band\n\nOne layer / one with a guard band / two (full) with a guard band, same runs:\n");
+    println!(
+        "| scene | size | margin px (pixels) | step ms | step ratios | frame ms | frame ratios |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let configs = [
+        (None, false),
+        (None, true),
+        (Some(LayerResolution::Full), true),
+    ];
+    for name in scenes {
+        let mut scene = ssbc::scene::load(name).expect("scene");
+        scene.ensure_light();
+        for &size in sizes {
+            // A configuration the device cannot hold is left out (None).
+            let mut runs: [Option<Vec<Frame>>; 3] = Default::default();
+            for _ in 0..frames {
+                for (k, (layer1, band)) in configs.into_iter().enumerate() {
+                    let s = banded(size, layer1, band);
+                    match render_frames(renderer, &scene, &s, 1, None) {
+                        Ok(f) => runs[k].get_or_insert_with(Vec::new).push(f),
+                        Err(e) => eprintln!("{} {size:?} {k}: {e}", scene.name),
+                    }
+                }
+            }
+            let step = |k: usize| {
+                runs[k]
+                    .as_deref()
+                    .map(|r| median(r, &|f| pass_ms(f, "ssbc_step_1")))
+            };
+            let frame = |k: usize| {
+                runs[k].as_deref().map(|r| {
+                    median(r, &|f| {
+                        f.timings
+                            .stats
+                            .as_ref()
+                            .unwrap()
+                            .frame_gpu_ms
+                            .unwrap()
+                            .median
+                    })
+                })
+            };
+            let show = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.1}"));
+            let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
+                (Some(a), Some(b)) => format!("{:.2}x", a / b),
+                _ => "n/a".to_string(),
+            };
+            let margin = runs[1].as_ref().map_or(0, |r| r[0].timings.guard_band);
+            let pixels =
+                ((size.0 + 2 * margin) * (size.1 + 2 * margin)) as f64 / (size.0 * size.1) as f64;
+            println!(
+                "| {} | {}x{} | {margin} ({pixels:.2}x) | {} / {} / {} | {} / {} | {} / {} / {} | {} / {} |",
+                scene.name,
+                size.0,
+                size.1,
+                show(step(0)),
+                show(step(1)),
+                show(step(2)),
+                ratio(step(1), step(0)),
+                ratio(step(2), step(0)),
+                show(frame(0)),
+                show(frame(1)),
+                show(frame(2)),
+                ratio(frame(1), frame(0)),
+                ratio(frame(2), frame(0)),
             );
         }
     }

@@ -7,7 +7,7 @@
 //! to the image asked for: the band's pixels are sources, and the
 //! receivers there are computed and dropped.
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::scene::Scene;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
@@ -90,7 +90,16 @@ impl GuardBand {
             return Ok((None, None));
         };
         let wide = band.widen(settings);
-        super::limits::check_settings(device, &wide)?;
+        super::limits::check_settings(device, &wide).map_err(|e| {
+            let why = match e {
+                Error::InvalidParameter(why) => why,
+                other => other.to_string(),
+            };
+            Error::InvalidParameter(format!(
+                "the guard band ({} pixels each side) makes the frame {}x{}: {why}",
+                band.margin, wide.width, wide.height
+            ))
+        })?;
         Ok((Some(band), Some(wide)))
     }
 
