@@ -119,6 +119,12 @@ fn host_reads_gpu_image(
                 base_array_layer: 0,
                 layer_count: 1,
             })
+            // The frame's part of the image (offset only with a guard band).
+            .image_offset(vk::Offset3D {
+                x: out.origin.0 as i32,
+                y: out.origin.1 as i32,
+                z: 0,
+            })
             .image_extent(vk::Extent3D {
                 width: out.extent.0,
                 height: out.extent.1,

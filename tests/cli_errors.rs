@@ -155,6 +155,18 @@ fn size_above_device_limit() {
 }
 
 #[test]
+fn guard_band_beyond_the_device_is_named() {
+    // Tori's band at 1024x768 is 384 pixels each side: the wider frame's
+    // SSBC buffers exceed lavapipe's 128 MiB (maxStorageBufferRange), and
+    // the error says it is the band's doing.
+    fails_with(
+        &["tori", "--guard-band", "-o", "/tmp/never.exr"],
+        &[],
+        "the guard band (384 pixels each side) makes the frame 1792x1536",
+    );
+}
+
+#[test]
 fn no_vulkan_device() {
     // Point the loader at a driver manifest that does not exist.
     fails_with(
