@@ -86,17 +86,7 @@ fn main() {
             }
             let step = |k: usize| median(&runs[k], &|f| pass_ms(f, "ssbc_step_1"));
             let pyramid = |k: usize| median(&runs[k], &|f| pass_ms(f, "ssbc_geometry_mips"));
-            let frame = |k: usize| {
-                median(&runs[k], &|f| {
-                    f.timings
-                        .stats
-                        .as_ref()
-                        .unwrap()
-                        .frame_gpu_ms
-                        .unwrap()
-                        .median
-                })
-            };
+            let frame = |k: usize| median(&runs[k], &frame_ms);
             let own = |k: usize| {
                 median(&runs[k], &|f| {
                     layer1_passes.iter().map(|p| pass_ms(f, p)).sum()
@@ -165,6 +155,16 @@ fn main() {
     }
 }
 
+/// Median GPU ms of the whole frame.
+fn frame_ms(f: &Frame) -> f64 {
+    let stats = f
+        .timings
+        .stats
+        .as_ref()
+        .expect("measured with render_frames");
+    stats.frame_gpu_ms.expect("timestamps").median
+}
+
 /// Median of `f` over `frames`.
 fn median(frames: &[Frame], f: &dyn Fn(&Frame) -> f64) -> f64 {
     let mut v: Vec<f64> = frames.iter().map(f).collect();
@@ -209,19 +209,7 @@ fn guard_band_table(renderer: &mut Renderer, scenes: &[&str], frames: u32, quick
                     .as_deref()
                     .map(|r| median(r, &|f| pass_ms(f, "ssbc_step_1")))
             };
-            let frame = |k: usize| {
-                runs[k].as_deref().map(|r| {
-                    median(r, &|f| {
-                        f.timings
-                            .stats
-                            .as_ref()
-                            .unwrap()
-                            .frame_gpu_ms
-                            .unwrap()
-                            .median
-                    })
-                })
-            };
+            let frame = |k: usize| runs[k].as_deref().map(|r| median(r, &frame_ms));
             let show = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.1}"));
             let ratio = |a: Option<f64>, b: Option<f64>| match (a, b) {
                 (Some(a), Some(b)) => format!("{:.2}x", a / b),
