@@ -135,6 +135,15 @@ void main() {
         }
     }
     continuous = continuous && normal_len >= pc.max_normal_spread && thickness <= pc.max_thickness * radius;
-    geo[dst] = GeoTexel(front.cluster, back.cluster);
+    // Which children hold members of each cluster, for the traversal (see
+    // children_bits in ssbc.glsl).
+    uint front_children = 0u;
+    uint back_children = 0u;
+    [[unroll]] for (int k = 0; k < 4; k++) {
+        uint of_child = (present >> (2 * k)) & 3u;
+        if ((of_child & ~(back_mask >> (2 * k))) != 0u) front_children |= 1u << k;
+        if ((of_child & (back_mask >> (2 * k))) != 0u) back_children |= 1u << k;
+    }
+    geo[dst] = GeoTexel(with_children_bits(front.cluster, front_children | (back_children << 4)), back.cluster);
     aux[dst] = GeoAux(front.area, back.area, pixels, (continuous ? 1u : 0u) | (back_mask << 8));
 }
