@@ -15,8 +15,15 @@ repository root; standard library only.
   glowing-label       a bottle whose only emission is an emissive texture that
                       is black except for a label band; no lights, no camera.
   emissive-floor      a 40 m emissive plane; no lights, no camera.
+  slabs-*             rooms whose walls are closed slabs, lit only by a thin
+                      closed emissive slab under the ceiling (issue 34): an
+                      open-front box without camera and a closed room with
+                      one, with fixtures 1 mm to 10 cm thick, touching the
+                      ceiling or 1 cm under it, one- and double-sided walls.
 """
-import base64, json, math, struct, zlib
+import base64, json, math, os, struct, sys, zlib
+
+OUT_DIR = "tests/scenes"
 
 def cross(a, b): return [a[1]*b[2]-a[2]*b[1], a[2]*b[0]-a[0]*b[2], a[0]*b[1]-a[1]*b[0]]
 def dot(a, b): return sum(x * y for x, y in zip(a, b))
@@ -161,10 +168,10 @@ def write(name, meshes, materials, lights=(), camera=None, images=(), doc=""):
     gltf["nodes"] = nodes
     gltf["scenes"] = [{"nodes": list(range(len(nodes)))}]
     gltf["buffers"] = [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}]
-    with open(f"tests/scenes/{name}.gltf", "w") as f:
+    with open(f"{OUT_DIR}/{name}.gltf", "w") as f:
         json.dump(gltf, f, indent=1)
         f.write("\n")
-    print(f"wrote tests/scenes/{name}.gltf ({len(blob)} bytes of geometry)")
+    print(f"wrote {OUT_DIR}/{name}.gltf ({len(blob)} bytes of geometry)")
 
 def cornell_with(name, fixture, fixture_material, doc):
     walls = cornell_walls()
@@ -183,6 +190,115 @@ cornell_with("fixture-quad-flush", quad([-0.25, 1.999, -0.25], [0.5, 0, 0], [0, 
              {"emissiveFactor": [1, 0.85, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
               "pbrMetallicRoughness": {"baseColorFactor": [0.78, 0.78, 0.78, 1], "metallicFactor": 0}},
              "Cornell box lit by a one-sided emissive quad 1 mm under the ceiling, facing down")
+
+
+def box8(lo, hi):
+    """A closed box of 12 triangles on 8 shared corners, normals averaged
+    there (as exporters write an unsplit cube): smooth normals across its edges."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    pos = [[x, y, z] for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
+    c = [(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2]
+    nrm = []
+    for p in pos:
+        n = [1 if p[k] > c[k] else -1 for k in range(3)]
+        nrm.append(scale(n, 1 / math.sqrt(3)))
+    # Corner index: 4 * (x == x1) + 2 * (y == y1) + (z == z1); CCW seen from outside.
+    faces = [(1, 5, 7, 3), (4, 0, 2, 6), (5, 4, 6, 7), (0, 1, 3, 2), (2, 3, 7, 6), (0, 4, 5, 1)]
+    idx = []
+    for a, b, c2, d in faces:
+        idx += [a, b, c2, a, c2, d]
+    return {"pos": pos, "nrm": nrm, "uv": [[0, 0]] * 8, "idx": idx}
+
+def suzanne(c, r):
+    """A head of interpenetrating closed parts (skull, ears, muzzle), as a
+    monkey head is modelled: surfaces that run into each other."""
+    return merge([sphere(c, r), sphere(add(c, [-0.95 * r, 0.55 * r, 0]), 0.45 * r, 16, 8),
+                  sphere(add(c, [0.95 * r, 0.55 * r, 0]), 0.45 * r, 16, 8),
+                  sphere(add(c, [0, -0.3 * r, 0.7 * r]), 0.55 * r, 16, 8)])
+
+def slab_walls(lo, hi, t, sides, overlap):
+    """Walls of thickness t around the inside lo..hi, each a closed box (a
+    separate mesh): sides among floor, ceiling, back, left, right, front.
+    Butt joints (slabs touching face to face) or overlapping at the corners."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    ox = t if overlap else 0
+    walls = {"floor": ([x0 - t, y0 - t, z0 - t], [x1 + t, y0, z1 + t]),
+             "ceiling": ([x0 - t, y1, z0 - t], [x1 + t, y1 + t, z1 + t]),
+             "back": ([x0 - ox, y0 - ox, z0 - t], [x1 + ox, y1 + ox, z0]),
+             "front": ([x0 - ox, y0 - ox, z1], [x1 + ox, y1 + ox, z1 + t]),
+             "left": ([x0 - t, y0 - ox, z0 - ox], [x0, y1 + ox, z1 + ox]),
+             "right": ([x1, y0 - ox, z0 - ox], [x1 + t, y1 + ox, z1 + ox])}
+    return [(name, box(*walls[name])) for name in sides]
+
+SLAB_COLOURS = {"floor": "white", "ceiling": "white", "back": "white", "front": "white", "left": "red", "right": "green"}
+
+def slab_scene(name, kind, fixture_t, gap, slab_t, overlap, walls_double_sided, fixture8=False, size=1.0, doc=""):
+    """The issue-34 family: rooms of closed slabs lit only by a thin closed
+    emissive slab under the ceiling.
+      kind "open-box": a 2 m box of five slabs (no front), a monkey head
+        inside, no camera; the fixture 1 m x fixture_t x 1 m, emissiveFactor 1,
+        baseColor 0.8.
+      kind "room": a closed 4 x 2.6 x 3.5 m room of six slabs, two spheres,
+        a camera inside; the fixture 1.2 m x fixture_t x 1.2 m, emissiveFactor 3.
+    gap: between the fixture's top and the ceiling (0: touching); size
+    scales the room, its contents and the fixture's width (not its thickness)."""
+    mats = {k: dict(v, doubleSided=walls_double_sided) for k, v in WALLS.items()}
+    if kind == "open-box":
+        lo, hi = scale([-1, 0, -1], size), scale([1, 2, 1], size)
+        sides = ["floor", "ceiling", "back", "left", "right"]
+        half, emission, fixture_colour = 0.5 * size, 1, 0.8
+        extra = [("grey", suzanne(scale([0.15, 0.45, -0.1], size), 0.3 * size))]
+        camera = None
+    else:
+        lo, hi = scale([-2, 0, -1.75], size), scale([2, 2.6, 1.75], size)
+        sides = ["floor", "ceiling", "back", "front", "left", "right"]
+        half, emission, fixture_colour = 0.6 * size, 3, 0.8
+        extra = [("grey", merge([sphere(scale([-0.9, 0.5, -0.6], size), 0.5 * size),
+                                 sphere(scale([0.8, 0.35, 0.2], size), 0.35 * size)]))]
+        camera = {"translation": scale([0.0, 1.3, 1.6], size), "yfov": math.radians(65)}
+    mats["grey"] = {"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1], "metallicFactor": 0},
+                    "doubleSided": walls_double_sided}
+    top = hi[1] - gap
+    flo, fhi = [-half, top - fixture_t, -half], [half, top, half]
+    fixture = box8(flo, fhi) if fixture8 else box(flo, fhi)
+    mats["fixture"] = {"emissiveFactor": [emission] * 3, "doubleSided": True,
+                       "pbrMetallicRoughness": {"baseColorFactor": [fixture_colour] * 3 + [1], "metallicFactor": 0}}
+    meshes = [(SLAB_COLOURS[n], g) for n, g in slab_walls(lo, hi, slab_t, sides, overlap)] + extra + [("fixture", fixture)]
+    write(name, meshes, mats, camera=camera, doc=doc)
+
+if len(sys.argv) == 3 and sys.argv[1] == "--sweep":
+    # The whole grid of proportions, for examples/fixture_sweep.rs (not committed).
+    OUT_DIR = sys.argv[2]
+    os.makedirs(OUT_DIR, exist_ok=True)
+    for kind in ("open-box", "room"):
+        for t in (0.001, 0.006, 0.05, 0.10):
+            for gap in (0.0, 0.01):
+                for overlap in (False, True):
+                    for double in (False, True):
+                        for size, fixture8 in ((1.0, False), (3.0, True)):
+                            name = f"{kind}-t{t * 1000:g}mm-gap{gap * 100:g}cm-{'overlap' if overlap else 'butt'}-{'double' if double else 'single'}-x{size:g}{'-smooth' if fixture8 else ''}"
+                            slab_scene(name, kind, t, gap, 0.13 if kind == "open-box" else 0.10, overlap, double,
+                                       fixture8=fixture8, size=size)
+    sys.exit(0)
+
+# Issue 34's two held-out boxes, rebuilt from their description, and
+# variants of proportion (tests/third_party_scenes.rs renders every one).
+slab_scene("slabs-open-box", "open-box", 0.006, 0.0, 0.13, False, True, fixture8=True,
+           doc="Open-front box of five closed 13 cm slabs (doubleSided), a monkey head, no camera; "
+               "lit only by a closed 1 m x 6 mm x 1 m emissive box (12 triangles) touching the ceiling")
+slab_scene("slabs-open-box-large", "open-box", 0.006, 0.0, 0.13, False, True, size=3.0,
+           doc="slabs-open-box three times as large (6 m), the fixture still 6 mm thick")
+slab_scene("slabs-room", "room", 0.05, 0.0, 0.10, False, True,
+           doc="Closed room of six 10 cm slabs (doubleSided, touching), two spheres, camera inside; "
+               "lit only by a closed 5 cm emissive slab against the ceiling")
+slab_scene("slabs-open-box-1mm-gap1cm", "open-box", 0.001, 0.01, 0.13, True, False,
+           doc="slabs-open-box with a 1 mm fixture 1 cm under the ceiling, one-sided walls overlapping at the corners")
+slab_scene("slabs-open-box-10cm", "open-box", 0.10, 0.0, 0.13, True, True,
+           doc="slabs-open-box with a 10 cm fixture touching the ceiling, walls overlapping at the corners")
+slab_scene("slabs-room-1mm", "room", 0.001, 0.0, 0.10, True, False,
+           doc="slabs-room with a 1 mm fixture touching the ceiling, one-sided walls overlapping at the corners")
+slab_scene("slabs-room-6mm-gap1cm", "room", 0.006, 0.01, 0.10, False, True, fixture8=True,
+           doc="slabs-room with a 6 mm fixture (12 triangles) 1 cm under the ceiling")
 
 write("closed-room",
       [("walls", box([-2, 0, -1.5], [2, 2.6, 1.5], inward=True)),

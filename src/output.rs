@@ -190,10 +190,12 @@ pub fn timings_table(frame: &Frame) -> String {
         t.cpu_ms.ism_rays,
         t.bound
     );
-    if t.enclosed_emission_w > 0.0 {
+    if t.emission_w > 0.0 {
         s += &format!(
-            "  light tracing left out {:.3} W of emission into closed volumes\n",
-            t.enclosed_emission_w
+            "  emitters: {:.3} W emitted, of which {:.3} W ({:.1}%) into solids, left out of light tracing\n",
+            t.emission_w,
+            t.enclosed_emission_w,
+            100.0 * t.enclosed_emission_w / t.emission_w
         );
     }
     s

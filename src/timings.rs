@@ -255,8 +255,11 @@ pub struct Timings {
     /// Most VPLs a single light path deposited (a handful of paths trapped
     /// somewhere would show here).
     pub max_vpls_per_light_path: u32,
-    /// Emitted power (W, luminance) that light tracing left out because it
-    /// goes into closed volumes (the inside of a thin emissive box).
+    /// Power (W, luminance) the scene's emissive triangles emit.
+    pub emission_w: f32,
+    /// The part of `emission_w` that light tracing left out because it goes
+    /// into solids (the inside of a thin emissive box); never more
+    /// than `emission_w`.
     pub enclosed_emission_w: f32,
     /// ISM tile side.
     pub ism_tile: u32,

@@ -177,61 +177,66 @@ fn relative_mse_falls_as_one_over_spp() {
 #[test]
 fn kollig_keller_equals_the_unclamped_vpl_sum_in_expectation() {
     let scene = ssbc::scene::builtin::cornell();
-    let base = ReferenceSettings {
-        width: 48,
-        height: 36,
-        vpl: VplSettings {
-            count: 128,
-            bounces: 4,
-            seed: 3,
-        },
-        ..Default::default()
-    };
-    let unclamped = render(
-        &scene,
-        ReferenceSettings {
-            method: Method::Vpl,
-            bound: f32::INFINITY,
-            ..base.clone()
-        },
-    );
-    let clamped = render(
-        &scene,
-        ReferenceSettings {
-            method: Method::Vpl,
-            bound: 0.5,
-            ..base.clone()
-        },
-    );
-    let kk = render(
-        &scene,
-        ReferenceSettings {
-            method: Method::KolligKeller,
-            bound: 0.5,
-            spp: 128,
-            ..base.clone()
-        },
-    );
-    let (c_kk, c_clamped) = (
-        compare(&kk, &unclamped).unwrap(),
-        compare(&clamped, &unclamped).unwrap(),
-    );
-    eprintln!(
-        "mean radiance vs the unclamped VPL sum: clamped {:.4}, Kollig-Keller {:.4}",
-        c_clamped.mean_ratio, c_kk.mean_ratio
-    );
-    assert!(
-        c_clamped.mean_ratio < 0.97,
-        "the bound should remove energy"
-    );
+    // Over four VPL sets: for one set of 128 VPLs the two differ by that
+    // set's near-field noise (1.8-2.0% for seed 3, which alone decided this
+    // test until a path tracer that finds hits nearer than 0.1 mm moved it
+    // from 1.8% to 2.0%).
+    let (mut clamped_sum, mut kk_sum) = (0.0, 0.0);
+    let seeds = [3, 4, 5, 6];
+    for seed in seeds {
+        let base = ReferenceSettings {
+            width: 48,
+            height: 36,
+            vpl: VplSettings {
+                count: 128,
+                bounces: 4,
+                seed,
+            },
+            ..Default::default()
+        };
+        let unclamped = render(
+            &scene,
+            ReferenceSettings {
+                method: Method::Vpl,
+                bound: f32::INFINITY,
+                ..base.clone()
+            },
+        );
+        let clamped = render(
+            &scene,
+            ReferenceSettings {
+                method: Method::Vpl,
+                bound: 0.5,
+                ..base.clone()
+            },
+        );
+        let kk = render(
+            &scene,
+            ReferenceSettings {
+                method: Method::KolligKeller,
+                bound: 0.5,
+                spp: 128,
+                ..base.clone()
+            },
+        );
+        let (c_kk, c_clamped) = (
+            compare(&kk, &unclamped).unwrap(),
+            compare(&clamped, &unclamped).unwrap(),
+        );
+        eprintln!(
+            "VPL seed {seed}: mean radiance vs the unclamped VPL sum: clamped {:.4}, Kollig-Keller {:.4}",
+            c_clamped.mean_ratio, c_kk.mean_ratio
+        );
+        clamped_sum += c_clamped.mean_ratio;
+        kk_sum += c_kk.mean_ratio;
+    }
+    let n = seeds.len() as f64;
+    let (clamped, kk) = (clamped_sum / n, kk_sum / n);
+    assert!(clamped < 0.97, "the bound should remove energy ({clamped})");
     // Kollig-Keller replaces the VPLs' near field T_r L^ by the path-traced
-    // T_r (L - Le): equal in expectation over VPL sets, so for one set of 128
-    // VPLs the two agree up to that set's near-field noise (measured 0.95%).
-    assert!(
-        (c_kk.mean_ratio - 1.0).abs() < 0.02,
-        "Kollig-Keller mean {}",
-        c_kk.mean_ratio
-    );
+    // T_r (L - Le): equal in expectation over VPL sets (measured: 1.2% over
+    // these four, 0.5-2.0% for each).
+    assert!((kk - 1.0).abs() < 0.02, "Kollig-Keller mean {kk}");
 }
 
 #[test]

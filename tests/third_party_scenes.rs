@@ -59,15 +59,20 @@ fn block_rel_mse(a: &[f32], b: &[f32], (w, h): (u32, u32)) -> f64 {
 /// (256 spp: the mean's noise is about 0.2%); returns GPU mean / path-traced
 /// mean after printing it with the block error and the VPLs per light path.
 fn gpu_over_path_tracer(name: &str) -> (f64, ssbc::renderer::Frame) {
+    gpu_over_path_tracer_at(name, SIZE, 256)
+}
+
+/// [`gpu_over_path_tracer`] at `size` with `spp` path-traced samples.
+fn gpu_over_path_tracer_at(name: &str, size: (u32, u32), spp: u32) -> (f64, ssbc::renderer::Frame) {
     let scene = load(name);
-    let settings = common::small(SIZE.0, SIZE.1);
+    let settings = common::small(size.0, size.1);
     let frame = common::render_validated(&scene, &settings);
     let reference = Reference::new(
         &scene,
         ReferenceSettings {
-            width: SIZE.0,
-            height: SIZE.1,
-            spp: 256,
+            width: size.0,
+            height: size.1,
+            spp,
             ..Default::default()
         },
     )
@@ -77,12 +82,13 @@ fn gpu_over_path_tracer(name: &str) -> (f64, ssbc::renderer::Frame) {
     let ratio = mean(&frame.image.rgba) / mean(&reference);
     let t = &frame.timings;
     eprintln!(
-        "{name}: GPU / path tracer {ratio:.4}, relMSE on 4x4 blocks {:.4}; {} VPLs from {} light paths (at most {} from one), {:.3} W of emission into closed volumes left out",
-        block_rel_mse(&frame.image.rgba, &reference, SIZE),
+        "{name}: GPU / path tracer {ratio:.4}, relMSE on 4x4 blocks {:.4}; {} VPLs from {} light paths (at most {} from one), {:.3} W of {:.3} W of emission into solids left out",
+        block_rel_mse(&frame.image.rgba, &reference, size),
         t.vpl_count,
         t.light_paths,
         t.max_vpls_per_light_path,
         t.enclosed_emission_w,
+        t.emission_w,
     );
     (ratio, frame)
 }
@@ -101,6 +107,44 @@ fn a_thin_closed_emissive_box_under_the_ceiling() {
     assert!(frame.timings.enclosed_emission_w > 1.5);
     assert!(frame.timings.max_vpls_per_light_path <= 64);
     assert!(frame.timings.light_paths * 8 >= frame.timings.vpl_count as u64);
+}
+
+/// Rooms whose walls are closed slabs, lit only by a thin closed emissive
+/// slab under the ceiling (issue 34's held-out boxes rebuilt, and variants:
+/// fixtures 1 mm to 10 cm thick, touching the ceiling or 1 cm under it,
+/// slabs butting or overlapping, one- and double-sided walls, 1x and 3x
+/// scale). Most of the emission goes into solids (the fixture's inside, the
+/// slab it touches): left out, never more than was emitted.
+#[test]
+fn rooms_of_slabs_lit_by_a_thin_closed_fixture() {
+    let dir = format!("{}/tests/scenes", env!("CARGO_MANIFEST_DIR"));
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| n.starts_with("slabs-") && n.ends_with(".gltf"))
+        .map(|n| n.trim_end_matches(".gltf").to_string())
+        .collect();
+    names.sort();
+    assert!(names.len() >= 6, "{names:?}");
+    let mut failures = Vec::new();
+    for name in &names {
+        // At the issue's size: below it the interleaved gather's filter
+        // and the ISMs err by 5-10% in whole regions of these images (the
+        // 10 cm fixture: 0.93 at 64x48, 0.95 at 128x96, 0.99 at 160x120);
+        // 64 samples make the path tracer's mean good to about 0.3%.
+        let (ratio, frame) = gpu_over_path_tracer_at(name, (160, 120), 64);
+        let t = &frame.timings;
+        if (ratio - 1.0).abs() >= TOLERANCE {
+            failures.push(format!("{name}: GPU / path tracer {ratio}"));
+        }
+        if !(t.enclosed_emission_w <= t.emission_w && t.enclosed_emission_w > 0.25 * t.emission_w) {
+            failures.push(format!(
+                "{name}: {} W of {} W left out",
+                t.enclosed_emission_w, t.emission_w
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 #[test]

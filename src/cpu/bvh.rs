@@ -69,28 +69,43 @@ pub struct SceneBvh {
     masked: Vec<Option<(u32, [Vec2; 3])>>,
     masks: Vec<Mask>,
     alpha_textures: Vec<AlphaTexture>,
+    /// Per triangle, its connected surface ([`SceneBvh::connected_surfaces`]).
+    surfaces: std::sync::OnceLock<Vec<u32>>,
 }
 
-/// The directions [`SceneBvh::enclosed_fraction`] casts (not normalised).
-const ENCLOSURE_DIRECTIONS: [[f32; 3]; 14] = [
-    [1.0, 0.0, 0.0],
-    [-1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, -1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [0.0, 0.0, -1.0],
-    [1.0, 1.0, 1.0],
-    [1.0, 1.0, -1.0],
-    [1.0, -1.0, 1.0],
-    [1.0, -1.0, -1.0],
-    [-1.0, 1.0, 1.0],
-    [-1.0, 1.0, -1.0],
-    [-1.0, -1.0, 1.0],
-    [-1.0, -1.0, -1.0],
-];
+/// The 14 directions of [`SceneBvh::enclosed_fraction`] and the winding
+/// test of [`super::enclosure`]: the 6 axes and the 8 diagonals, turned off
+/// the axes (modelled geometry is axis-aligned and symmetric, and rays along
+/// its edges may slip between triangles).
+pub static ENCLOSURE_DIRECTIONS: std::sync::LazyLock<[Vec3; 14]> = std::sync::LazyLock::new(|| {
+    let turn = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.11, 0.23, 0.37);
+    let axes = [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [1.0, 1.0, 1.0],
+        [1.0, 1.0, -1.0],
+        [1.0, -1.0, 1.0],
+        [1.0, -1.0, -1.0],
+        [-1.0, 1.0, 1.0],
+        [-1.0, 1.0, -1.0],
+        [-1.0, -1.0, 1.0],
+        [-1.0, -1.0, -1.0],
+    ];
+    axes.map(|d| turn * Vec3::from(d).normalize())
+});
 
 /// Relative offset used to leave surfaces without self-intersection.
 pub const RAY_EPSILON: f32 = 1e-4;
+
+/// How far a ray that leaves a known triangle (which it skips) starts off
+/// it: a few ulps of the coordinates, far below any modelled thickness.
+pub fn lift(p: Vec3) -> f32 {
+    8.0 * f32::EPSILON * (1.0 + p.abs().max_element())
+}
 
 impl SceneBvh {
     /// Builds the BVH (medium-quality PLOC build).
@@ -158,7 +173,44 @@ impl SceneBvh {
             masked,
             masks,
             alpha_textures,
+            surfaces: std::sync::OnceLock::new(),
         }
+    }
+
+    /// Per triangle, the connected surface it belongs to: triangles joined
+    /// by vertex positions they share exactly (a closed box of 24 vertices
+    /// is one surface). Worked out on first use.
+    pub fn connected_surfaces(&self) -> &[u32] {
+        self.surfaces.get_or_init(|| {
+            let mut ids = std::collections::HashMap::new();
+            let mut parent: Vec<u32> = Vec::new();
+            let mut id = |p: Vec3A| {
+                *ids.entry(p.to_array().map(f32::to_bits))
+                    .or_insert_with(|| {
+                        parent.push(parent.len() as u32);
+                        parent.len() as u32 - 1
+                    })
+            };
+            let corners: Vec<[u32; 3]> = self
+                .triangles
+                .iter()
+                .map(|t| [id(t.v0), id(t.v1), id(t.v2)])
+                .collect();
+            fn root(parent: &mut [u32], mut i: u32) -> u32 {
+                while parent[i as usize] != i {
+                    parent[i as usize] = parent[parent[i as usize] as usize];
+                    i = parent[i as usize];
+                }
+                i
+            }
+            for c in &corners {
+                for &k in &c[1..] {
+                    let (a, b) = (root(&mut parent, c[0]), root(&mut parent, k));
+                    parent[a.max(b) as usize] = a.min(b);
+                }
+            }
+            corners.iter().map(|c| root(&mut parent, c[0])).collect()
+        })
     }
 
     /// Whether triangle `t` exists at the point `p` of it (alpha mask).
@@ -180,9 +232,14 @@ impl SceneBvh {
         alpha >= mask.cutoff
     }
 
-    /// Distance to a candidate hit of triangle `id` that exists there.
-    fn candidate(&self, r: &Ray, id: usize) -> f32 {
-        let t = self.bvh.primitive_indices[id] as usize;
+    /// Distance to a candidate hit of triangle `id` that exists there and is
+    /// not `skip` (the triangle a ray leaves).
+    fn candidate(&self, r: &Ray, id: usize, skip: Option<u32>) -> f32 {
+        let t = self.bvh.primitive_indices[id];
+        if skip == Some(t) {
+            return f32::INFINITY;
+        }
+        let t = t as usize;
         let d = self.triangles[t].intersect(r);
         if d.is_finite() && self.masked[t].is_some() {
             let p = Vec3::from(r.origin + r.direction * d);
@@ -195,11 +252,30 @@ impl SceneBvh {
 
     /// The closest hit along `dir` (unit) from `origin` within (tmin, tmax).
     pub fn intersect(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
-        let ray = Ray::new(origin.into(), robust_direction(dir), tmin, tmax);
+        self.closest(origin, dir, tmin, tmax, None)
+    }
+
+    /// The closest hit of a ray that leaves triangle `leaving` at `origin`
+    /// (on it): that triangle is skipped instead of offsetting the origin by
+    /// a distance that could jump through a fixture thinner than it; hits
+    /// count from a few ulps ([`lift`]) along the ray.
+    pub fn intersect_leaving(&self, origin: Vec3, dir: Vec3, leaving: u32) -> Option<Hit> {
+        self.closest(origin, dir, lift(origin), f32::INFINITY, Some(leaving))
+    }
+
+    fn closest(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        skip: Option<u32>,
+    ) -> Option<Hit> {
+        let ray = backed_up_ray(origin, dir, tmin, tmax);
         let mut hit = RayHit::none();
         let found = self
             .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.candidate(r, id));
+            .ray_traverse(ray, &mut hit, |r, id| self.candidate(r, id, skip));
         if !found {
             return None;
         }
@@ -207,7 +283,7 @@ impl SceneBvh {
         let tri = &self.triangles[triangle as usize];
         let p = Vec3::from(ray.origin + ray.direction * hit.t);
         Some(Hit {
-            t: hit.t,
+            t: hit.t - BACKUP,
             triangle,
             barycentric: barycentric(tri, p),
         })
@@ -229,50 +305,100 @@ impl SceneBvh {
         None
     }
 
-    /// Whether the segment from `a` to `b` is blocked.
+    /// Whether the segment from `a` to `b` is blocked. Both ends must be
+    /// off any surface already (offset points, lights, the camera): only a
+    /// few ulps ([`lift`]) at each end are left out, so that the segment
+    /// cannot slip past the edge of a thin wall beside its start.
     pub fn occluded(&self, a: Vec3, b: Vec3) -> bool {
+        self.segment_blocked(a, b, None)
+    }
+
+    /// Whether the segment from `a` (off a surface, as for [`occluded`])
+    /// to the point `b` on triangle `target` is blocked: the target triangle
+    /// is skipped, so that `b` needs no offset that could cross a thin
+    /// closed emitter.
+    ///
+    /// [`occluded`]: SceneBvh::occluded
+    pub fn occluded_to(&self, a: Vec3, b: Vec3, target: u32) -> bool {
+        self.segment_blocked(a, b, Some(target))
+    }
+
+    fn segment_blocked(&self, a: Vec3, b: Vec3, skip: Option<u32>) -> bool {
         let d = b - a;
         let len = d.length();
-        if len <= 0.0 {
+        let (tmin, tmax) = (lift(a), len - lift(b));
+        // (A zero or non-finite length leaves nothing to block.)
+        if tmax.is_nan() || tmax <= tmin {
             return false;
         }
-        let dir = d / len;
-        let eps = RAY_EPSILON * (1.0 + len);
-        let ray = Ray::new(a.into(), robust_direction(dir), eps, len - eps);
+        let ray = backed_up_ray(a, d / len, tmin, tmax);
         !self
             .bvh
-            .ray_traverse_miss(ray, |r, id| self.candidate(r, id))
+            .ray_traverse_miss(ray, |r, id| self.candidate(r, id, skip))
+    }
+
+    /// Whether a ray along `dir` that meets triangle `t` meets its back (the
+    /// side its vertex normals do not point to, judged per triangle:
+    /// [`Scene::front_normal`]).
+    pub fn meets_back(scene: &Scene, t: u32, dir: Vec3) -> bool {
+        scene.front_normal(t as usize).dot(dir) > 0.0
     }
 
     /// The share of the 14 rays from `p` (the 6 axes and the 8 diagonals,
-    /// turned) on the side `side` faces (all of them for `Vec3::ZERO`) that
-    /// meet the back of a surface (the side its vertex normals do not point
-    /// to): 1 deep inside a closed mesh whose normals point out, 0 in a room
+    /// turned) that meet the back of a surface ([`SceneBvh::meets_back`]):
+    /// 1 deep inside a closed mesh whose normals point out, 0 in a room
     /// whose walls face in. Rays that meet nothing count as outside.
-    pub fn enclosed_fraction(&self, scene: &Scene, p: Vec3, side: Vec3) -> f32 {
-        // Turned off the axes: modelled geometry is axis-aligned and
-        // symmetric, and rays along its edges may slip between triangles.
-        let turn = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.11, 0.23, 0.37);
-        let (mut cast, mut back) = (0, 0);
-        for d in ENCLOSURE_DIRECTIONS {
-            let dir = turn * Vec3::from(d).normalize();
-            if dir.dot(side) < 0.0 {
-                continue;
-            }
-            cast += 1;
-            back += self
-                .intersect(p, dir, 0.0, f32::INFINITY)
-                .is_some_and(|hit| !self.surface(scene, &hit, -dir).front)
-                as u32;
-        }
-        back as f32 / cast.max(1) as f32
+    pub fn enclosed_fraction(&self, scene: &Scene, p: Vec3) -> f32 {
+        let back = ENCLOSURE_DIRECTIONS
+            .iter()
+            .filter(|&&dir| {
+                self.intersect(p, dir, 0.0, f32::INFINITY)
+                    .is_some_and(|hit| Self::meets_back(scene, hit.triangle, dir))
+            })
+            .count();
+        back as f32 / ENCLOSURE_DIRECTIONS.len() as f32
     }
 
-    /// Whether the light `p` emits on the side `side` faces stays in a closed
-    /// volume: every ray of [`SceneBvh::enclosed_fraction`] on that side
-    /// meets the back of a surface.
-    pub fn enclosed(&self, scene: &Scene, p: Vec3, side: Vec3) -> bool {
-        self.enclosed_fraction(scene, p, side) >= 1.0
+    /// Calls `crossing(triangle, t)` for every triangle that the ray from
+    /// `p` along `dir` (unit) crosses beyond `tmin`, in no particular order.
+    pub fn crossings(&self, p: Vec3, dir: Vec3, tmin: f32, mut crossing: impl FnMut(u32, f32)) {
+        let ray = backed_up_ray(p, dir, tmin, f32::INFINITY);
+        self.bvh.ray_traverse_anyhit(ray, |r, id| {
+            let t = self.candidate(r, id, None);
+            if t.is_finite() {
+                crossing(self.bvh.primitive_indices[id], t - BACKUP);
+            }
+        });
+    }
+
+    /// The point of `hit` moved, if need be, to at least `d` from every edge
+    /// of its triangle (to its incentre if the triangle is narrower): a
+    /// point on an edge of a thin box lies in the plane of the next face,
+    /// where no offset along its own normal separates it from that face.
+    pub fn inset(&self, hit: &Hit, d: f32) -> Vec3 {
+        let t = &self.triangles[hit.triangle as usize];
+        let v = [Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2)];
+        let area2 = (v[1] - v[0]).cross(v[2] - v[0]).length();
+        // Edge i is opposite vertex i; b_i = (distance to it) |edge i| / (2A).
+        let edge = [
+            (v[2] - v[1]).length(),
+            (v[0] - v[2]).length(),
+            (v[1] - v[0]).length(),
+        ];
+        let (u, w) = (hit.barycentric.x, hit.barycentric.y);
+        let b = [1.0 - u - w, u, w];
+        let least = edge.map(|e| d * e / area2.max(1e-30));
+        let least_sum: f32 = least.iter().sum();
+        let b = if least_sum.is_nan() || least_sum >= 1.0 {
+            let perimeter: f32 = edge.iter().sum();
+            edge.map(|e| e / perimeter.max(1e-30))
+        } else {
+            let raised = [0, 1, 2].map(|i| b[i].max(least[i]));
+            let excess = raised.iter().sum::<f32>() - 1.0;
+            let free: f32 = (0..3).map(|i| raised[i] - least[i]).sum();
+            [0, 1, 2].map(|i| raised[i] - excess * (raised[i] - least[i]) / free.max(1e-30))
+        };
+        v[0] * b[0] + v[1] * b[1] + v[2] * b[2]
     }
 
     /// The surface at `hit`, seen from direction `toward` (unit, pointing
@@ -318,6 +444,23 @@ impl SceneBvh {
             double_sided: material.double_sided,
         }
     }
+}
+
+/// How far behind its origin every ray starts: obvhs's wide-BVH traversal
+/// skips boxes nearer than 1e-4 along a ray (a fixed epsilon in its node
+/// test, whatever the ray's tmin), which would let a ray that starts less
+/// than 0.1 mm from a wall pass through it.
+const BACKUP: f32 = 2e-4;
+
+/// The ray from `origin` along `dir` (unit) over (tmin, tmax), started
+/// [`BACKUP`] behind its origin with the interval shifted to match.
+fn backed_up_ray(origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Ray {
+    Ray::new(
+        (origin - dir * BACKUP).into(),
+        robust_direction(dir),
+        tmin + BACKUP,
+        tmax + BACKUP,
+    )
 }
 
 /// A ray direction without exact zeros (the BVH's slab test divides by them).

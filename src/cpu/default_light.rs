@@ -5,7 +5,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::bvh::{SceneBvh, RAY_EPSILON};
+use super::bvh::SceneBvh;
 use super::emitters::{luminance, Emitters};
 use super::sampling::{cosine_hemisphere, Halton};
 use crate::scene::{Light, LightKind, Scene};
@@ -24,7 +24,9 @@ pub const MIN_EMISSION_IRRADIANCE: f32 = 1e-3;
 /// What the scene's emitters do for its lighting, by light tracing.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EmissionReach {
-    /// Power (W, luminance) emitted, less what goes into closed volumes.
+    /// Power (W, luminance) emitted.
+    pub emitted: f32,
+    /// The part of `emitted` that does not go into solids.
     pub power: f32,
     /// Share of `power` whose first hit is a surface, weighted by the
     /// surface's albedo (what makes it visible).
@@ -47,29 +49,29 @@ impl EmissionReach {
         const PATHS: u64 = 4096;
         let halton = Halton::new(0x11C);
         let (mut reflected, mut open) = (0.0f32, 0u64);
-        let drop_enclosed = super::emitters::enclosed_light_is_unseen(scene, bvh);
+        let enclosure = super::enclosure::Enclosure::new(scene, bvh);
         for k in 0..PATHS {
             let s = |d: usize| halton.sample(k, d);
             let Some(e) = emitters.sample(scene, Vec4::new(s(0), s(1), s(2), s(3))) else {
                 continue;
             };
-            // Light trapped in a closed volume lights nothing outside it.
-            if drop_enclosed && e.enclosed(scene, bvh) {
+            // Light trapped in a solid lights nothing outside it.
+            if enclosure.emits_into_solid(&e) {
                 continue;
             }
             open += 1;
             let dir = cosine_hemisphere(e.normal, Vec2::new(s(4), s(5)));
-            let origin =
-                e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
-            if let Some(hit) = bvh.intersect(origin, dir, 0.0, f32::INFINITY) {
+            if let Some(hit) = bvh.intersect_leaving(e.position, dir, e.triangle) {
                 let albedo = bvh.surface(scene, &hit, -dir).albedo;
                 // Flux of the path: pi Le / pdf_area, averaged over PATHS.
                 let flux = luminance(e.radiance * albedo) * std::f32::consts::PI / e.pdf_area;
                 reflected += flux / PATHS as f32;
             }
         }
-        let power = luminance(emitters.power()) * open as f32 / PATHS as f32;
+        let emitted = luminance(emitters.power());
+        let power = emitted * open as f32 / PATHS as f32;
         Self {
+            emitted,
             power,
             reach: if power > 0.0 { reflected / power } else { 0.0 },
             irradiance: reflected / area.max(1e-12),
@@ -104,8 +106,9 @@ impl Scene {
             let e = EmissionReach::measure(self, &bvh, &emitters);
             if e.lights_the_scene() {
                 log::info!(
-                    "scene '{}' is lit by its emitters: {:.3} W, {:.1}% of it reflected by the first surface it meets, {:.2e} W/m² over the scene",
+                    "scene '{}' is lit by its emitters: {:.3} W emitted, {:.3} W of it outside solids, {:.1}% of that reflected by the first surface it meets, {:.2e} W/m² over the scene",
                     self.name,
+                    e.emitted,
                     e.power,
                     e.reach * 100.0,
                     e.irradiance
@@ -113,7 +116,7 @@ impl Scene {
                 return;
             }
             format!(
-                "has emitters that cannot light it ({:.3} W, {:.1}% of it reflected by the first surface it meets (at least {:.0}% needed), {:.2e} W/m² over the scene (at least {MIN_EMISSION_IRRADIANCE:.0e} needed)); they keep glowing",
+                "has emitters that cannot light it ({:.3} W outside solids, {:.1}% of it reflected by the first surface it meets (at least {:.0}% needed), {:.2e} W/m² over the scene (at least {MIN_EMISSION_IRRADIANCE:.0e} needed)); they keep glowing",
                 e.power,
                 e.reach * 100.0,
                 MIN_EMISSION_REACH * 100.0,
@@ -135,10 +138,7 @@ impl Scene {
             });
         let position = candidates
             .into_iter()
-            .find(|&p| {
-                !bvh.occluded(camera.position, p)
-                    && bvh.enclosed_fraction(self, p, Vec3::ZERO) < 0.6
-            })
+            .find(|&p| !bvh.occluded(camera.position, p) && bvh.enclosed_fraction(self, p) < 0.6)
             .unwrap_or(camera.position);
         let d2 = (position - center).length_squared().max(1e-6);
         log::info!(

@@ -7,13 +7,12 @@
 //! over the triangle from a fixed set of points for the power (which only
 //! steers the sampling); the radiance at the sampled point is exact.
 //!
-//! Light tracing leaves out light emitted into a closed volume (the inside
-//! of a thin emissive box, say): it can never leave, and its paths would
-//! bounce there until the VPL budget is spent ([`EmitterSample::enclosed`]).
+//! Light tracing leaves out light emitted into a solid (the inside of a
+//! thin emissive box, say): it can never leave, and its paths would bounce
+//! there until the VPL budget is spent ([`super::enclosure`]).
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::bvh::{SceneBvh, RAY_EPSILON};
 use super::shading;
 use crate::scene::Scene;
 
@@ -29,29 +28,8 @@ pub struct EmitterSample {
     /// Probability density of this (point, side) per unit area, including
     /// the choice of the triangle and of the side.
     pub pdf_area: f32,
-}
-
-impl EmitterSample {
-    /// Whether the sample emits into a closed volume: every ray of 14 that
-    /// leaves its emitting side meets the back of a surface (the
-    /// inside of a closed mesh whose normals point out), so its light never
-    /// reaches anything outside ([`SceneBvh::enclosed`]). Tested per sample,
-    /// so that scenes with many emissive triangles pay only for the points
-    /// light tracing picks.
-    pub fn enclosed(&self, scene: &Scene, bvh: &SceneBvh) -> bool {
-        let offset = RAY_EPSILON * 10.0 * (1.0 + self.position.abs().max_element());
-        bvh.enclosed(scene, self.position + self.normal * offset, self.normal)
-    }
-}
-
-/// Whether light emitted into closed volumes can be left out: unless the
-/// scene's camera (its first, or the one framing it) is in a closed volume
-/// itself, as in a room modelled as a closed box whose normals point out,
-/// where it would see such light.
-pub fn enclosed_light_is_unseen(scene: &Scene, bvh: &SceneBvh) -> bool {
-    scene
-        .camera(None)
-        .map_or(true, |c| !bvh.enclosed(scene, c.position, Vec3::ZERO))
+    /// The triangle it lies on (rays that leave it skip it).
+    pub triangle: u32,
 }
 
 /// Every emitting triangle with its power.
@@ -145,7 +123,7 @@ impl Emitters {
         let position = p(0) * b0 + p(1) * b1 + p(2) * b2;
         let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * b1 + Vec2::from(v(2).uv) * b2;
         let material = &scene.materials[v(0).material as usize];
-        let front = front_normal(scene, t, p(0), p(1), p(2));
+        let front = scene.front_normal(t as usize);
         let normal = if sides == 2 && u.w >= 0.5 {
             -front
         } else {
@@ -156,23 +134,8 @@ impl Emitters {
             normal,
             radiance: shading::emission(scene, material, uv),
             pdf_area: p_triangle / (area * sides as f32),
+            triangle: t,
         })
-    }
-}
-
-/// Unit geometric normal of triangle `t` (corners `a`, `b`, `c`) on its
-/// front, where the vertex normals point (as the G-buffer sees it).
-fn front_normal(scene: &Scene, t: u32, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
-    let idx = &scene.indices[t as usize * 3..t as usize * 3 + 3];
-    let normal = (b - a).cross(c - a).normalize_or_zero();
-    let interpolated: Vec3 = idx
-        .iter()
-        .map(|&i| Vec3::from(scene.vertices[i as usize].normal))
-        .sum();
-    if normal.dot(interpolated) < 0.0 {
-        -normal
-    } else {
-        normal
     }
 }
 
@@ -180,45 +143,4 @@ fn front_normal(scene: &Scene, t: u32, a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
 pub fn uniform_triangle(u: Vec2) -> (f32, f32) {
     let su = u.x.sqrt();
     (su * (1.0 - u.y), su * u.y)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A closed box whose faces point out, emissive and double-sided.
-    fn thin_emissive_box(scene: &mut Scene, lo: Vec3, hi: Vec3) {
-        let m = scene.add_material(Vec3::ONE, None);
-        scene.materials[m as usize].emission = Vec3::ONE;
-        crate::scene::builtin::axis_box(scene, lo, hi, m).unwrap();
-    }
-
-    #[test]
-    fn a_closed_box_emits_only_outwards() {
-        let mut scene = Scene::new("lamp");
-        thin_emissive_box(
-            &mut scene,
-            Vec3::new(-0.25, 1.97, -0.25),
-            Vec3::new(0.25, 1.99, 0.25),
-        );
-        let bvh = SceneBvh::new(&scene);
-        let emitters = Emitters::new(&scene);
-        let centre = Vec3::new(0.0, 1.98, 0.0);
-        let (mut inside, n) = (0, 256);
-        for i in 0..n {
-            let h = crate::cpu::sampling::Halton::new(1);
-            let u = Vec4::new(
-                h.sample(i, 0),
-                h.sample(i, 1),
-                h.sample(i, 2),
-                h.sample(i, 3),
-            );
-            let e = emitters.sample(&scene, u).unwrap();
-            // Exactly the samples whose side faces the box's inside.
-            let faces_in = e.normal.dot(e.position - centre) < 0.0;
-            assert_eq!(e.enclosed(&scene, &bvh), faces_in, "{e:?}");
-            inside += faces_in as u32;
-        }
-        assert!((inside as i32 - n as i32 / 2).abs() < 16, "{inside} of {n}");
-    }
 }

@@ -6,6 +6,7 @@
 pub mod bvh;
 pub mod default_light;
 pub mod emitters;
+pub mod enclosure;
 pub mod ism_rays;
 pub mod points;
 pub mod reference;

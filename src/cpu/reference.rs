@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bvh::{SceneBvh, Surface, RAY_EPSILON};
-use super::emitters::Emitters;
+use super::emitters::{luminance, EmitterSample, Emitters};
 use super::sampling::{cosine_hemisphere, hash64};
 use super::vpl::{self, bounded_radiance, Vpl, VplSettings};
 use crate::error::{Error, Result};
@@ -30,6 +30,11 @@ pub enum Method {
     /// path tracing (Kollig & Keller 2004): unbiased w.r.t. the unclamped sum.
     KolligKeller,
 }
+
+/// Most bounces of the walk that decides whether an emitter's light can
+/// reach the camera ([`Reference::emission_reaches_camera`]): with no
+/// absorption a walk finds any opening of a volume long before this.
+pub const REACH_WALK: u32 = 2048;
 
 /// Reference-renderer parameters.
 #[derive(Clone, Debug)]
@@ -225,8 +230,7 @@ impl<'a> Reference<'a> {
         if cos_x <= 0.0 || cos_e <= 0.0 || s.geometric_normal.dot(dir) <= 0.0 {
             return Vec3::ZERO;
         }
-        let target = e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
-        if self.bvh.occluded(offset(s), target) {
+        if self.bvh.occluded_to(offset(s), e.position, e.triangle) {
             return Vec3::ZERO;
         }
         s.albedo / std::f32::consts::PI * e.radiance * (cos_x * cos_e / d2 / e.pdf_area)
@@ -300,6 +304,70 @@ impl<'a> Reference<'a> {
             surface = self.bvh.surface(self.scene, &hit, -dir);
         }
         radiance
+    }
+
+    /// Whether light leaving the emitter sample `e` can reach the camera: a
+    /// random walk from it (cosine-distributed bounces, no absorption, up to
+    /// [`REACH_WALK`] of them) meets a surface point that sees the camera
+    /// (the camera on the side the walk arrived on, the segment between them
+    /// unoccluded) or leaves the scene. The truth light tracing's rule for
+    /// solids ([`Enclosure::emits_into_solid`]) is checked against.
+    ///
+    /// [`Enclosure::emits_into_solid`]: super::enclosure::Enclosure::emits_into_solid
+    pub fn emission_reaches_camera(&self, e: &EmitterSample, walk: u64) -> bool {
+        let mut rng = Rng::new(self.settings.seed ^ 0x0E4C_105E, walk, 0);
+        let mut dir = cosine_hemisphere(e.normal, rng.next2());
+        let mut hit = self.bvh.intersect_leaving(e.position, dir, e.triangle);
+        for _ in 0..REACH_WALK {
+            let Some(h) = hit else {
+                return true;
+            };
+            let mut s = self.bvh.surface(self.scene, &h, -dir);
+            // Off the triangle's edges first: at the edge of a 1 mm box the
+            // offset along one face's normal lies in the next face's plane.
+            s.position = self
+                .bvh
+                .inset(&h, super::enclosure::emission_offset(s.position));
+            let to_camera = self.camera.position - s.position;
+            if s.geometric_normal.dot(to_camera) > 0.0
+                && !self.bvh.occluded(offset(&s), self.camera.position)
+            {
+                return true;
+            }
+            // On, whatever the albedo: where light can go, not how much.
+            dir = cosine_hemisphere(s.geometric_normal, rng.next2());
+            hit = self.bvh.intersect(offset(&s), dir, 0.0, f32::INFINITY);
+        }
+        false
+    }
+
+    /// The share of the emitters' power (luminance) whose light cannot reach
+    /// the camera ([`Reference::emission_reaches_camera`]), from `samples`
+    /// points drawn on the emitters as light tracing draws them, with the
+    /// decisions per sample (`None` without emitters).
+    pub fn enclosed_emission(&self, samples: u64) -> Option<(f32, Vec<(EmitterSample, bool)>)> {
+        if self.emitters.is_empty() {
+            return None;
+        }
+        let halton = super::sampling::Halton::new(self.settings.seed ^ 0xE4C1);
+        let decided: Vec<(EmitterSample, bool, f32)> = (0..samples)
+            .into_par_iter()
+            .filter_map(|i| {
+                let u = glam::Vec4::new(
+                    halton.sample(i, 0),
+                    halton.sample(i, 1),
+                    halton.sample(i, 2),
+                    halton.sample(i, 3),
+                );
+                let e = self.emitters.sample(self.scene, u)?;
+                let weight = luminance(e.radiance) / e.pdf_area;
+                Some((e, !self.emission_reaches_camera(&e, i), weight))
+            })
+            .collect();
+        let total: f32 = decided.iter().map(|d| d.2).sum();
+        let enclosed: f32 = decided.iter().filter(|d| d.1).map(|d| d.2).sum();
+        let share = if total > 0.0 { enclosed / total } else { 0.0 };
+        Some((share, decided.into_iter().map(|(e, d, _)| (e, d)).collect()))
     }
 
     /// Kollig & Keller: L(x) = direct + clamped VPL sum + residual, the

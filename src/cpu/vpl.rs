@@ -3,7 +3,7 @@
 //! power, deposit a VPL at every diffuse hit, and continue by cosine sampling
 //! with Russian roulette by albedo (at most [`MAX_SURVIVAL`]), which is what
 //! ends them (the bounce limit is only a safety net). A path that starts on
-//! an emitter's side facing into a closed volume, whose light cannot leave
+//! an emitter's side facing into a solid, whose light cannot leave
 //! it, deposits nothing. A path from an emitter first deposits a VPL
 //! on the emitter itself ("bounce 0", albedo 1): its clamped contribution
 //! near the fixture is what SSBC gives back.
@@ -88,9 +88,12 @@ pub struct VplSet {
     pub paths: u64,
     /// Most VPLs one path deposited.
     pub max_per_path: u32,
-    /// Emitted power (W, rgb) left out because it goes into closed volumes
-    /// ([`EmitterSample::enclosed`](super::emitters::EmitterSample::enclosed)),
-    /// estimated from the paths that started there.
+    /// Power (W, rgb) the scene's emissive triangles emit.
+    pub emitted_power: Vec3,
+    /// The part of `emitted_power` left out because it goes into closed
+    /// volumes ([`Enclosure::emits_into_solid`](super::enclosure::Enclosure::emits_into_solid)):
+    /// `emitted_power` times the share of the flux of the paths started on
+    /// emitters that started enclosed, so never more than `emitted_power`.
     pub enclosed_power: Vec3,
 }
 
@@ -145,8 +148,9 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     let max_paths = settings.count as u64 * 64;
     let mut raw = Vec::with_capacity(settings.count);
     let mut path = 0u64;
-    let mut enclosed = Vec3::ZERO;
-    let drop_enclosed = super::emitters::enclosed_light_is_unseen(scene, bvh);
+    // Flux of the paths started on emitters, and of those left out.
+    let (mut emitter_flux, mut enclosed) = (Vec3::ZERO, Vec3::ZERO);
+    let enclosure = (!emitters.is_empty()).then(|| super::enclosure::Enclosure::new(scene, bvh));
     while raw.len() < settings.count && path < max_paths {
         let before = raw.len();
         let s = |d: usize| halton.sample(path, d);
@@ -163,7 +167,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         let p_light = powers[li] / total;
         let u1 = Vec2::new(s(1), s(2));
         let u2 = Vec2::new(s(3), s(4));
-        let (origin, dir, mut flux) = if li == scene.lights.len() {
+        let (origin, dir, mut flux, leaving) = if li == scene.lights.len() {
             // An emissive triangle: a point in proportion to power, a VPL on
             // it, then a cosine-distributed direction (pdf cos/pi, so the
             // path's flux is pi Le / pdf_area / p_light).
@@ -172,10 +176,11 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 continue;
             };
             let flux = e.radiance * std::f32::consts::PI / e.pdf_area;
-            // Light emitted into a closed volume never leaves it: the path
+            emitter_flux += flux;
+            // Light emitted into a solid never leaves it: the path
             // counts (the estimate stays unbiased) but deposits nothing.
-            if drop_enclosed && e.enclosed(scene, bvh) {
-                enclosed += flux / p_light;
+            if enclosure.as_ref().is_some_and(|c| c.emits_into_solid(&e)) {
+                enclosed += flux;
                 path += 1;
                 continue;
             }
@@ -188,11 +193,10 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 path,
             });
             let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
-            let origin =
-                e.position + e.normal * RAY_EPSILON * (1.0 + e.position.abs().max_element());
-            (origin, dir, flux)
+            (e.position, dir, flux, Some(e.triangle))
         } else {
-            punctual_start(&scene.lights[li], radius, &bounds, u1, u2)
+            let (origin, dir, flux) = punctual_start(&scene.lights[li], radius, &bounds, u1, u2);
+            (origin, dir, flux, None)
         };
         flux /= p_light;
         path += 1;
@@ -203,6 +207,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             &halton,
             path - 1,
             origin,
+            leaving,
             dir,
             flux,
             &mut raw,
@@ -211,7 +216,8 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     }
     set.paths = path;
     let norm = 1.0 / path.max(1) as f32;
-    set.enclosed_power = enclosed * norm;
+    set.emitted_power = emitters.power();
+    set.enclosed_power = set.emitted_power * (enclosed / emitter_flux.max(Vec3::splat(1e-30)));
     set.vpls = raw
         .into_iter()
         .map(|v| Vpl {
@@ -258,9 +264,10 @@ fn punctual_start(
     }
 }
 
-/// Follows light path `path` from `origin` along `dir` carrying `flux`: a
-/// VPL at every diffuse hit, Russian roulette by albedo, cosine-sampled
-/// bounces (Halton dimensions from 7 on, 3 per bounce).
+/// Follows light path `path` from `origin` (on triangle `leaving`, if it
+/// starts on an emitter) along `dir` carrying `flux`: a VPL at every diffuse
+/// hit, Russian roulette by albedo, cosine-sampled bounces (Halton
+/// dimensions from 7 on, 3 per bounce).
 #[allow(clippy::too_many_arguments)]
 fn trace_path(
     scene: &Scene,
@@ -269,6 +276,7 @@ fn trace_path(
     halton: &Halton,
     path: u64,
     mut origin: Vec3,
+    leaving: Option<u32>,
     mut dir: Vec3,
     mut flux: Vec3,
     out: &mut Vec<Vpl>,
@@ -277,7 +285,11 @@ fn trace_path(
         if out.len() >= settings.count {
             return;
         }
-        let Some(hit) = bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY) else {
+        let hit = match leaving.filter(|_| bounce == 1) {
+            Some(t) => bvh.intersect_leaving(origin, dir, t),
+            None => bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY),
+        };
+        let Some(hit) = hit else {
             return;
         };
         let surf = bvh.surface(scene, &hit, -dir);

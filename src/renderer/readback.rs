@@ -327,6 +327,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         vpl_count: vpl_set.vpls.len(),
         light_paths: vpl_set.paths,
         max_vpls_per_light_path: vpl_set.max_per_path,
+        emission_w: crate::cpu::emitters::luminance(vpl_set.emitted_power),
         enclosed_emission_w: crate::cpu::emitters::luminance(vpl_set.enclosed_power),
         ism_tile: settings.ism_tile,
         points_per_vpl: settings.points_per_vpl,

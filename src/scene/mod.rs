@@ -509,6 +509,24 @@ impl Scene {
         self.indices.len() / 3
     }
 
+    /// Unit geometric normal of triangle `t` on its front, the side its
+    /// vertex normals point to (summed, so that smooth normals averaged over
+    /// a box's corners still pick the face's side); zero if degenerate.
+    /// A per-triangle answer: an interpolated normal may tilt past the face
+    /// near an edge, the plane may not.
+    pub fn front_normal(&self, t: usize) -> Vec3 {
+        let idx = &self.indices[t * 3..t * 3 + 3];
+        let v = |k: usize| &self.vertices[idx[k] as usize];
+        let p = |k: usize| Vec3::from(v(k).position);
+        let normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
+        let interpolated: Vec3 = (0..3).map(|k| Vec3::from(v(k).normal)).sum();
+        if normal.dot(interpolated) < 0.0 {
+            -normal
+        } else {
+            normal
+        }
+    }
+
     /// Camera `index`, or one framing the scene's bounds when there is none
     /// ([`Camera::framing`] for a [`DEFAULT_ASPECT`] image).
     pub fn camera(&self, index: Option<usize>) -> Result<Camera> {
