@@ -297,6 +297,8 @@ slab_scene("slabs-open-box-10cm", "open-box", 0.10, 0.0, 0.13, True, True,
            doc="slabs-open-box with a 10 cm fixture touching the ceiling, walls overlapping at the corners")
 slab_scene("slabs-room-1mm", "room", 0.001, 0.0, 0.10, True, False,
            doc="slabs-room with a 1 mm fixture touching the ceiling, one-sided walls overlapping at the corners")
+slab_scene("slabs-room-1mm-huge", "room", 0.001, 0.0, 0.10, False, True, size=10.0,
+           doc="slabs-room ten times as large (40 m), the fixture 1 mm thick touching the ceiling 26 m up")
 slab_scene("slabs-room-6mm-gap1cm", "room", 0.006, 0.01, 0.10, False, True, fixture8=True,
            doc="slabs-room with a 6 mm fixture (12 triangles) 1 cm under the ceiling")
 

@@ -313,14 +313,11 @@ impl SceneBvh {
         self.segment_blocked(a, b, None)
     }
 
-    /// Whether the segment from `a` (off a surface, as for [`occluded`])
-    /// to the point `b` on triangle `target` is blocked: the target triangle
-    /// is skipped, so that `b` needs no offset that could cross a thin
-    /// closed emitter.
-    ///
-    /// [`occluded`]: SceneBvh::occluded
-    pub fn occluded_to(&self, a: Vec3, b: Vec3, target: u32) -> bool {
-        self.segment_blocked(a, b, Some(target))
+    /// Whether the segment from `a` to `b` is blocked by a triangle other
+    /// than `on`, the one an end lies on: skipped, that end needs no offset
+    /// that could cross a fixture thinner than it.
+    pub fn occluded_except(&self, a: Vec3, b: Vec3, on: u32) -> bool {
+        self.segment_blocked(a, b, Some(on))
     }
 
     fn segment_blocked(&self, a: Vec3, b: Vec3, skip: Option<u32>) -> bool {

@@ -230,7 +230,7 @@ impl<'a> Reference<'a> {
         if cos_x <= 0.0 || cos_e <= 0.0 || s.geometric_normal.dot(dir) <= 0.0 {
             return Vec3::ZERO;
         }
-        if self.bvh.occluded_to(offset(s), e.position, e.triangle) {
+        if self.bvh.occluded_except(offset(s), e.position, e.triangle) {
             return Vec3::ZERO;
         }
         s.albedo / std::f32::consts::PI * e.radiance * (cos_x * cos_e / d2 / e.pdf_area)
@@ -322,21 +322,24 @@ impl<'a> Reference<'a> {
             let Some(h) = hit else {
                 return true;
             };
-            let mut s = self.bvh.surface(self.scene, &h, -dir);
-            // Off the triangle's edges first: at the edge of a 1 mm box the
-            // offset along one face's normal lies in the next face's plane.
-            s.position = self
+            let s = self.bvh.surface(self.scene, &h, -dir);
+            // Rays leave the point, kept off its triangle's edges (where
+            // it lies in the next face's plane), by skipping its triangle:
+            // any offset along the normal crosses a thin enough box.
+            let p = self
                 .bvh
                 .inset(&h, super::enclosure::emission_offset(s.position));
-            let to_camera = self.camera.position - s.position;
+            let to_camera = self.camera.position - p;
             if s.geometric_normal.dot(to_camera) > 0.0
-                && !self.bvh.occluded(offset(&s), self.camera.position)
+                && !self
+                    .bvh
+                    .occluded_except(p, self.camera.position, h.triangle)
             {
                 return true;
             }
             // On, whatever the albedo: where light can go, not how much.
             dir = cosine_hemisphere(s.geometric_normal, rng.next2());
-            hit = self.bvh.intersect(offset(&s), dir, 0.0, f32::INFINITY);
+            hit = self.bvh.intersect_leaving(p, dir, h.triangle);
         }
         false
     }

@@ -118,6 +118,7 @@ impl GBuffer {
                 self.emission.view,
             ],
             self.depth.view,
+            0.0,
         );
         pipeline.bind(rec.cmd, set, push);
         // SAFETY: recording inside the rendering scope with the pipeline bound.
@@ -147,6 +148,9 @@ pub(crate) fn pipeline_desc(fragment: &[u8]) -> GraphicsDesc<'_> {
         color_formats: &[GBUFFER_FORMAT; 4],
         depth_format: vk::Format::D32_SFLOAT,
         depth_bias: (0.0, 0.0),
+        // Float depth keeps its precision near 0: far from the camera a
+        // fixture 1 mm under a ceiling stays in front of it.
+        reversed_depth: true,
     }
 }
 

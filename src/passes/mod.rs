@@ -236,7 +236,8 @@ impl<P: Pass> Stage<P> {
     }
 }
 
-/// Begins dynamic rendering into `colors` and `depth` (all cleared), with a
+/// Begins dynamic rendering into `colors` and `depth` (colours cleared to
+/// zero, depth to `depth_clear`: 1, or 0 for reversed depth), with a
 /// full-size viewport and scissor.
 pub(crate) fn begin_rendering(
     device: &Device,
@@ -244,6 +245,7 @@ pub(crate) fn begin_rendering(
     extent: (u32, u32),
     colors: &[vk::ImageView],
     depth: vk::ImageView,
+    depth_clear: f32,
 ) {
     let color_attachments: Vec<_> = colors
         .iter()
@@ -265,7 +267,7 @@ pub(crate) fn begin_rendering(
         .store_op(vk::AttachmentStoreOp::STORE)
         .clear_value(vk::ClearValue {
             depth_stencil: vk::ClearDepthStencilValue {
-                depth: 1.0,
+                depth: depth_clear,
                 stencil: 0,
             },
         });

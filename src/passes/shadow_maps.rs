@@ -141,6 +141,7 @@ impl ShadowMapPass {
                     color_formats: &[],
                     depth_format: vk::Format::D32_SFLOAT,
                     depth_bias: (0.0, 0.0),
+                    reversed_depth: false,
                 },
                 &[&layout],
                 64,
@@ -279,6 +280,7 @@ impl Pass for ShadowMapPass {
                 (size, size),
                 &[],
                 maps.depth.layer_views[layer],
+                1.0,
             );
             let push = view_proj.to_cols_array();
             let ranges = [

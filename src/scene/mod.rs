@@ -273,9 +273,11 @@ impl Camera {
         glam::camera::rh::view::look_to_mat4(self.position, self.forward, self.up)
     }
 
-    /// Vulkan projection (depth 0..1, +Y down in NDC) for `aspect` = w/h.
+    /// Vulkan projection (+Y down in NDC) for `aspect` = w/h, with reversed
+    /// depth: 1 at `near`, 0 at `far` (float depth is most precise near 0,
+    /// where perspective needs it most).
     pub fn projection(&self, aspect: f32, near: f32, far: f32) -> Mat4 {
-        glam::camera::rh::proj::vulkan::perspective(self.yfov, aspect, near, far)
+        glam::camera::rh::proj::vulkan::perspective(self.yfov, aspect, far, near)
     }
 
     /// Unit world-space direction through the centre of pixel (`x`, `y`) of a

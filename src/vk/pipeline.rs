@@ -67,6 +67,9 @@ pub struct GraphicsDesc<'a> {
     pub depth_format: vk::Format,
     /// Constant depth bias and slope factor (0, 0 for none).
     pub depth_bias: (f32, f32),
+    /// Depth runs from 1 at the near plane to 0 at the far plane (reversed
+    /// Z: the nearer fragment is the greater; clear depth to 0).
+    pub reversed_depth: bool,
 }
 
 /// The vertex and (optional) fragment modules of `desc`; none is left
@@ -214,7 +217,11 @@ impl Pipeline {
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true)
-            .depth_compare_op(vk::CompareOp::LESS);
+            .depth_compare_op(if desc.reversed_depth {
+                vk::CompareOp::GREATER
+            } else {
+                vk::CompareOp::LESS
+            });
         let blend_attachments: Vec<_> = desc
             .color_formats
             .iter()
