@@ -18,10 +18,10 @@
 
 mod common;
 
-use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::profile::{render_frames, FrameStats};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::settings::Gather;
+use ssbc::settings::{Integration, SsbcSettings};
 use ssbc::Scene;
 
 fn stats(f: &Frame) -> &FrameStats {

@@ -17,9 +17,9 @@
 
 mod common;
 
-use ssbc::passes::ssbc::Integration;
 use ssbc::profile::render_frames;
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::settings::Integration;
 use ssbc::settings::LayerResolution;
 
 /// One layer; two with the second at half resolution; at full.
@@ -129,7 +129,10 @@ fn main() {
                 s.ssbc.integration = integration;
                 s.debug_readback = true;
                 let f = renderer.render(&scene, &s).expect("frame");
-                f.layer("residual_1").expect("residual_1").rgba.clone()
+                f.layer(ssbc::Layer::Residual(1))
+                    .expect("residual_1")
+                    .rgba
+                    .clone()
             };
             let hier = residual(&mut renderer, Integration::Hierarchical);
             let brute = residual(&mut renderer, Integration::Brute);

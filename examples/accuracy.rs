@@ -9,7 +9,7 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
+use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 
 fn size(arg: Option<String>, default: (u32, u32)) -> (u32, u32) {

@@ -19,7 +19,7 @@ use std::collections::HashMap;
 use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
-use ssbc::cpu::reference::{Reference, ReferenceSettings};
+use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::renderer::{RenderSettings, Renderer, RendererConfig};
 use ssbc::settings::Gather;
 use ssbc::Scene;
@@ -44,11 +44,7 @@ fn reference(scene: &Scene, size: (u32, u32), spp: u32, bounces: u32, path: &str
     };
     let r = Reference::new(scene, settings).expect("reference");
     let (rgba, _) = r.render(&AtomicBool::new(false), |_| {});
-    let layer = ssbc::Layer {
-        name: "final".into(),
-        rgba: rgba.clone(),
-    };
-    ssbc::output::write_exr(path.as_ref(), size.0, size.1, &layer, &[]).expect("write");
+    ssbc::output::write_exr(path.as_ref(), size.0, size.1, &rgba, &[]).expect("write");
     rgba
 }
 
@@ -145,7 +141,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for t in 0..=MOVES {
         scene.lights[0].position = start + Vec3::X * (STEP * t as f32);
         let frame = renderer.render(&scene, &settings)?;
-        let direct = &frame.layer("direct").expect("layer").rgba;
+        let direct = &frame.layer(ssbc::Layer::Direct).expect("layer").rgba;
         indirects.push(minus(&frame.image.rgba, direct));
         finals.push(frame.image.rgba.clone());
         vpl_sets.push(frame.vpls.clone());
@@ -154,7 +150,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &scene,
             size,
             spp,
-            ssbc::cpu::vpl::DEFAULT_BOUNCES,
+            ssbc::settings::DEFAULT_BOUNCES,
             &format!("{key}.exr"),
         );
         let direct = reference(&scene, size, spp, 0, &format!("{key}-direct.exr"));

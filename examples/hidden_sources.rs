@@ -32,13 +32,13 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use ssbc::cpu::bvh::Surface;
 use ssbc::cpu::emitters::luminance;
-use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::sampling::{cosine_hemisphere, Halton};
 use ssbc::cpu::ssbc::{footprint, pixel_area, residual_weight, GBufferView, TwinCamera};
-use ssbc::cpu::vpl::VplSettings;
+use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 use ssbc::scene::Scene;
 use ssbc::settings::LayerResolution;
+use ssbc::settings::VplSettings;
 
 /// Where a residual source lies.
 #[derive(Clone, Copy, PartialEq, Eq)]

@@ -19,7 +19,12 @@ use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 fn agreement(scene: &ssbc::Scene, frame: &Frame) -> (f64, f64, f64, usize) {
     let bvh = SceneBvh::new(scene);
     let ism = frame.ism.as_ref().expect("debug readback");
-    let layer = |name: &str| &frame.layer(name).expect("debug readback").rgba;
+    let layer = |name: &str| {
+        &frame
+            .layer(name.parse().expect("a layer name"))
+            .expect("debug readback")
+            .rgba
+    };
     let (pos, nrm) = (layer("gbuffer_position"), layer("gbuffer_normal"));
     let v = |img: &[f32], i: usize| glam::Vec3::new(img[i * 4], img[i * 4 + 1], img[i * 4 + 2]);
     let (mut agree, mut pairs, mut shadowed, mut lit) = (0usize, 0usize, 0usize, 0usize);

@@ -8,22 +8,215 @@
 //! [`SsbcPostProcess`] to record one residual step into that same command
 //! buffer, submits it with its own fence, reads everything back, and checks
 //! the residual against the CPU twin of SSBC on the read-back G-buffer.
-//! (Memory comes from ssbc's `Image`/`Buffer` helpers, for brevity.)
+//! It uses ssbc's public API only: the device ssbc creates (its raw `ash`
+//! handles), `SsbcPostProcess`, and the CPU twin of `ssbc::reference`;
+//! its images and buffers come from its own `gpu-allocator`.
 //!
 //! `cargo run --release --example postprocess [-- --half]` (`--half`: the
 //! second layer at half resolution).
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use ash::vk;
 use glam::Vec3;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
 use gpu_allocator::MemoryLocation;
-use ssbc::cpu::ssbc::{BruteForceTwin, GBufferView, TwinCamera};
-use ssbc::passes::ssbc::{Integration, LayerResolution, SsbcSettings};
 use ssbc::postprocess::{
     HostImage, PostOutput, PostProcessInputs, PostProcessLayer, SsbcPostProcess,
 };
-use ssbc::vk::{Buffer, Device, DeviceSelector, Image, ImageDesc, Instance, Validation};
+use ssbc::reference::{BruteForceTwin, GBufferView, TwinCamera};
+use ssbc::settings::{Integration, LayerResolution, SsbcSettings};
+use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
+
+type Error = Box<dyn std::error::Error>;
+
+/// The host's memory: its own allocator on the device ssbc made.
+struct HostMemory {
+    device: Arc<Device>,
+    allocator: Mutex<Allocator>,
+}
+
+/// A host image: RGBA32F, 2D, one level, with its view.
+struct Image {
+    memory: Arc<HostMemory>,
+    raw: vk::Image,
+    view: vk::ImageView,
+    width: u32,
+    height: u32,
+    allocation: Option<Allocation>,
+}
+
+/// A host buffer.
+struct Buffer {
+    memory: Arc<HostMemory>,
+    raw: vk::Buffer,
+    allocation: Option<Allocation>,
+}
+
+impl HostMemory {
+    fn new(device: &Arc<Device>) -> Result<Arc<Self>, Error> {
+        let allocator = Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
+            instance: device.instance.raw.clone(),
+            device: device.raw.clone(),
+            physical_device: device.physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })?;
+        Ok(Arc::new(Self {
+            device: device.clone(),
+            allocator: Mutex::new(allocator),
+        }))
+    }
+
+    /// A `width` x `height` RGBA32F image for storage and copies.
+    fn image(self: &Arc<Self>, name: &str, width: u32, height: u32) -> Result<Image, Error> {
+        let raw_device = &self.device.raw;
+        let format = vk::Format::R32G32B32A32_SFLOAT;
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width,
+                height,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(
+                vk::ImageUsageFlags::STORAGE
+                    | vk::ImageUsageFlags::TRANSFER_SRC
+                    | vk::ImageUsageFlags::TRANSFER_DST,
+            );
+        // SAFETY: a valid create info on a live device; destroyed in Drop.
+        let raw = unsafe { raw_device.create_image(&info, None)? };
+        // SAFETY: `raw` is a live image of this device.
+        let requirements = unsafe { raw_device.get_image_memory_requirements(raw) };
+        let allocation = self
+            .allocator
+            .lock()
+            .unwrap()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location: MemoryLocation::GpuOnly,
+                linear: false,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })?;
+        // SAFETY: the allocation fits the image's requirements; not bound yet.
+        unsafe { raw_device.bind_image_memory(raw, allocation.memory(), allocation.offset())? };
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(full_range());
+        // SAFETY: the image is live and bound.
+        let view = unsafe { raw_device.create_image_view(&view_info, None)? };
+        Ok(Image {
+            memory: self.clone(),
+            raw,
+            view,
+            width,
+            height,
+            allocation: Some(allocation),
+        })
+    }
+
+    /// A buffer of `size` bytes at `location`.
+    fn buffer(
+        self: &Arc<Self>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer, Error> {
+        let raw_device = &self.device.raw;
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        // SAFETY: a valid create info; destroyed in Drop.
+        let raw = unsafe { raw_device.create_buffer(&info, None)? };
+        // SAFETY: `raw` is a live buffer of this device.
+        let requirements = unsafe { raw_device.get_buffer_memory_requirements(raw) };
+        let allocation = self
+            .allocator
+            .lock()
+            .unwrap()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })?;
+        // SAFETY: the allocation fits; the buffer is not bound yet.
+        unsafe { raw_device.bind_buffer_memory(raw, allocation.memory(), allocation.offset())? };
+        Ok(Buffer {
+            memory: self.clone(),
+            raw,
+            allocation: Some(allocation),
+        })
+    }
+}
+
+/// The whole of a one-level colour image.
+fn full_range() -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
+}
+
+impl Buffer {
+    /// The host-visible bytes as `T`s (the device wrote them and the host
+    /// waited for its fence).
+    fn read<T: bytemuck::Pod>(&self) -> Vec<T> {
+        let bytes = self
+            .allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .expect("a host-visible buffer");
+        bytemuck::pod_collect_to_vec(bytes)
+    }
+
+    /// Copies `data` into the host-visible buffer.
+    fn write<T: bytemuck::Pod>(&mut self, data: &[T]) {
+        let bytes = self
+            .allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .expect("a host-visible buffer");
+        let src = bytemuck::cast_slice(data);
+        bytes[..src.len()].copy_from_slice(src);
+    }
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        let raw_device = &self.memory.device.raw;
+        // SAFETY: the host waited for its work before dropping its images.
+        unsafe {
+            raw_device.destroy_image_view(self.view, None);
+            raw_device.destroy_image(self.raw, None);
+        }
+        if let Some(a) = self.allocation.take() {
+            let _ = self.memory.allocator.lock().unwrap().free(a);
+        }
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: as for images.
+        unsafe { self.memory.device.raw.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take() {
+            let _ = self.memory.allocator.lock().unwrap().free(a);
+        }
+    }
+}
 
 /// The host's G-buffer pass: a camera ray per pixel against three quads.
 const GBUFFER_GLSL: &str = r#"#version 450
@@ -266,7 +459,7 @@ fn host_barrier(
                 .old_layout(*old)
                 .new_layout(*new)
                 .image(image.raw)
-                .subresource_range(image.full_range())
+                .subresource_range(full_range())
         })
         .collect();
     // SAFETY: recording; the images are live.
@@ -279,27 +472,15 @@ fn host_barrier(
 }
 
 /// Runs the host frame at `w` x `h` with each integration method.
-pub fn run(
-    w: u32,
-    h: u32,
-    layer1: LayerResolution,
-) -> Result<PostProcessReport, Box<dyn std::error::Error>> {
+pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport, Error> {
     let instance = Instance::with_validation(Validation::Synchronization, &[])?;
     let log = instance.validation_log();
     let device = Device::new(instance, &DeviceSelector::default(), &[])?;
     let raw = &device.raw;
+    let memory = HostMemory::new(&device)?;
 
     // --- The host's resources. ---
-    let usage = vk::ImageUsageFlags::STORAGE
-        | vk::ImageUsageFlags::TRANSFER_SRC
-        | vk::ImageUsageFlags::TRANSFER_DST;
-    let image = |name: &str| {
-        Image::new(
-            &device,
-            name,
-            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w, h, usage),
-        )
-    };
+    let image = |name: &str| memory.image(name, w, h);
     let (position, normal, albedo, s0, output) = (
         image("host.position")?,
         image("host.normal")?,
@@ -309,13 +490,7 @@ pub fn run(
     );
     // The second layer (hidden surfaces), at full or half resolution.
     let (w1, h1) = layer1.extent((w, h));
-    let layer1_image = |name: &str| {
-        Image::new(
-            &device,
-            name,
-            ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, w1, h1, usage),
-        )
-    };
+    let layer1_image = |name: &str| memory.image(name, w1, h1);
     let hidden = [
         layer1_image("host.layer1.position")?,
         layer1_image("host.layer1.normal")?,
@@ -342,17 +517,17 @@ pub fn run(
             ]
         })
         .collect();
-    let vpls = Buffer::with_data(
-        &device,
+    let mut vpls = memory.buffer(
         "host.vpls",
-        &vpl_data,
+        std::mem::size_of_val(&vpl_data[..]) as u64,
         vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::CpuToGpu,
     )?;
+    vpls.write(&vpl_data);
     let readback: Vec<Buffer> = (0..9)
         .map(|i| {
             let texels = if i < 5 { w * h } else { w1 * h1 };
-            Buffer::new(
-                &device,
+            memory.buffer(
                 &format!("host.readback{i}"),
                 texels as u64 * 16,
                 vk::BufferUsageFlags::TRANSFER_DST,
@@ -484,7 +659,7 @@ pub fn run(
         image: img.raw,
         view: img.view,
         format: vk::Format::R32G32B32A32_SFLOAT,
-        extent: (img.desc.width, img.desc.height),
+        extent: (img.width, img.height),
         layout: vk::ImageLayout::GENERAL,
     };
     let mut report = PostProcessReport {
@@ -614,8 +789,8 @@ pub fn run(
                         layer_count: 1,
                     })
                     .image_extent(vk::Extent3D {
-                        width: img.desc.width,
-                        height: img.desc.height,
+                        width: img.width,
+                        height: img.height,
                         depth: 1,
                     });
                 raw.cmd_copy_image_to_buffer(
@@ -645,10 +820,7 @@ pub fn run(
             raw.wait_for_fences(&[fence], true, u64::MAX)?;
             raw.reset_fences(&[fence])?;
         }
-        let read: Vec<Vec<f32>> = readback
-            .iter()
-            .map(|b| b.read::<f32>())
-            .collect::<Result<_, _>>()?;
+        let read: Vec<Vec<f32>> = readback.iter().map(|b| b.read::<f32>()).collect();
         let g = GBufferView {
             width: w,
             height: h,
@@ -715,6 +887,7 @@ pub fn run(
     }
     drop((gbuffer_kernel, lighting_kernel));
     drop((position, normal, albedo, s0, output, hidden, vpls, readback));
+    drop(memory);
     drop(device);
     report.validation_messages = log.total();
     Ok(report)

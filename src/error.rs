@@ -65,10 +65,13 @@ pub enum Error {
 /// Result with [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
-/// Maps a `vk::Result` error into [`Error::Vulkan`], naming the call.
-pub(crate) trait VkResultExt<T> {
-    /// Attach the Vulkan function name to the error.
-    fn vk(self, call: &'static str) -> Result<T>;
+unstable_pub! {
+    /// Maps a `vk::Result` error into [`Error::Vulkan`], naming the call
+    /// (unstable).
+    trait VkResultExt<T> {
+        /// Attach the Vulkan function name to the error.
+        fn vk(self, call: &'static str) -> Result<T>;
+    }
 }
 
 impl<T> VkResultExt<T> for Result<T, vk::Result> {

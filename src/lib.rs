@@ -4,9 +4,8 @@
 //! "Screen-Space Bias Compensation for Interactive High-Quality Global
 //! Illumination with Virtual Point Lights" (I3D 2011) on `ash`.
 //!
-//! Start with [`renderer::Renderer`]: create it with a
-//! [`renderer::RendererConfig`], load a [`scene::Scene`] and call
-//! [`renderer::Renderer::render`]:
+//! Start with [`Renderer`]: create it with a [`RendererConfig`], load a
+//! [`Scene`] and call [`Renderer::render`]:
 //!
 //! ```no_run
 //! # fn main() -> ssbc::Result<()> {
@@ -35,33 +34,99 @@
 //! assert_eq!(scene.triangle_count(), 2);
 //! assert_eq!(scene.lights.len(), 1);
 //! ```
+//!
+//! ## What is public
+//!
+//! The API above: [`Renderer`] and its settings, [`Frame`] and its typed
+//! [`Layer`]s, [`GpuImage`], [`resident::ResidentScene`], SSBC alone as
+//! [`postprocess::SsbcPostProcess`], the [`scene`] model and glTF loading,
+//! [`timings`] and [`profile`], [`Error`], the CPU [`reference`] renderer,
+//! image [`compare`]ison and [`output`], and the host-device types of
+//! [`vk`]. The renderer's internals (its passes, Vulkan layer, CPU stages and
+//! GPU structs) are public only with the `unstable` feature, for ssbc's own
+//! binary, tests, benches and examples; they may change in any release.
 #![warn(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 
+/// Declares an item `pub` with the `unstable` feature and `pub(crate)`
+/// without it: the renderer's internals, reachable by ssbc's own binary,
+/// tests, benches and examples, never part of the supported API.
+macro_rules! unstable_pub {
+    ($(#[$meta:meta])* $kw:ident $($rest:tt)*) => {
+        #[cfg(feature = "unstable")]
+        $(#[$meta])*
+        pub $kw $($rest)*
+        #[cfg(not(feature = "unstable"))]
+        $(#[$meta])*
+        #[allow(dead_code, unused_imports)]
+        pub(crate) $kw $($rest)*
+    };
+}
+
 pub mod compare;
-pub mod cpu;
 pub mod error;
-pub mod gpu_scene;
-pub mod gpu_types;
 pub mod output;
-pub mod passes;
 pub mod postprocess;
 pub mod profile;
 pub mod renderer;
 pub mod resident;
 pub mod scene;
-pub mod scene_cache;
 pub mod settings;
 pub mod timings;
-#[cfg(feature = "viewer")]
-pub mod viewer;
 pub mod vk;
 
-/// SPIR-V of every shader, compiled by `build.rs`.
-pub mod shaders {
-    include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+unstable_pub! {
+    /// CPU-side light transport (unstable; the reference renderer is
+    /// [`reference`]).
+    mod cpu;
+}
+unstable_pub! {
+    /// The scene's GPU copy (unstable).
+    mod gpu_scene;
+}
+unstable_pub! {
+    /// GPU struct twins of the shaders' (unstable).
+    mod gpu_types;
+}
+unstable_pub! {
+    /// The technique passes (unstable).
+    mod passes;
+}
+unstable_pub! {
+    /// The scene's CPU products, redone only on change (unstable).
+    mod scene_cache;
+}
+unstable_pub! {
+    /// SPIR-V of every shader, compiled by `build.rs` (unstable).
+    mod shaders {
+        include!(concat!(env!("OUT_DIR"), "/shaders.rs"));
+    }
+}
+
+/// Ground truth on the CPU: a path tracer for the same scenes, cameras and
+/// light units as the GPU renderer, the VPL baselines (the clamped VPL sum
+/// with exact visibility; Kollig & Keller's unbiased compensation), and a
+/// CPU twin of one SSBC step by brute force on read-back G-buffers.
+///
+/// ```no_run
+/// # fn main() -> ssbc::Result<()> {
+/// use std::sync::atomic::AtomicBool;
+/// use ssbc::reference::{Reference, ReferenceSettings};
+/// let mut scene = ssbc::scene::load("cornell")?;
+/// scene.ensure_light();
+/// let settings = ReferenceSettings { width: 160, height: 120, spp: 64, ..Default::default() };
+/// let reference = Reference::new(&scene, settings)?;
+/// let (rgba, passes) = reference.render(&AtomicBool::new(false), |done| eprintln!("{done} passes"));
+/// assert_eq!(rgba.len(), 160 * 120 * 4);
+/// # Ok(()) }
+/// ```
+pub mod reference {
+    pub use crate::cpu::reference::{Method, Reference, ReferenceSettings, REACH_WALK};
+    pub use crate::cpu::ssbc::{BruteForceTwin, GBufferView, TwinCamera};
 }
 
 pub use error::{Error, Result};
-pub use renderer::{Frame, GpuImage, Layer, RenderSettings, Renderer, RendererConfig, Timings};
+pub use renderer::{Frame, GpuImage, Layer, LayerImage, Renderer};
 pub use scene::Scene;
+pub use settings::{RenderSettings, RendererConfig, SsbcSettings};
+pub use timings::Timings;

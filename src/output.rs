@@ -7,7 +7,7 @@ use std::path::Path;
 use exr::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::renderer::{Frame, Layer};
+use crate::renderer::{Frame, LayerImage};
 
 fn output_err(path: &Path, message: impl ToString) -> Error {
     Error::Output {
@@ -32,8 +32,8 @@ pub fn write_image(
         .as_deref()
     {
         Some("exr") => {
-            let extra: &[Layer] = if with_layers { &frame.layers } else { &[] };
-            write_exr(path, frame.width, frame.height, &frame.image, extra)
+            let extra: &[LayerImage] = if with_layers { &frame.layers } else { &[] };
+            write_exr(path, frame.width, frame.height, &frame.image.rgba, extra)
         }
         Some("png") => {
             write_png_tonemapped(path, frame.width, frame.height, &frame.image.rgba, exposure)
@@ -42,24 +42,32 @@ pub fn write_image(
     }
 }
 
-/// Writes `image` as the default R,G,B channels and each of `layers` as
-/// `name.R`, `name.G`, `name.B`, all 32-bit float.
+/// Writes `rgba` (`width * height` pixels) as the default R,G,B channels
+/// and each of `layers` (the same size) as `name.R`, `name.G`, `name.B`,
+/// all 32-bit float.
 pub fn write_exr(
     path: &Path,
     width: u32,
     height: u32,
-    image: &Layer,
-    layers: &[Layer],
+    rgba: &[f32],
+    layers: &[LayerImage],
 ) -> Result<()> {
-    let channel = |name: String, layer: &Layer, c: usize| {
-        let samples: Vec<f32> = layer.rgba.chunks_exact(4).map(|p| p[c]).collect();
+    let pixels = width as usize * height as usize;
+    if rgba.len() != pixels * 4 || layers.iter().any(|l| l.rgba.len() != pixels * 4) {
+        return Err(output_err(
+            path,
+            format!("layers of {width}x{height} pixels expected"),
+        ));
+    }
+    let channel = |name: String, rgba: &[f32], c: usize| {
+        let samples: Vec<f32> = rgba.chunks_exact(4).map(|p| p[c]).collect();
         AnyChannel::new(name.as_str(), FlatSamples::F32(samples))
     };
     let mut channels = Vec::new();
     for (c, n) in ["R", "G", "B"].iter().enumerate() {
-        channels.push(channel(n.to_string(), image, c));
+        channels.push(channel(n.to_string(), rgba, c));
         for l in layers {
-            channels.push(channel(format!("{}.{n}", l.name), l, c));
+            channels.push(channel(format!("{}.{n}", l.layer), &l.rgba, c));
         }
     }
     let layer = exr::image::Layer::new(

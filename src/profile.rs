@@ -157,9 +157,7 @@ pub fn render_frames(
     mut trace: Option<&mut ChromeTrace>,
 ) -> Result<Frame> {
     if frames == 0 {
-        return Err(Error::InvalidParameter(
-            "--frames must be at least 1".into(),
-        ));
+        return Err(Error::InvalidParameter("frames must be at least 1".into()));
     }
     let mut measured = Vec::with_capacity(frames as usize);
     let mut last = None;

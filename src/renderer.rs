@@ -42,7 +42,7 @@ use crate::vk::{
 };
 use guard_band::GuardBand;
 use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
-pub use readback::{layer_names, Frame, IsmReadback, Layer};
+pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 
 /// The technique passes, each with its resources in every frame slot.
 struct Passes {
@@ -182,7 +182,7 @@ pub struct Renderer {
 /// The image a frame handed over.
 struct FrameOutput {
     slot: usize,
-    layer: String,
+    layer: Layer,
     done: u64,
     /// The guard band's margin around the image.
     margin: u32,
@@ -225,29 +225,133 @@ pub struct GpuSubmission {
     pub previous_timings: Option<GpuFrameTimes>,
 }
 
-/// What a frame returns: everything read back, a GPU submission, or
-/// nothing (recorded into the host's command buffer).
-enum Outcome {
-    Frame(Box<Frame>),
-    Gpu(GpuSubmission),
-    Host,
+/// Where a frame goes, and what it returns: read back ([`ReadBack`]),
+/// kept on the GPU ([`KeepOnGpu`]), or recorded into a host's command
+/// buffer ([`IntoHost`]). Each mode has its own way out of
+/// [`Renderer::frame`].
+trait FrameSink {
+    /// What the frame returns.
+    type Output;
+    /// The host's command buffer to record into (None: ssbc's own, timed).
+    fn host_command_buffer(&self) -> Option<vk::CommandBuffer> {
+        None
+    }
+    /// Sends the frame recorded in `rec` on.
+    fn finish(self, rec: Recorder<'_>, frame: Finish<'_>) -> Result<Self::Output>;
 }
 
-/// Where a frame's result goes.
-#[derive(Clone, Copy)]
-enum Sink<'a> {
-    /// Read back to the host (the frame is waited for).
-    Readback,
-    /// Kept on the GPU as this layer; ssbc submits.
-    Gpu(&'a str),
-    /// Recorded into the host's command buffer; this layer is copied into
-    /// the host's image.
-    Host {
-        cmd: vk::CommandBuffer,
-        slot: usize,
-        output: &'a HostImage,
-        layer: &'a str,
-    },
+/// Read back to the host; the frame is waited for.
+struct ReadBack;
+
+/// Kept on the GPU as this layer; ssbc submits.
+struct KeepOnGpu(Layer);
+
+/// Recorded into the host's command buffer; the layer is copied into the
+/// host's image.
+struct IntoHost<'a> {
+    cmd: vk::CommandBuffer,
+    output: &'a HostImage,
+    layer: Layer,
+}
+
+/// A recorded frame on its way out, with the renderer state it updates.
+struct Finish<'r> {
+    images: FrameImages<'r>,
+    device: &'r Arc<Device>,
+    slot: usize,
+    /// The image's settings, and the guard band's wider frame's.
+    inner: &'r RenderSettings,
+    settings: &'r RenderSettings,
+    band: Option<GuardBand>,
+    view: &'r FrameView,
+    cache: &'r SceneCache,
+    spans: Vec<CpuSpan>,
+    record_start: u64,
+    /// When the frame was submitted (ns, CLOCK_MONOTONIC; set by `submit`).
+    submit_ns: u64,
+    previous_timings: Option<GpuFrameTimes>,
+    readback: &'r mut Option<ReadbackBuffers>,
+    profiler: &'r mut GpuProfiler,
+    slot_done: &'r mut u64,
+    output: &'r mut Option<FrameOutput>,
+}
+
+impl Finish<'_> {
+    /// Submits the frame recorded in `rec`, keeping `layer` as the
+    /// renderer's output image; returns the timeline value that signals it
+    /// done.
+    fn submit(&mut self, mut rec: Recorder<'_>, layer: Layer) -> Result<u64> {
+        rec.flush_barriers();
+        self.submit_ns = monotonic_ns();
+        self.spans.push(CpuSpan::between(
+            "record",
+            self.record_start,
+            self.submit_ns,
+        ));
+        let done = rec.submit()?;
+        self.profiler.submitted(self.slot);
+        *self.slot_done = done;
+        *self.output = Some(FrameOutput {
+            slot: self.slot,
+            layer,
+            done,
+            margin: self.band.map_or(0, |b| b.margin),
+        });
+        Ok(done)
+    }
+}
+
+impl FrameSink for ReadBack {
+    type Output = Frame;
+    fn finish(self, mut rec: Recorder<'_>, mut f: Finish<'_>) -> Result<Frame> {
+        let wanted = f.images.readback(f.settings.debug_readback);
+        readback::ensure_buffers(f.device, f.readback, &wanted)?;
+        let buffers = f.readback.as_ref().expect("made above");
+        for ((_, image), (_, buffer)) in wanted.iter().zip(buffers) {
+            rec.copy_image_to_buffer(image, buffer);
+            rec.use_buffer(buffer, Access::HostRead);
+        }
+        let done = f.submit(rec, Layer::Final)?;
+        let wait_start = monotonic_ns();
+        f.device.wait(done)?;
+        f.spans
+            .push(CpuSpan::between("wait_for_gpu", wait_start, monotonic_ns()));
+        readback::read_frame(
+            f.readback.as_ref().expect("made above"),
+            FrameRecord {
+                device: f.device,
+                settings: f.inner,
+                band: f.band,
+                view: f.view,
+                images: f.images,
+                cache: f.cache,
+                gpu_times: f.profiler.resolve(f.slot)?,
+                spans: f.spans,
+                submit_ns: f.submit_ns,
+            },
+        )
+    }
+}
+
+impl FrameSink for KeepOnGpu {
+    type Output = GpuSubmission;
+    fn finish(self, rec: Recorder<'_>, mut f: Finish<'_>) -> Result<GpuSubmission> {
+        let value = f.submit(rec, self.0)?;
+        Ok(GpuSubmission {
+            value,
+            previous_timings: f.previous_timings,
+        })
+    }
+}
+
+impl FrameSink for IntoHost<'_> {
+    type Output = ();
+    fn host_command_buffer(&self) -> Option<vk::CommandBuffer> {
+        Some(self.cmd)
+    }
+    fn finish(self, mut rec: Recorder<'_>, f: Finish<'_>) -> Result<()> {
+        hand_off_to_host(&mut rec, &f.images, self.output, self.layer, f.band)
+    }
 }
 
 /// The camera and bound of a frame: near and far planes enclose the
@@ -281,14 +385,14 @@ fn frame_view(
     })
 }
 
-/// The frame's recorder: ssbc's command buffer, or the host's.
+/// The frame's recorder: ssbc's command buffer, or the host's `host`.
 fn begin_recording<'a>(
     commands: &'a mut CommandPool,
     device: &'a Arc<Device>,
-    sink: Sink<'_>,
+    host: Option<vk::CommandBuffer>,
     cache: &mut SceneCache,
 ) -> Result<Recorder<'a>> {
-    let Sink::Host { cmd, .. } = sink else {
+    let Some(cmd) = host else {
         return commands.begin();
     };
     if cache.gpu_scene.has_pending_uploads() {
@@ -391,11 +495,14 @@ impl Renderer {
         })
     }
 
-    /// The last frame's output image as a tracked [`Image`] (for in-crate
-    /// consumers that record their own commands on the same queue).
-    pub(crate) fn output(&self) -> Option<&Image> {
-        let out = self.output.as_ref()?;
-        self.passes.images(out.slot)?.layer(&out.layer)
+    unstable_pub! {
+        /// The last frame's output image as a tracked [`Image`] (for
+        /// consumers that record their own commands on the same queue, such
+        /// as the viewer; unstable).
+        fn output(&self) -> Option<&Image> {
+            let out = self.output.as_ref()?;
+            self.passes.images(out.slot)?.layer(out.layer)
+        }
     }
 
     /// The device.
@@ -433,22 +540,19 @@ impl Renderer {
         versions: SceneVersions,
         settings: &RenderSettings,
     ) -> Result<Frame> {
-        match self.run(scene, versions, settings, Sink::Readback)? {
-            Outcome::Frame(frame) => Ok(*frame),
-            _ => unreachable!("a read-back frame returns a Frame"),
-        }
+        self.run(scene, versions, settings, ReadBack, None)
     }
 
     /// Records and submits a frame without waiting for it or reading it
-    /// back; `layer` (`final`, `direct`, `indirect_bounded` or `residual_k`)
-    /// is kept on the GPU as [`Renderer::output_image`]. Up to
-    /// [`FRAME_SLOTS`] frames are in flight: this waits only for the frame
-    /// that last used the same slot, whose timings it returns.
+    /// back; `layer` (one of [`Layer::outputs`]) is kept on the GPU as
+    /// [`Renderer::output_image`]. Up to [`FRAME_SLOTS`] frames are in
+    /// flight: this waits only for the frame that last used the same slot,
+    /// whose timings it returns.
     pub fn render_to_gpu(
         &mut self,
         scene: &Scene,
         settings: &RenderSettings,
-        layer: &str,
+        layer: Layer,
     ) -> Result<GpuSubmission> {
         self.submit_to_gpu(scene, SceneVersions::fresh(), settings, layer)
     }
@@ -459,7 +563,7 @@ impl Renderer {
         &mut self,
         scene: &ResidentScene,
         settings: &RenderSettings,
-        layer: &str,
+        layer: Layer,
     ) -> Result<GpuSubmission> {
         self.submit_to_gpu(scene.scene(), scene.versions(), settings, layer)
     }
@@ -469,31 +573,28 @@ impl Renderer {
         scene: &Scene,
         versions: SceneVersions,
         settings: &RenderSettings,
-        layer: &str,
+        layer: Layer,
     ) -> Result<GpuSubmission> {
         Self::check_layer(layer, settings)?;
-        match self.run(scene, versions, settings, Sink::Gpu(layer))? {
-            Outcome::Gpu(submission) => Ok(submission),
-            _ => unreachable!("a GPU frame returns its submission"),
-        }
+        self.run(scene, versions, settings, KeepOnGpu(layer), None)
     }
 
-    fn check_layer(layer: &str, settings: &RenderSettings) -> Result<()> {
-        let names = layer_names(settings.ssbc.steps);
-        if names.iter().any(|n| n == layer) {
-            Ok(())
-        } else {
-            Err(Error::InvalidParameter(format!(
-                "no layer '{layer}' (have: {})",
-                names.join(", ")
-            )))
+    fn check_layer(layer: Layer, settings: &RenderSettings) -> Result<()> {
+        let outputs = Layer::outputs(settings.ssbc.steps);
+        if outputs.contains(&layer) {
+            return Ok(());
         }
+        let names: Vec<String> = outputs.iter().map(Layer::to_string).collect();
+        Err(Error::InvalidParameter(format!(
+            "layer {layer} cannot be handed over (have: {})",
+            names.join(", ")
+        )))
     }
 
     /// Records a frame of `scene` into the host's command buffer `cmd`
-    /// (recording, outside a render pass) and copies `layer` (`final`,
-    /// `direct`, `indirect_bounded`, `residual_k`) into the host's `output`
-    /// image (`R32G32B32A32_SFLOAT`, `TRANSFER_DST` usage, the frame's size;
+    /// (recording, outside a render pass) and copies `layer` (one of
+    /// [`Layer::outputs`]) into the host's `output` image
+    /// (`R32G32B32A32_SFLOAT`, `TRANSFER_DST` usage, the frame's size;
     /// left in `TRANSFER_DST_OPTIMAL` after a transfer write). The host
     /// ends and submits `cmd` and synchronises with its own semaphores; it
     /// passes the frame slot (`0..FRAME_SLOTS`) and guarantees the slot's
@@ -509,55 +610,52 @@ impl Renderer {
         cmd: vk::CommandBuffer,
         slot: usize,
         output: &HostImage,
-        layer: &str,
+        layer: Layer,
     ) -> Result<()> {
         Self::check_layer(layer, settings)?;
-        let sink = Sink::Host {
-            cmd,
-            slot,
-            output,
-            layer,
-        };
-        self.run(scene.scene(), scene.versions(), settings, sink)
-            .map(|_| ())
+        if slot >= FRAME_SLOTS {
+            return Err(Error::InvalidParameter(format!(
+                "frame slot {slot} of {FRAME_SLOTS}"
+            )));
+        }
+        if output.format != vk::Format::R32G32B32A32_SFLOAT
+            || output.extent != (settings.width, settings.height)
+        {
+            return Err(Error::InvalidParameter(format!(
+                "the host's output image must be R32G32B32A32_SFLOAT of {}x{} (it is {:?} of {:?})",
+                settings.width, settings.height, output.format, output.extent
+            )));
+        }
+        let sink = IntoHost { cmd, output, layer };
+        // The host guarantees the slot's previous frame is done.
+        self.run(scene.scene(), scene.versions(), settings, sink, Some(slot))
     }
 
-    /// Makes the next frame fail after recording `pass` (`shadow_maps`,
-    /// `ism`, `gbuffer`, `indirect_bounded` or `ssbc`), before submission:
-    /// for tests that a failed frame leaves the renderer usable.
-    #[doc(hidden)]
-    pub fn inject_fault_after(&mut self, pass: &str) {
-        self.fault = Some(pass.to_string());
+    unstable_pub! {
+        /// Makes the next frame fail after recording `pass` (`shadow_maps`,
+        /// `ism`, `gbuffer`, `indirect_bounded` or `ssbc`), before
+        /// submission: for tests that a failed frame leaves the renderer
+        /// usable (unstable).
+        fn inject_fault_after(&mut self, pass: &str) {
+            self.fault = Some(pass.to_string());
+        }
     }
 
-    fn run(
+    /// Records a frame in `slot` (the host's, or the next of ssbc's own,
+    /// waiting for the frame that used it last) and sends it where `sink`
+    /// says; after a failure the slot's resources are dropped.
+    fn run<S: FrameSink>(
         &mut self,
         scene: &Scene,
         versions: SceneVersions,
         settings: &RenderSettings,
-        sink: Sink<'_>,
-    ) -> Result<Outcome> {
+        sink: S,
+        host_slot: Option<usize>,
+    ) -> Result<S::Output> {
         limits::check_settings(&self.device, settings)?;
-        let (slot, previous_timings) = match sink {
-            Sink::Host { slot, output, .. } => {
-                if slot >= FRAME_SLOTS {
-                    return Err(Error::InvalidParameter(format!(
-                        "frame slot {slot} of {FRAME_SLOTS}"
-                    )));
-                }
-                if output.format != vk::Format::R32G32B32A32_SFLOAT
-                    || output.extent != (settings.width, settings.height)
-                {
-                    return Err(Error::InvalidParameter(format!(
-                        "the host's output image must be R32G32B32A32_SFLOAT of {}x{} (it is {:?} of {:?})",
-                        settings.width, settings.height, output.format, output.extent
-                    )));
-                }
-                // The host guarantees the slot's previous frame is done.
-                (slot, None)
-            }
-            Sink::Readback | Sink::Gpu(_) => {
-                // The frame slot: wait for (only) the frame that used it last.
+        let (slot, previous_timings) = match host_slot {
+            Some(slot) => (slot, None),
+            None => {
                 let slot = (self.frame_index % FRAME_SLOTS as u64) as usize;
                 self.frame_index += 1;
                 self.device.wait(self.slot_done[slot])?;
@@ -585,15 +683,15 @@ impl Renderer {
     }
 
     /// Records one frame in `slot` and sends it where `sink` says.
-    fn frame(
+    fn frame<S: FrameSink>(
         &mut self,
         scene: &Scene,
         versions: SceneVersions,
         settings: &RenderSettings,
-        sink: Sink<'_>,
+        sink: S,
         slot: usize,
         previous_timings: Option<GpuFrameTimes>,
-    ) -> Result<Outcome> {
+    ) -> Result<S::Output> {
         let device = self.device.clone();
         let mut spans = Vec::new();
         let cache = SceneCache::update(
@@ -610,14 +708,14 @@ impl Renderer {
         let view = frame_view(scene, settings, cache, band)?;
 
         let record_start = monotonic_ns();
-        let mut rec = begin_recording(&mut self.commands[slot], &device, sink, cache)?;
+        let host = sink.host_command_buffer();
+        let mut rec = begin_recording(&mut self.commands[slot], &device, host, cache)?;
         // The first frame after an upload copies the scene's textures.
         cache.gpu_scene.record_uploads(&mut rec);
         let cache = &*cache;
         // Frames in a host's command buffer are labelled, not timed (ssbc
         // cannot know when the host's submission finishes).
-        let timed = !matches!(sink, Sink::Host { .. });
-        self.profiler.begin_frame(rec.cmd, slot, timed);
+        self.profiler.begin_frame(rec.cmd, slot, host.is_none());
         let setup = SlotSetup {
             device: &device,
             slot,
@@ -637,63 +735,26 @@ impl Renderer {
 
         let images = self.passes.images(slot).expect("recorded above");
         rec.use_buffer(&images.ssbc.stats, Access::HostRead);
-        let readback = match sink {
-            Sink::Host { output, layer, .. } => {
-                hand_off_to_host(&mut rec, &images, output, layer, band)?;
-                return Ok(Outcome::Host);
-            }
-            Sink::Gpu(_) => None,
-            Sink::Readback => {
-                let wanted = images.readback(settings.debug_readback);
-                readback::ensure_buffers(&device, &mut self.readback[slot], &wanted)?;
-                let buffers = self.readback[slot].as_ref().expect("made above");
-                for ((_, image), (_, buffer)) in wanted.iter().zip(buffers) {
-                    rec.copy_image_to_buffer(image, buffer);
-                    rec.use_buffer(buffer, Access::HostRead);
-                }
-                Some(buffers)
-            }
-        };
-        rec.flush_barriers();
-        let submit_ns = monotonic_ns();
-        spans.push(CpuSpan::between("record", record_start, submit_ns));
-        let done = rec.submit()?;
-        self.profiler.submitted(slot);
-        self.slot_done[slot] = done;
-        let layer = match sink {
-            Sink::Gpu(layer) => layer,
-            _ => "final", // kept for the host too (see `output_image`)
-        };
-        self.output = Some(FrameOutput {
-            slot,
-            layer: layer.to_string(),
-            done,
-            margin: band.map_or(0, |b| b.margin),
-        });
-        let Some(buffers) = readback else {
-            return Ok(Outcome::Gpu(GpuSubmission {
-                value: done,
-                previous_timings,
-            }));
-        };
-
-        let wait_start = monotonic_ns();
-        device.wait(done)?;
-        spans.push(CpuSpan::between("wait_for_gpu", wait_start, monotonic_ns()));
-        let frame = readback::read_frame(
-            buffers,
-            FrameRecord {
+        sink.finish(
+            rec,
+            Finish {
+                images,
                 device: &device,
-                settings: inner,
+                slot,
+                inner,
+                settings,
                 band,
                 view: &view,
-                images,
                 cache,
-                gpu_times: self.profiler.resolve(slot)?,
                 spans,
-                submit_ns,
+                record_start,
+                submit_ns: 0,
+                previous_timings,
+                readback: &mut self.readback[slot],
+                profiler: &mut self.profiler,
+                slot_done: &mut self.slot_done[slot],
+                output: &mut self.output,
             },
-        )?;
-        Ok(Outcome::Frame(Box::new(frame)))
+        )
     }
 }

@@ -1,10 +1,103 @@
 //! What to render and how: the renderer's configuration, a frame's
-//! settings, the clamping bound and the SSBC parameters. Plain data with
-//! the checks that need no device.
+//! settings, the clamping bound, light tracing and the SSBC parameters.
+//! Plain data with the checks that need no device; errors name the
+//! settings (`ssbc.steps`, `interleave`, ...).
+//!
+//! ```
+//! use ssbc::settings::{Gather, Integration, RenderSettings};
+//! let mut settings = RenderSettings::new(320, 240); // the defaults for that size
+//! settings.gather = "full".parse().unwrap();
+//! settings.ssbc.integration = Integration::Brute;
+//! settings.ssbc.steps = 2;
+//! assert_eq!(settings.gather, Gather::Full);
+//! assert!(settings.validate().is_ok());
+//! settings.interleave = 9;
+//! settings.gather = Gather::Interleaved;
+//! assert!(settings.validate().unwrap_err().to_string().contains("interleave"));
+//! ```
 
-use crate::cpu::vpl::VplSettings;
 use crate::error::{Error, Result};
 use crate::vk::DeviceSelector;
+
+/// Light-tracing parameters (VPL distribution).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VplSettings {
+    /// Number of VPLs wanted (paths are traced until there are this many).
+    pub count: usize,
+    /// Most diffuse hits per path (>= 1): a safety net, Russian roulette
+    /// ends paths (an explicit lower limit biases the result).
+    pub bounces: u32,
+    /// Seed of the low-discrepancy sequence.
+    pub seed: u64,
+}
+
+impl Default for VplSettings {
+    fn default() -> Self {
+        Self {
+            count: 256,
+            bounces: DEFAULT_BOUNCES,
+            seed: 0,
+        }
+    }
+}
+
+/// The default limit on a light path's diffuse hits: high enough that
+/// Russian roulette ends practically every path first (albedo 0.8 leaves
+/// 0.8^64 = 6e-7 of the light beyond it).
+pub const DEFAULT_BOUNCES: u32 = 64;
+
+/// Enums of settings by name: the names [`NamedChoice::NAMES`] lists, as
+/// `FromStr` parses them and `Display` writes them (for command lines and
+/// configuration files).
+pub trait NamedChoice: Sized + Copy + 'static {
+    /// Every value, in the order of [`NamedChoice::NAMES`].
+    const ALL: &'static [Self];
+    /// Their names.
+    const NAMES: &'static [&'static str];
+    /// The name of this value.
+    fn name(self) -> &'static str {
+        let i = Self::ALL
+            .iter()
+            .position(|v| std::mem::discriminant(v) == std::mem::discriminant(&self))
+            .expect("every value is listed");
+        Self::NAMES[i]
+    }
+    /// The value called `name`.
+    fn from_name(name: &str) -> Result<Self> {
+        Self::NAMES
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| Self::ALL[i])
+            .ok_or_else(|| {
+                Error::InvalidParameter(format!(
+                    "'{name}' is not one of {}",
+                    Self::NAMES.join(", ")
+                ))
+            })
+    }
+}
+
+/// `FromStr` and `Display` through [`NamedChoice`].
+macro_rules! named_choice {
+    ($ty:ty, [$($value:expr => $name:literal),+ $(,)?]) => {
+        impl NamedChoice for $ty {
+            const ALL: &'static [Self] = &[$($value),+];
+            const NAMES: &'static [&'static str] = &[$($name),+];
+        }
+        impl std::str::FromStr for $ty {
+            type Err = Error;
+            fn from_str(s: &str) -> Result<Self> {
+                <$ty as NamedChoice>::from_name(s)
+            }
+        }
+        impl std::fmt::Display for $ty {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(NamedChoice::name(*self))
+            }
+        }
+    };
+}
+pub(crate) use named_choice;
 
 /// How to create the renderer.
 #[derive(Clone, Debug, Default)]
@@ -138,7 +231,7 @@ impl RenderSettings {
     pub fn validate(&self) -> Result<()> {
         if self.gather == Gather::Interleaved && !(2..=4).contains(&self.interleave) {
             return Err(Error::InvalidParameter(format!(
-                "--interleave {} must be in 2..=4 (or use --gather full)",
+                "interleave {} must be in 2..=4 (or gather full)",
                 self.interleave
             )));
         }
@@ -147,7 +240,7 @@ impl RenderSettings {
 }
 
 /// How the bounded VPL lighting `T_b L^` visits the VPLs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Gather {
     /// Interleaved sampling (Keller & Heidrich 2001; Segovia et al. 2006):
@@ -162,7 +255,7 @@ pub enum Gather {
 }
 
 /// How each residual step integrates over the screen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integration {
     /// Top-down over the mip chains (the paper's method).
@@ -172,8 +265,8 @@ pub enum Integration {
     Brute,
 }
 
-/// The resolution of the deep G-buffer's second layer (`--ssbc-layers 2`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+/// The resolution of the deep G-buffer's second layer (`ssbc.layers` 2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LayerResolution {
     /// One layer-1 pixel per image pixel: its pixels are split at creases
@@ -184,6 +277,10 @@ pub enum LayerResolution {
     /// pyramid cost).
     Half,
 }
+
+named_choice!(Gather, [Gather::Interleaved => "interleaved", Gather::Full => "full"]);
+named_choice!(Integration, [Integration::Hierarchical => "hierarchical", Integration::Brute => "brute"]);
+named_choice!(LayerResolution, [LayerResolution::Full => "full", LayerResolution::Half => "half"]);
 
 impl LayerResolution {
     /// log2 of a pixel's side in image pixels.
@@ -297,50 +394,50 @@ impl SsbcSettings {
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));
         if self.steps > 16 {
-            return bad(format!("--steps {} (at most 16)", self.steps));
+            return bad(format!("ssbc.steps {} (at most 16)", self.steps));
         }
         if !(1..=2).contains(&self.layers) {
-            return bad(format!("--ssbc-layers {} must be 1 or 2", self.layers));
+            return bad(format!("ssbc.layers {} must be 1 or 2", self.layers));
         }
         if !(self.layer_separation >= 0.0 && self.layer_separation <= 1.0) {
             return bad(format!(
-                "layer separation {} must be in [0, 1] (of the scene's diagonal)",
+                "ssbc.layer_separation {} must be in [0, 1] (of the scene's diagonal)",
                 self.layer_separation
             ));
         }
         if !(self.min_cos_view > 0.0 && self.min_cos_view <= 1.0) {
             return bad(format!(
-                "min cos view {} must be in (0, 1]",
+                "ssbc.min_cos_view {} must be in (0, 1]",
                 self.min_cos_view
             ));
         }
         if !(self.refine_ratio > 0.0 && self.refine_ratio.is_finite()) {
             return bad(format!(
-                "refine ratio {} must be positive",
+                "ssbc.refine_ratio {} must be positive",
                 self.refine_ratio
             ));
         }
         if !(self.refine_excess >= 0.0 && self.refine_excess.is_finite()) {
             return bad(format!(
-                "refine excess {} must be at least 0",
+                "ssbc.refine_excess {} must be at least 0",
                 self.refine_excess
             ));
         }
         if !(self.texels_per_radius >= 1.0 && self.texels_per_radius.is_finite()) {
             return bad(format!(
-                "texels per radius {} must be at least 1",
+                "ssbc.texels_per_radius {} must be at least 1",
                 self.texels_per_radius
             ));
         }
         if !(self.scale_fraction > 0.0 && self.scale_fraction.is_finite()) {
             return bad(format!(
-                "scale fraction {} must be positive",
+                "ssbc.scale_fraction {} must be positive",
                 self.scale_fraction
             ));
         }
         if self.max_eval_level > 8 {
             return bad(format!(
-                "max eval level {} (at most 8)",
+                "ssbc.max_eval_level {} (at most 8)",
                 self.max_eval_level
             ));
         }

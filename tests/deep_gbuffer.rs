@@ -7,10 +7,10 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
-use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
-use ssbc::cpu::vpl::VplSettings;
+use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::renderer::Bound;
 use ssbc::settings::LayerResolution;
+use ssbc::settings::VplSettings;
 
 fn mean(rgba: &[f32]) -> f64 {
     let s: f64 = rgba

@@ -6,8 +6,8 @@
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::emitters::luminance;
 use ssbc::cpu::enclosure::Enclosure;
-use ssbc::cpu::reference::{Reference, ReferenceSettings};
 use ssbc::cpu::vpl::{self, VplSettings};
+use ssbc::reference::{Reference, ReferenceSettings};
 
 /// Emitter samples the path tracer decides (its share's noise is about
 /// 1 point at an even split).

@@ -8,8 +8,8 @@
 mod common;
 
 use ash::vk;
-use ssbc::passes::ssbc::Integration;
 use ssbc::renderer::{Bound, Renderer, RendererConfig};
+use ssbc::settings::Integration;
 use ssbc::settings::{Gather, LayerResolution};
 use ssbc::vk::{Binding, Buffer, ComputeKernel, DescriptorPool, Device, Instance, Validation};
 
@@ -178,7 +178,7 @@ fn no_layer_holds_nan_or_infinity() {
             assert_eq!(
                 bad, 0,
                 "{}: {} non-finite values in {}",
-                scene.name, bad, layer.name
+                scene.name, bad, layer.layer
             );
         }
         for (k, samples) in f.samples.iter().enumerate() {

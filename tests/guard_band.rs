@@ -3,9 +3,9 @@
 
 mod common;
 
-use ssbc::passes::ssbc::Integration;
 use ssbc::renderer::RenderSettings;
 use ssbc::settings::Gather;
+use ssbc::settings::Integration;
 use ssbc::Frame;
 
 const SIZE: (u32, u32) = (128, 96);
@@ -24,7 +24,9 @@ fn settings(size: (u32, u32), guard_band: bool) -> RenderSettings {
 }
 
 fn rgb(f: &Frame, name: &str) -> Vec<f32> {
-    let layer = f.layer(name).unwrap_or_else(|| panic!("layer {name}"));
+    let layer = f
+        .layer(name.parse().expect("a layer name"))
+        .unwrap_or_else(|| panic!("layer {name}"));
     layer
         .rgba
         .chunks_exact(4)

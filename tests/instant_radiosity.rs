@@ -7,8 +7,8 @@ mod common;
 use glam::Vec3;
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::vpl::bounded_radiance;
-use ssbc::passes::ssbc::SsbcSettings;
 use ssbc::renderer::{Bound, RenderSettings};
+use ssbc::settings::SsbcSettings;
 use ssbc::Frame;
 
 /// The full gather: the GPU's sum is compared with the CPU's pixel by pixel
@@ -32,7 +32,7 @@ fn rgb(layer: &[f32], i: usize) -> Vec3 {
 }
 
 fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
-    &f.layer(name).unwrap().rgba
+    &f.layer(name.parse().expect("a layer name")).unwrap().rgba
 }
 
 /// sqrt(sum |a - b|^2 / sum |b|^2).

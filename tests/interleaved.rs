@@ -71,8 +71,12 @@ fn pixels_beside_creases_take_every_vpl() {
     let scene = common::ssbc_accuracy::open_box();
     let mut renderer = common::validated_renderer();
     let c = gather_accuracy::compare_gathers(&mut renderer, &scene, &settings());
-    let a = &c.interleaved.layer("indirect_bounded").unwrap().rgba;
-    let b = &c.full.layer("indirect_bounded").unwrap().rgba;
+    let a = &c
+        .interleaved
+        .layer(ssbc::Layer::IndirectBounded)
+        .unwrap()
+        .rgba;
+    let b = &c.full.layer(ssbc::Layer::IndirectBounded).unwrap().rgba;
     let creases = gather_accuracy::crease_mask(
         &c.full,
         1,

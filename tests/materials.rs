@@ -6,7 +6,7 @@
 mod common;
 
 use glam::{Mat4, Vec2, Vec3};
-use ssbc::cpu::reference::{Reference, ReferenceSettings};
+use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::renderer::{Bound, Frame};
 use ssbc::scene::{
     AlphaMode, Camera, Light, LightKind, Material, Scene, Texture, TextureRef, TextureSampler, Wrap,
@@ -63,7 +63,9 @@ fn mean_rgb(rgba: &[f32], keep: impl Fn(usize) -> bool) -> f64 {
 }
 
 fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
-    &f.layer(name).unwrap_or_else(|| panic!("layer {name}")).rgba
+    &f.layer(name.parse().expect("a layer name"))
+        .unwrap_or_else(|| panic!("layer {name}"))
+        .rgba
 }
 
 /// Point-to-parallel-square form factor: a receiver at height `h` under the

@@ -7,7 +7,7 @@
 #[allow(dead_code)]
 mod postprocess;
 
-use ssbc::passes::ssbc::{Integration, LayerResolution};
+use ssbc::settings::{Integration, LayerResolution};
 
 #[test]
 fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
@@ -61,8 +61,8 @@ fn check_report(report: postprocess::PostProcessReport) {
 #[test]
 fn bad_host_inputs_are_clear_errors() {
     use ash::vk;
-    use ssbc::passes::ssbc::SsbcSettings;
     use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+    use ssbc::settings::SsbcSettings;
     use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
 
     let instance = Instance::with_validation(Validation::Synchronization, &[]).unwrap();

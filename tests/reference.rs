@@ -9,10 +9,10 @@ use std::sync::atomic::AtomicBool;
 use glam::{Mat4, Vec3};
 use ssbc::compare::compare;
 use ssbc::cpu::bvh::Surface;
-use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
 use ssbc::cpu::sampling::Halton;
-use ssbc::cpu::vpl::VplSettings;
+use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::renderer::Bound;
+use ssbc::settings::VplSettings;
 
 fn render(scene: &ssbc::Scene, settings: ReferenceSettings) -> Vec<f32> {
     Reference::new(scene, settings)

@@ -204,7 +204,7 @@ fn a_failed_frame_leaves_the_renderer_usable() {
         }
         // And on the GPU path, two frames in flight.
         renderer
-            .render_resident_to_gpu(&resident, &s, "final")
+            .render_resident_to_gpu(&resident, &s, ssbc::Layer::Final)
             .unwrap();
     }
     drop(renderer);
@@ -282,7 +282,7 @@ fn the_renderer_records_into_a_hosts_command_buffer() {
         layout: vk::ImageLayout::UNDEFINED,
     };
     renderer
-        .record_resident(&resident, &s, cmd, 1, &host, "final")
+        .record_resident(&resident, &s, cmd, 1, &host, ssbc::Layer::Final)
         .unwrap();
     // SAFETY: recording the host's own copy and submitting its buffer.
     unsafe {

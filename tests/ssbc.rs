@@ -5,8 +5,8 @@ mod common;
 
 use glam::Vec3;
 use ssbc::cpu::ssbc::{brute_force_step, GBufferView, TwinCamera};
-use ssbc::passes::ssbc::{Integration, SsbcSettings};
 use ssbc::renderer::{Bound, RenderSettings};
+use ssbc::settings::{Integration, SsbcSettings};
 use ssbc::Frame;
 
 fn settings(integration: Integration, steps: u32, bound: Bound) -> RenderSettings {
@@ -36,7 +36,9 @@ fn relative_rmse(a: &[f32], b: &[f32]) -> f64 {
 }
 
 fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
-    &f.layer(name).unwrap_or_else(|| panic!("layer {name}")).rgba
+    &f.layer(name.parse().expect("a layer name"))
+        .unwrap_or_else(|| panic!("layer {name}"))
+        .rgba
 }
 
 #[test]
@@ -284,13 +286,13 @@ fn ssbc_restores_the_energy_clamping_removed() {
     // VPLs), in a copy of a GPU frame so the corner regions come from its G-buffer.
     let unclamped = run(0, Bound::Value(f32::INFINITY));
     let mut truth = unclamped.clone();
-    let settings = ssbc::cpu::reference::ReferenceSettings {
+    let settings = ssbc::reference::ReferenceSettings {
         width: 256,
         height: 192,
         spp: 256,
         ..Default::default()
     };
-    let reference = ssbc::cpu::reference::Reference::new(&scene, settings).unwrap();
+    let reference = ssbc::reference::Reference::new(&scene, settings).unwrap();
     truth.image.rgba = reference
         .render(&std::sync::atomic::AtomicBool::new(false), |_| {})
         .0;

@@ -10,7 +10,7 @@ use std::sync::atomic::AtomicBool;
 
 use glam::Vec3;
 use ssbc::cpu::bvh::SceneBvh;
-use ssbc::cpu::reference::{Reference, ReferenceSettings};
+use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::Scene;
 
 const SIZE: (u32, u32) = (64, 48);

@@ -17,10 +17,11 @@ use super::emitters::{luminance, EmitterSample, Emitters};
 use super::sampling::{cosine_hemisphere, hash64};
 use super::vpl::{self, bounded_radiance, Vpl, VplSettings};
 use crate::error::{Error, Result};
+use crate::settings::NamedChoice;
 use crate::scene::{Camera, LightKind, Scene};
 
 /// Which estimator to run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
     /// Path tracing with next-event estimation (the truth).
     PathTrace,
@@ -30,6 +31,12 @@ pub enum Method {
     /// path tracing (Kollig & Keller 2004): unbiased w.r.t. the unclamped sum.
     KolligKeller,
 }
+
+crate::settings::named_choice!(Method, [
+    Method::PathTrace => "path-trace",
+    Method::Vpl => "vpl",
+    Method::KolligKeller => "kollig-keller",
+]);
 
 /// Most bounces of the walk that decides whether an emitter's light can
 /// reach the camera ([`Reference::emission_reaches_camera`]): with no
@@ -129,10 +136,10 @@ impl<'a> Reference<'a> {
             )));
         }
         if settings.spp == 0 {
-            return Err(Error::InvalidParameter("--spp must be at least 1".into()));
+            return Err(Error::InvalidParameter("spp must be at least 1".into()));
         }
         if settings.bounces > 64 {
-            return Err(Error::InvalidParameter("--bounces above 64".into()));
+            return Err(Error::InvalidParameter("bounces above 64".into()));
         }
         if settings.bound.is_nan() || settings.bound <= 0.0 {
             return Err(Error::InvalidParameter(format!(

@@ -46,32 +46,7 @@ impl Vpl {
     }
 }
 
-/// Light-tracing parameters.
-#[derive(Clone, Debug, PartialEq)]
-pub struct VplSettings {
-    /// Number of VPLs wanted (paths are traced until there are this many).
-    pub count: usize,
-    /// Most diffuse hits per path (>= 1): a safety net, Russian roulette
-    /// ends paths (an explicit lower limit biases the result).
-    pub bounces: u32,
-    /// Seed of the low-discrepancy sequence.
-    pub seed: u64,
-}
-
-impl Default for VplSettings {
-    fn default() -> Self {
-        Self {
-            count: 256,
-            bounces: DEFAULT_BOUNCES,
-            seed: 0,
-        }
-    }
-}
-
-/// The default limit on a light path's diffuse hits: high enough that
-/// Russian roulette ends practically every path first (albedo 0.8 leaves
-/// 0.8^64 = 6e-7 of the light beyond it).
-pub const DEFAULT_BOUNCES: u32 = 64;
+pub use crate::settings::{VplSettings, DEFAULT_BOUNCES};
 
 /// The highest survival probability of Russian roulette: on white surfaces
 /// (albedo 1, the default glTF material) a path would otherwise bounce
@@ -123,7 +98,8 @@ pub fn light_power(light: &Light, scene_radius: f32) -> Vec3 {
 pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result<VplSet> {
     if settings.count > 0 && settings.bounces == 0 {
         return Err(Error::InvalidParameter(
-            "--bounces 0 leaves no VPLs; use --vpls 0 to switch indirect light off".into(),
+            "vpl.bounces 0 leaves no VPLs; set vpl.count to 0 to switch indirect light off"
+                .into(),
         ));
     }
     let mut set = VplSet::default();

@@ -143,7 +143,7 @@ impl Pass for IsmPass {
         let max = device.limits().max_image_dimension2_d as u64;
         if w > max || h > max {
             return Err(Error::InvalidParameter(format!(
-                "ISM atlas of {w}x{h} texels ({vpl_count} VPLs x {tile}^2) exceeds the device limit of {max}; use fewer VPLs or a smaller --ism-res"
+                "ISM atlas of {w}x{h} texels ({vpl_count} VPLs x {tile}^2) exceeds the device limit of {max}; use fewer VPLs or a smaller ism_tile"
             )));
         }
         let (w, h) = (w as u32, h as u32);

@@ -189,12 +189,12 @@ pub fn check_size(
     if largest > max {
         return Err(Error::InvalidParameter(format!(
             "SSBC at {width}x{height} needs {} MiB storage buffers; this device binds at most \
-             {} MiB (maxStorageBufferRange): render smaller{} or with --steps 0",
+             {} MiB (maxStorageBufferRange): render smaller{} or with ssbc.steps 0",
             largest >> 20,
             max >> 20,
             match layer1 {
-                Some(LayerResolution::Full) => ", with --ssbc-layer1 half",
-                Some(LayerResolution::Half) => ", with --ssbc-layers 1",
+                Some(LayerResolution::Full) => ", with ssbc.layer1_resolution half",
+                Some(LayerResolution::Half) => ", with ssbc.layers 1",
                 None => "",
             }
         )));

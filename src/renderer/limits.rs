@@ -30,7 +30,7 @@ pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Resu
     let sm = settings.shadow_map_size;
     if sm < 16 || sm > max {
         return Err(Error::InvalidParameter(format!(
-            "shadow map size {sm} outside 16..={max}"
+            "shadow_map_size {sm} outside 16..={max}"
         )));
     }
     if let Bound::Value(b) = settings.bound {
@@ -42,7 +42,7 @@ pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Resu
     }
     if settings.vpl.count > 0 && settings.points_per_vpl == 0 {
         return Err(Error::InvalidParameter(
-            "--points-per-vpl must be at least 1".into(),
+            "points_per_vpl must be at least 1".into(),
         ));
     }
     // Every ISM point is 16 bytes in one storage buffer.

@@ -1,5 +1,5 @@
 //! What a frame hands back: its layers read back to the host ([`Frame`]),
-//! or one of its images by layer name (kept on the GPU, or copied into a
+//! or one of its images ([`Layer`]; kept on the GPU, or copied into a
 //! host's image).
 
 use ash::vk;
@@ -20,12 +20,108 @@ use crate::vk::{Buffer, Device, GpuFrameTimes, Image, Recorder};
 
 use super::guard_band::GuardBand;
 
-/// One named image of linear radiance, RGBA f32 per pixel, rows top to bottom.
+/// An image of a frame.
+///
+/// ```
+/// use ssbc::Layer;
+/// assert_eq!("residual_2".parse::<Layer>().unwrap(), Layer::Residual(2));
+/// assert_eq!(Layer::IndirectBounded.to_string(), "indirect_bounded");
+/// assert_eq!(Layer::outputs(1), [Layer::Final, Layer::Direct, Layer::IndirectBounded, Layer::Residual(1)]);
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Layer {
+    /// `S0 + S_1 + ... + S_K` (`S0` without steps): the image.
+    Final,
+    /// Direct light `T Le`, with the emitters' own radiance.
+    Direct,
+    /// Bounded (clamped) VPL lighting `T_b L^`.
+    IndirectBounded,
+    /// The residual `S_k` of SSBC step k (1 to K).
+    Residual(u32),
+    /// G-buffer world position (w = 1 on geometry; debug read-back).
+    GBufferPosition,
+    /// G-buffer shading normal (debug read-back).
+    GBufferNormal,
+    /// G-buffer albedo (debug read-back).
+    GBufferAlbedo,
+    /// G-buffer emitted radiance (debug read-back).
+    GBufferEmission,
+    /// The deep G-buffer's second layer: position, at its resolution (debug
+    /// read-back with `ssbc.layers` 2).
+    Layer1Position,
+    /// Its normal.
+    Layer1Normal,
+    /// Its albedo.
+    Layer1Albedo,
+    /// Its `S0`.
+    Layer1S0,
+}
+
+impl Layer {
+    /// The layers a frame with `steps` SSBC steps can hand over on the GPU
+    /// or into a host's image, and reads back: `Final`, `Direct`,
+    /// `IndirectBounded`, `Residual(1..=steps)`.
+    pub fn outputs(steps: u32) -> Vec<Layer> {
+        [Layer::Final, Layer::Direct, Layer::IndirectBounded]
+            .into_iter()
+            .chain((1..=steps).map(Layer::Residual))
+            .collect()
+    }
+
+    /// The debug layers of [`RenderSettings::debug_readback`].
+    fn debug() -> impl Iterator<Item = Layer> {
+        NAMED[3..].iter().map(|(l, _)| *l)
+    }
+}
+
+/// Every layer but the residuals, with its name.
+const NAMED: [(Layer, &str); 11] = [
+    (Layer::Final, "final"),
+    (Layer::Direct, "direct"),
+    (Layer::IndirectBounded, "indirect_bounded"),
+    (Layer::GBufferPosition, "gbuffer_position"),
+    (Layer::GBufferNormal, "gbuffer_normal"),
+    (Layer::GBufferAlbedo, "gbuffer_albedo"),
+    (Layer::GBufferEmission, "gbuffer_emission"),
+    (Layer::Layer1Position, "layer1_position"),
+    (Layer::Layer1Normal, "layer1_normal"),
+    (Layer::Layer1Albedo, "layer1_albedo"),
+    (Layer::Layer1S0, "layer1_s0"),
+];
+
+impl std::fmt::Display for Layer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Layer::Residual(k) = self {
+            return write!(f, "residual_{k}");
+        }
+        let name = NAMED.iter().find(|(l, _)| l == self).map_or("", |(_, n)| n);
+        f.write_str(name)
+    }
+}
+
+impl std::str::FromStr for Layer {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Layer> {
+        if let Some((layer, _)) = NAMED.iter().find(|(_, n)| *n == s) {
+            return Ok(*layer);
+        }
+        match s.strip_prefix("residual_").map(str::parse::<u32>) {
+            Some(Ok(k)) if k >= 1 => Ok(Layer::Residual(k)),
+            _ => Err(Error::InvalidParameter(format!(
+                "no layer '{s}' (final, direct, indirect_bounded, residual_K, or a debug layer)"
+            ))),
+        }
+    }
+}
+
+/// One layer read back: linear radiance (or, for the debug layers, the
+/// G-buffer's values), RGBA f32 per pixel, rows top to bottom.
 #[derive(Clone, Debug)]
-pub struct Layer {
-    /// Layer name (`direct`, ...).
-    pub name: String,
-    /// `width * height * 4` floats; alpha is 1 on geometry, 0 on background.
+pub struct LayerImage {
+    /// Which layer.
+    pub layer: Layer,
+    /// `width * height * 4` floats (the second layer's at its resolution);
+    /// alpha is 1 on geometry, 0 on background.
     pub rgba: Vec<f32>,
 }
 
@@ -85,12 +181,10 @@ pub struct Frame {
     /// Height in pixels.
     pub height: u32,
     /// The final image (linear radiance).
-    pub image: Layer,
-    /// Component layers (`direct`, `indirect_bounded`, `residual_k`, and with
-    /// debug readback `gbuffer_position`, `gbuffer_normal`, `gbuffer_albedo`,
-    /// `gbuffer_emission`; with a second layer also `layer1_position`,
-    /// `layer1_normal`, `layer1_albedo` and `layer1_s0`, at its resolution).
-    pub layers: Vec<Layer>,
+    pub image: LayerImage,
+    /// The other layers ([`Layer::outputs`] after `Final`, and with debug
+    /// read-back the G-buffer's and, with a second layer, its own).
+    pub layers: Vec<LayerImage>,
     /// Per-pass GPU timings.
     pub timings: Timings,
     /// The VPLs used.
@@ -104,24 +198,12 @@ pub struct Frame {
 }
 
 impl Frame {
-    /// The layer called `name` (`final` is the final image).
-    pub fn layer(&self, name: &str) -> Option<&Layer> {
-        if name == "final" {
-            return Some(&self.image);
-        }
-        self.layers.iter().find(|l| l.name == name)
+    /// The image of `layer`, if the frame read it back.
+    pub fn layer(&self, layer: Layer) -> Option<&LayerImage> {
+        std::iter::once(&self.image)
+            .chain(&self.layers)
+            .find(|l| l.layer == layer)
     }
-}
-
-/// The names of a frame's layers with `steps` SSBC steps: `final`,
-/// `direct`, `indirect_bounded`, `residual_1` ... `residual_K` (the one
-/// definition the renderer, the CLI's `--output-layer` and the viewer use).
-pub fn layer_names(steps: u32) -> Vec<String> {
-    ["final", "direct", "indirect_bounded"]
-        .into_iter()
-        .map(String::from)
-        .chain((1..=steps).map(|k| format!("residual_{k}")))
-        .collect()
 }
 
 /// The images one frame slot's passes wrote.
@@ -145,56 +227,59 @@ impl<'a> FrameImages<'a> {
         }
     }
 
-    /// Every layer with its name ([`layer_names`] order).
-    fn layers(&self) -> Vec<(String, &'a Image)> {
-        let images = [self.final_image(), self.direct, &self.bounded.indirect]
-            .into_iter()
-            .chain(&self.ssbc.residuals);
-        layer_names(self.ssbc.steps())
-            .into_iter()
-            .zip(images)
-            .collect()
-    }
-
-    /// The image of a layer name (`final`, `direct`, ...).
-    pub fn layer(&self, layer: &str) -> Option<&'a Image> {
-        self.layers()
-            .into_iter()
-            .find(|(name, _)| name == layer)
-            .map(|(_, image)| image)
-    }
-
-    /// The images a read-back frame copies to the host, with their layer
-    /// names: the final image first, then the layers, the per-step sample
-    /// counts and (for diagnostics) the G-buffer and the ISM atlas.
-    pub fn readback(&self, debug: bool) -> Vec<(String, &'a Image)> {
-        let mut v = self.layers();
+    /// The image of `layer`, if the frame has it.
+    pub fn layer(&self, layer: Layer) -> Option<&'a Image> {
         let g = self.gbuffer;
+        let layer1 = self.layer1;
+        Some(match layer {
+            Layer::Final => self.final_image(),
+            Layer::Direct => self.direct,
+            Layer::IndirectBounded => &self.bounded.indirect,
+            Layer::Residual(k) => self.ssbc.residuals.get((k as usize).checked_sub(1)?)?,
+            Layer::GBufferPosition => &g.position,
+            Layer::GBufferNormal => &g.normal,
+            Layer::GBufferAlbedo => &g.albedo,
+            Layer::GBufferEmission => &g.emission,
+            Layer::Layer1Position => &layer1?.0.position,
+            Layer::Layer1Normal => &layer1?.0.normal,
+            Layer::Layer1Albedo => &layer1?.0.albedo,
+            Layer::Layer1S0 => &layer1?.1.s0,
+        })
+    }
+
+    /// The images a read-back frame copies to the host: the layers (the
+    /// final image first; with `debug` the G-buffers too), the per-step
+    /// sample counts, and with `debug` the ISM atlas.
+    pub fn readback(&self, debug: bool) -> Vec<(Readback, &'a Image)> {
+        let debug_layers = Layer::debug().filter(|_| debug);
+        let mut v: Vec<(Readback, &'a Image)> = Layer::outputs(self.ssbc.steps())
+            .into_iter()
+            .chain(debug_layers)
+            .filter_map(|l| Some((Readback::Layer(l), self.layer(l)?)))
+            .collect();
+        v.extend(
+            (1..)
+                .zip(&self.ssbc.samples)
+                .map(|(k, img)| (Readback::Samples(k), img)),
+        );
         if debug {
-            v.push(("gbuffer_position".into(), &g.position));
-            v.push(("gbuffer_normal".into(), &g.normal));
-            v.push(("gbuffer_albedo".into(), &g.albedo));
-            v.push(("gbuffer_emission".into(), &g.emission));
-        }
-        for (k, img) in self.ssbc.samples.iter().enumerate() {
-            v.push((format!("samples_{}", k + 1), img));
-        }
-        if debug {
-            v.push(("ism_atlas".into(), &self.ism.atlas));
-            if let Some((g, lighting)) = self.layer1 {
-                v.push(("layer1_position".into(), &g.position));
-                v.push(("layer1_normal".into(), &g.normal));
-                v.push(("layer1_albedo".into(), &g.albedo));
-                v.push(("layer1_s0".into(), &lighting.s0));
-            }
+            v.push((Readback::IsmAtlas, &self.ism.atlas));
         }
         v
     }
 }
 
-/// Host-visible buffers for a slot's read-back, one per image, named as
-/// its layer.
-pub(crate) type ReadbackBuffers = Vec<(String, Buffer)>;
+/// What a read-back buffer holds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Readback {
+    Layer(Layer),
+    /// Texels read per pixel in step k.
+    Samples(u32),
+    IsmAtlas,
+}
+
+/// Host-visible buffers for a slot's read-back, one per image.
+pub(crate) type ReadbackBuffers = Vec<(Readback, Buffer)>;
 
 /// Bytes of a tightly packed host copy of `image`'s first level.
 fn readback_size(image: &Image) -> u64 {
@@ -210,7 +295,7 @@ fn readback_size(image: &Image) -> u64 {
 pub(crate) fn ensure_buffers(
     device: &std::sync::Arc<Device>,
     held: &mut Option<ReadbackBuffers>,
-    images: &[(String, &Image)],
+    images: &[(Readback, &Image)],
 ) -> Result<()> {
     let sizes: Vec<u64> = images.iter().map(|(_, img)| readback_size(img)).collect();
     let fits = held
@@ -219,7 +304,7 @@ pub(crate) fn ensure_buffers(
     if !fits {
         let buffers = images
             .iter()
-            .map(|(name, img)| {
+            .map(|(what, img)| {
                 Buffer::new(
                     device,
                     &format!("readback.{}", img.name()),
@@ -227,7 +312,7 @@ pub(crate) fn ensure_buffers(
                     vk::BufferUsageFlags::TRANSFER_DST,
                     MemoryLocation::GpuToCpu,
                 )
-                .map(|b| (name.clone(), b))
+                .map(|b| (*what, b))
             })
             .collect::<Result<Vec<_>>>()?;
         *held = Some(buffers);
@@ -270,17 +355,17 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         Some(band) => band.crop(&data, channels, extent),
         None => data,
     };
-    for (name, buffer) in buffers {
-        if let Some(k) = name.strip_prefix("samples_") {
-            debug_assert_eq!(k.parse::<usize>().ok(), Some(samples.len() + 1));
-            samples.push(buffer.read::<f32>()?);
-        } else if name == "ism_atlas" {
-            ism_depth = Some(buffer.read::<f32>()?);
-        } else {
-            layers.push(Layer {
-                name: name.clone(),
+    for (what, buffer) in buffers {
+        match *what {
+            Readback::Samples(k) => {
+                debug_assert_eq!(k as usize, samples.len() + 1);
+                samples.push(buffer.read::<f32>()?);
+            }
+            Readback::IsmAtlas => ism_depth = Some(buffer.read::<f32>()?),
+            Readback::Layer(layer) => layers.push(LayerImage {
+                layer,
                 rgba: crop(buffer.read::<f32>()?, 4),
-            });
+            }),
         }
     }
     let image = layers.remove(0);
@@ -370,11 +455,11 @@ fn check_not_cut_short(samples: &[Vec<f32>], settings: &RenderSettings) -> Resul
     }
     Err(Error::InvalidParameter(format!(
         "{}x{}: an SSBC residual sum needed more loop iterations than the device runs in one \
-         invocation (lavapipe: 65535) and was cut short; use a smaller --size{}",
+         invocation (lavapipe: 65535) and was cut short; render smaller{}",
         settings.width,
         settings.height,
         match settings.ssbc.integration {
-            Integration::Brute => " or --integration hierarchical",
+            Integration::Brute => " or with ssbc.integration hierarchical",
             Integration::Hierarchical => "",
         }
     )))
@@ -426,12 +511,12 @@ pub(super) fn hand_off_to_host(
     rec: &mut Recorder<'_>,
     images: &FrameImages<'_>,
     output: &HostImage,
-    layer: &str,
+    layer: Layer,
     band: Option<GuardBand>,
 ) -> Result<()> {
     let source = images
         .layer(layer)
-        .ok_or_else(|| Error::InvalidParameter(format!("no layer '{layer}'")))?;
+        .ok_or_else(|| Error::InvalidParameter(format!("no layer {layer}")))?;
     let (w, h) = output.extent;
     let out = Image::from_host(
         rec.device,

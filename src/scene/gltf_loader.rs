@@ -35,7 +35,7 @@ pub const BUDGET_BASE: u64 = 32 << 20;
 /// ...plus this many times the bytes read.
 pub const BUDGET_FACTOR: u64 = 64;
 
-/// Loads a glTF or GLB file. `camera` is unused here (cameras are all kept).
+/// Loads a glTF or GLB file.
 pub fn load(path: &Path) -> Result<Scene> {
     let name = path.display().to_string();
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
@@ -59,20 +59,26 @@ pub fn load(path: &Path) -> Result<Scene> {
             }
         })
         .unwrap_or(Path::new("."));
-    let base = dir.canonicalize().map_err(|e| Error::io(dir, e))?;
-    // Last line of defence: a panic in a dependency becomes an error.
+    load_guarded(&name, &bytes, dir)
+}
+
+/// [`load_bytes`] for any folder `base`, with a panic in a dependency on
+/// malformed input turned into an error (the last line of defence).
+pub fn load_guarded(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
+    let base = base.canonicalize().map_err(|e| Error::io(base, e))?;
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        load_bytes(&name, &bytes, &base)
+        load_bytes(name, bytes, &base)
     })) {
         Ok(result) => result,
         Err(_) => Err(Error::scene(
-            &name,
+            name,
             "the glTF parser failed on malformed input",
         )),
     }
 }
 
-/// Parses glTF/GLB `bytes`; external files are looked up below `base`.
+/// Parses glTF/GLB `bytes`; external files are looked up below the
+/// canonical folder `base`.
 pub fn load_bytes(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
     let err = |m: String| Error::scene(name, m);
     if bytes.starts_with(b"glTF") {

@@ -7,7 +7,10 @@
 //! and the public fields.
 
 pub mod builtin;
-pub mod gltf_loader;
+unstable_pub! {
+    /// The glTF loader (unstable; use [`load`] or [`load_gltf_bytes`]).
+    mod gltf_loader;
+}
 
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
@@ -535,7 +538,7 @@ impl Scene {
         match index {
             Some(i) => self.cameras.get(i).cloned().ok_or_else(|| {
                 Error::InvalidParameter(format!(
-                    "--camera {i}: the scene has {} camera(s)",
+                    "camera index {i}: the scene has {} camera(s)",
                     self.cameras.len()
                 ))
             }),
@@ -657,7 +660,15 @@ fn vertex_tangents(
         .collect()
 }
 
-/// Loads a scene: a built-in name ([`builtin::NAMES`]) or a `.gltf`/`.glb` path.
+/// Loads a scene: a built-in name (`cornell`, `tori`) or a `.gltf`/`.glb`
+/// path. glTF files are untrusted input: nothing outside the scene's
+/// folder is read, and malformed files are errors, never panics.
+///
+/// ```
+/// let scene = ssbc::scene::load("cornell").unwrap();
+/// assert!(scene.triangle_count() > 0);
+/// assert!(ssbc::scene::load("/nonexistent.gltf").is_err());
+/// ```
 pub fn load(name_or_path: &str) -> Result<Scene> {
     if let Some(scene) = builtin::by_name(name_or_path) {
         return Ok(scene);
@@ -673,4 +684,11 @@ pub fn load(name_or_path: &str) -> Result<Scene> {
         ));
     }
     gltf_loader::load(path)
+}
+
+/// Parses a glTF or GLB file already in memory (`name` names it in errors);
+/// external buffers and images are looked up in the folder `base`, and
+/// nothing outside it is read.
+pub fn load_gltf_bytes(name: &str, bytes: &[u8], base: &std::path::Path) -> Result<Scene> {
+    gltf_loader::load_guarded(name, bytes, base)
 }

@@ -6,27 +6,84 @@
 //! - destruction is deferred (see `device.rs`) until the GPU is done with the
 //!   handle;
 //! - command recording happens on one thread at a time per command pool.
+//!
+//! What a host uses is public: [`Instance`] and [`Device`] (made by ssbc, or
+//! wrapping the host's own with `from_host`), [`HostDevice`],
+//! [`RequiredFeatures`], [`DeviceSelector`], [`Validation`] and
+//! [`ValidationLog`], and the GPU timings of a frame ([`GpuFrameTimes`],
+//! [`PassTiming`]). The rest (buffers, images, descriptors, pipelines,
+//! command recording, barriers, the profiler) is the renderer's own and
+//! public only with the `unstable` feature.
+//!
+//! ```no_run
+//! # fn main() -> ssbc::Result<()> {
+//! use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
+//! let instance = Instance::with_validation(Validation::Synchronization, &[])?;
+//! let device = Device::new(instance, &DeviceSelector::default(), &[])?;
+//! println!("{}", device.name());
+//! let mut renderer = ssbc::Renderer::with_device(device)?;
+//! # Ok(()) }
+//! ```
 
-pub mod barrier;
-pub mod buffer;
-pub mod buffer_view;
-pub mod commands;
-pub mod descriptor;
-pub mod device;
-pub mod image;
-pub mod instance;
-pub mod pipeline;
-pub mod profiler;
-pub mod swapchain;
+unstable_pub! {
+    /// Resource states and the barriers between them (unstable).
+    mod barrier;
+}
+unstable_pub! {
+    /// Buffers (unstable).
+    mod buffer;
+}
+unstable_pub! {
+    /// Texel-buffer views (unstable).
+    mod buffer_view;
+}
+unstable_pub! {
+    /// Command pools and recording (unstable).
+    mod commands;
+}
+unstable_pub! {
+    /// Descriptor set layouts, pools and bindings (unstable).
+    mod descriptor;
+}
+mod device;
+unstable_pub! {
+    /// Images and samplers (unstable).
+    mod image;
+}
+mod instance;
+unstable_pub! {
+    /// Pipelines and compute kernels (unstable).
+    mod pipeline;
+}
+unstable_pub! {
+    /// GPU timestamps, pipeline statistics and debug labels (unstable).
+    mod profiler;
+}
 
-pub use barrier::Access;
-pub use buffer::Buffer;
-pub use buffer_view::BufferView;
-pub use commands::{CommandPool, Recorder, TrackedImage};
-pub use descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 pub use device::{Device, DeviceSelector, HostDevice, ProfilingSupport, RequiredFeatures};
-pub use image::{Image, ImageDesc, Sampler};
 pub use instance::{Instance, Validation, ValidationLog};
-pub use pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
-pub use profiler::{GpuFrameTimes, GpuProfiler, PassTiming};
-pub use swapchain::{BinarySemaphore, Swapchain, SwapchainImage};
+pub use profiler::{GpuFrameTimes, PassTiming};
+unstable_pub! {
+    use self::barrier::Access;
+}
+unstable_pub! {
+    use self::buffer::Buffer;
+}
+unstable_pub! {
+    use self::buffer_view::BufferView;
+}
+unstable_pub! {
+    use self::commands::{CommandPool, Recorder, TrackedImage};
+}
+unstable_pub! {
+    use self::descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
+}
+unstable_pub! {
+    use self::image::{Image, ImageDesc, Sampler};
+}
+unstable_pub! {
+    use self::pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
+}
+unstable_pub! {
+    use self::profiler::GpuProfiler;
+}

@@ -69,10 +69,13 @@ fn same_surface(position: &[f32], normal: &[f32], p: usize, q: usize) -> bool {
 /// surface (or the image's edge).
 pub fn discontinuity_mask(frame: &Frame, reach: i32) -> Vec<bool> {
     let position = &frame
-        .layer("gbuffer_position")
+        .layer(ssbc::Layer::GBufferPosition)
         .expect("debug readback")
         .rgba;
-    let normal = &frame.layer("gbuffer_normal").expect("debug readback").rgba;
+    let normal = &frame
+        .layer(ssbc::Layer::GBufferNormal)
+        .expect("debug readback")
+        .rgba;
     let (w, h) = (frame.width as i32, frame.height as i32);
     (0..w * h)
         .map(|i| {
@@ -107,8 +110,14 @@ pub fn compare_gathers(
     let full = renderer.render(scene, &s).expect("full gather");
     s.gather = Gather::Interleaved;
     let interleaved = renderer.render(scene, &s).expect("interleaved gather");
-    let a = &interleaved.layer("indirect_bounded").expect("layer").rgba;
-    let b = &full.layer("indirect_bounded").expect("layer").rgba;
+    let a = &interleaved
+        .layer(ssbc::Layer::IndirectBounded)
+        .expect("layer")
+        .rgba;
+    let b = &full
+        .layer(ssbc::Layer::IndirectBounded)
+        .expect("layer")
+        .rgba;
     let edge = discontinuity_mask(&full, settings.interleave as i32 - 1);
     let geometry: Vec<usize> = (0..edge.len())
         .filter(|&p| full.image.rgba[p * 4 + 3] != 0.0)
@@ -134,11 +143,15 @@ pub fn compare_gathers(
 pub fn with_full_where(c: &GatherComparison, mask: &[bool]) -> (Figures, usize) {
     let mut a = c
         .interleaved
-        .layer("indirect_bounded")
+        .layer(ssbc::Layer::IndirectBounded)
         .expect("layer")
         .rgba
         .clone();
-    let b = &c.full.layer("indirect_bounded").expect("layer").rgba;
+    let b = &c
+        .full
+        .layer(ssbc::Layer::IndirectBounded)
+        .expect("layer")
+        .rgba;
     let mut count = 0;
     for (p, &m) in mask.iter().enumerate() {
         if m {
@@ -156,10 +169,13 @@ pub fn with_full_where(c: &GatherComparison, mask: &[bool]) -> (Figures, usize) 
 /// contacts, not silhouettes against something far behind.
 pub fn crease_mask(frame: &Frame, reach: i32, footprints: f32) -> Vec<bool> {
     let position = &frame
-        .layer("gbuffer_position")
+        .layer(ssbc::Layer::GBufferPosition)
         .expect("debug readback")
         .rgba;
-    let normal = &frame.layer("gbuffer_normal").expect("debug readback").rgba;
+    let normal = &frame
+        .layer(ssbc::Layer::GBufferNormal)
+        .expect("debug readback")
+        .rgba;
     let (w, h) = (frame.width as i32, frame.height as i32);
     let v = |i: usize| Vec3::new(position[i * 4], position[i * 4 + 1], position[i * 4 + 2]);
     (0..w * h)

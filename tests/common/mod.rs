@@ -58,7 +58,7 @@ pub fn small(width: u32, height: u32) -> RenderSettings {
 /// RGB of pixel (x, y) of a layer.
 pub fn pixel(frame: &Frame, layer: &str, x: u32, y: u32) -> Vec3 {
     let l = frame
-        .layer(layer)
+        .layer(layer.parse().expect("a layer name"))
         .unwrap_or_else(|| panic!("no layer {layer}"));
     let i = ((y * frame.width + x) * 4) as usize;
     Vec3::new(l.rgba[i], l.rgba[i + 1], l.rgba[i + 2])

@@ -153,7 +153,7 @@ pub fn residual_vs_twin(
     let frame = renderer.render(scene, settings).expect("render");
     let layer = |name: &str| {
         &frame
-            .layer(name)
+            .layer(name.parse().expect("a layer name"))
             .unwrap_or_else(|| panic!("layer {name}"))
             .rgba
     };

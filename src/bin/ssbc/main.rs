@@ -1,16 +1,29 @@
-//! The `ssbc` command line.
+//! The `ssbc` command line: the library's settings as flags, progress
+//! bars, Ctrl-C and logging to stderr (none of which the library has).
+
+#[cfg(feature = "viewer")]
+mod swapchain;
+#[cfg(feature = "viewer")]
+mod viewer;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 
-use ssbc::cpu::reference::{Method, Reference, ReferenceSettings};
-use ssbc::cpu::vpl::VplSettings;
-use ssbc::passes::ssbc::{Integration, SsbcSettings};
-use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
-use ssbc::settings::{Gather, LayerResolution};
+use ssbc::reference::{Method, Reference, ReferenceSettings};
+use ssbc::settings::{
+    Bound, Gather, Integration, LayerResolution, NamedChoice, RenderSettings, RendererConfig,
+    SsbcSettings, VplSettings, DEFAULT_BOUNCES,
+};
 use ssbc::vk::DeviceSelector;
+use ssbc::{Layer, Renderer};
+
+/// A flag taking one of the names of a settings enum.
+fn choice<T: NamedChoice + Send + Sync + Clone>() -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(T::NAMES).map(|name| T::from_name(&name).expect("a listed name"))
+}
 
 #[derive(Parser)]
 #[command(
@@ -47,18 +60,18 @@ struct ReferenceArgs {
     #[arg(short, long, default_value = "reference.exr")]
     output: PathBuf,
     /// Samples per pixel.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..))]
     spp: u32,
     /// Most indirect bounces (0 = direct light only). Russian roulette ends
     /// paths; this is a safety net (a low value biases the image).
-    #[arg(long, default_value_t = ssbc::cpu::vpl::DEFAULT_BOUNCES)]
+    #[arg(long, default_value_t = DEFAULT_BOUNCES)]
     bounces: u32,
     /// Seed.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Estimator: path-trace (truth), vpl (VPL sum, exact visibility), or
     /// kollig-keller (clamped VPL sum + path-traced residual, unbiased).
-    #[arg(long, value_enum, default_value_t = Method::PathTrace)]
+    #[arg(long, value_parser = choice::<Method>(), default_value_t = Method::PathTrace)]
     method: Method,
     /// VPLs for the VPL methods.
     #[arg(long, default_value_t = 256, allow_negative_numbers = true, value_parser = parse_number)]
@@ -180,7 +193,7 @@ struct SceneOptions {
     vpls: VplCount,
     /// Most diffuse hits of a light path, at least 1. Russian roulette ends
     /// paths; this is a safety net (a low value biases the image).
-    #[arg(long, default_value_t = ssbc::cpu::vpl::DEFAULT_BOUNCES)]
+    #[arg(long, default_value_t = DEFAULT_BOUNCES)]
     bounces: u32,
     /// Seed of the low-discrepancy light-path sequence.
     #[arg(long, default_value_t = 0)]
@@ -194,7 +207,7 @@ struct SceneOptions {
     /// How the bounded VPL lighting visits the VPLs: interleaved (each pixel
     /// of an N x N block one subset, then a depth/normal-aware filter) or
     /// full (every VPL at every pixel; the reference).
-    #[arg(long, value_enum, default_value_t = RenderSettings::default().gather)]
+    #[arg(long, value_parser = choice::<Gather>(), default_value_t = RenderSettings::default().gather)]
     gather: Gather,
     /// Side N of the interleaved pattern (N x N subsets of the VPLs).
     #[arg(long, default_value_t = RenderSettings::default().interleave)]
@@ -208,7 +221,7 @@ struct SceneOptions {
     #[arg(long, default_value_t = RenderSettings::default().ssbc.steps)]
     steps: u32,
     /// SSBC integration: hierarchical (the paper's) or brute (reference).
-    #[arg(long, value_enum, default_value_t = Integration::Hierarchical)]
+    #[arg(long, value_parser = choice::<Integration>(), default_value_t = Integration::Hierarchical)]
     integration: Integration,
     /// G-buffer layers SSBC gathers from: 1 (the visible surfaces) or 2 (also
     /// a deep G-buffer's second layer: the nearest
@@ -218,7 +231,7 @@ struct SceneOptions {
     ssbc_layers: u32,
     /// Resolution of the second layer: full (its pixels split at creases
     /// like the first's) or half (a quarter of its cost).
-    #[arg(long = "ssbc-layer1", value_enum, default_value_t = LayerResolution::Full)]
+    #[arg(long = "ssbc-layer1", value_parser = choice::<LayerResolution>(), default_value_t = LayerResolution::Full)]
     ssbc_layer1: LayerResolution,
     /// Minimum separation of the second layer behind the first, as a
     /// fraction of the scene's bounding-box diagonal.
@@ -261,7 +274,7 @@ struct RenderArgs {
     /// Write this layer as the output image instead of the final image
     /// (direct, indirect_bounded, residual_1, ...).
     #[arg(long, value_name = "LAYER")]
-    output_layer: Option<String>,
+    output_layer: Option<Layer>,
 
     /// Write per-pass GPU timings as JSON.
     #[arg(long, value_name = "FILE.json")]
@@ -339,6 +352,16 @@ impl SceneOptions {
         }
     }
 
+    /// Flag combinations the library would refuse, named as flags.
+    fn check(&self) -> Result<(), ssbc::Error> {
+        if self.bounces == 0 && !matches!(self.vpls, VplCount::Exactly(0)) {
+            return Err(ssbc::Error::InvalidParameter(
+                "--bounces 0 leaves no VPLs; use --vpls 0 to switch indirect light off".into(),
+            ));
+        }
+        Ok(())
+    }
+
     fn validation(&self) -> bool {
         self.validate || validation_from_env()
     }
@@ -351,6 +374,7 @@ impl SceneOptions {
 }
 
 fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
+    args.common.check()?;
     if let Some(e) = args.common.exposure {
         if !(e.is_finite() && e > 0.0) {
             return Err(ssbc::Error::InvalidParameter(format!(
@@ -392,11 +416,14 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         trace.write(path)?;
         log::info!("wrote {}", path.display());
     }
-    if let Some(name) = &args.output_layer {
-        let layer = frame.layer(name).cloned().ok_or_else(|| {
-            let names: Vec<&str> = frame.layers.iter().map(|l| l.name.as_str()).collect();
+    if let Some(wanted) = args.output_layer {
+        let layer = frame.layer(wanted).cloned().ok_or_else(|| {
+            let names: Vec<String> = std::iter::once(&frame.image)
+                .chain(&frame.layers)
+                .map(|l| l.layer.to_string())
+                .collect();
             ssbc::Error::InvalidParameter(format!(
-                "no layer '{name}' (have: final, {})",
+                "--output-layer: no layer {wanted} (have: {})",
                 names.join(", ")
             ))
         })?;
@@ -455,11 +482,7 @@ fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
     let (rgba, done) = reference.render(&stop, |p| bar.set_position(p as u64));
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    let layer = ssbc::Layer {
-        name: "final".into(),
-        rgba,
-    };
-    ssbc::output::write_exr(&args.output, args.size.0, args.size.1, &layer, &[])?;
+    ssbc::output::write_exr(&args.output, args.size.0, args.size.1, &rgba, &[])?;
     eprintln!(
         "{:?}: {} of {} passes in {:.2} s ({} VPLs, bound {bound}); wrote {}",
         args.method,
@@ -519,8 +542,9 @@ fn view(_: ViewArgs) -> Result<u32, ssbc::Error> {
 
 #[cfg(feature = "viewer")]
 fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
+    args.common.check()?;
     let scene = ssbc::scene::load(&args.common.scene)?;
-    ssbc::viewer::run(ssbc::viewer::ViewOptions {
+    viewer::run(viewer::ViewOptions {
         scene,
         settings: args.common.settings(),
         validation: args.common.validation(),
@@ -531,6 +555,40 @@ fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
         animate: args.animate,
         resize_storm: args.resize_storm,
     })
+}
+
+/// The library names its settings (`ssbc.steps`), the command line its
+/// flags (`--steps`): errors are shown in the flags' terms.
+const FLAGS: [(&str, &str); 17] = [
+    ("ssbc.steps", "--steps"),
+    ("ssbc.layers", "--ssbc-layers"),
+    ("ssbc.layer1_resolution", "--ssbc-layer1"),
+    ("ssbc.layer_separation", "--layer-separation"),
+    ("ssbc.min_cos_view", "--min-cos-view"),
+    ("ssbc.integration", "--integration"),
+    ("ssbc.guard_band", "--guard-band"),
+    ("vpl.bounces", "--bounces"),
+    ("vpl.count", "--vpls"),
+    ("points_per_vpl", "--points-per-vpl"),
+    ("shadow_map_size", "--shadow-map-size"),
+    ("ism_tile", "--ism-res"),
+    ("interleave ", "--interleave "),
+    ("gather full", "--gather full"),
+    ("camera index ", "--camera "),
+    ("render smaller", "render smaller (--size)"),
+    ("frames must", "--frames must"),
+];
+
+/// [`FLAGS`] applied to an error's message.
+fn in_flag_terms(e: ssbc::Error) -> ssbc::Error {
+    match e {
+        ssbc::Error::InvalidParameter(m) => ssbc::Error::InvalidParameter(
+            FLAGS
+                .iter()
+                .fold(m, |m, (setting, flag)| m.replace(setting, flag)),
+        ),
+        other => other,
+    }
 }
 
 fn main() -> ExitCode {
@@ -551,7 +609,7 @@ fn main() -> ExitCode {
             ExitCode::from(3)
         }
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {}", in_flag_terms(e));
             ExitCode::FAILURE
         }
     }

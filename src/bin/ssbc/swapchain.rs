@@ -6,10 +6,10 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::barrier::ResourceState;
-use super::commands::TrackedImage;
-use super::device::Device;
-use crate::error::{Error, Result, VkResultExt};
+use ssbc::error::VkResultExt;
+use ssbc::vk::barrier::ResourceState;
+use ssbc::vk::{Device, TrackedImage};
+use ssbc::{Error, Result};
 
 /// One swapchain image, with tracked access like any other image.
 pub struct SwapchainImage {

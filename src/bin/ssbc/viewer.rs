@@ -26,14 +26,33 @@ use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-use crate::error::{Error, Result, VkResultExt};
-use crate::renderer::{Bound, Frame, RenderSettings, Renderer};
-use crate::resident::ResidentScene;
-use crate::scene::{Camera, Scene};
-use crate::vk::{
-    Access, BinarySemaphore, Binding, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device,
-    DeviceSelector, Image, Instance, Swapchain, ValidationLog,
+use crate::swapchain::{BinarySemaphore, Swapchain};
+use ssbc::error::VkResultExt;
+use ssbc::renderer::{Bound, Frame, Layer, RenderSettings, Renderer};
+use ssbc::resident::ResidentScene;
+use ssbc::scene::{Camera, Scene};
+use ssbc::vk::{
+    Access, Binding, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device, DeviceSelector,
+    Image, Instance, ValidationLog,
 };
+use ssbc::{Error, Result};
+
+/// What the window shows: a layer of the frame (kept on the GPU), or the
+/// samples-per-pixel heat map of step 1 (read back and uploaded).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Shown {
+    Layer(Layer),
+    Samples,
+}
+
+impl std::fmt::Display for Shown {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Shown::Layer(layer) => layer.fmt(f),
+            Shown::Samples => f.write_str("samples_1"),
+        }
+    }
+}
 
 /// What `ssbc view` was asked to do.
 pub struct ViewOptions {
@@ -124,7 +143,7 @@ impl Gpu {
             .chunks_exact(4)
             .flat_map(|p| {
                 let q = |v: f32| {
-                    (crate::output::srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8
+                    (ssbc::output::srgb_encode((v * exposure).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8
                 };
                 if bgra {
                     [q(p[2]), q(p[1]), q(p[0]), 255]
@@ -159,7 +178,7 @@ impl Gpu {
     fn submit_display(
         &mut self,
         slot_index: usize,
-        layer: &str,
+        shown: Shown,
         push: PresentPush,
     ) -> Result<Option<usize>> {
         let [width, height] = push.size;
@@ -172,7 +191,7 @@ impl Gpu {
             slot.display = Some(Image::new(
                 &self.device,
                 "display",
-                crate::vk::ImageDesc::new_2d(
+                ssbc::vk::ImageDesc::new_2d(
                     vk::Format::R8G8B8A8_UNORM,
                     width,
                     height,
@@ -197,8 +216,8 @@ impl Gpu {
         }
         let pool = slot.present_pool.as_ref().expect("created above");
         let mut rec = slot.commands.begin()?;
-        match (layer, self.renderer.output()) {
-            ("samples_1", _) | (_, None) => {
+        match (shown, self.renderer.output()) {
+            (Shown::Samples, _) | (_, None) => {
                 let staging = self.staging.as_ref().expect("uploaded above");
                 rec.copy_buffer_to_image(staging, image, (width, height), 1);
             }
@@ -455,7 +474,7 @@ impl Viewer {
                 height: inner.height,
             },
         )?;
-        let slots = (0..crate::renderer::FRAME_SLOTS)
+        let slots = (0..ssbc::renderer::FRAME_SLOTS)
             .map(|_| {
                 Ok(FrameSlot {
                     commands: CommandPool::new(&device)?,
@@ -469,7 +488,7 @@ impl Viewer {
         use vk::DescriptorType as T;
         let present = ComputeKernel::new(
             &device,
-            crate::shaders::PRESENT_COMP,
+            ssbc::shaders::PRESENT_COMP,
             &[T::STORAGE_IMAGE, T::STORAGE_IMAGE],
             std::mem::size_of::<PresentPush>(),
         )?;
@@ -486,26 +505,34 @@ impl Viewer {
         Ok(())
     }
 
-    /// Names of the layers that can be shown.
-    fn layer_names(&self) -> Vec<String> {
-        let mut names = crate::renderer::layer_names(self.options.settings.ssbc.steps);
-        if self.options.settings.ssbc.steps > 0 {
-            names.push("samples_1".into());
+    /// What `L` cycles through: the frame's layers, then step 1's samples.
+    fn showable(&self) -> Vec<Shown> {
+        let steps = self.options.settings.ssbc.steps;
+        let mut shown: Vec<Shown> = Layer::outputs(steps)
+            .into_iter()
+            .map(Shown::Layer)
+            .collect();
+        if steps > 0 {
+            shown.push(Shown::Samples);
         }
-        names
+        shown
+    }
+
+    /// What is shown now.
+    fn current(&self) -> Shown {
+        let showable = self.showable();
+        showable[self.layer % showable.len()]
     }
 
     /// The shown layer as linear RGBA (the samples heat map as false colour).
     fn shown(&self, frame: &Frame) -> Vec<f32> {
-        let names = self.layer_names();
-        let name = &names[self.layer % names.len()];
-        if name == "samples_1" {
-            return Self::heat_map(frame);
+        match self.current() {
+            Shown::Samples => Self::heat_map(frame),
+            Shown::Layer(layer) => frame
+                .layer(layer)
+                .map(|l| l.rgba.clone())
+                .unwrap_or_else(|| frame.image.rgba.clone()),
         }
-        frame
-            .layer(name)
-            .map(|l| l.rgba.clone())
-            .unwrap_or_else(|| frame.image.rgba.clone())
     }
 
     /// Samples per pixel of step 1 as false colour (blue few, red most).
@@ -543,8 +570,7 @@ impl Viewer {
             width: size.width,
             height: size.height,
         };
-        let names = self.layer_names();
-        let layer = names[self.layer % names.len()].clone();
+        let shown = self.current();
         let gpu = self.gpu.as_mut().expect("initialised with the window");
         if gpu.swapchain.extent != wanted {
             gpu.swapchain.recreate(wanted)?;
@@ -566,7 +592,11 @@ impl Viewer {
         // previous frame, read without waiting), or, for the samples heat
         // map, read back and uploaded.
         let (settings, exposure) = (&self.options.settings, self.options.exposure);
-        let timings = if layer == "samples_1" {
+        let timings = if let Shown::Layer(layer) = shown {
+            gpu.renderer
+                .render_resident_to_gpu(&self.resident, settings, layer)?
+                .previous_timings
+        } else {
             let frame = gpu.renderer.render_resident(&self.resident, settings)?;
             gpu.upload_heat_map(&frame, exposure, bgra)?;
             frame
@@ -574,26 +604,22 @@ impl Viewer {
                 .passes
                 .clone()
                 .zip(frame.timings.frame_gpu_ms)
-                .map(|(passes, frame_ms)| crate::vk::GpuFrameTimes {
+                .map(|(passes, frame_ms)| ssbc::vk::GpuFrameTimes {
                     passes,
                     frame_ms,
                     start_monotonic_ns: frame.timings.gpu_start_ns,
                 })
-        } else {
-            gpu.renderer
-                .render_resident_to_gpu(&self.resident, settings, &layer)?
-                .previous_timings
         };
         let push = PresentPush {
             size: [extent.width, extent.height],
             exposure,
             swap_red_blue: bgra as u32,
         };
-        let Some(index) = gpu.submit_display(slot_index, &layer, push)? else {
+        let Some(index) = gpu.submit_display(slot_index, shown, push)? else {
             gpu.swapchain.recreate(wanted)?;
             return Ok(());
         };
-        self.last_gpu_slot = (layer != "samples_1").then_some(slot_index);
+        self.last_gpu_slot = (shown != Shown::Samples).then_some(slot_index);
         if !gpu.swapchain.present(index)? {
             gpu.swapchain.recreate(wanted)?;
         }
@@ -603,8 +629,8 @@ impl Viewer {
 
     /// Smoothed per-pass timings, the window title once a second, and the
     /// session's figures.
-    fn note_frame(&mut self, timings: Option<crate::vk::GpuFrameTimes>) {
-        if let Some(crate::vk::GpuFrameTimes {
+    fn note_frame(&mut self, timings: Option<ssbc::vk::GpuFrameTimes>) {
+        if let Some(ssbc::vk::GpuFrameTimes {
             passes, frame_ms, ..
         }) = timings
         {
@@ -618,10 +644,9 @@ impl Viewer {
         }
         if self.last_title.elapsed().as_secs_f32() >= 1.0 {
             self.last_title = Instant::now();
-            let names = self.layer_names();
             let title = format!(
                 "ssbc | {} | {} steps | b {} | GPU frame {:.1} ms",
-                names[self.layer % names.len()],
+                self.current(),
                 self.options.settings.ssbc.steps,
                 self.options.settings.bound.resolve(2.0 * self.radius),
                 self.timings.get("frame").copied().unwrap_or(0.0)
@@ -669,18 +694,14 @@ impl Viewer {
             .renderer
             .render_resident(&self.resident, &self.options.settings)?;
         let rgba = self.shown(&frame);
-        let layer = crate::renderer::Layer {
-            name: "shown".into(),
-            rgba,
-        };
         let exr = path.with_extension("exr");
         let png = path.with_extension("png");
-        crate::output::write_exr(&exr, frame.width, frame.height, &layer, &[])?;
-        crate::output::write_png(
+        ssbc::output::write_exr(&exr, frame.width, frame.height, &rgba, &[])?;
+        ssbc::output::write_png(
             &png,
             frame.width,
             frame.height,
-            &layer.rgba,
+            &rgba,
             self.options.exposure,
         )?;
         eprintln!("screenshot: {} and {}", exr.display(), png.display());
