@@ -40,7 +40,7 @@
 //! The API above: [`Renderer`] and its settings, [`Frame`] and its typed
 //! [`Layer`]s, [`GpuImage`], [`resident::ResidentScene`], SSBC alone as
 //! [`postprocess::SsbcPostProcess`], the [`scene`] model and glTF loading,
-//! [`timings`] and [`profile`], [`Error`], the CPU [`reference`] renderer,
+//! [`timings`] and [`profile`], [`Error`], the CPU [`reference`](mod@reference) renderer,
 //! image [`compare`]ison and [`output`], and the host-device types of
 //! [`vk`]. The renderer's internals (its passes, Vulkan layer, CPU stages and
 //! GPU structs) are public only with the `unstable` feature, for ssbc's own
@@ -76,24 +76,18 @@ pub mod timings;
 pub mod vk;
 
 unstable_pub! {
-    /// CPU-side light transport (unstable; the reference renderer is
-    /// [`reference`]).
     mod cpu;
 }
 unstable_pub! {
-    /// The scene's GPU copy (unstable).
     mod gpu_scene;
 }
 unstable_pub! {
-    /// GPU struct twins of the shaders' (unstable).
     mod gpu_types;
 }
 unstable_pub! {
-    /// The technique passes (unstable).
     mod passes;
 }
 unstable_pub! {
-    /// The scene's CPU products, redone only on change (unstable).
     mod scene_cache;
 }
 unstable_pub! {
@@ -121,7 +115,7 @@ unstable_pub! {
 /// # Ok(()) }
 /// ```
 pub mod reference {
-    pub use crate::cpu::reference::{Method, Reference, ReferenceSettings, REACH_WALK};
+    pub use crate::cpu::reference::{Method, Reference, ReferenceSettings};
     pub use crate::cpu::ssbc::{BruteForceTwin, GBufferView, TwinCamera};
 }
 

@@ -9,7 +9,7 @@
 //! ```
 //!
 //! `Passes::record` is the list of passes in frame order; each pass owns
-//! its per-slot resources (see [`crate::passes`]).
+//! its per-slot resources (`src/passes/`).
 
 mod guard_band;
 mod limits;

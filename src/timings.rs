@@ -193,7 +193,7 @@ pub struct CpuTimings {
     pub vpl_generation: f64,
     /// ISM point sampling.
     pub point_sampling: f64,
-    /// The ISMs' coarse ray-cast layer ([`crate::cpu::ism_rays`]).
+    /// The ISMs' coarse ray-cast layer (81 rays per VPL).
     pub ism_rays: f64,
 }
 

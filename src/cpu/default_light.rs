@@ -87,7 +87,8 @@ impl EmissionReach {
 impl Scene {
     /// Adds the documented default light if nothing lights the scene: no
     /// punctual light, and no emitters, or emitters that cannot light it
-    /// ([`EmissionReach::lights_the_scene`]; they keep glowing). A white
+    /// (under 5% of their light reflected by the first surface it meets, or
+    /// under 1e-3 W/m² over the scene; they keep glowing). A white
     /// point light near the camera, raised and moved towards the scene when
     /// there is room (never hidden from the camera nor inside a closed
     /// object), with an intensity giving 1 W/m² irradiance at the centre of

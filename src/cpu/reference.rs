@@ -39,7 +39,7 @@ crate::settings::named_choice!(Method, [
 ]);
 
 /// Most bounces of the walk that decides whether an emitter's light can
-/// reach the camera ([`Reference::emission_reaches_camera`]): with no
+/// reach the camera (`Reference::emission_reaches_camera`): with no
 /// absorption a walk finds any opening of a volume long before this.
 pub const REACH_WALK: u32 = 2048;
 
@@ -313,71 +313,73 @@ impl<'a> Reference<'a> {
         radiance
     }
 
-    /// Whether light leaving the emitter sample `e` can reach the camera: a
-    /// random walk from it (cosine-distributed bounces, no absorption, up to
-    /// [`REACH_WALK`] of them) meets a surface point that sees the camera
-    /// (the camera on the side the walk arrived on, the segment between them
-    /// unoccluded) or leaves the scene. The truth light tracing's rule for
-    /// solids ([`Enclosure::emits_into_solid`]) is checked against.
-    ///
-    /// [`Enclosure::emits_into_solid`]: super::enclosure::Enclosure::emits_into_solid
-    pub fn emission_reaches_camera(&self, e: &EmitterSample, walk: u64) -> bool {
-        let mut rng = Rng::new(self.settings.seed ^ 0x0E4C_105E, walk, 0);
-        let mut dir = cosine_hemisphere(e.normal, rng.next2());
-        let mut hit = self.bvh.intersect_leaving(e.position, dir, e.triangle);
-        for _ in 0..REACH_WALK {
-            let Some(h) = hit else {
-                return true;
-            };
-            let s = self.bvh.surface(self.scene, &h, -dir);
-            // Rays leave the point, kept off its triangle's edges (where
-            // it lies in the next face's plane), by skipping its triangle:
-            // any offset along the normal crosses a thin enough box.
-            let p = self
-                .bvh
-                .inset(&h, super::enclosure::emission_offset(s.position));
-            let to_camera = self.camera.position - p;
-            if s.geometric_normal.dot(to_camera) > 0.0
-                && !self
+    unstable_pub! {
+        /// Whether light leaving the emitter sample `e` can reach the camera: a
+        /// random walk from it (cosine-distributed bounces, no absorption, up to
+        /// [`REACH_WALK`] of them) meets a surface point that sees the camera
+        /// (the camera on the side the walk arrived on, the segment between them
+        /// unoccluded) or leaves the scene: the truth light tracing's rule for
+        /// solids is checked against (unstable).
+        fn emission_reaches_camera(&self, e: &EmitterSample, walk: u64) -> bool {
+            let mut rng = Rng::new(self.settings.seed ^ 0x0E4C_105E, walk, 0);
+            let mut dir = cosine_hemisphere(e.normal, rng.next2());
+            let mut hit = self.bvh.intersect_leaving(e.position, dir, e.triangle);
+            for _ in 0..REACH_WALK {
+                let Some(h) = hit else {
+                    return true;
+                };
+                let s = self.bvh.surface(self.scene, &h, -dir);
+                // Rays leave the point, kept off its triangle's edges (where
+                // it lies in the next face's plane), by skipping its triangle:
+                // any offset along the normal crosses a thin enough box.
+                let p = self
                     .bvh
-                    .occluded_except(p, self.camera.position, h.triangle)
-            {
-                return true;
+                    .inset(&h, super::enclosure::emission_offset(s.position));
+                let to_camera = self.camera.position - p;
+                if s.geometric_normal.dot(to_camera) > 0.0
+                    && !self
+                        .bvh
+                        .occluded_except(p, self.camera.position, h.triangle)
+                {
+                    return true;
+                }
+                // On, whatever the albedo: where light can go, not how much.
+                dir = cosine_hemisphere(s.geometric_normal, rng.next2());
+                hit = self.bvh.intersect_leaving(p, dir, h.triangle);
             }
-            // On, whatever the albedo: where light can go, not how much.
-            dir = cosine_hemisphere(s.geometric_normal, rng.next2());
-            hit = self.bvh.intersect_leaving(p, dir, h.triangle);
+            false
         }
-        false
     }
 
-    /// The share of the emitters' power (luminance) whose light cannot reach
-    /// the camera ([`Reference::emission_reaches_camera`]), from `samples`
-    /// points drawn on the emitters as light tracing draws them, with the
-    /// decisions per sample (`None` without emitters).
-    pub fn enclosed_emission(&self, samples: u64) -> Option<(f32, Vec<(EmitterSample, bool)>)> {
-        if self.emitters.is_empty() {
-            return None;
+    unstable_pub! {
+        /// The share of the emitters' power (luminance) whose light cannot reach
+        /// the camera ([`Reference::emission_reaches_camera`]), from `samples`
+        /// points drawn on the emitters as light tracing draws them, with the
+        /// decisions per sample (`None` without emitters).
+        fn enclosed_emission(&self, samples: u64) -> Option<(f32, Vec<(EmitterSample, bool)>)> {
+            if self.emitters.is_empty() {
+                return None;
+            }
+            let halton = super::sampling::Halton::new(self.settings.seed ^ 0xE4C1);
+            let decided: Vec<(EmitterSample, bool, f32)> = (0..samples)
+                .into_par_iter()
+                .filter_map(|i| {
+                    let u = glam::Vec4::new(
+                        halton.sample(i, 0),
+                        halton.sample(i, 1),
+                        halton.sample(i, 2),
+                        halton.sample(i, 3),
+                    );
+                    let e = self.emitters.sample(self.scene, u)?;
+                    let weight = luminance(e.radiance) / e.pdf_area;
+                    Some((e, !self.emission_reaches_camera(&e, i), weight))
+                })
+                .collect();
+            let total: f32 = decided.iter().map(|d| d.2).sum();
+            let enclosed: f32 = decided.iter().filter(|d| d.1).map(|d| d.2).sum();
+            let share = if total > 0.0 { enclosed / total } else { 0.0 };
+            Some((share, decided.into_iter().map(|(e, d, _)| (e, d)).collect()))
         }
-        let halton = super::sampling::Halton::new(self.settings.seed ^ 0xE4C1);
-        let decided: Vec<(EmitterSample, bool, f32)> = (0..samples)
-            .into_par_iter()
-            .filter_map(|i| {
-                let u = glam::Vec4::new(
-                    halton.sample(i, 0),
-                    halton.sample(i, 1),
-                    halton.sample(i, 2),
-                    halton.sample(i, 3),
-                );
-                let e = self.emitters.sample(self.scene, u)?;
-                let weight = luminance(e.radiance) / e.pdf_area;
-                Some((e, !self.emission_reaches_camera(&e, i), weight))
-            })
-            .collect();
-        let total: f32 = decided.iter().map(|d| d.2).sum();
-        let enclosed: f32 = decided.iter().filter(|d| d.1).map(|d| d.2).sum();
-        let share = if total > 0.0 { enclosed / total } else { 0.0 };
-        Some((share, decided.into_iter().map(|(e, d, _)| (e, d)).collect()))
     }
 
     /// Kollig & Keller: L(x) = direct + clamped VPL sum + residual, the

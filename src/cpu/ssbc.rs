@@ -53,7 +53,7 @@ pub fn residual_weight(x: Vec3, nx: Vec3, y: Vec3, ny: Vec3, bound: f32) -> f32 
     (g - bound).max(0.0)
 }
 
-/// The camera quantities of [`pixel_area`].
+/// The camera quantities of a pixel's world-space area `A_y`.
 #[derive(Clone, Copy, Debug)]
 pub struct TwinCamera {
     /// Eye position.
@@ -276,7 +276,7 @@ fn vec3_at(buf: &[f32], i: usize) -> Vec3 {
 }
 
 impl<'a> BruteForceTwin<'a> {
-    /// Prepares the pixels' footprints (see [`footprint`]) of `g` for the
+    /// Prepares the pixels' footprints (split at creases as the GPU's) of `g` for the
     /// term `s_prev` (RGBA).
     pub fn new(g: &'a GBufferView<'a>, s_prev: &'a [f32], camera: TwinCamera, bound: f32) -> Self {
         let n = (g.width * g.height) as usize;

@@ -10,7 +10,7 @@
 //! Work and memory are bounded by the input: nodes must form trees (each
 //! visited once, so shared or cyclic children cannot blow up), and the loaded
 //! scene (vertices, indices, decoded textures) may take at most
-//! [`BUDGET_BASE`] + [`BUDGET_FACTOR`] x the bytes read (the file and the
+//! `BUDGET_BASE` + `BUDGET_FACTOR` x the bytes read (the file and the
 //! buffers and images it names), so a small hostile file cannot make a huge
 //! allocation. Textures are PNG or JPEG, at most 8192 texels a side.
 

@@ -2,13 +2,12 @@
 //! emission, alpha masks and normal maps), punctual lights in radiometric
 //! units, and cameras. No Vulkan here.
 //!
-//! Scenes come from glTF ([`gltf_loader`]), from the built-in generators
+//! Scenes come from glTF ([`load`], [`load_gltf_bytes`]), from the built-in generators
 //! ([`builtin`]), or from a host engine's own data through [`Scene::add_mesh`]
 //! and the public fields.
 
 pub mod builtin;
 unstable_pub! {
-    /// The glTF loader (unstable; use [`load`] or [`load_gltf_bytes`]).
     mod gltf_loader;
 }
 

@@ -1,6 +1,6 @@
 //! Barriers derived from tracked access, never guessed.
 //!
-//! Every buffer and image remembers a [`ResourceState`]: its layout, its last
+//! Every buffer and image remembers a `ResourceState`: its layout, its last
 //! write, and which stages have been made to see that write. Asking for the
 //! next [`Access`] yields the one barrier needed (or none) and the new state.
 //! This is pure code, tested without a GPU.

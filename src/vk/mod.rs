@@ -26,37 +26,29 @@
 //! ```
 
 unstable_pub! {
-    /// Resource states and the barriers between them (unstable).
     mod barrier;
 }
 unstable_pub! {
-    /// Buffers (unstable).
     mod buffer;
 }
 unstable_pub! {
-    /// Texel-buffer views (unstable).
     mod buffer_view;
 }
 unstable_pub! {
-    /// Command pools and recording (unstable).
     mod commands;
 }
 unstable_pub! {
-    /// Descriptor set layouts, pools and bindings (unstable).
     mod descriptor;
 }
 mod device;
 unstable_pub! {
-    /// Images and samplers (unstable).
     mod image;
 }
 mod instance;
 unstable_pub! {
-    /// Pipelines and compute kernels (unstable).
     mod pipeline;
 }
 unstable_pub! {
-    /// GPU timestamps, pipeline statistics and debug labels (unstable).
     mod profiler;
 }
 
