@@ -9,7 +9,7 @@ layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0, r32ui) uniform writeonly uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
-layout(set = 0, binding = 2) readonly buffer Base { float base[]; }; // m, grid² per VPL
+layout(set = 0, binding = 2) readonly buffer Base { float base[]; }; // m, grid^2 per VPL
 
 layout(push_constant) uniform Push {
     uint vpl_count;

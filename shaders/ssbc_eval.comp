@@ -1,23 +1,43 @@
 #version 460
 // SSBC evaluation points of level pc.level: the residual integral I(x) (see
-// ssbc.glsl) at the evaluation pixel of each texel, for every texel of the
+// ssbc_residual.glsl) at the evaluation pixel of each texel, for every texel of the
 // level (pc.from_list = 0: the coarsest level) or for the texels the resolve
 // kernel asked for (pc.from_list = 1: finer levels, near what made
 // interpolation fail). A texel that is not one smooth surface (above level
 // 1), or where the bounding radius spans fewer than pc.texels_per_radius of
 // its texels on screen, is unusable.
-#define SSBC_READ_PYRAMIDS
-#include "ssbc.glsl"
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform EvalPush {
+    SsbcFrame frame;
+    ResidualParams residual;
+    uint level;               // the level whose points are evaluated
+    uint from_list;           // 1: the texels of `requests`; 0: every texel of `level`
+    uint generation;          // the step's stamp on its points
+    float texels_per_radius;  // evaluation texels wanted across the bounding radius 1/sqrt(b)
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_read.glsl"
+#include "ssbc_residual.glsl"
 
 layout(local_size_x = 64) in;
 
-layout(set = 0, binding = 3) buffer EvalPoints { EvalPoint points[]; };
+layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
+
+void store_point(uint index, EvalPoint p) {
+    int at = int(4u * index);
+    imageStore(eval_points, at, floatBitsToUint(p.residual.r));
+    imageStore(eval_points, at + 1, floatBitsToUint(p.residual.g));
+    imageStore(eval_points, at + 2, floatBitsToUint(p.residual.b));
+    imageStore(eval_points, at + 3, uvec4(floatBitsToUint(p.reads), floatBitsToUint(p.variation), p.generation, p.pad));
+}
 
 void main() {
     int l = int(pc.level);
     uint i = gl_GlobalInvocationID.x;
-    ivec2 size_l = level_size(l);
+    ivec2 size_l = level_size(0u, l);
     ivec2 t;
     if (pc.from_list == 1u) {
         if (i >= requests.header.count) return;
@@ -27,11 +47,11 @@ void main() {
         t = ivec2(gl_GlobalInvocationID.xy);
         if (t.x >= size_l.x) return;
     }
-    uint index = texel_index(t, l);
+    uint index = texel_index(0u, t, l);
     ivec2 q = eval_pixel(t, l);
-    GeoCluster g = geo_cluster(texel_index(q, 0), 0u);
+    GeoCluster g = geo_cluster(texel_index(0u, q, 0), 0u);
     vec3 x = g.position_extent.xyz;
-    float r_world = inversesqrt(pc.bound);
+    float r_world = inversesqrt(pc.frame.bound);
     // A point stands for its block only on one smooth surface, except at
     // level 1: there a pixel is at most a pixel from the points it
     // interpolates, and the resolve's own tests (normal, tangent plane) keep
@@ -40,14 +60,14 @@ void main() {
     // 3.7% of pixels alone, traversal -12%). Coarser, that let pixels
     // interpolate across edges (cornell 640x480: 1.2 -> 4.2% RMSE). Either
     // way the point's own pixel must be geometry.
-    bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (aux[index].flags & 1u) == 1u)
+    bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (geo_aux(index).flags & 1u) == 1u)
         && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
     if (!usable) {
-        points[index] = EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u);
+        store_point(index, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
         return;
     }
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, g.normal_cone.xyz, vec2(q), count, variation);
-    points[index] = EvalPoint(residual, float(count), variation, pc.generation, 0u);
+    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
 }

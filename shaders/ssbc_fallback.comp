@@ -3,8 +3,16 @@
 // stand for (at corners, contacts and silhouettes), each from its own
 // position and normal. Dispatched indirectly over the fallback list (bound
 // as pending_in).
-#define SSBC_READ_PYRAMIDS
-#include "ssbc.glsl"
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform FallbackPush {
+    SsbcFrame frame;
+    ResidualParams residual;
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_read.glsl"
+#include "ssbc_residual.glsl"
 #include "ssbc_output.glsl"
 
 layout(local_size_x = 64) in;

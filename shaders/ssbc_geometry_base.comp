@@ -1,6 +1,5 @@
 #version 460
-#extension GL_EXT_control_flow_attributes : require
-// SSBC geometry pyramid, level 0, from a G-buffer layer (pc.build_layer):
+// SSBC geometry pyramid, level 0, from a G-buffer layer (pc.layer):
 // each pixel's world position and unit normal as its front cluster, and the
 // world-space area A_y it stands for. Kept apart from the coarser levels
 // (ssbc_geometry_mips.comp): inside their kernel lavapipe ran this level 3x
@@ -18,7 +17,15 @@
 // surface next to a crease, where G is largest: in the CPU twin on the
 // open-front box (160x120) recovery went from 65.0 to 74.2% with one layer
 // (its ceiling: 75.7%). Mirrored by `footprint` in src/cpu/ssbc.rs.
-#include "ssbc.glsl"
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform GeometryBasePush {
+    SsbcFrame frame;
+    uint layer;               // the pyramid built
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_write.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -47,12 +54,12 @@ struct ImageRays {
 };
 
 ImageRays image_rays() {
-    vec3 f = pc.camera_forward.xyz;
-    vec3 up = pc.camera_up.xyz;
-    float s = pc.camera_position.w;
+    vec3 f = pc.frame.camera_forward.xyz;
+    vec3 up = pc.frame.camera_up.xyz;
+    float s = pc.frame.camera_position.w;
     vec3 du = normalize(cross(f, up)) * s;
     vec3 dv = -up * s;
-    return ImageRays(f - du * (0.5 * float(pc.size.x)) - dv * (0.5 * float(pc.size.y)), du, dv);
+    return ImageRays(f - du * (0.5 * float(pc.frame.size.x)) - dv * (0.5 * float(pc.frame.size.y)), du, dv);
 }
 
 vec3 image_ray(vec2 uv) {
@@ -63,12 +70,12 @@ vec3 image_ray(vec2 uv) {
 // Where the ray through uv meets the plane (c, n); `hit` false if not in front.
 vec3 on_plane(vec2 uv, vec3 c, vec3 n, out bool hit) {
     vec3 r = image_ray(uv);
-    float t = dot(n, c - pc.camera_position.xyz) / dot(n, r);
+    float t = dot(n, c - pc.frame.camera_position.xyz) / dot(n, r);
     hit = t > 0.0 && !isinf(t);
-    return pc.camera_position.xyz + r * t;
+    return pc.frame.camera_position.xyz + r * t;
 }
 
-// Sutherland–Hodgman: the part of `a` where side(uv) = k.x + k.y u + k.z v >= 0.
+// Sutherland-Hodgman: the part of `a` where side(uv) = k.x + k.y u + k.z v >= 0.
 Polygon clip(Polygon a, vec3 k) {
     Polygon out_poly;
     out_poly.n = 0;
@@ -150,7 +157,7 @@ bool any_crease_normal(ivec2 p, vec3 np) {
 // that rounding does not pick whose radiance it carries.
 void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoCluster back,
                out float back_area, out uint code) {
-    vec3 eye = pc.camera_position.xyz;
+    vec3 eye = pc.frame.camera_position.xyz;
     Polygon square;
     square.n = 4;
     square.v[0] = vec2(p);
@@ -215,18 +222,18 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
 
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(p, level_size(0)))) return;
-    uint dst = texel_index(p, 0);
+    if (any(greaterThanEqual(p, level_size(pc.layer, 0)))) return;
+    uint dst = texel_index(pc.layer, p, 0);
     vec4 position = vec4(0.0);
     vec3 n = vec3(0.0);
-    if (all(lessThan(uvec2(p), layer_image_size(pc.build_layer)))) {
+    if (all(lessThan(uvec2(p), layer_image_size(pc.layer)))) {
         position = imageLoad(g_position, p);
         n = imageLoad(g_normal, p).xyz;
     }
     bool geometry = position.w != 0.0;
     // A half-resolution layer-1 pixel is 2 x 2 image pixels (and a point:
     // footprints are for full-resolution layers).
-    uint shift = layer_shift(pc.build_layer);
+    uint shift = layer_shift(pc.layer);
     float area = pixel_area(position.xyz, n) * float(1u << (2u * shift));
     GeoCluster back = empty_cluster();
     float back_area = 0.0;
@@ -239,6 +246,6 @@ void main() {
             if (lift_square(vec2(p), position.xyz, n, own_area, extent) && extent <= 20.0 * sqrt(area)) area = own_area;
         }
     }
-    geo[dst] = GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), back);
-    aux[dst] = GeoAux(geometry ? area : 0.0, back_area, geometry ? 1u : 0u, (geometry ? 1u : 0u) | (code << 1));
+    store_geo(dst, GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), back));
+    store_aux(dst, GeoAux(geometry ? area : 0.0, back_area, geometry ? 1u : 0u, (geometry ? 1u : 0u) | (code << 1)));
 }

@@ -1,5 +1,4 @@
 #version 460
-#extension GL_EXT_control_flow_attributes : require
 // SSBC geometry pyramid, one level >= 1 per dispatch (pc.level; level 0 is
 // ssbc_geometry_base.comp). Level l from l-1:
 // the children's clusters (up to eight) sorted by depth and split at the
@@ -12,7 +11,18 @@
 // that may stand for its pixels as an evaluation point) if all its pixels
 // are geometry, all its children are continuous, and all its pixels taken
 // together have normals that agree and a thin slab.
-#include "ssbc.glsl"
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform GeometryMipsPush {
+    SsbcFrame frame;
+    uint layer;               // the pyramid built
+    uint level;               // the level written (>= 1)
+    float max_normal_spread;  // continuous: |mean of unit normals| at least this
+    float max_thickness;      // continuous: slab half-thickness at most this x the radius
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_write.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -71,17 +81,16 @@ Merged merge(uint mask) {
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     int level = int(pc.level);
-    if (any(greaterThanEqual(p, level_size(level)))) return;
-    uint dst = texel_index(p, level);
+    if (any(greaterThanEqual(p, level_size(pc.layer, level)))) return;
+    uint dst = texel_index(pc.layer, p, level);
     uint pixels = 0u;
     bool continuous = true;
     float depth[8];
     [[unroll]] for (int k = 0; k < 4; k++) {
-        uint c = texel_index(p * 2 + ivec2(k & 1, k >> 1), level - 1);
-        GeoTexel child = geo[c];
-        GeoAux child_aux = aux[c];
-        members[2 * k] = child.front;
-        members[2 * k + 1] = child.back;
+        uint c = texel_index(pc.layer, p * 2 + ivec2(k & 1, k >> 1), level - 1);
+        GeoAux child_aux = geo_aux(c);
+        members[2 * k] = geo_cluster(c, 0u);
+        members[2 * k + 1] = geo_cluster(c, 1u);
         member_area[2 * k] = child_aux.front_area;
         member_area[2 * k + 1] = child_aux.back_area;
         pixels += child_aux.pixels;
@@ -90,7 +99,7 @@ void main() {
     // Split at the largest gap in depth between consecutive members.
     uint present = 0u;
     [[unroll]] for (int j = 0; j < 8; j++) {
-        depth[j] = dot(members[j].position_extent.xyz - pc.camera_position.xyz, pc.camera_forward.xyz);
+        depth[j] = dot(members[j].position_extent.xyz - pc.frame.camera_position.xyz, pc.frame.camera_forward.xyz);
         if (member_area[j] > 0.0) present |= 1u << j;
     }
     uint back_mask = 0u;
@@ -113,8 +122,8 @@ void main() {
     Merged back = merge(back_mask);
     float area = front.area + back.area;
     if (!(area > 0.0)) {
-        geo[dst] = GeoTexel(empty_cluster(), empty_cluster());
-        aux[dst] = GeoAux(0.0, 0.0, 0u, 0u);
+        store_geo(dst, GeoTexel(empty_cluster(), empty_cluster()));
+        store_aux(dst, GeoAux(0.0, 0.0, 0u, 0u));
         return;
     }
     // The texel taken whole, for continuity: its mean normal and a slab
@@ -136,7 +145,7 @@ void main() {
     }
     continuous = continuous && normal_len >= pc.max_normal_spread && thickness <= pc.max_thickness * radius;
     // Which children hold members of each cluster, for the traversal (see
-    // children_bits in ssbc.glsl).
+    // children_bits in ssbc_types.glsl).
     uint front_children = 0u;
     uint back_children = 0u;
     [[unroll]] for (int k = 0; k < 4; k++) {
@@ -144,6 +153,6 @@ void main() {
         if ((of_child & ~(back_mask >> (2 * k))) != 0u) front_children |= 1u << k;
         if ((of_child & (back_mask >> (2 * k))) != 0u) back_children |= 1u << k;
     }
-    geo[dst] = GeoTexel(with_children_bits(front.cluster, front_children | (back_children << 4)), back.cluster);
-    aux[dst] = GeoAux(front.area, back.area, pixels, (continuous ? 1u : 0u) | (back_mask << 8));
+    store_geo(dst, GeoTexel(with_children_bits(front.cluster, front_children | (back_children << 4)), back.cluster));
+    store_aux(dst, GeoAux(front.area, back.area, pixels, (continuous ? 1u : 0u) | (back_mask << 8)));
 }

@@ -2,8 +2,16 @@
 // SSBC with a second layer, before a further step: the residual S_k at the
 // pixels of layer 1 (full or half resolution), each evaluated alone over both
 // layers' pyramids: what layer 1's surfaces send in the next step.
-#define SSBC_READ_PYRAMIDS
-#include "ssbc.glsl"
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform LayerResidualPush {
+    SsbcFrame frame;
+    ResidualParams residual;
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_read.glsl"
+#include "ssbc_residual.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 

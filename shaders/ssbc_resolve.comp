@@ -10,9 +10,24 @@
 // one level finer and goes on the pending list for that level; at level 1
 // the pending list is the fallback list (the pixel is evaluated alone).
 // pc.from_list = 0: every pixel (the coarsest level); 1: the pending list.
-#define SSBC_READ_PYRAMIDS
-#include "ssbc.glsl"
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform ResolvePush {
+    SsbcFrame frame;
+    uint level;               // the level whose points are interpolated
+    uint from_list;           // 1: the pixels of `pending_in`; 0: every pixel
+    uint generation;          // the step's stamp on its points
+    float texels_per_radius;  // evaluation texels wanted across the bounding radius 1/sqrt(b)
+    float scale_fraction;     // interpolate over at most this x a point's variation scale
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_read.glsl"
 #include "ssbc_output.glsl"
+
+// Per evaluation point, the generation of the step that last asked for it
+// (each point is requested once per step).
+layout(set = 0, binding = 3) buffer Claims { uint claims[]; };
 
 layout(local_size_x = 64) in;
 
@@ -48,7 +63,7 @@ void main() {
     } else {
         // One row of work groups per image row (no integer division).
         p = ivec2(gl_GlobalInvocationID.xy);
-        if (p.x >= int(pc.size.x)) return;
+        if (p.x >= int(pc.frame.size.x)) return;
     }
     vec4 xp = imageLoad(g_position, p);
     if (xp.w == 0.0) {
@@ -60,14 +75,14 @@ void main() {
     vec3 x = xp.xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     int l = int(pc.level);
-    float t_cam = length(x - pc.camera_position.xyz);
-    float r_world = inversesqrt(pc.bound);
+    float t_cam = length(x - pc.frame.camera_position.xyz);
+    float r_world = inversesqrt(pc.frame.bound);
     float max_spacing = 1.5 * r_world / pc.texels_per_radius;
     bool ok = l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
     ivec2 t0;
     vec2 fraction;
     footprint(p, l, t0, fraction);
-    ivec2 size_l = level_size(l);
+    ivec2 size_l = level_size(0u, l);
     Residual blend = Residual(vec4(0.0), vec4(0.0), vec4(0.0));
     for (int k = 0; k < 4 && ok; k++) {
         ivec2 t = t0 + ivec2(k & 1, k >> 1);
@@ -75,8 +90,8 @@ void main() {
         if (w > 0.0) {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
-                EvalPoint point = load_point(point_texels, texel_index(t, l));
-                GeoCluster g = geo_cluster(texel_index(eval_pixel(t, l), 0), 0u);
+                EvalPoint point = load_point(point_texels, texel_index(0u, t, l));
+                GeoCluster g = geo_cluster(texel_index(0u, eval_pixel(t, l), 0), 0u);
                 vec3 n = g.normal_cone.xyz;
                 vec3 d = x - g.position_extent.xyz;
                 float dist = length(d);
@@ -99,9 +114,9 @@ void main() {
         for (int k = 0; k < 4; k++) {
             ivec2 t = t0 + ivec2(k & 1, k >> 1);
             if (corner_weight(fraction, k) > 0.0 && all(greaterThanEqual(t, ivec2(0)))
-                && all(lessThan(t, level_size(l - 1)))) {
-                uint index = texel_index(t, l - 1);
-                if (atomicExchange(points[index].generation, pc.generation) != pc.generation) {
+                && all(lessThan(t, level_size(0u, l - 1)))) {
+                uint index = texel_index(0u, t, l - 1);
+                if (atomicExchange(claims[index], pc.generation) != pc.generation) {
                     uint slot = atomicAdd(requests.header.count, 1u);
                     requests.items[slot] = pack_item(t);
                     atomicMax(requests.header.dispatch_x, slot / 64u + 1u);

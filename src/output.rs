@@ -198,6 +198,11 @@ pub fn timings_table(frame: &Frame) -> String {
         t.cpu_ms.ism_rays,
         t.bound
     );
+    s += &format!(
+        "  device memory: {:.1} MiB ({:.0} bytes per pixel)\n",
+        t.device_memory_bytes as f64 / (1 << 20) as f64,
+        t.device_memory_bytes as f64 / (t.width as f64 * t.height as f64).max(1.0)
+    );
     if t.emission_w > 0.0 {
         s += &format!(
             "  emitters: {:.3} W emitted, of which {:.3} W ({:.1}%) into solids, left out of light tracing\n",

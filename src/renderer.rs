@@ -44,6 +44,22 @@ use guard_band::GuardBand;
 use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
 pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 
+/// Bytes of device memory one frame slot's resources take for `scene` at
+/// `settings` (an estimate from the sizes the passes allocate, within a few
+/// percent); a frame that would not fit in the device's largest
+/// device-local heap is refused before anything is allocated. Frames in
+/// flight at once ([`Renderer::render_to_gpu`], [`FRAME_SLOTS`]) each take
+/// a slot.
+///
+/// ```
+/// let scene = ssbc::scene::load("cornell").unwrap();
+/// let hd = ssbc::renderer::frame_memory(&scene, &ssbc::RenderSettings::new(1920, 1080));
+/// assert!(hd > 1 << 30);
+/// ```
+pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> u64 {
+    limits::frame_memory(settings, scene.lights.len())
+}
+
 /// The technique passes, each with its resources in every frame slot.
 struct Passes {
     shadow_maps: Stage<ShadowMapPass>,
@@ -652,7 +668,7 @@ impl Renderer {
         sink: S,
         host_slot: Option<usize>,
     ) -> Result<S::Output> {
-        limits::check_settings(&self.device, settings)?;
+        limits::check_settings(&self.device, settings, scene.lights.len())?;
         let (slot, previous_timings) = match host_slot {
             Some(slot) => (slot, None),
             None => {

@@ -390,6 +390,15 @@ impl SsbcSettings {
         (self.layers >= 2).then_some(self.layer1_resolution)
     }
 
+    /// The cheaper second layer to suggest when a frame does not fit.
+    pub(crate) fn lighter_second_layer(layer1: Option<LayerResolution>) -> &'static str {
+        match layer1 {
+            Some(LayerResolution::Full) => ", with ssbc.layer1_resolution half",
+            Some(LayerResolution::Half) => ", with ssbc.layers 1",
+            None => "",
+        }
+    }
+
     /// Checks the parameters.
     pub fn validate(&self) -> Result<()> {
         let bad = |m: String| Err(Error::InvalidParameter(m));

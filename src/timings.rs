@@ -261,6 +261,9 @@ pub struct Timings {
     /// into solids (the inside of a thin emissive box); never more
     /// than `emission_w`.
     pub enclosed_emission_w: f32,
+    /// Bytes of device memory ssbc's resources took when the frame was
+    /// read back (all frame slots, the scene and the read-back buffers).
+    pub device_memory_bytes: u64,
     /// ISM tile side.
     pub ism_tile: u32,
     /// Points per VPL.

@@ -156,13 +156,20 @@ fn size_above_device_limit() {
 
 #[test]
 fn guard_band_beyond_the_device_is_named() {
-    // Tori's band at 1024x768 is 384 pixels each side: the wider frame's
-    // SSBC buffers exceed lavapipe's 128 MiB (maxStorageBufferRange), and
-    // the error says it is the band's doing.
+    // Tori's band at 1920x1080 is 544 pixels each side: the wider frame
+    // needs more memory than lavapipe's 2 GiB heap, and the error says it
+    // is the band's doing.
     fails_with(
-        &["tori", "--guard-band", "-o", "/tmp/never.exr"],
+        &[
+            "tori",
+            "--size",
+            "1920x1080",
+            "--guard-band",
+            "-o",
+            "/tmp/never.exr",
+        ],
         &[],
-        "the guard band (384 pixels each side) makes the frame 1792x1536",
+        "the guard band (544 pixels each side) makes the frame 3008x2168",
     );
 }
 
@@ -227,7 +234,8 @@ fn bad_instant_radiosity_parameters() {
     fails_with(
         &[
             "--size",
-            "1280x960",
+            // Fits lavapipe's 2 GiB heap with one layer (1337 MiB), not two.
+            "1920x1080",
             "--ssbc-layers",
             "2",
             "-o",

@@ -11,7 +11,10 @@ use ash::vk;
 use ssbc::renderer::{Bound, Renderer, RendererConfig};
 use ssbc::settings::Integration;
 use ssbc::settings::{Gather, LayerResolution};
-use ssbc::vk::{Binding, Buffer, ComputeKernel, DescriptorPool, Device, Instance, Validation};
+use ssbc::vk::{
+    Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, Instance, Pipeline, Shader,
+    Validation,
+};
 
 fn gpu_assisted_renderer() -> Renderer {
     Renderer::new(&RendererConfig {
@@ -115,13 +118,15 @@ fn gpu_assisted_validation_catches_an_out_of_bounds_write() {
     let log = instance.validation_log();
     let device = Device::new(instance, &Default::default(), &[]).unwrap();
     {
-        let kernel = ComputeKernel::new(
-            &device,
-            spirv.as_binary_u8(),
-            &[vk::DescriptorType::STORAGE_BUFFER],
-            0,
-        )
-        .unwrap();
+        // A shader compiled here, so its pipeline is made by hand.
+        let shader = Shader {
+            name: "oob.comp",
+            spirv: spirv.as_binary_u8().to_vec().leak(),
+            bindings: &[(0, vk::DescriptorType::STORAGE_BUFFER, "data")],
+            push_bytes: 0,
+        };
+        let layout = DescriptorSetLayout::for_shaders(&device, &[&shader]).unwrap();
+        let pipeline = Pipeline::compute(&device, shader.spirv, &[&layout], 0).unwrap();
         let buffer = Buffer::new(
             &device,
             "oob",
@@ -130,18 +135,15 @@ fn gpu_assisted_validation_catches_an_out_of_bounds_write() {
             gpu_allocator::MemoryLocation::GpuOnly,
         )
         .unwrap();
-        let pool = DescriptorPool::new(&device, &[kernel.set_layout()]).unwrap();
+        let pool = DescriptorPool::new(&device, &[&layout]).unwrap();
         let mut commands = ssbc::vk::CommandPool::new(&device).unwrap();
         let rec = commands.begin().unwrap();
-        kernel
-            .dispatch(
-                rec.cmd,
-                &pool,
-                &[Binding::StorageBuffer(&buffer)],
-                &[],
-                [1, 1, 1],
-            )
+        let set = pool
+            .allocate(&layout, &[(0, Binding::StorageBuffer(&buffer))])
             .unwrap();
+        pipeline.bind(rec.cmd, set, &[]);
+        // SAFETY: recording with the pipeline and its set bound.
+        unsafe { device.raw.cmd_dispatch(rec.cmd, 1, 1, 1) };
         let done = rec.submit().unwrap();
         device.wait(done).unwrap();
         device.wait_idle().unwrap();

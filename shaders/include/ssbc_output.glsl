@@ -1,11 +1,10 @@
-// What the SSBC resolve and fallback kernels share: their bindings (one
-// descriptor set layout for both) and how a pixel's residual is written.
-// Included after ssbc.glsl.
+// What the SSBC resolve and fallback kernels share: their lists and images
+// (bindings 4..14) and how a pixel's residual is written. Included after
+// ssbc_types.glsl.
 
 #ifndef SSBC_OUTPUT_GLSL
 #define SSBC_OUTPUT_GLSL
 
-layout(set = 0, binding = 3) buffer EvalPoints { EvalPoint points[]; };
 layout(set = 0, binding = 4) readonly buffer PendingIn { ListHeader header; uint items[]; } pending_in;
 layout(set = 0, binding = 5) buffer PendingOut { ListHeader header; uint items[]; } pending_out;
 layout(set = 0, binding = 6) buffer Requests { ListHeader header; uint items[]; } requests;

@@ -8,14 +8,12 @@
 
 use std::sync::Arc;
 
-use ash::vk;
-
 use super::gbuffer::{self, GBuffer, Push};
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::gpu_scene::GpuScene;
-use crate::shaders;
-use crate::vk::{Access, Binding, DescriptorPool, DescriptorSetLayout, Device, Pipeline};
+use crate::shaders::gbuffer_peel_frag;
+use crate::vk::{Access, DescriptorPool, DescriptorSetLayout, Device, Pipeline, ShaderBindings};
 
 /// The peeling pipeline and its descriptor layout.
 pub struct DeepGBufferPass {
@@ -26,17 +24,8 @@ pub struct DeepGBufferPass {
 impl DeepGBufferPass {
     /// Creates the pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
-        let bindings = [
-            &gbuffer::MATERIAL_BINDINGS[..],
-            &[vk::DescriptorType::STORAGE_IMAGE], // layer 0's positions
-        ]
-        .concat();
-        let (layout, pipeline) = gbuffer::raster_pipeline(
-            device,
-            shaders::GBUFFER_PEEL_FRAG,
-            &bindings,
-            "gbuffer_layer1",
-        )?;
+        let (layout, pipeline) =
+            gbuffer::raster_pipeline::<gbuffer_peel_frag::Interface>(device, "gbuffer_layer1")?;
         Ok(Self { layout, pipeline })
     }
 }
@@ -76,12 +65,13 @@ impl Pass for DeepGBufferPass {
             settings,
             ..
         } = cx;
-        let bindings = [
-            &gbuffer::material_bindings(scene)[..],
-            &[Binding::storage(&layer0.position)],
-        ]
-        .concat();
-        let set = pool.allocate(&self.layout, &bindings)?;
+        let bindings = gbuffer_peel_frag::Bindings {
+            materials: &scene.materials,
+            color_textures: (&scene.color_textures, &scene.texture_sampler),
+            linear_textures: (&scene.linear_textures, &scene.texture_sampler),
+            layer0_position: &layer0.position,
+        };
+        let set = pool.allocate(&self.layout, &bindings.bindings())?;
         let scope = profiler.begin(rec.cmd, "gbuffer_layer1");
         rec.use_image(&layer0.position, Access::GraphicsStorageRead);
         let separation = settings.ssbc.layer_separation * view.diagonal;
@@ -89,7 +79,6 @@ impl Pass for DeepGBufferPass {
             view_proj: view.view_proj.to_cols_array(),
             camera_position: view.camera.position.extend(separation).into(),
             layer1_shift: settings.ssbc.layer1_resolution.shift(),
-            pad: [0; 3],
         };
         layer1.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);

@@ -11,14 +11,12 @@ use super::gbuffer::GBuffer;
 use super::shadow_maps::ShadowMaps;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
-use crate::shaders;
-use crate::vk::{
-    Access, Binding, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler,
-};
+use crate::shaders::direct_lighting_comp;
+use crate::vk::{Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler};
 
 /// The direct-lighting compute kernel, for one G-buffer layer.
 pub struct DirectLightingPass {
-    kernel: ComputeKernel,
+    kernel: ComputeKernel<direct_lighting_comp::Interface, Push>,
     shadow_sampler: Sampler,
     layer: u32,
 }
@@ -34,25 +32,8 @@ impl DirectLightingPass {
     /// Creates the kernel for G-buffer layer `layer` (0: the visible
     /// surfaces; 1: the deep G-buffer's second layer).
     pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
-        use vk::DescriptorType as T;
-        let bindings = [
-            T::STORAGE_IMAGE,          // g_position
-            T::STORAGE_IMAGE,          // g_normal
-            T::STORAGE_IMAGE,          // g_albedo
-            T::STORAGE_IMAGE,          // direct (out)
-            T::STORAGE_BUFFER,         // lights
-            T::STORAGE_BUFFER,         // shadow views
-            T::COMBINED_IMAGE_SAMPLER, // shadow maps
-            T::STORAGE_IMAGE,          // g_emission
-        ];
         Ok(Self {
-            kernel: ComputeKernel::new(
-                device,
-                shaders::DIRECT_LIGHTING_COMP,
-                &bindings,
-                std::mem::size_of::<Push>(),
-            )?
-            .named("direct_lighting"),
+            kernel: ComputeKernel::new(device)?.named("direct_lighting"),
             shadow_sampler: Sampler::new(
                 device,
                 vk::Filter::NEAREST,
@@ -107,19 +88,18 @@ impl Pass for DirectLightingPass {
             size: [w, h],
             light_count: shadows.light_count,
         };
-        let [position, normal, albedo] = gbuffer.storage_bindings();
-        let bindings = [
-            position,
-            normal,
-            albedo,
-            Binding::storage(direct),
-            Binding::StorageBuffer(&shadows.lights),
-            Binding::StorageBuffer(&shadows.views),
-            Binding::sampled(&shadows.depth, &self.shadow_sampler),
-            Binding::storage(&gbuffer.emission),
-        ];
+        let bindings = direct_lighting_comp::Bindings {
+            g_position: &gbuffer.position,
+            g_normal: &gbuffer.normal,
+            g_albedo: &gbuffer.albedo,
+            direct,
+            lights: &shadows.lights,
+            shadow_views: &shadows.views,
+            shadow_maps: (&shadows.depth, &self.shadow_sampler),
+            g_emission: &gbuffer.emission,
+        };
         self.kernel
-            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))?;
+            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

@@ -10,10 +10,10 @@ use ash::vk;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::gpu_scene::GpuScene;
-use crate::shaders;
+use crate::shaders::{gbuffer_frag, gbuffer_vert};
 use crate::vk::{
-    Access, Binding, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc,
-    Pipeline, Recorder,
+    push_size, Access, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc,
+    Pipeline, Recorder, Shader, ShaderBindings, ShaderInterface,
 };
 
 /// Format of every G-buffer colour target (storage-image compatible).
@@ -75,12 +75,6 @@ impl GBuffer {
         }
     }
 
-    /// Storage bindings of position, normal and albedo (the first three
-    /// bindings of every compute pass that shades G-buffer pixels).
-    pub fn storage_bindings(&self) -> [Binding<'_>; 3] {
-        self.targets().map(Binding::storage)
-    }
-
     /// Width and height.
     pub fn extent(&self) -> (u32, u32) {
         (self.position.desc.width, self.position.desc.height)
@@ -133,9 +127,9 @@ impl GBuffer {
 }
 
 /// The G-buffer's graphics pipeline description for `fragment`.
-pub(crate) fn pipeline_desc(fragment: &[u8]) -> GraphicsDesc<'_> {
+pub(crate) fn pipeline_desc(fragment: &Shader) -> GraphicsDesc<'_> {
     GraphicsDesc {
-        vertex: shaders::GBUFFER_VERT,
+        vertex: &gbuffer_vert::SHADER,
         fragment: Some(fragment),
         vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
         attributes: &[
@@ -154,41 +148,29 @@ pub(crate) fn pipeline_desc(fragment: &[u8]) -> GraphicsDesc<'_> {
     }
 }
 
-/// A G-buffer pipeline with `fragment` and its set layout of `bindings`
-/// (fragment stage), named `name`.
-pub(crate) fn raster_pipeline(
+/// A G-buffer pipeline with the fragment shader `F` and its set layout
+/// (the union of both stages' bindings), named `name`.
+pub(crate) fn raster_pipeline<F: ShaderInterface>(
     device: &Arc<Device>,
-    fragment: &[u8],
-    bindings: &[vk::DescriptorType],
     name: &str,
 ) -> Result<(DescriptorSetLayout, Pipeline)> {
-    let layout = DescriptorSetLayout::new(device, bindings, vk::ShaderStageFlags::FRAGMENT)?;
-    let pipeline = Pipeline::graphics(
-        device,
-        &pipeline_desc(fragment),
-        &[&layout],
-        std::mem::size_of::<Push>() as u32,
-    )?;
+    let stages = [&gbuffer_vert::SHADER, &F::SHADER];
+    let layout = DescriptorSetLayout::for_shaders(device, &stages)?;
+    let push = push_size::<Push>(&stages)?;
+    let pipeline = Pipeline::graphics(device, &pipeline_desc(&F::SHADER), &[&layout], push)?;
     pipeline.name(name);
     layout.name(&format!("{name} set layout"));
     Ok((layout, pipeline))
 }
 
-/// The scene's materials and textures, the first three bindings of both
-/// G-buffer layers' fragment shaders.
-pub(crate) const MATERIAL_BINDINGS: [vk::DescriptorType; 3] = [
-    vk::DescriptorType::STORAGE_BUFFER,
-    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-];
-
-/// Bindings of [`MATERIAL_BINDINGS`] for `scene`.
-pub(crate) fn material_bindings(scene: &GpuScene) -> [Binding<'_>; 3] {
-    [
-        Binding::StorageBuffer(&scene.materials),
-        Binding::sampled(&scene.color_textures, &scene.texture_sampler),
-        Binding::sampled(&scene.linear_textures, &scene.texture_sampler),
-    ]
+/// The scene's materials and textures as the G-buffer's fragment shader
+/// binds them.
+fn material_bindings(scene: &GpuScene) -> gbuffer_frag::Bindings<'_> {
+    gbuffer_frag::Bindings {
+        materials: &scene.materials,
+        color_textures: (&scene.color_textures, &scene.texture_sampler),
+        linear_textures: (&scene.linear_textures, &scene.texture_sampler),
+    }
 }
 
 /// Push constants of the G-buffer shaders.
@@ -200,8 +182,6 @@ pub(crate) struct Push {
     pub camera_position: [f32; 4],
     /// log2 of a layer-1 pixel's side in layer-0 pixels (layer 1 only).
     pub layer1_shift: u32,
-    /// Keeps the block a multiple of 16 bytes.
-    pub pad: [u32; 3],
 }
 
 /// The G-buffer pipeline and its descriptor layout.
@@ -213,8 +193,7 @@ pub struct GBufferPass {
 impl GBufferPass {
     /// Creates the pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
-        let (layout, pipeline) =
-            raster_pipeline(device, shaders::GBUFFER_FRAG, &MATERIAL_BINDINGS, "gbuffer")?;
+        let (layout, pipeline) = raster_pipeline::<gbuffer_frag::Interface>(device, "gbuffer")?;
         Ok(Self { layout, pipeline })
     }
 }
@@ -252,13 +231,12 @@ impl Pass for GBufferPass {
             view,
             ..
         } = cx;
-        let set = pool.allocate(&self.layout, &material_bindings(scene))?;
+        let set = pool.allocate(&self.layout, &material_bindings(scene).bindings())?;
         let scope = profiler.begin(rec.cmd, "gbuffer");
         let push = Push {
             view_proj: view.view_proj.to_cols_array(),
             camera_position: view.camera.position.extend(1.0).into(),
             layer1_shift: 0,
-            pad: [0; 3],
         };
         gbuffer.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);

@@ -25,10 +25,10 @@ use super::ism::Ism;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::settings::Gather;
-use crate::shaders;
-use crate::vk::{
-    Access, Binding, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
+use crate::shaders::{
+    indirect_bounded_comp, indirect_creases_comp, indirect_filter_comp, indirect_interleaved_comp,
 };
+use crate::vk::{Access, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 
 /// Relative depth tolerance of the ISM visibility test. With 32-texel tiles
 /// (the default) 0.12 rather than 0.05: false shadows 5.1 -> 4.4% of
@@ -84,10 +84,10 @@ pub struct Interleaved {
 /// The gathers, the reconstruction filter and the crease kernel, for one
 /// G-buffer layer.
 pub struct IndirectBoundedPass {
-    full: ComputeKernel,
-    interleaved: ComputeKernel,
-    filter: ComputeKernel,
-    creases: ComputeKernel,
+    full: ComputeKernel<indirect_bounded_comp::Interface, GatherPush>,
+    interleaved: ComputeKernel<indirect_interleaved_comp::Interface, GatherPush>,
+    filter: ComputeKernel<indirect_filter_comp::Interface, FilterPush>,
+    creases: ComputeKernel<indirect_creases_comp::Interface, GatherPush>,
     layer: u32,
 }
 
@@ -136,58 +136,11 @@ impl IndirectBoundedPass {
     /// Creates the kernels for G-buffer layer `layer` (0: the visible
     /// surfaces; 1: the deep G-buffer's second layer).
     pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
-        use vk::DescriptorType as T;
-        let kernel = |spirv, bindings: &[T], push, name| -> Result<ComputeKernel> {
-            Ok(ComputeKernel::new(device, spirv, bindings, push)?.named(name))
-        };
-        let gather_push = std::mem::size_of::<GatherPush>();
-        // G-buffer (3), direct, indirect_bounded (out), s0 (out), VPLs (as
-        // texels), ISM; the crease kernel also reads its list.
-        let full_bindings = [
-            &[T::STORAGE_IMAGE; 6][..],
-            &[T::UNIFORM_TEXEL_BUFFER, T::STORAGE_IMAGE],
-        ]
-        .concat();
-        let crease_bindings = [&full_bindings[..], &[T::STORAGE_BUFFER]].concat();
-        // G-buffer position and normal, VPLs, ISM, subset starts, sums
-        // (out), guide (out).
-        let interleaved_bindings = [
-            T::STORAGE_IMAGE,
-            T::STORAGE_IMAGE,
-            T::UNIFORM_TEXEL_BUFFER,
-            T::STORAGE_IMAGE,
-            T::STORAGE_BUFFER,
-            T::STORAGE_IMAGE,
-            T::STORAGE_IMAGE,
-        ];
-        // Guide, albedo, direct, sums, indirect_bounded (out), s0 (out),
-        // creases (out).
-        let filter_bindings = [&[T::STORAGE_IMAGE; 6][..], &[T::STORAGE_BUFFER]].concat();
         Ok(Self {
-            full: kernel(
-                shaders::INDIRECT_BOUNDED_COMP,
-                &full_bindings,
-                gather_push,
-                "indirect_bounded",
-            )?,
-            interleaved: kernel(
-                shaders::INDIRECT_INTERLEAVED_COMP,
-                &interleaved_bindings,
-                gather_push,
-                "indirect_interleaved",
-            )?,
-            filter: kernel(
-                shaders::INDIRECT_FILTER_COMP,
-                &filter_bindings,
-                std::mem::size_of::<FilterPush>(),
-                "indirect_filter",
-            )?,
-            creases: kernel(
-                shaders::INDIRECT_CREASES_COMP,
-                &crease_bindings,
-                gather_push,
-                "indirect_creases",
-            )?,
+            full: ComputeKernel::new(device)?.named("indirect_bounded"),
+            interleaved: ComputeKernel::new(device)?.named("indirect_interleaved"),
+            filter: ComputeKernel::new(device)?.named("indirect_filter"),
+            creases: ComputeKernel::new(device)?.named("indirect_creases"),
             layer,
         })
     }
@@ -209,28 +162,18 @@ impl IndirectBoundedPass {
         rec.use_image(&out.s0, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view.bound, ism.vpl_count);
-        let bindings = Self::full_bindings((gbuffer, direct, ism), out);
-        let push = bytemuck::bytes_of(&push);
+        let bindings = indirect_bounded_comp::Bindings {
+            g_position: &gbuffer.position,
+            g_normal: &gbuffer.normal,
+            g_albedo: &gbuffer.albedo,
+            direct,
+            indirect_bounded: &out.indirect,
+            s0: &out.s0,
+            vpl_texels: &ism.vpl_texels,
+            ism: &ism.atlas,
+        };
         self.full
-            .dispatch_2d(rec.cmd, pool, &bindings, push, gbuffer.extent())
-    }
-
-    /// Bindings of the full gather, which the crease kernel starts with.
-    fn full_bindings<'a>(
-        (gbuffer, direct, ism): (&'a GBuffer, &'a Image, &'a Ism),
-        out: &'a BoundedLighting,
-    ) -> Vec<Binding<'a>> {
-        let [position, normal, albedo] = gbuffer.storage_bindings();
-        vec![
-            position,
-            normal,
-            albedo,
-            Binding::storage(direct),
-            Binding::storage(&out.indirect),
-            Binding::storage(&out.s0),
-            Binding::UniformTexelBuffer(&ism.vpl_texels),
-            Binding::storage(&ism.atlas),
-        ]
+            .dispatch_2d(rec.cmd, pool, &bindings, &push, gbuffer.extent())
     }
 
     /// Each pixel's own subset's sum, and its guide.
@@ -252,15 +195,15 @@ impl IndirectBoundedPass {
         rec.flush_barriers();
         let side = ism.subset_count.isqrt();
         let push = GatherPush::new(gbuffer, ism, view.bound, side);
-        let bindings = [
-            Binding::storage(&gbuffer.position),
-            Binding::storage(&gbuffer.normal),
-            Binding::UniformTexelBuffer(&ism.vpl_texels),
-            Binding::storage(&ism.atlas),
-            Binding::StorageBuffer(&ism.subsets),
-            Binding::storage(&interleaved.sums),
-            Binding::storage(&interleaved.guide),
-        ];
+        let bindings = indirect_interleaved_comp::Bindings {
+            g_position: &gbuffer.position,
+            g_normal: &gbuffer.normal,
+            vpl_texels: &ism.vpl_texels,
+            ism: &ism.atlas,
+            subsets: &ism.subsets,
+            interleaved: &interleaved.sums,
+            guide: &interleaved.guide,
+        };
         // One work group: 8 x 8 pixels of one subset (z), N pixels apart.
         let (w, h) = gbuffer.extent();
         let groups = [
@@ -268,9 +211,8 @@ impl IndirectBoundedPass {
             h.div_ceil(side).div_ceil(8),
             side * side,
         ];
-        let push = bytemuck::bytes_of(&push);
         self.interleaved
-            .dispatch(rec.cmd, pool, &bindings, push, groups)
+            .dispatch(rec.cmd, pool, &bindings, &push, groups)
     }
 
     /// Sums the subsets back on each surface, then the albedo and S0; lists
@@ -301,17 +243,17 @@ impl IndirectBoundedPass {
             max_plane_slope: FILTER_PLANE_SLOPE,
             crease_footprints: CREASE_FOOTPRINTS,
         };
-        let bindings = [
-            Binding::storage(&interleaved.guide),
-            Binding::storage(&gbuffer.albedo),
-            Binding::storage(direct),
-            Binding::storage(&interleaved.sums),
-            Binding::storage(&out.indirect),
-            Binding::storage(&out.s0),
-            Binding::StorageBuffer(&interleaved.creases),
-        ];
+        let bindings = indirect_filter_comp::Bindings {
+            guide: &interleaved.guide,
+            g_albedo: &gbuffer.albedo,
+            direct,
+            interleaved: &interleaved.sums,
+            indirect_bounded: &out.indirect,
+            s0: &out.s0,
+            creases: &interleaved.creases,
+        };
         self.filter
-            .dispatch_2d(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), (w, h))
+            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
     }
 
     /// Every VPL at the pixels the filter listed beside creases.
@@ -335,11 +277,19 @@ impl IndirectBoundedPass {
         rec.use_image(&out.s0, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view.bound, ism.vpl_count);
-        let mut bindings = Self::full_bindings(reads, out);
-        bindings.push(Binding::StorageBuffer(creases));
-        let push = bytemuck::bytes_of(&push);
+        let bindings = indirect_creases_comp::Bindings {
+            g_position: &gbuffer.position,
+            g_normal: &gbuffer.normal,
+            g_albedo: &gbuffer.albedo,
+            direct,
+            indirect_bounded: &out.indirect,
+            s0: &out.s0,
+            vpl_texels: &ism.vpl_texels,
+            ism: &ism.atlas,
+            creases,
+        };
         self.creases
-            .dispatch_indirect(rec.cmd, pool, &bindings, push, creases, 0)
+            .dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
     }
 }
 

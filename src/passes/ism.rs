@@ -13,16 +13,16 @@ use super::{Pass, Recording, SlotSetup};
 use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
-use crate::shaders;
+use crate::shaders::{ism_base_comp, ism_splat_comp};
 use crate::vk::{
-    Access, Binding, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout,
-    Device, Image, ImageDesc,
+    Access, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
+    ImageDesc,
 };
 
 /// The ISM pipelines.
 pub struct IsmPass {
-    base: ComputeKernel,
-    splat: ComputeKernel,
+    base: ComputeKernel<ism_base_comp::Interface, BasePush>,
+    splat: ComputeKernel<ism_splat_comp::Interface, SplatPush>,
 }
 
 /// One frame's ISM atlas and inputs.
@@ -80,27 +80,31 @@ struct BasePush {
     depth_scale: f32,
 }
 
+/// The extent of the ISM atlas for `vpl_count` tiles of `tile` texels;
+/// an error if the device cannot make an image that large.
+pub(crate) fn check_atlas(device: &Device, vpl_count: u32, tile: u32) -> Result<(u32, u32)> {
+    let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
+    let rows = vpl_count.max(1).div_ceil(tiles_per_row);
+    let (w, h) = (
+        tiles_per_row as u64 * tile as u64,
+        rows as u64 * tile as u64,
+    );
+    let max = device.limits().max_image_dimension2_d as u64;
+    if w > max || h > max {
+        return Err(Error::InvalidParameter(format!(
+            "ISM atlas of {w}x{h} texels ({vpl_count} VPLs x {tile}^2) exceeds the device limit \
+             of {max}; use fewer VPLs or a smaller ism_tile"
+        )));
+    }
+    Ok((w as u32, h as u32))
+}
+
 impl IsmPass {
     /// Creates the kernels.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
-        use vk::DescriptorType as T;
         Ok(Self {
-            // Splat target, VPLs, ray-cast layer.
-            base: ComputeKernel::new(
-                device,
-                shaders::ISM_BASE_COMP,
-                &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
-                std::mem::size_of::<BasePush>(),
-            )?
-            .named("ism_base"),
-            // Splat target, VPLs, points.
-            splat: ComputeKernel::new(
-                device,
-                shaders::ISM_SPLAT_COMP,
-                &[T::STORAGE_IMAGE, T::STORAGE_BUFFER, T::STORAGE_BUFFER],
-                std::mem::size_of::<SplatPush>(),
-            )?
-            .named("ism_splat"),
+            base: ComputeKernel::new(device)?.named("ism_base"),
+            splat: ComputeKernel::new(device)?.named("ism_splat"),
         })
     }
 }
@@ -135,18 +139,7 @@ impl Pass for IsmPass {
         }
         let vpl_count = vpls.len() as u32;
         let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
-        let rows = vpl_count.max(1).div_ceil(tiles_per_row);
-        let (w, h) = (
-            tiles_per_row as u64 * tile as u64,
-            rows as u64 * tile as u64,
-        );
-        let max = device.limits().max_image_dimension2_d as u64;
-        if w > max || h > max {
-            return Err(Error::InvalidParameter(format!(
-                "ISM atlas of {w}x{h} texels ({vpl_count} VPLs x {tile}^2) exceeds the device limit of {max}; use fewer VPLs or a smaller ism_tile"
-            )));
-        }
-        let (w, h) = (w as u32, h as u32);
+        let (w, h) = check_atlas(device, vpl_count, tile)?;
         let points_per_vpl = points.points_per_block as u32;
         // TRANSFER_SRC: diagnostics read it back.
         let atlas = Image::new(
@@ -278,14 +271,13 @@ impl Pass for IsmPass {
             grid: ism_rays::BASE_GRID,
             depth_scale: 1.0 / ism.far,
         };
-        let bindings = [
-            Binding::storage(&ism.atlas),
-            Binding::StorageBuffer(&ism.vpls),
-            Binding::StorageBuffer(&ism.base_depths),
-        ];
+        let bindings = ism_base_comp::Bindings {
+            ism_depth: &ism.atlas,
+            vpls: &ism.vpls,
+            base: &ism.base_depths,
+        };
         let groups = [(ism.tile * ism.tile).div_ceil(64), ism.vpl_count, 1];
-        self.base
-            .dispatch(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), groups)?;
+        self.base.dispatch(rec.cmd, pool, &bindings, &push, groups)?;
         rec.use_image(&ism.atlas, Access::ComputeWrite);
         rec.use_buffer(&ism.vpls, Access::ComputeRead);
         rec.use_buffer(&ism.points, Access::ComputeRead);
@@ -298,15 +290,14 @@ impl Pass for IsmPass {
             depth_scale: 1.0 / ism.far,
             point_radius: ism.point_radius,
         };
-        let bindings = [
-            Binding::storage(&ism.atlas),
-            Binding::StorageBuffer(&ism.vpls),
-            Binding::StorageBuffer(&ism.points),
-        ];
+        let bindings = ism_splat_comp::Bindings {
+            ism_depth: &ism.atlas,
+            vpls: &ism.vpls,
+            points: &ism.points,
+        };
         // One invocation per (point, VPL).
         let groups = [ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1];
-        self.splat
-            .dispatch(rec.cmd, pool, &bindings, bytemuck::bytes_of(&push), groups)?;
+        self.splat.dispatch(rec.cmd, pool, &bindings, &push, groups)?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

@@ -12,9 +12,10 @@ use crate::error::Result;
 use crate::gpu_scene::GpuScene;
 use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
-use crate::shaders;
+use crate::shaders::{shadow_map_frag, shadow_map_vert};
 use crate::vk::{
-    Access, Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image,
+    push_size, Access, Buffer, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image,
+    ShaderBindings,
     ImageDesc, Pipeline,
 };
 
@@ -117,20 +118,15 @@ pub fn light_views(light: &Light, bounds: &Bounds, resolution: u32) -> Vec<(Mat4
 impl ShadowMapPass {
     /// Creates the depth pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
-        let layout = DescriptorSetLayout::new(
-            device,
-            &[
-                vk::DescriptorType::STORAGE_BUFFER,
-                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-            ],
-            vk::ShaderStageFlags::FRAGMENT,
-        )?;
+        let stages = [&shadow_map_vert::SHADER, &shadow_map_frag::SHADER];
+        let layout = DescriptorSetLayout::for_shaders(device, &stages)?;
+        let push = push_size::<[f32; 16]>(&stages)?;
         // The same depth pipeline with and without the alpha test.
         let depth = |fragment, name| -> Result<Pipeline> {
             let pipeline = Pipeline::graphics(
                 device,
                 &GraphicsDesc {
-                    vertex: shaders::SHADOW_MAP_VERT,
+                    vertex: &shadow_map_vert::SHADER,
                     fragment,
                     vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
                     attributes: &[
@@ -144,12 +140,12 @@ impl ShadowMapPass {
                     reversed_depth: false,
                 },
                 &[&layout],
-                64,
+                push,
             )?;
             pipeline.name(name);
             Ok(pipeline)
         };
-        let pipeline = depth(Some(shaders::SHADOW_MAP_FRAG), "shadow_maps masked")?;
+        let pipeline = depth(Some(&shadow_map_frag::SHADER), "shadow_maps masked")?;
         let depth_only = depth(None, "shadow_maps opaque")?;
         layout.name("shadow_maps set layout");
         Ok(Self {
@@ -258,13 +254,11 @@ impl Pass for ShadowMapPass {
         maps: &ShadowMaps,
     ) -> Result<()> {
         let Recording { rec, profiler, .. } = cx;
-        let set = pool.allocate(
-            &self.layout,
-            &[
-                Binding::StorageBuffer(&scene.materials),
-                Binding::sampled(&scene.color_textures, &scene.texture_sampler),
-            ],
-        )?;
+        let bindings = shadow_map_frag::Bindings {
+            materials: &scene.materials,
+            color_textures: (&scene.color_textures, &scene.texture_sampler),
+        };
+        let set = pool.allocate(&self.layout, &bindings.bindings())?;
         let scope = profiler.begin(rec.cmd, "shadow_maps");
         rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
         rec.use_image(&scene.color_textures, Access::FragmentSampled);

@@ -92,7 +92,7 @@ impl GuardBand {
             return Ok((None, None));
         };
         let wide = band.widen(settings);
-        super::limits::check_settings(device, &wide).map_err(|e| {
+        super::limits::check_settings(device, &wide, scene.lights.len()).map_err(|e| {
             let why = match e {
                 Error::InvalidParameter(why) => why,
                 other => other.to_string(),

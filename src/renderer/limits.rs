@@ -1,7 +1,7 @@
 //! What the device and the settings allow, checked before a frame.
 
 use crate::error::{Error, Result};
-use crate::settings::{Bound, RenderSettings};
+use crate::settings::{Bound, RenderSettings, SsbcSettings};
 use crate::vk::Device;
 
 /// Largest number of ISM points uploaded (VPLs x points per VPL).
@@ -23,8 +23,68 @@ fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
+/// Bytes of device memory one frame slot takes at `settings` with `lights`
+/// punctual lights (its images, buffers, shadow maps, ISMs, SSBC pyramids
+/// and read-back buffers), as the passes allocate them; two frames in
+/// flight take two slots.
+pub(super) fn frame_memory(settings: &RenderSettings, lights: usize) -> u64 {
+    let (w, h) = (settings.width as u64, settings.height as u64);
+    let steps = settings.ssbc.steps as u64;
+    // G-buffer (4 RGBA32F + depth), direct, bounded lighting (indirect, S0,
+    // interleaved sums and guide, crease list), read-back (final, direct,
+    // indirect, residuals, samples).
+    let per_pixel = 68 + 16 + 68 + 48 + 20 * steps;
+    let layer1 = match settings.ssbc.second_layer() {
+        Some(r) if steps > 0 => {
+            let (w1, h1) = r.extent((settings.width, settings.height));
+            152 * w1 as u64 * h1 as u64
+        }
+        _ => 0,
+    };
+    let ssbc = if steps > 0 {
+        crate::passes::ssbc::frame_bytes(
+            settings.width,
+            settings.height,
+            settings.ssbc.steps,
+            settings.ssbc.second_layer(),
+        )
+    } else {
+        0
+    };
+    let vpls = settings.vpl.count as u64;
+    let tile = settings.ism_tile as u64;
+    // The atlas, the VPLs and their ray-cast layers; the point blocks they share.
+    let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
+    let ism = vpls * (tile * tile * 4 + 48 + 256) + blocks * settings.points_per_vpl as u64 * 16;
+    let shadow = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
+    w * h * per_pixel + layer1 + ssbc + ism + shadow
+}
+
+/// Fails, before anything is allocated, if one frame slot's resources
+/// cannot fit in the device's largest device-local heap.
+fn check_memory(device: &Device, settings: &RenderSettings, lights: usize) -> Result<()> {
+    let needed = frame_memory(settings, lights);
+    let heap = device.device_local_heap();
+    if heap == 0 || needed <= heap {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter(format!(
+        "{}x{} needs about {} MiB of device memory per frame; this device's largest heap has \
+         {} MiB: render smaller, with fewer SSBC steps or VPLs{}",
+        settings.width,
+        settings.height,
+        needed >> 20,
+        heap >> 20,
+        SsbcSettings::lighter_second_layer(settings.ssbc.second_layer())
+    )))
+}
+
 /// Checks `settings` against what `device` can do.
-pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Result<()> {
+pub(super) fn check_settings(
+    device: &Device,
+    settings: &RenderSettings,
+    lights: usize,
+) -> Result<()> {
     check_size(device, settings.width, settings.height)?;
     let max = device.limits().max_image_dimension2_d;
     let sm = settings.shadow_map_size;
@@ -72,5 +132,9 @@ pub(super) fn check_settings(device: &Device, settings: &RenderSettings) -> Resu
             settings.vpl.count, settings.points_per_vpl
         )));
     }
-    settings.validate()
+    settings.validate()?;
+    if settings.vpl.count > 0 {
+        crate::passes::ism::check_atlas(device, settings.vpl.count as u32, settings.ism_tile)?;
+    }
+    check_memory(device, settings, lights)
 }

@@ -414,6 +414,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         max_vpls_per_light_path: vpl_set.max_per_path,
         emission_w: crate::cpu::emitters::luminance(vpl_set.emitted_power),
         enclosed_emission_w: crate::cpu::emitters::luminance(vpl_set.enclosed_power),
+        device_memory_bytes: device.memory_in_use(),
         ism_tile: settings.ism_tile,
         points_per_vpl: settings.points_per_vpl,
         bound: if bound.is_finite() {

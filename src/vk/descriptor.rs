@@ -12,43 +12,60 @@ use super::buffer::Buffer;
 use super::buffer_view::BufferView;
 use super::device::{Device, Garbage};
 use super::image::{Image, Sampler};
-use crate::error::{Result, VkResultExt};
+use super::pipeline::Shader;
+use crate::error::{Error, Result, VkResultExt};
 
-/// A descriptor set layout, binding i having type `types[i]`, visible to `stages`.
+/// A descriptor set layout: its bindings' numbers and types, visible to
+/// every stage of the pipeline.
 pub struct DescriptorSetLayout {
     device: Arc<Device>,
     /// The raw handle.
     pub raw: vk::DescriptorSetLayout,
-    /// Binding types, by binding number.
-    pub types: Vec<vk::DescriptorType>,
+    /// Binding numbers and types.
+    pub bindings: Vec<(u32, vk::DescriptorType)>,
 }
 
 impl DescriptorSetLayout {
-    /// One binding per entry of `types`, numbered from 0.
-    pub fn new(
-        device: &Arc<Device>,
-        types: &[vk::DescriptorType],
-        stages: vk::ShaderStageFlags,
-    ) -> Result<Self> {
-        let bindings: Vec<_> = types
+    /// The union of `shaders`' bindings (as reflected by build.rs); a
+    /// binding two of them declare differently is an error naming it.
+    pub fn for_shaders(device: &Arc<Device>, shaders: &[&Shader]) -> Result<Self> {
+        let mut bindings: Vec<(u32, vk::DescriptorType)> = Vec::new();
+        for shader in shaders {
+            for &(number, ty, name) in shader.bindings {
+                match bindings.iter().find(|(n, _)| *n == number) {
+                    Some((_, t)) if *t != ty => {
+                        return Err(Error::InvalidParameter(format!(
+                            "internal: binding {number} ('{name}' in shaders/{}) has two types",
+                            shader.name
+                        )))
+                    }
+                    Some(_) => {}
+                    None => bindings.push((number, ty)),
+                }
+            }
+        }
+        bindings.sort_by_key(|b| b.0);
+        let stages = vk::ShaderStageFlags::COMPUTE
+            | vk::ShaderStageFlags::VERTEX
+            | vk::ShaderStageFlags::FRAGMENT;
+        let raw_bindings: Vec<_> = bindings
             .iter()
-            .enumerate()
-            .map(|(i, &t)| {
+            .map(|&(number, ty)| {
                 vk::DescriptorSetLayoutBinding::default()
-                    .binding(i as u32)
-                    .descriptor_type(t)
+                    .binding(number)
+                    .descriptor_type(ty)
                     .descriptor_count(1)
                     .stage_flags(stages)
             })
             .collect();
-        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&raw_bindings);
         // SAFETY: valid create info.
         let raw = unsafe { device.raw.create_descriptor_set_layout(&info, None) }
             .vk("vkCreateDescriptorSetLayout")?;
         Ok(Self {
             device: device.clone(),
             raw,
-            types: types.to_vec(),
+            bindings,
         })
     }
 
@@ -81,7 +98,7 @@ impl DescriptorPool {
     /// twice for two sets).
     pub fn new(device: &Arc<Device>, layouts: &[&DescriptorSetLayout]) -> Result<Self> {
         let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
-        for &t in layouts.iter().flat_map(|l| l.types.iter()) {
+        for &(_, t) in layouts.iter().flat_map(|l| l.bindings.iter()) {
             match sizes.iter_mut().find(|s| s.ty == t) {
                 Some(s) => s.descriptor_count += 1,
                 None => sizes.push(vk::DescriptorPoolSize {
@@ -115,17 +132,36 @@ impl DescriptorPool {
         .vk("vkResetDescriptorPool")
     }
 
-    /// Allocates one set of `layout` and writes `bindings` (in binding order).
+    /// Allocates one set of `layout` and writes `bindings` (binding number
+    /// and resource, one for each of the layout's bindings: what the
+    /// generated `Bindings` structs give).
     pub fn allocate(
         &self,
         layout: &DescriptorSetLayout,
-        bindings: &[Binding<'_>],
+        bindings: &[(u32, Binding<'_>)],
     ) -> Result<vk::DescriptorSet> {
-        assert_eq!(
-            bindings.len(),
-            layout.types.len(),
-            "one resource per binding"
-        );
+        let types: Vec<vk::DescriptorType> = bindings
+            .iter()
+            .map(|(number, _)| {
+                layout
+                    .bindings
+                    .iter()
+                    .find(|(n, _)| n == number)
+                    .map(|(_, t)| *t)
+                    .ok_or_else(|| {
+                        Error::InvalidParameter(format!(
+                            "internal: binding {number} is not in the set layout"
+                        ))
+                    })
+            })
+            .collect::<Result<_>>()?;
+        if bindings.len() != layout.bindings.len() {
+            return Err(Error::InvalidParameter(format!(
+                "internal: {} of the set layout's {} bindings given",
+                bindings.len(),
+                layout.bindings.len()
+            )));
+        }
         let layouts = [layout.raw];
         let info = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(self.raw)
@@ -137,7 +173,7 @@ impl DescriptorPool {
         // Infos first (the writes point into these vectors).
         let image_infos: Vec<vk::DescriptorImageInfo> = bindings
             .iter()
-            .map(|b| match *b {
+            .map(|(_, b)| match *b {
                 Binding::StorageImage(view) => vk::DescriptorImageInfo::default()
                     .image_view(view)
                     .image_layout(vk::ImageLayout::GENERAL),
@@ -150,7 +186,7 @@ impl DescriptorPool {
             .collect();
         let buffer_infos: Vec<vk::DescriptorBufferInfo> = bindings
             .iter()
-            .map(|b| match *b {
+            .map(|(_, b)| match *b {
                 Binding::StorageBuffer(buf) | Binding::UniformBuffer(buf) => {
                     vk::DescriptorBufferInfo::default()
                         .buffer(buf.raw)
@@ -163,11 +199,11 @@ impl DescriptorPool {
         let writes: Vec<vk::WriteDescriptorSet> = bindings
             .iter()
             .enumerate()
-            .map(|(i, b)| {
+            .map(|(i, (number, b))| {
                 let w = vk::WriteDescriptorSet::default()
                     .dst_set(set)
-                    .dst_binding(i as u32)
-                    .descriptor_type(layout.types[i]);
+                    .dst_binding(*number)
+                    .descriptor_type(types[i]);
                 match b {
                     Binding::StorageImage(_) | Binding::SampledImage(..) => {
                         w.image_info(std::slice::from_ref(&image_infos[i]))
@@ -175,7 +211,7 @@ impl DescriptorPool {
                     Binding::StorageBuffer(_) | Binding::UniformBuffer(_) => {
                         w.buffer_info(std::slice::from_ref(&buffer_infos[i]))
                     }
-                    Binding::UniformTexelBuffer(view) => {
+                    Binding::UniformTexelBuffer(view) | Binding::StorageTexelBuffer(view) => {
                         w.texel_buffer_view(std::slice::from_ref(&view.raw))
                     }
                 }
@@ -206,6 +242,8 @@ pub enum Binding<'a> {
     UniformBuffer(&'a Buffer),
     /// A buffer read as texels (`samplerBuffer`).
     UniformTexelBuffer(&'a BufferView),
+    /// A buffer read and written as texels (`imageBuffer`).
+    StorageTexelBuffer(&'a BufferView),
 }
 
 impl<'a> Binding<'a> {

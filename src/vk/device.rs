@@ -527,6 +527,29 @@ impl Device {
         &self.properties.limits
     }
 
+    /// Bytes of device memory ssbc's resources on this device take now (its
+    /// allocator's live allocations; a host's own memory is not counted).
+    pub fn memory_in_use(&self) -> u64 {
+        self.allocator().generate_report().total_allocated_bytes
+    }
+
+    /// Size of the largest device-local memory heap (bytes): what a frame's
+    /// resources must fit in.
+    pub fn device_local_heap(&self) -> u64 {
+        // SAFETY: a live physical device of this instance.
+        let memory = unsafe {
+            self.instance
+                .raw
+                .get_physical_device_memory_properties(self.physical)
+        };
+        memory.memory_heaps[..memory.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0)
+    }
+
     /// The memory allocator.
     pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Allocator> {
         self.allocator.lock().unwrap_or_else(|p| p.into_inner())

@@ -74,7 +74,9 @@ unstable_pub! {
     use self::image::{Image, ImageDesc, Sampler};
 }
 unstable_pub! {
-    use self::pipeline::{ComputeKernel, GraphicsDesc, Pipeline};
+    use self::pipeline::{
+        push_size, ComputeKernel, GraphicsDesc, Pipeline, Shader, ShaderBindings, ShaderInterface,
+    };
 }
 unstable_pub! {
     use self::profiler::GpuProfiler;

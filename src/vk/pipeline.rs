@@ -1,5 +1,6 @@
 //! Shader modules, pipeline layouts, compute and graphics pipelines.
 
+use std::marker::PhantomData;
 use std::sync::Arc;
 
 use ash::vk;
@@ -7,6 +8,54 @@ use ash::vk;
 use super::descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
 use super::device::{Device, Garbage};
 use crate::error::{Error, Result, VkResultExt};
+
+/// A shader as `build.rs` compiled and reflected it
+/// (`crate::shaders::<file>::SHADER`).
+#[derive(Clone, Copy, Debug)]
+pub struct Shader {
+    /// Its file in `shaders/`.
+    pub name: &'static str,
+    /// SPIR-V (entry point `main`).
+    pub spirv: &'static [u8],
+    /// Its descriptor bindings in set 0: number, type, name in the GLSL
+    /// (those the optimised SPIR-V still uses).
+    pub bindings: &'static [(u32, vk::DescriptorType, &'static str)],
+    /// Bytes of its push-constant block (0: none).
+    pub push_bytes: u32,
+}
+
+/// The resources for a shader's bindings: `build.rs` generates one struct
+/// per shader (`crate::shaders::<file>::Bindings`) with a field per binding,
+/// named and typed from the SPIR-V, so that a binding missing, extra or of
+/// another kind does not compile.
+pub trait ShaderBindings<'a> {
+    /// Every binding with its number.
+    fn bindings(&self) -> Vec<(u32, Binding<'a>)>;
+}
+
+/// A shader as a type (`crate::shaders::<file>::Interface`): what kernels
+/// and pipelines are made of, tying the shader to its bindings.
+pub trait ShaderInterface {
+    /// The shader.
+    const SHADER: Shader;
+    /// Its bindings.
+    type Bindings<'a>: ShaderBindings<'a>;
+}
+
+/// The size of the push block `P`, which the stages `shaders` share (each
+/// declares it, or a prefix of it, or none); an error names the shader if
+/// `P` is not the size of the largest.
+pub fn push_size<P>(shaders: &[&Shader]) -> Result<u32> {
+    let size = std::mem::size_of::<P>();
+    let declared = shaders.iter().max_by_key(|s| s.push_bytes);
+    match declared {
+        Some(s) if s.push_bytes as usize != size => Err(Error::InvalidParameter(format!(
+            "internal: shaders/{} has a {}-byte push block, the Rust side {size} bytes",
+            s.name, s.push_bytes
+        ))),
+        _ => Ok(size as u32),
+    }
+}
 
 fn shader_module(device: &Device, spirv: &[u8]) -> Result<vk::ShaderModule> {
     // Embedded SPIR-V comes from build.rs; a failure here is a build bug.
@@ -53,10 +102,10 @@ fn pipeline_layout(
 
 /// Fixed-function state of a graphics pipeline (dynamic rendering).
 pub struct GraphicsDesc<'a> {
-    /// Vertex shader SPIR-V.
-    pub vertex: &'a [u8],
-    /// Fragment shader SPIR-V (None: depth-only).
-    pub fragment: Option<&'a [u8]>,
+    /// Vertex shader.
+    pub vertex: &'a Shader,
+    /// Fragment shader (None: depth-only).
+    pub fragment: Option<&'a Shader>,
     /// Vertex stride in bytes.
     pub vertex_stride: u32,
     /// Vertex attributes (location, format, offset).
@@ -78,8 +127,12 @@ fn graphics_modules(
     device: &Device,
     desc: &GraphicsDesc<'_>,
 ) -> Result<(vk::ShaderModule, Option<vk::ShaderModule>)> {
-    let vert = shader_module(device, desc.vertex)?;
-    match desc.fragment.map(|f| shader_module(device, f)).transpose() {
+    let vert = shader_module(device, desc.vertex.spirv)?;
+    match desc
+        .fragment
+        .map(|f| shader_module(device, f.spirv))
+        .transpose()
+    {
         Ok(frag) => Ok((vert, frag)),
         Err(e) => {
             // SAFETY: the module is unused.
@@ -328,25 +381,28 @@ impl Drop for Pipeline {
     }
 }
 
-/// A compute shader with the one descriptor set layout it uses: the unit
-/// most passes are made of.
-pub struct ComputeKernel {
+/// A compute shader with the one descriptor set layout it uses, made from
+/// its reflection: the unit most passes are made of. `I` is the shader
+/// (its bindings come with it), `P` its push block (`()` for none).
+pub struct ComputeKernel<I: ShaderInterface, P: bytemuck::Pod = ()> {
     layout: DescriptorSetLayout,
     pipeline: Pipeline,
+    shader: PhantomData<fn(&P) -> I>,
 }
 
-impl ComputeKernel {
-    /// Creates the layout (binding i of type `bindings[i]`) and the pipeline
-    /// with `push_size` bytes of push constants.
-    pub fn new(
-        device: &Arc<Device>,
-        spirv: &[u8],
-        bindings: &[vk::DescriptorType],
-        push_size: usize,
-    ) -> Result<Self> {
-        let layout = DescriptorSetLayout::new(device, bindings, vk::ShaderStageFlags::COMPUTE)?;
-        let pipeline = Pipeline::compute(device, spirv, &[&layout], push_size as u32)?;
-        Ok(Self { layout, pipeline })
+impl<I: ShaderInterface, P: bytemuck::Pod> ComputeKernel<I, P> {
+    /// Creates the layout (from the shader's bindings) and the pipeline;
+    /// fails if `P` is not the size of the shader's push block.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        let shader = I::SHADER;
+        let push_size = push_size::<P>(&[&shader])?;
+        let layout = DescriptorSetLayout::for_shaders(device, &[&shader])?;
+        let pipeline = Pipeline::compute(device, shader.spirv, &[&layout], push_size)?;
+        Ok(Self {
+            layout,
+            pipeline,
+            shader: PhantomData,
+        })
     }
 
     /// Names the pipeline `<name> pipeline`, its layout and its descriptor
@@ -368,12 +424,11 @@ impl ComputeKernel {
         &self,
         cmd: vk::CommandBuffer,
         pool: &DescriptorPool,
-        bindings: &[Binding<'_>],
-        push: &[u8],
+        bindings: &I::Bindings<'_>,
+        push: &P,
         groups: [u32; 3],
     ) -> Result<()> {
-        let set = pool.allocate(&self.layout, bindings)?;
-        self.pipeline.bind(cmd, set, push);
+        self.bind(cmd, pool, bindings, push)?;
         // SAFETY: recording with this compute pipeline and its set bound.
         unsafe {
             self.pipeline
@@ -391,13 +446,12 @@ impl ComputeKernel {
         &self,
         cmd: vk::CommandBuffer,
         pool: &DescriptorPool,
-        bindings: &[Binding<'_>],
-        push: &[u8],
+        bindings: &I::Bindings<'_>,
+        push: &P,
         args: &crate::vk::Buffer,
         offset: u64,
     ) -> Result<()> {
-        let set = pool.allocate(&self.layout, bindings)?;
-        self.pipeline.bind(cmd, set, push);
+        self.bind(cmd, pool, bindings, push)?;
         // SAFETY: recording with this compute pipeline and its set bound;
         // `args` holds a dispatch command at `offset` (usage INDIRECT_BUFFER).
         unsafe {
@@ -414,11 +468,24 @@ impl ComputeKernel {
         &self,
         cmd: vk::CommandBuffer,
         pool: &DescriptorPool,
-        bindings: &[Binding<'_>],
-        push: &[u8],
+        bindings: &I::Bindings<'_>,
+        push: &P,
         extent: (u32, u32),
     ) -> Result<()> {
         let groups = [extent.0.div_ceil(8), extent.1.div_ceil(8), 1];
         self.dispatch(cmd, pool, bindings, push, groups)
+    }
+
+    fn bind(
+        &self,
+        cmd: vk::CommandBuffer,
+        pool: &DescriptorPool,
+        bindings: &I::Bindings<'_>,
+        push: &P,
+    ) -> Result<()> {
+        use super::pipeline::ShaderBindings as _;
+        let set = pool.allocate(&self.layout, &bindings.bindings())?;
+        self.pipeline.bind(cmd, set, bytemuck::bytes_of(push));
+        Ok(())
     }
 }

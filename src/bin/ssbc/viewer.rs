@@ -31,9 +31,10 @@ use ssbc::error::VkResultExt;
 use ssbc::renderer::{Bound, Frame, Layer, RenderSettings, Renderer};
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Scene};
+use ssbc::shaders::present_comp;
 use ssbc::vk::{
-    Access, Binding, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device, DeviceSelector,
-    Image, Instance, ValidationLog,
+    Access, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device, DeviceSelector, Image,
+    Instance, ValidationLog,
 };
 use ssbc::{Error, Result};
 
@@ -126,7 +127,7 @@ struct FrameSlot {
 struct Gpu {
     // Drop order: these before the window (the surface needs it).
     slots: Vec<FrameSlot>,
-    present: ComputeKernel,
+    present: ComputeKernel<present_comp::Interface, PresentPush>,
     staging: Option<Buffer>,
     swapchain: Swapchain,
     renderer: Renderer,
@@ -225,14 +226,12 @@ impl Gpu {
                 rec.use_image(output, Access::ComputeRead);
                 rec.use_image(display, Access::ComputeWrite);
                 rec.flush_barriers();
-                let bindings = [Binding::storage(output), Binding::storage(display)];
-                self.present.dispatch_2d(
-                    rec.cmd,
-                    pool,
-                    &bindings,
-                    bytemuck::bytes_of(&push),
-                    (width, height),
-                )?;
+                let bindings = present_comp::Bindings {
+                    radiance: output,
+                    display,
+                };
+                self.present
+                    .dispatch_2d(rec.cmd, pool, &bindings, &push, (width, height))?;
                 rec.copy_image(display, (0, 0), image, (width, height));
             }
         }
@@ -485,13 +484,7 @@ impl Viewer {
                 })
             })
             .collect::<Result<_>>()?;
-        use vk::DescriptorType as T;
-        let present = ComputeKernel::new(
-            &device,
-            ssbc::shaders::PRESENT_COMP,
-            &[T::STORAGE_IMAGE, T::STORAGE_IMAGE],
-            std::mem::size_of::<PresentPush>(),
-        )?;
+        let present = ComputeKernel::new(&device)?;
         self.gpu = Some(Gpu {
             slots,
             present,

@@ -1,0 +1,102 @@
+// Screen-space bias compensation: the pyramids' data and layout, shared by
+// every SSBC kernel. Mirrored by src/passes/ssbc/ (push.rs, pyramids.rs).
+//
+// The pyramids live in buffers read and written as texel buffers (never as
+// storage buffers, whose size maxStorageBufferRange caps at 128 MiB on
+// lavapipe: 1920x1080 needs more), level after level (level l of a W x H
+// pyramid is (W >> l) x (H >> l) texels; W and H are padded so every level
+// halves exactly, which also gives every texel four children):
+//   geo         what the traversal reads: each texel's surface as two clusters
+//   aux         areas, pixels with geometry, continuity, how the children's
+//               clusters were grouped (pyramid builds and evaluation points only)
+//   radiance    sum of A_y S_{k-1}(y) per cluster (rebuilt every step)
+// With a second layer (a deep G-buffer's layer 1: the nearest surfaces at
+// least a separation behind the visible ones, at full or half resolution),
+// its pyramid follows the first in the same buffers; at half resolution
+// level l of it covers the screen as level l + 1 of the first does (see
+// Pyramid).
+//
+// A texel's pixels are grouped by depth into a front and a back cluster
+// (split at the largest gap in depth between its children's clusters): at a
+// silhouette the two are the surfaces on either side of it, each compact,
+// so a texel far enough from x for both is added whole instead of being
+// refined down to single pixels along every silhouette.
+//
+// This file: the layout functions that read the frame (`pc.frame`; the
+// kernel declares its push block after including ssbc_types.glsl, then
+// includes this). Bindings come from ssbc_pyramid_read.glsl (kernels that
+// read the pyramids) or ssbc_pyramid_write.glsl (the builds).
+
+#ifndef SSBC_PYRAMID_GLSL
+#define SSBC_PYRAMID_GLSL
+
+// Pyramids the residual gathers from.
+uint layer_count() {
+    return pc.frame.layers & 15u;
+}
+
+// log2 of a layer's pixel side in image pixels (layer 0: 0).
+uint layer_shift(uint layer) {
+    return layer == 0u ? 0u : (pc.frame.layers >> 4) & 15u;
+}
+
+Pyramid pyramid_of(uint layer) {
+    if (layer == 0u) return Pyramid(0u, pc.frame.pyramid_size, int(pc.frame.levels), 0);
+    uint n = pc.frame.pyramid_size.x * pc.frame.pyramid_size.y;
+    uint shift = layer_shift(layer);
+    return Pyramid(level_start(n, int(pc.frame.levels)), pc.frame.pyramid_size >> shift,
+                   int(pc.frame.levels - shift), int(shift));
+}
+
+// The size of an image whose pixel side is 2^shift image pixels (rounded up).
+uvec2 image_size_at(uint shift) {
+    return (pc.frame.size + (1u << shift) - 1u) >> shift;
+}
+
+// The image size of a layer.
+uvec2 layer_image_size(uint layer) {
+    return image_size_at(layer_shift(layer));
+}
+
+// Texels of level l of layer `layer`'s pyramid.
+ivec2 level_size(uint layer, int l) {
+    return ivec2(pyramid_of(layer).size) >> l;
+}
+
+// Index of texel t of level l of layer `layer`'s pyramid.
+uint texel_index(uint layer, ivec2 t, int l) {
+    return texel_index_in(pyramid_of(layer), t, l);
+}
+
+// World-space area seen through a pixel at `position` with unit normal n:
+// A = t^2 Omega_px / max(cos theta_view, min_cos_view), Omega_px = s^2 cos^3(alpha).
+float pixel_area(vec3 position, vec3 n) {
+    vec3 v = position - pc.frame.camera_position.xyz;
+    float t = length(v);
+    vec3 dir = v / t;
+    float cos_alpha = dot(dir, pc.frame.camera_forward.xyz);
+    float s = pc.frame.camera_position.w;
+    float cos_view = max(abs(dot(n, dir)), pc.frame.min_cos_view);
+    return t * t * s * s * cos_alpha * cos_alpha * cos_alpha / cos_view;
+}
+
+// Conservative screen radius (pixels) of the sphere of radius r around x.
+float screen_radius(vec3 x, float r) {
+    vec3 v = x - pc.frame.camera_position.xyz;
+    float z = dot(v, pc.frame.camera_forward.xyz);
+    float cos_alpha = z / length(v);
+    float radius_px = float(max(pc.frame.size.x, pc.frame.size.y));
+    if (z - r > 1e-4) {
+        radius_px = min(radius_px, pc.frame.camera_forward.w * r / ((z - r) * cos_alpha * cos_alpha) + 1.0);
+    }
+    return radius_px;
+}
+
+// I(x) for the normal n from the linear form.
+vec3 residual_at(Residual acc, vec3 n) {
+    return max(vec3(dot(n, acc.r.xyz) - pc.frame.bound * acc.r.w,
+                    dot(n, acc.g.xyz) - pc.frame.bound * acc.g.w,
+                    dot(n, acc.b.xyz) - pc.frame.bound * acc.b.w), vec3(0.0));
+}
+
+#endif

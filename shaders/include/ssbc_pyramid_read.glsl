@@ -1,0 +1,33 @@
+// The pyramids as the kernels that read them bind them: texel buffers (a
+// texel fetch reads 16 bytes in one gather where a storage-buffer load costs
+// lavapipe a per-lane loop for every 4 bytes; src/vk/buffer_view.rs).
+// Bindings 0..2 of every such kernel.
+
+#ifndef SSBC_PYRAMID_READ_GLSL
+#define SSBC_PYRAMID_READ_GLSL
+
+#include "ssbc_types.glsl"
+
+layout(set = 0, binding = 0) uniform usamplerBuffer geo_texels;       // four per GeoTexel
+layout(set = 0, binding = 1) uniform usamplerBuffer aux_texels;       // one per GeoAux
+layout(set = 0, binding = 2) uniform samplerBuffer radiance_texels;   // two per texel: front, back
+
+// Cluster c (0 front, 1 back) of texel i.
+GeoCluster geo_cluster(uint i, uint c) {
+    int at = int(4u * i + 2u * c);
+    return GeoCluster(uintBitsToFloat(texelFetch(geo_texels, at)),
+                      uintBitsToFloat(texelFetch(geo_texels, at + 1)));
+}
+
+// The areas, pixels and flags of texel i.
+GeoAux geo_aux(uint i) {
+    uvec4 a = texelFetch(aux_texels, int(i));
+    return GeoAux(uintBitsToFloat(a.x), uintBitsToFloat(a.y), a.z, a.w);
+}
+
+// Sum of A_y S(y) over cluster c of texel i.
+vec3 cluster_radiance(uint i, uint c) {
+    return texelFetch(radiance_texels, int(2u * i + c)).rgb;
+}
+
+#endif

@@ -1,0 +1,44 @@
+// The pyramids as the builds bind them: storage texel buffers, read and
+// written (the levels below the one being built are read). Bindings 0..2 of
+// the geometry and radiance pyramid kernels.
+
+#ifndef SSBC_PYRAMID_WRITE_GLSL
+#define SSBC_PYRAMID_WRITE_GLSL
+
+#include "ssbc_types.glsl"
+
+layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // four per GeoTexel
+layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux
+layout(set = 0, binding = 2, rgba32f) uniform imageBuffer radiance_sums;  // two per texel: front, back
+
+GeoCluster geo_cluster(uint i, uint c) {
+    int at = int(4u * i + 2u * c);
+    return GeoCluster(uintBitsToFloat(imageLoad(geo_words, at)), uintBitsToFloat(imageLoad(geo_words, at + 1)));
+}
+
+void store_geo(uint i, GeoTexel t) {
+    int at = int(4u * i);
+    imageStore(geo_words, at, floatBitsToUint(t.front.position_extent));
+    imageStore(geo_words, at + 1, floatBitsToUint(t.front.normal_cone));
+    imageStore(geo_words, at + 2, floatBitsToUint(t.back.position_extent));
+    imageStore(geo_words, at + 3, floatBitsToUint(t.back.normal_cone));
+}
+
+GeoAux geo_aux(uint i) {
+    uvec4 a = imageLoad(aux_words, int(i));
+    return GeoAux(uintBitsToFloat(a.x), uintBitsToFloat(a.y), a.z, a.w);
+}
+
+void store_aux(uint i, GeoAux a) {
+    imageStore(aux_words, int(i), uvec4(floatBitsToUint(a.front_area), floatBitsToUint(a.back_area), a.pixels, a.flags));
+}
+
+vec3 cluster_radiance(uint i, uint c) {
+    return imageLoad(radiance_sums, int(2u * i + c)).rgb;
+}
+
+void store_radiance(uint i, uint c, vec3 s) {
+    imageStore(radiance_sums, int(2u * i + c), vec4(s, 0.0));
+}
+
+#endif

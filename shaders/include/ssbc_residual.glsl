@@ -1,0 +1,124 @@
+// Screen-space bias compensation: the residual integral I(x) over both
+// layers' pyramids, by brute force or hierarchically (ssbc_walk.glsl).
+// Needs the pyramids' reads (ssbc_pyramid_read.glsl) and a push block `pc`
+// with `SsbcFrame frame` and `ResidualParams residual`.
+
+#ifndef SSBC_RESIDUAL_GLSL
+#define SSBC_RESIDUAL_GLSL
+
+
+// The residual integral, kept linear in the receiver's normal: over the y
+// where G(x, y) > b,
+//   I_c(x) = sum max(G - b, 0) A_y S_c(y) = n_x . V_c - b C_c,
+//   V_c = sum (w cos(theta_y) / d^2) A_y S_c(y),  C_c = sum A_y S_c(y)
+// (w = (y - x) / d). Per colour channel c: xyz V_c, w C_c. A pixel whose
+// normal differs a little from an evaluation point's gets n . V - b C, right
+// to first order (the set where G > b moves only where G - b is near 0).
+
+// Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`) if G > b there.
+// `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is
+// then the area-weighted mean of the cosines. Returns what it added per unit
+// of A_y S(y), max(G - b, 0).
+float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 as) {
+    vec3 w = d / dist;
+    float cos_x = dot(nx, w);
+    float k = max(-dot(ny, w), 0.0) / (dist * dist);
+    if (!(cos_x * k > pc.frame.bound)) return 0.0;
+    vec3 wk = w * k;
+    acc.r += vec4(wk * as.r, as.r);
+    acc.g += vec4(wk * as.g, as.g);
+    acc.b += vec4(wk * as.b, as.b);
+    return cos_x * k - pc.frame.bound;
+}
+
+// What a contribution c at distance 1 / inv_d adds to the sums (sum c,
+// sum c / d) whose ratio is the variation scale (see residual_integral).
+void add_to_scale(inout vec2 scale, float c, float inv_d) {
+    scale += vec2(c, c * inv_d);
+}
+
+// Adds cluster c of level-0 texel i (a pixel's own surface, or its part
+// beyond a crease) if G > b there (brute force).
+void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, float r_world, inout vec2 scale) {
+    GeoCluster g = geo_cluster(i, c);
+    vec3 d = g.position_extent.xyz - x;
+    float d2 = dot(d, d);
+    if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
+        vec3 as = cluster_radiance(i, c);
+        float dist = sqrt(d2);
+        float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
+        add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
+    }
+}
+
+// The brute-force loop takes BRUTE_SPAN pixels of a row per iteration,
+// unrolled. One per iteration cut windows short from a radius of about 128
+// pixels, 90 with two layers (tori 640x480: half the residual missing; 320x240
+// with two layers: 1.2% relative RMSE against the CPU twin); 16 fit a
+// 1024x768 window of one layer, or of two with a radius up to about 500
+// pixels. (Blocks of 4 x 16 took 12 s more to compile.)
+const int BRUTE_SPAN = 16;
+
+// Every texel of level 0 of pyramid p in the window (the reference);
+// `center` and `radius_px` in that pyramid's pixels.
+void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
+                     inout uint count, inout vec2 scale) {
+    ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
+    ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(image_size_at(uint(p.shift))) - 1);
+    // Row segments in rows (stepped, one loop: see the walk).
+    ivec2 q = lo;
+    bool more = all(lessThanEqual(lo, hi));
+    uint start = count;
+    uint window = more ? uint((hi.x - lo.x + 1) * (hi.y - lo.y + 1)) : 0u;
+    while (more) {
+        [[unroll]] for (int k = 0; k < BRUTE_SPAN; k++) {
+            if (q.x + k <= hi.x) {
+                count++;
+                uint i = texel_index_in(p, ivec2(q.x + k, q.y), 0);
+                add_pixel_cluster(acc, i, 0u, x, nx, r_world, scale);
+                add_pixel_cluster(acc, i, 1u, x, nx, r_world, scale);
+            }
+        }
+        q = q.x + BRUTE_SPAN <= hi.x ? ivec2(q.x + BRUTE_SPAN, q.y) : ivec2(lo.x, q.y + 1);
+        more = q.y <= hi.y;
+    }
+    if (count - start != window) count |= CUT_SHORT;
+}
+
+#include "ssbc_walk.glsl"
+
+// The residual integral (see Residual) for a receiver at x with unit normal
+// nx seen at pixel coordinates `center`; the residual is albedo(x) / pi *
+// I(x). `count` is incremented for every texel read. `variation` becomes the
+// length over which I changes: I / |grad I|, with every contribution c
+// falling off as 1/d^2 (|grad c| ~ 2c/d), is about the contribution-weighted
+// harmonic mean of the distances, sum c / sum(c / d). Near a contact it is
+// short (the nearest surface gives most of I); on a concave surface whose
+// nearby pixels add little it is not (the distance to the nearest
+// contributor was: tori's inner rings were evaluated pixel by pixel).
+Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out float variation) {
+    Residual acc = Residual(vec4(0.0), vec4(0.0), vec4(0.0));
+    // G <= 1/d^2, so only |x - y| < 1/sqrt(b) can exceed b.
+    float r_world = inversesqrt(pc.frame.bound);
+    variation = r_world;
+    if (!(r_world > 0.0)) return acc;
+    float radius_px = screen_radius(x, r_world);
+    vec2 scale = vec2(0.0);
+    // Every layer's surfaces are sources (the separation between layers
+    // keeps one surface from being counted twice); at half resolution
+    // layer 1's window is half as many pixels across.
+    if (pc.residual.integration == INTEGRATION_BRUTE) {
+        for (uint layer = 0u; layer < layer_count(); layer++) {
+            Pyramid p = pyramid_of(layer);
+            float to_layer = 1.0 / float(1 << p.shift);
+            vec2 c = (center + 0.5) * to_layer - 0.5;
+            integrate_brute(acc, p, x, nx, c, radius_px * to_layer, r_world, count, scale);
+        }
+    } else {
+        integrate_hierarchical(acc, x, nx, center, radius_px, r_world, count, scale);
+    }
+    if (scale.x > 0.0) variation = min(scale.x / scale.y, r_world);
+    return acc;
+}
+
+#endif

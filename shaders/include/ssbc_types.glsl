@@ -1,0 +1,201 @@
+// Screen-space bias compensation: the data every SSBC kernel shares, and
+// the pyramids' layout (see ssbc_pyramid.glsl). No bindings, no push block:
+// a kernel includes this, declares its push block `pc` (with `SsbcFrame
+// frame;` first, and `ResidualParams residual;` if it integrates), then
+// ssbc_pyramid.glsl and the pyramids' bindings. Mirrored by
+// src/passes/ssbc/ (push.rs, pyramids.rs).
+
+#ifndef SSBC_TYPES_GLSL
+#define SSBC_TYPES_GLSL
+
+#extension GL_EXT_control_flow_attributes : require
+
+#include "common.glsl"
+
+// The frame as every SSBC kernel sees it (`pc.frame`; mirrored by
+// `FrameBlock` in src/passes/ssbc/push.rs).
+struct SsbcFrame {
+    vec4 camera_position;     // xyz eye; w pixel side s on the image plane at distance 1
+    vec4 camera_forward;      // xyz unit optical axis; w focal length in pixels (1 / s)
+    vec4 camera_up;           // xyz unit up direction of the image (orthogonal to the axis)
+    uvec2 size;               // image size
+    uvec2 pyramid_size;       // level 0 of the pyramids (padded)
+    uint levels;              // pyramid levels
+    uint layers;              // bits 0..3: pyramids the residual gathers from (1, or 2 with a
+                              // second layer); bits 4..7: log2 of layer 1's pixel side
+    float bound;              // b [1/m^2]
+    float min_cos_view;       // lower clamp of cos(theta_view) in A_y
+};
+
+const uint INTEGRATION_HIERARCHICAL = 0u;
+const uint INTEGRATION_BRUTE = 1u;
+
+// How the residual integral refines and integrates (`pc.residual`; mirrored
+// by `ResidualParams` in src/passes/ssbc/push.rs).
+struct ResidualParams {
+    float refine_ratio;       // refine a texel whose sphere radius exceeds this x its distance
+    float refine_excess;      // ...only if G may exceed (1 + this) b somewhere in it
+    uint integration;         // INTEGRATION_*
+    uint pad;
+};
+
+struct GeoCluster {
+    vec4 position_extent;     // xyz area-weighted mean position; w two halves (packHalf2x16,
+                              // rounded up): the radius of a sphere around the mean holding
+                              // every pixel position of the cluster, and the half-thickness
+                              // of a slab along the mean normal holding them (< 0: empty)
+    vec4 normal_cone;         // xyz area-weighted mean of the unit normals (shorter than 1
+                              // where they spread); w cosine of the half-angle of a cone
+                              // around their mean direction holding every one of them
+};
+
+struct GeoTexel {
+    GeoCluster front;         // levels >= 1: the low 8 bits of normal_cone.z say which
+    GeoCluster back;          // children hold members of each cluster (children_bits)
+};
+
+// A texel's children (bit k: child k, in the order (0,0) (1,0) (0,1) (1,1))
+// that hold members of its front (bits 0..3) and back (bits 4..7) cluster,
+// kept in the low 8 mantissa bits of the front cluster's mean normal's z:
+// the traversal reads them with the texel, and skips the children that
+// only hold members of clusters it skipped. Changing those bits moves the
+// normal's direction by less than 2^-15 radians, well within the 1e-3
+// radians its cone is widened by for rounding (ssbc_geometry_mips.comp).
+// A z of 0 (axis-aligned normals are common) would become a denormal,
+// which costs lavapipe's x86 code a microcode assist per operation (one
+// layer's SSBC step +23% on tori): it becomes about 2^-60 first (its square
+// is still a normal float).
+const float SMALLEST_Z = 8.6736174e-19;
+
+GeoCluster with_children_bits(GeoCluster g, uint bits) {
+    float z = g.normal_cone.z;
+    z = abs(z) < SMALLEST_Z ? (z < 0.0 ? -SMALLEST_Z : SMALLEST_Z) : z;
+    g.normal_cone.z = uintBitsToFloat((floatBitsToUint(z) & ~255u) | bits);
+    return g;
+}
+
+uint children_bits(GeoCluster front) {
+    return floatBitsToUint(front.normal_cone.z) & 255u;
+}
+
+// (radius, thickness) of a cluster.
+vec2 cluster_extent(GeoCluster g) {
+    return unpackHalf2x16(floatBitsToUint(g.position_extent.w));
+}
+
+GeoCluster make_cluster(vec3 position, float radius, float thickness, vec3 normal, float cone_cos) {
+    // Halves keep 11 bits: scale up by 2^-10 (and 1e-7 absolute for
+    // subnormals) so that the stored bounds still hold.
+    vec2 extent = vec2(radius, thickness);
+    if (thickness >= 0.0) extent = extent * (1.0 + 1.0 / 1024.0) + 1e-7;
+    return GeoCluster(vec4(position, uintBitsToFloat(packHalf2x16(extent))), vec4(normal, cone_cos));
+}
+
+GeoCluster empty_cluster() {
+    return make_cluster(vec3(0.0), 0.0, -1.0, vec3(0.0), 1.0);
+}
+
+struct GeoAux {
+    float front_area;         // summed world-space area A_y of each cluster's pixels
+    float back_area;
+    uint pixels;              // pixels with geometry under the texel
+    uint flags;               // bit 0: one smooth surface (may stand for its pixels);
+                              // level 0, bits 1..4: k + 1 if the back cluster is the
+                              // part of the pixel on neighbour CREASE_NEIGHBOURS[k]'s surface;
+                              // levels >= 1, bit 8 + 2k + c: cluster c of child k went
+                              // to the back cluster
+};
+
+// The neighbours a pixel's footprint looks at (ssbc_geometry_base.comp).
+const ivec2 CREASE_NEIGHBOURS[8] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -1), ivec2(0, 1),
+                                           ivec2(-1, -1), ivec2(1, -1), ivec2(-1, 1), ivec2(1, 1));
+
+// One layer's pyramid: where it starts in the buffers, its level 0 (padded)
+// and its levels. Layer 1 is at full or half resolution: at half, its pixel
+// p covers the full-resolution pixels 2p .. 2p + 1.
+struct Pyramid {
+    uint base;
+    uvec2 size;
+    int levels;
+    int shift;                // log2 of its pixel's side in image pixels
+};
+
+// First texel of level l in a pyramid of n texels at level 0: after
+// n + n/4 + ... + n/4^(l-1) = (4n - 4 n/4^l) / 3 texels; the division by 3
+// is a multiply-high (exact below 2^32), which keeps integer division out
+// of the traversal's inner loop.
+uint level_start(uint n, int l) {
+    uint high, low;
+    umulExtended(4u * n - 4u * (n >> (2 * l)), 0xaaaaaaabu, high, low);
+    return high >> 1;
+}
+
+// Index of texel t of level l of pyramid p in the buffers.
+uint texel_index_in(Pyramid p, ivec2 t, int l) {
+    return p.base + level_start(p.size.x * p.size.y, l) + uint(t.y) * (p.size.x >> l) + uint(t.x);
+}
+
+// The pixel that is the evaluation point of texel t of level l: the one at
+// offset (2^(l-1), 2^(l-1)) in its block, a real surface point on a regular
+// grid (pixels between four points interpolate bilinearly).
+ivec2 eval_pixel(ivec2 t, int l) {
+    return (t << l) + ((1 << l) >> 1);
+}
+
+// Work lists (pixels or texels, packed x | y << 16) with the arguments of
+// the indirect dispatch that processes them, 64 items per work group.
+struct ListHeader {
+    uint dispatch_x;
+    uint dispatch_y;
+    uint dispatch_z;
+    uint count;
+};
+
+uint pack_item(ivec2 p) {
+    return uint(p.x) | (uint(p.y) << 16);
+}
+
+ivec2 unpack_item(uint v) {
+    return ivec2(v & 0xffffu, v >> 16);
+}
+
+// The residual integral's linear form (see ssbc_residual.glsl): per colour
+// channel c, xyz V_c and w C_c.
+struct Residual {
+    vec4 r;
+    vec4 g;
+    vec4 b;
+};
+
+// An evaluation point (ssbc_eval.comp), one per texel of every level, in the
+// pyramid's layout: the residual's linear form, texels read (< 0: unusable),
+// its variation scale (see residual_integral), and the generation of
+// the step that asked for it (points of other steps are stale).
+struct EvalPoint {
+    Residual residual;
+    float reads;
+    float variation;
+    uint generation;
+    uint pad;
+};
+
+// Evaluation point `index` from a texel view of the points (four
+// R32G32B32A32_UINT texels per point).
+EvalPoint load_point(usamplerBuffer texels, uint index) {
+    int at = int(4u * index);
+    uvec4 tail = texelFetch(texels, at + 3);
+    return EvalPoint(Residual(uintBitsToFloat(texelFetch(texels, at)),
+                              uintBitsToFloat(texelFetch(texels, at + 1)),
+                              uintBitsToFloat(texelFetch(texels, at + 2))),
+                     uintBitsToFloat(tail.x), uintBitsToFloat(tail.y), tail.z, tail.w);
+}
+
+// lavapipe ends a shader invocation's loops after 65535 iterations in all
+// (LP_MAX_TGSI_LOOP_ITERATIONS, shared by every loop a SIMD group runs). A
+// loop cut short that way (it visited fewer pixels or roots than its window
+// holds; its own exit condition cannot tell, the compiler folds it) ORs
+// CUT_SHORT into `count`, and the renderer reports an error instead of
+// returning a partial sum.
+const uint CUT_SHORT = 1u << 30;
+
+#endif

@@ -1,0 +1,251 @@
+// Screen-space bias compensation: the hierarchical walk over the pyramids
+// (included by ssbc_residual.glsl, whose helpers it uses).
+
+// Largest cos(theta_y) = n_y . (x - y) / |x - y| over a texel whose normals
+// lie in a cone (cosine cone_cos) around the unit mean n, seen from x at
+// distance dist (> extent; inv_dist = 1 / dist) in direction -d/dist: the
+// angle between n and x - y is at least A - B, A = angle(n, x - mean),
+// B = cone + asin(extent / dist).
+float max_cos_y(vec3 n, float cone_cos, vec3 d, float inv_dist, float extent) {
+    float sigma = extent * inv_dist;
+    if (!(sigma < 1.0)) return 1.0;
+    float cos_s = sqrt(1.0 - sigma * sigma);
+    float sin_c = sqrt(max(1.0 - cone_cos * cone_cos, 0.0));
+    float cos_b = cone_cos * cos_s - sin_c * sigma;
+    if (cos_b <= 0.0) return 1.0;                     // B >= 90 degrees: no bound
+    float sin_b = sin_c * cos_s + cone_cos * sigma;
+    float cos_a = clamp(-dot(n, d) * inv_dist, -1.0, 1.0);
+    if (cos_a >= cos_b) return 1.0;                   // A <= B
+    return cos_a * cos_b + sqrt(1.0 - cos_a * cos_a) * sin_b;  // cos(A - B)
+}
+
+// What to do with one cluster (empty clusters are skipped):
+const int SKIP = 0;
+const int ADD = 1;
+const int REFINE = 2;
+
+// One cluster as the traversal sees it: what to do with it, and what adding
+// it from its means adds per unit of A_y S(y) in the linear form of
+// `Residual` (see `accumulate` and SPREAD): wk to V, weight to C.
+struct Visit {
+    int action;
+    vec3 wk;          // weight x w cos(theta_y) / d^2 at the mean (+ the straddling term)
+    float weight;     // 0: adds nothing
+    float inv_dist;   // 1 / distance to its mean
+};
+
+// Adding a cluster from its mean takes max(G - b, 0) at the mean for the
+// mean of max(G - b, 0) over its pixels: always too little (max is convex),
+// by up to half of how much G varies over the cluster where G ~ b there,
+// which left the hierarchical residual 0.5 to 1.3% short of brute force at
+// refine_ratio 0.2. G = cos_x cos_y / d^2 changes by about
+//   s = SPREAD (R / d) (2 G + (cos_x + cos_y) / d^2)
+// across a cluster of bounding radius R (first order in R / d). Taking G
+// spread evenly over [G - s, G + s], the mean of max(G - b, 0) is, with
+// m = G - b and t = (m + s) / 2s in [0, 1]:
+//   m (m >= s),  (m + s)^2 / 4s = t/2 (G - b) + t/2 s (|m| < s),  0 (m <= -s).
+// SPREAD (the pixels' r.m.s. offset over R, about) was chosen so that the
+// mean of the residual matches brute force within 0.5% on the built-in
+// scenes and the open box at 256x192 to 640x480 (0.6 overshot by 1-3%).
+const float SPREAD = 0.3;
+
+// A cluster is skipped if G cannot exceed b anywhere in it: G <= cos_x cos_y
+// / d^2 with d >= dist - radius, cos_x bounded by the bounding slab (it
+// reaches at most `reach` in front of the receiver's tangent plane) and cos_y
+// by the normal cone; a cluster behind the tangent plane or facing away has
+// G = 0. It needs refining if its bounding sphere is larger than
+// refine_ratio x its distance and G may exceed (1 + refine_excess) b in it
+// (where it cannot, max(G - b, 0) <= refine_excess b bounds what it adds,
+// error included); otherwise it is added from its means.
+// Written without early returns and with one reciprocal square root per
+// vector: lavapipe runs every branch of a divergent SIMD group anyway, and
+// square roots and divisions are most of a texel's cost there.
+Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
+    vec2 extent = cluster_extent(g);  // radius, thickness
+    vec3 d = g.position_extent.xyz - x;
+    float d2 = dot(d, d);
+    float inv_dist = inversesqrt(max(d2, 1e-30));
+    float dist = d2 * inv_dist;
+    float d_min = dist - extent.x;
+    vec3 ny = g.normal_cone.xyz;
+    float ny2 = dot(ny, ny);
+    vec3 axis = ny2 > 0.0 ? ny * inversesqrt(ny2) : vec3(0.0);
+    float a = clamp(dot(nx, axis), -1.0, 1.0);
+    float along = dot(nx, d);
+    float reach = along + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x;
+    // A coplanar cluster reaches 0 up to rounding of its normals (1e-3 of its extent).
+    bool skip = extent.y < 0.0 || d_min >= r_world || reach <= 1e-3 * extent.x;
+    bool may_exceed = true;  // G may exceed (1 + refine_excess) b somewhere in it
+    if (d_min > 0.0) {
+        // G <= cos_x / d_min^2 = min(d_min, reach) / d_min^3, and the cone's
+        // bound on cos_y; compared as G d_min^3 (no division).
+        float cube = d_min * d_min * d_min;
+        float g_cube = min(d_min, reach);
+        g_cube = g_cube <= pc.frame.bound * cube ? g_cube : g_cube * max_cos_y(axis, g.normal_cone.w, d, inv_dist, extent.x);
+        skip = skip || g_cube <= pc.frame.bound * cube;
+        may_exceed = g_cube > (1.0 + pc.residual.refine_excess) * pc.frame.bound * cube;
+    }
+    // The mean's own geometry term, k = cos(theta_y) / d^2, and the mean of
+    // max(G - b, 0) over the cluster (see SPREAD; s = 0 for a pixel).
+    float k = max(-dot(ny, d), 0.0) * inv_dist * inv_dist * inv_dist;
+    float g_mean = along * inv_dist * k;
+    float m = g_mean - pc.frame.bound;
+    float s = SPREAD * extent.x * inv_dist * (2.0 * abs(g_mean) + (abs(along) * inv_dist + k * d2) * inv_dist * inv_dist);
+    float t = clamp((m + s) / max(2.0 * s, 1e-30), 0.0, 1.0);
+    bool straddles = m < s && s > 0.0;
+    float weight = dist > 1e-6 ? (straddles ? 0.5 * t : (m > 0.0 ? 1.0 : 0.0)) : 0.0;
+    int action = skip ? SKIP : (level > 0 && extent.x > pc.residual.refine_ratio * dist && may_exceed ? REFINE : ADD);
+    // The straddling term t/2 s is constant: n . n = 1 carries it in V.
+    vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
+    return Visit(action, wk, weight, inv_dist);
+}
+
+// Adds a visited cluster from its means: the mean of max(G - b, 0) over it
+// times sum(A_y S(y)), kept linear in the receiver's normal nx.
+void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) {
+    if (v.action == ADD && v.weight > 0.0) {
+        acc.r += vec4(v.wk * as.r, v.weight * as.r);
+        acc.g += vec4(v.wk * as.g, v.weight * as.g);
+        acc.b += vec4(v.wk * as.b, v.weight * as.b);
+        add_to_scale(scale, max(dot(nx, v.wk) - pc.frame.bound * v.weight, 0.0) * (as.r + as.g + as.b), v.inv_dist);
+    }
+}
+
+// Where a walk starts in one layer's pyramid: its roots, the texels of the
+// coarsest level that is about half the radius on screen, in the window
+// around `center` (image pixels; `radius_px` too).
+struct Roots {
+    Pyramid p;
+    int level;
+    ivec2 lo;
+    ivec2 hi;
+};
+
+Roots roots_of(uint layer, vec2 center, float radius_px) {
+    Pyramid p = pyramid_of(layer);
+    float to_layer = 1.0 / float(1 << p.shift);
+    vec2 c = (center + 0.5) * to_layer - 0.5;
+    float r = radius_px * to_layer;
+    int level = clamp(int(ceil(log2(max(r, 1.0) * 0.5))), 0, p.levels - 1);
+    ivec2 lo = max(ivec2(floor(c - r)) >> level, ivec2(0));
+    ivec2 hi = min(ivec2(ceil(c + r)) >> level, (ivec2(p.size) >> level) - 1);
+    // Never empty: c lies in the image (the walk reads at least one root).
+    return Roots(p, level, lo, max(hi, lo));
+}
+
+uint root_count(Roots w) {
+    return uint((w.hi.x - w.lo.x + 1) * (w.hi.y - w.lo.y + 1));
+}
+
+// Which children of a refined texel at level z + 1 the walk visits (4 bits
+// per level; pyramid_levels in src/passes/ssbc.rs keeps them below 16).
+uint children_at(uvec2 children, int z) {
+    return ((z < 8 ? children.x : children.y) >> (4 * (z & 7))) & 15u;
+}
+
+uvec2 set_children_at(uvec2 children, int z, uint m) {
+    uint shift = 4u * uint(z & 7);
+    if (z < 8) {
+        children.x = (children.x & ~(15u << shift)) | (m << shift);
+    } else {
+        children.y = (children.y & ~(15u << shift)) | (m << shift);
+    }
+    return children;
+}
+
+// The lowest set bit of a 4-bit mask m != 0, from a table (2 bits per m).
+// With findLSB here and below, the two-layer step on tori 1024x768 took
+// 1000 ms against 947 (one alternating run).
+int lowest_of_4(uint m) {
+    return int((0x12131210u >> (2u * m)) & 3u);
+}
+
+// The lowest set bit of v != 0 (below 2^24): the exponent of its lowest
+// power of two as a float (see lowest_of_4).
+int lowest_bit(uint v) {
+    return int(floatBitsToUint(float(v & (0u - v))) >> 23) - 127;
+}
+
+// Top-down over every layer's pyramid, from its roots, layer after layer in
+// one loop: a SIMD group runs as many iterations as its busiest lane needs
+// in all, not the sum of each layer's busiest (tori 1024x768, two full
+// layers: step 1.76x -> 1.67x one layer's). Every texel read is counted.
+// A texel is refined if either of its clusters needs refining; otherwise
+// its clusters are added or skipped. A refined texel's children are
+// visited unless they only hold members of a cluster that was skipped
+// (G <= b over all of it): at a silhouette one cluster is often near x and
+// the other beyond the bounding radius or behind x's tangent plane (tori
+// 1024x768: 65.2 -> 56.4 texels read per pixel with two layers, 35.1 ->
+// 32.7 with one).
+// The walk is one flat loop without a stack of texels (and without
+// break/continue, which lavapipe's SIMD loops have mishandled): the padded
+// pyramid gives every texel four children, visited in the order (0,0)
+// (1,0) (0,1) (1,1) as far as the level's bits in `children` say; after a
+// texel comes its first child if refined, else its next sibling, climbing
+// first to the nearest level whose texel has siblings left (`pending`).
+void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
+                            inout uint count, inout vec2 scale) {
+    // Both windows up front: lavapipe runs every branch of the loop body on
+    // every iteration, so switching layers there must be cheap.
+    Roots w = roots_of(0u, center, radius_px);
+    Roots next = layer_count() > 1u ? roots_of(1u, center, radius_px) : w;
+    bool last = layer_count() == 1u;
+    // Roots finished, against the windows' (see CUT_SHORT).
+    uint roots = 0u;
+    uint window = root_count(w) + (last ? 0u : root_count(next));
+    // Roots in rows, x fastest (stepped, not divided: lavapipe has no vector
+    // integer division and would run eight scalar ones per iteration).
+    ivec3 t = ivec3(w.lo, w.level);
+    uvec2 children = uvec2(0u);
+    uint pending = 0u;  // bit z: the texel visited at level z has siblings left
+    bool more = true;
+    while (more) {
+        count++;
+        uint i = texel_index_in(w.p, t.xy, t.z);
+        GeoCluster front_cluster = geo_cluster(i, 0u);
+        Visit front = visit(front_cluster, x, nx, r_world, t.z);
+        Visit back = visit(geo_cluster(i, 1u), x, nx, r_world, t.z);
+        uint bits = children_bits(front_cluster);
+        uint visit_children = (front.action != SKIP ? bits & 15u : 0u) | (back.action != SKIP ? bits >> 4 : 0u);
+        bool refine = (front.action == REFINE || back.action == REFINE) && visit_children != 0u;
+        if (!refine) {
+            add_visit(acc, front, cluster_radiance(i, 0u), nx, scale);
+            add_visit(acc, back, cluster_radiance(i, 1u), nx, scale);
+        }
+        int z = t.z - 1;
+        int k = lowest_of_4(visit_children);
+        ivec2 first = t.xy * 2 + ivec2(k & 1, k >> 1);
+        if (!refine) {
+            // The nearest level at or above t's with a sibling left, or the roots'.
+            uint above = pending >> t.z;
+            int climb = above != 0u ? lowest_bit(above) : w.level - t.z;
+            z = t.z + climb;
+            ivec2 a = t.xy >> climb;
+            visit_children = children_at(children, z);
+            k = (a.x & 1) | ((a.y & 1) << 1);
+            k += 1 + lowest_of_4(visit_children >> (k + 1));
+            first = (a & ~1) + ivec2(k & 1, k >> 1);
+            if (z == w.level) {
+                roots++;
+                first = a.x < w.hi.x ? ivec2(a.x + 1, a.y) : ivec2(w.lo.x, a.y + 1);
+                if (first.y > w.hi.y) {
+                    // Past the last root: the next layer's, or the end.
+                    more = !last;
+                    last = true;
+                    w = next;
+                    first = w.lo;
+                    z = w.level;
+                }
+            }
+        } else {
+            children = set_children_at(children, z, visit_children);
+        }
+        // Whether the texel at level z has siblings left after child k.
+        bool left = z < w.level && (visit_children >> (k + 1)) != 0u;
+        uint bit = z < w.level ? 1u << z : 0u;
+        pending = left ? pending | bit : pending & ~bit;
+        t = ivec3(first, z);
+    }
+    if (roots != window) count |= CUT_SHORT;
+}
+

@@ -1,0 +1,225 @@
+//! The SSBC pyramids: their layout (levels, padding, where each layer's
+//! pyramid starts), what a size needs of the device, and the recording of
+//! the geometry pyramid (once per frame) and the radiance pyramid (once per
+//! step) of each G-buffer layer.
+
+use super::push::{FrameBlock, GeometryBasePush, GeometryMipsPush, RadiancePush};
+use super::{SsbcFrame, SsbcGBuffer, SsbcPass};
+use super::{AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, RADIANCE_BYTES};
+use crate::error::{Error, Result};
+use crate::settings::{LayerResolution, SsbcSettings};
+use crate::shaders::{ssbc_geometry_base_comp, ssbc_geometry_mips_comp, ssbc_radiance_mips_comp};
+use crate::vk::{Access, DescriptorPool, Device, Image, Recorder};
+
+/// Level 0 of the pyramids for an image (padded so that every level halves
+/// exactly) and the number of levels.
+pub(super) fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
+    let levels = pyramid_levels(width, height);
+    let align = 1u32 << (levels - 1);
+    (
+        (
+            width.div_ceil(align) * align,
+            height.div_ceil(align) * align,
+        ),
+        levels,
+    )
+}
+
+/// Pyramid levels for an image: down to about 2 texels on the short side.
+pub fn pyramid_levels(width: u32, height: u32) -> u32 {
+    (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
+}
+
+/// Texels of all `levels` levels of a pyramid whose level 0 is `size`
+/// (padded so every level halves exactly; `texel_index_in` in
+/// ssbc_types.glsl).
+pub(super) fn pyramid_texels(size: (u32, u32), levels: u32) -> u64 {
+    let n = size.0 as u64 * size.1 as u64;
+    (4 * n - 4 * (n >> (2 * levels))) / 3
+}
+
+/// Texels of layer 0's pyramid and, with a second layer, layer 1's after it
+/// (at half resolution half the size, one level fewer: `pyramid_of` in
+/// ssbc_pyramid.glsl).
+pub(super) fn all_layers_texels(
+    size: (u32, u32),
+    levels: u32,
+    layer1: Option<LayerResolution>,
+) -> u64 {
+    let first = pyramid_texels(size, levels);
+    match layer1 {
+        None => first,
+        Some(r) => {
+            let shift = r.shift();
+            first + pyramid_texels((size.0 >> shift, size.1 >> shift), levels - shift)
+        }
+    }
+}
+
+/// The second layer a pyramid of `levels` levels can hold: at half
+/// resolution it needs a level to spare (images of at least 2 pixels on the
+/// short side).
+pub(super) fn effective_layer1(
+    layer1: Option<LayerResolution>,
+    levels: u32,
+) -> Option<LayerResolution> {
+    layer1.filter(|r| levels > r.shift())
+}
+
+/// Bytes of device memory one frame slot's SSBC resources take at
+/// `width` x `height` with `steps` steps (the pyramids, the evaluation
+/// points and their claims, the work lists, and the per-step images).
+pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerResolution>) -> u64 {
+    let (size, levels) = pyramid_layout(width, height);
+    let layer1 = effective_layer1(layer1, levels);
+    let all = all_layers_texels(size, levels, layer1);
+    let points = pyramid_texels(size, levels);
+    let lists = 4 * (16 + 4 * size.0 as u64 * size.1 as u64);
+    let pixels = width as u64 * height as u64;
+    // Final image, and per step its residual (16 bytes) and samples (4).
+    let images = pixels * (16 + 20 * steps as u64);
+    let layer1_images = layer1.map_or(0, |r| {
+        let (w, h) = r.extent((width, height));
+        16 * w as u64 * h as u64 * steps.saturating_sub(1) as u64
+    });
+    all * (GEO_TEXEL_BYTES + AUX_BYTES + RADIANCE_BYTES)
+        + points * (EVAL_POINT_BYTES + 4)
+        + lists
+        + images
+        + layer1_images
+}
+
+/// Fails with a clear message if SSBC's largest texel view (the geometry
+/// pyramid, four texels per texel of every pyramid) or work list exceeds
+/// what the device can view or bind (maxTexelBufferElements, 2^27 texels on
+/// lavapipe; maxStorageBufferRange for the lists, 128 MiB there).
+pub fn check_size(
+    device: &Device,
+    width: u32,
+    height: u32,
+    layer1: Option<LayerResolution>,
+) -> Result<()> {
+    let (size, levels) = pyramid_layout(width, height);
+    let layer1 = effective_layer1(layer1, levels);
+    let texels = 4 * all_layers_texels(size, levels, layer1);
+    let limits = device.limits();
+    let max_texels = limits.max_texel_buffer_elements as u64;
+    let list_bytes = 16 + 4 * size.0 as u64 * size.1 as u64;
+    let max_range = limits.max_storage_buffer_range as u64;
+    if texels <= max_texels && list_bytes <= max_range {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter(format!(
+        "SSBC at {width}x{height} needs texel views of {texels} texels and lists of {} MiB; \
+         this device views at most {max_texels} texels (maxTexelBufferElements) and binds \
+         {} MiB (maxStorageBufferRange): render smaller{} or with ssbc.steps 0",
+        list_bytes >> 20,
+        max_range >> 20,
+        SsbcSettings::lighter_second_layer(layer1)
+    )))
+}
+
+impl SsbcPass {
+    /// The geometry pyramid of layer `layer` from its G-buffer; `mips`
+    /// holds the frame and thresholds (its layer and level are set here).
+    pub(super) fn record_geometry(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        gbuffer: SsbcGBuffer<'_>,
+        layer: u32,
+        mips: GeometryMipsPush,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        for level in 0..frame.levels - Self::layer_shift(frame, layer) {
+            if level == 0 {
+                rec.use_image(gbuffer.position, Access::ComputeRead);
+                rec.use_image(gbuffer.normal, Access::ComputeRead);
+            }
+            // Written, and the level below read (as storage texels).
+            rec.use_buffer(&frame.geo, Access::ComputeWrite);
+            rec.use_buffer(&frame.aux, Access::ComputeWrite);
+            rec.flush_barriers();
+            let extent = Self::level_extent(frame, layer, level);
+            if level == 0 {
+                let bindings = ssbc_geometry_base_comp::Bindings {
+                    geo_words: &frame.geo_view,
+                    aux_words: &frame.aux_view,
+                    g_position: gbuffer.position,
+                    g_normal: gbuffer.normal,
+                };
+                let push = GeometryBasePush {
+                    frame: mips.frame,
+                    layer,
+                };
+                self.geometry_base
+                    .dispatch_2d(rec.cmd, pool, &bindings, &push, extent)?;
+            } else {
+                let bindings = ssbc_geometry_mips_comp::Bindings {
+                    geo_words: &frame.geo_view,
+                    aux_words: &frame.aux_view,
+                };
+                let push = GeometryMipsPush {
+                    layer,
+                    level,
+                    ..mips
+                };
+                self.geometry
+                    .dispatch_2d(rec.cmd, pool, &bindings, &push, extent)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The radiance pyramid of the term `term` (`S_{k-1}` at layer
+    /// `layer`'s pixels).
+    pub(super) fn record_radiance_mips(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        term: &Image,
+        layer: u32,
+        frame_block: FrameBlock,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        for level in 0..frame.levels - Self::layer_shift(frame, layer) {
+            rec.use_image(term, Access::ComputeRead);
+            rec.use_buffer(&frame.aux, Access::ComputeRead);
+            rec.use_buffer(&frame.radiance, Access::ComputeWrite);
+            rec.flush_barriers();
+            let bindings = ssbc_radiance_mips_comp::Bindings {
+                aux_words: &frame.aux_view,
+                radiance_sums: &frame.radiance_view,
+                term,
+            };
+            let push = RadiancePush {
+                frame: frame_block,
+                layer,
+                level,
+            };
+            self.radiance.dispatch_2d(
+                rec.cmd,
+                pool,
+                &bindings,
+                &push,
+                Self::level_extent(frame, layer, level),
+            )?;
+        }
+        Ok(())
+    }
+
+    /// log2 of layer `layer`'s pixel side in image pixels.
+    pub(super) fn layer_shift(frame: &SsbcFrame, layer: u32) -> u32 {
+        match (layer, frame.layer1) {
+            (1, Some(r)) => r.shift(),
+            _ => 0,
+        }
+    }
+
+    /// Texels of level `level` of layer `layer`'s pyramid (at half
+    /// resolution half the size).
+    pub(super) fn level_extent(frame: &SsbcFrame, layer: u32, level: u32) -> (u32, u32) {
+        let shift = level + Self::layer_shift(frame, layer);
+        (frame.pyramid_size.0 >> shift, frame.pyramid_size.1 >> shift)
+    }
+}
