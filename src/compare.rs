@@ -1,5 +1,15 @@
 //! Image comparison: RMSE, relative MSE, mean-radiance ratio, per channel,
 //! and a false-colour error heat map.
+//!
+//! ```
+//! // Two 1x2 RGBA images; the second is the reference.
+//! let a = [1.0, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5, 1.0];
+//! let b = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0];
+//! let c = ssbc::compare::compare(&a, &b)?;
+//! assert!((c.mean_ratio - 0.75).abs() < 1e-9);
+//! assert!((c.rmse - 0.125f64.sqrt()).abs() < 1e-9);
+//! # Ok::<(), ssbc::Error>(())
+//! ```
 
 use std::path::Path;
 

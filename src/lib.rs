@@ -63,6 +63,12 @@ macro_rules! unstable_pub {
     };
 }
 
+/// The README's Rust examples, compiled as doc-tests so that they keep
+/// matching the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 pub mod compare;
 pub mod error;
 pub mod output;

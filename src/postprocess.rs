@@ -25,7 +25,7 @@
 //! `S0`; w = 0 in position where there is none. SSBC then also gathers from
 //! these hidden surfaces (receivers stay the visible pixels); with more
 //! than one step it computes their residual too, as the next step's
-//! sources. `ssbc::passes::deep_gbuffer` draws it by depth peeling. At full
+//! sources. ssbc's own G-buffer pass draws it by depth peeling. At full
 //! resolution its pixels are split at creases like the first layer's, and
 //! it gives back more of what clamping removed; at half resolution it costs
 //! a quarter (docs/ssbc-implementation.md has the figures).
@@ -131,6 +131,40 @@ type SsbcSlot = PassSlot<(u32, u32, u32, u32, Option<LayerResolution>), SsbcFram
 
 /// SSBC on the host's images (see the module documentation). Command
 /// buffers must be submitted in the order they were recorded.
+///
+/// `examples/postprocess.rs` is a whole host; the call itself:
+///
+/// ```no_run
+/// use ash::vk;
+/// use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+///
+/// /// Records SSBC after the host's G-buffer and clamped-lighting passes.
+/// fn compensate(
+///     post: &mut SsbcPostProcess, // SsbcPostProcess::new(&device, frames_in_flight)
+///     cmd: vk::CommandBuffer,     // the host's, recording
+///     frame_slot: usize,
+///     [position, normal, albedo, s0, output]: [HostImage; 5],
+///     camera: &ssbc::scene::Camera,
+///     bound: f32,
+/// ) -> ssbc::Result<()> {
+///     let inputs = PostProcessInputs {
+///         position,
+///         normal,
+///         albedo,
+///         s0,
+///         output,
+///         camera_position: camera.position,
+///         camera_forward: camera.forward,
+///         camera_up: camera.up,
+///         yfov: camera.yfov,
+///         bound,
+///         typical_depth: 5.0,
+///         hidden: None,
+///     };
+///     let settings = ssbc::SsbcSettings { steps: 2, ..Default::default() };
+///     post.record(cmd, frame_slot, &inputs, &settings, PostOutput::Compensated)
+/// }
+/// ```
 pub struct SsbcPostProcess {
     // Field order is drop order: resources before the device.
     slots: Vec<Option<SsbcSlot>>,

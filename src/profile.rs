@@ -149,6 +149,20 @@ impl ChromeTrace {
 /// settings; returns the last frame with [`Timings::stats`] filled in over
 /// the `frames` measured ones. Every frame (warm-up included, marked as
 /// frame 0) goes into `trace` when given.
+///
+/// ```no_run
+/// # fn main() -> ssbc::Result<()> {
+/// use ssbc::profile::{render_frames, ChromeTrace};
+/// let mut renderer = ssbc::Renderer::new(&ssbc::RendererConfig::default())?;
+/// let mut scene = ssbc::scene::load("cornell")?;
+/// scene.ensure_light();
+/// let settings = ssbc::RenderSettings::new(640, 480);
+/// let mut trace = ChromeTrace::new();
+/// let frame = render_frames(&mut renderer, &scene, &settings, 10, Some(&mut trace))?;
+/// println!("{}", frame.timings.stats.as_ref().expect("filled in").table());
+/// trace.write("trace.json".as_ref())?; // chrome://tracing or Perfetto
+/// # Ok(()) }
+/// ```
 pub fn render_frames(
     renderer: &mut Renderer,
     scene: &Scene,

@@ -21,12 +21,11 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 use crate::gpu_scene::GpuScene;
-use crate::passes::deep_gbuffer::DeepGBufferPass;
 use crate::passes::direct_lighting::DirectLightingPass;
-use crate::passes::gbuffer::GBufferPass;
-use crate::passes::indirect_bounded::IndirectBoundedPass;
-use crate::passes::ism::IsmPass;
-use crate::passes::shadow_maps::ShadowMapPass;
+use crate::passes::gbuffer::{GBuffer, GBufferPass};
+use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass};
+use crate::passes::ism::{Ism, IsmPass};
+use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
 use crate::passes::ssbc::{SsbcCamera, SsbcLayer, SsbcPass};
 use crate::passes::{FrameView, Recording, SlotSetup, Stage};
 use crate::postprocess::HostImage;
@@ -60,17 +59,65 @@ pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> u64 {
     limits::frame_memory(settings, scene.lights.len())
 }
 
+/// The passes that run once per G-buffer layer: its G-buffer and its
+/// clamped lighting `S0`.
+struct LayerStages {
+    gbuffer: Stage<GBufferPass>,
+    direct_lighting: Stage<DirectLightingPass>,
+    indirect_bounded: Stage<IndirectBoundedPass>,
+}
+
+/// What one layer's stages wrote in a slot.
+type LayerImages<'a> = (&'a GBuffer, &'a Image, &'a BoundedLighting);
+
+impl LayerStages {
+    fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
+        Ok(Self {
+            gbuffer: Stage::new(GBufferPass::new(device, layer)?, FRAME_SLOTS),
+            direct_lighting: Stage::new(DirectLightingPass::new(device, layer)?, FRAME_SLOTS),
+            indirect_bounded: Stage::new(IndirectBoundedPass::new(device, layer)?, FRAME_SLOTS),
+        })
+    }
+
+    /// The layer's G-buffer (peeled behind `front` on layer 1), direct
+    /// lighting and bounded indirect lighting: its G-buffer and `S0`.
+    fn run(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        (scene, front): (&GpuScene, Option<&GBuffer>),
+        (shadows, ism): (&ShadowMaps, &Ism),
+    ) -> Result<(&GBuffer, &Image)> {
+        let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
+        let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
+        let bounded = self
+            .indirect_bounded
+            .run(cx, setup, (gbuffer, direct, ism))?;
+        Ok((gbuffer, &bounded.s0))
+    }
+
+    fn images(&self, slot: usize) -> Option<LayerImages<'_>> {
+        Some((
+            self.gbuffer.resources(slot)?,
+            self.direct_lighting.resources(slot)?,
+            self.indirect_bounded.resources(slot)?,
+        ))
+    }
+
+    fn forget(&mut self, slot: usize) {
+        self.gbuffer.forget(slot);
+        self.direct_lighting.forget(slot);
+        self.indirect_bounded.forget(slot);
+    }
+}
+
 /// The technique passes, each with its resources in every frame slot.
 struct Passes {
     shadow_maps: Stage<ShadowMapPass>,
     ism: Stage<IsmPass>,
-    gbuffer: Stage<GBufferPass>,
-    direct_lighting: Stage<DirectLightingPass>,
-    indirect_bounded: Stage<IndirectBoundedPass>,
-    /// The deep G-buffer's second layer and its `S0` (`ssbc.layers` 2).
-    gbuffer_layer1: Stage<DeepGBufferPass>,
-    direct_lighting_layer1: Stage<DirectLightingPass>,
-    indirect_bounded_layer1: Stage<IndirectBoundedPass>,
+    /// Layer 0, the visible surfaces; layer 1, the deep G-buffer's second
+    /// layer (`ssbc.layers` 2).
+    layers: [LayerStages; 2],
     ssbc: Stage<SsbcPass>,
 }
 
@@ -79,12 +126,7 @@ impl Passes {
         Ok(Self {
             shadow_maps: Stage::new(ShadowMapPass::new(device)?, FRAME_SLOTS),
             ism: Stage::new(IsmPass::new(device)?, FRAME_SLOTS),
-            gbuffer: Stage::new(GBufferPass::new(device)?, FRAME_SLOTS),
-            direct_lighting: Stage::new(DirectLightingPass::new(device, 0)?, FRAME_SLOTS),
-            indirect_bounded: Stage::new(IndirectBoundedPass::new(device, 0)?, FRAME_SLOTS),
-            gbuffer_layer1: Stage::new(DeepGBufferPass::new(device)?, FRAME_SLOTS),
-            direct_lighting_layer1: Stage::new(DirectLightingPass::new(device, 1)?, FRAME_SLOTS),
-            indirect_bounded_layer1: Stage::new(IndirectBoundedPass::new(device, 1)?, FRAME_SLOTS),
+            layers: [LayerStages::new(device, 0)?, LayerStages::new(device, 1)?],
             ssbc: Stage::new(SsbcPass::new(device)?, FRAME_SLOTS),
         })
     }
@@ -99,60 +141,41 @@ impl Passes {
     ) -> Result<()> {
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
         let ism = self.ism.run(cx, setup, ())?;
-        let gbuffer = self.gbuffer.run(cx, setup, scene)?;
-        let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
-        let bounded = self
-            .indirect_bounded
-            .run(cx, setup, (gbuffer, direct, ism))?;
+        let [layer0, layer1] = &mut self.layers;
+        let (front, s0) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
         let visible = SsbcLayer {
-            gbuffer: gbuffer.into(),
-            s0: &bounded.s0,
+            gbuffer: front.into(),
+            s0,
         };
         let ssbc = &setup.settings.ssbc;
         let hidden = if ssbc.layers == 2 && ssbc.steps > 0 {
-            let layer1 = self.gbuffer_layer1.run(cx, setup, (scene, gbuffer))?;
-            let direct = self
-                .direct_lighting_layer1
-                .run(cx, setup, (layer1, shadows))?;
-            let bounded = self
-                .indirect_bounded_layer1
-                .run(cx, setup, (layer1, direct, ism))?;
+            let (gbuffer, s0) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
             Some(SsbcLayer {
-                gbuffer: layer1.into(),
-                s0: &bounded.s0,
+                gbuffer: gbuffer.into(),
+                s0,
             })
         } else {
             // Not drawn this frame: free what an earlier frame held.
-            self.gbuffer_layer1.forget(setup.slot);
-            self.direct_lighting_layer1.forget(setup.slot);
-            self.indirect_bounded_layer1.forget(setup.slot);
+            layer1.forget(setup.slot);
             None
         };
         self.ssbc.run(cx, setup, (visible, hidden))?;
         Ok(())
     }
 
-    /// Drops the slot's second-layer resources.
-    fn forget_layer1(&mut self, slot: usize) {
-        self.gbuffer_layer1.forget(slot);
-        self.direct_lighting_layer1.forget(slot);
-        self.indirect_bounded_layer1.forget(slot);
-    }
-
     /// The images the slot's last recorded frame wrote.
     fn images(&self, slot: usize) -> Option<FrameImages<'_>> {
         let ssbc = self.ssbc.resources(slot)?;
+        let (gbuffer, direct, bounded) = self.layers[0].images(slot)?;
         // Stale resources of an earlier two-layer frame are not this frame's.
-        let layer1 = ssbc.layer1().and_then(|_| {
-            Some((
-                self.gbuffer_layer1.resources(slot)?,
-                self.indirect_bounded_layer1.resources(slot)?,
-            ))
-        });
+        let layer1 = ssbc
+            .layer1()
+            .and_then(|_| self.layers[1].images(slot))
+            .map(|(gbuffer, _, bounded)| (gbuffer, bounded));
         Some(FrameImages {
-            gbuffer: self.gbuffer.resources(slot)?,
-            direct: self.direct_lighting.resources(slot)?,
-            bounded: self.indirect_bounded.resources(slot)?,
+            gbuffer,
+            direct,
+            bounded,
             ssbc,
             ism: self.ism.resources(slot)?,
             layer1,
@@ -163,10 +186,9 @@ impl Passes {
     fn forget(&mut self, slot: usize) {
         self.shadow_maps.forget(slot);
         self.ism.forget(slot);
-        self.gbuffer.forget(slot);
-        self.direct_lighting.forget(slot);
-        self.indirect_bounded.forget(slot);
-        self.forget_layer1(slot);
+        for layer in &mut self.layers {
+            layer.forget(slot);
+        }
         self.ssbc.forget(slot);
     }
 }

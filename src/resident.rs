@@ -11,6 +11,25 @@
 //!
 //! Nothing else is rebuilt, and the renderer's images, buffers and
 //! descriptor pools are reused until the size or settings change.
+//!
+//! ```no_run
+//! # fn main() -> ssbc::Result<()> {
+//! use ssbc::resident::ResidentScene;
+//! use ssbc::scene::Camera;
+//! let mut renderer = ssbc::Renderer::new(&ssbc::RendererConfig::default())?;
+//! let mut scene = ssbc::scene::load("cornell")?;
+//! scene.ensure_light();
+//! let mut resident = ResidentScene::new(scene)?;
+//! let settings = ssbc::RenderSettings::new(640, 480);
+//! for i in 0..10 {
+//!     let eye = glam::Vec3::new(0.1 * i as f32, 1.0, 3.0);
+//!     resident.set_camera(Camera::look_at(eye, glam::Vec3::new(0.0, 1.0, 0.0), 0.8));
+//!     // A camera move: no VPL tracing, no ISM points rebuilt on the CPU.
+//!     let frame = renderer.render_resident(&resident, &settings)?;
+//!     println!("frame {i}: {:?} ms on the GPU", frame.timings.frame_gpu_ms);
+//! }
+//! # Ok(()) }
+//! ```
 
 use std::sync::atomic::{AtomicU64, Ordering};
 

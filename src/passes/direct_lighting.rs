@@ -47,6 +47,9 @@ impl DirectLightingPass {
 
 impl Pass for DirectLightingPass {
     const NAME: &'static str = "direct_lighting";
+    fn layer(&self) -> u32 {
+        self.layer
+    }
     /// Width and height.
     type Key = (u32, u32);
     /// The `direct` layer.

@@ -2,15 +2,23 @@
 //! linear albedo and emitted radiance per pixel, rasterized at pixel centres.
 //! Alpha-masked texels are discarded, one-sided surfaces seen from behind
 //! are culled.
+//!
+//! Layer 1 is a deep G-buffer's second layer (Mara, McGuire,
+//! Nowrouzezahrai, Luebke, "Deep G-Buffers for Stable Global Illumination
+//! Approximation", HPG 2016) by depth peeling, at full or half resolution
+//! ([`crate::settings::LayerResolution`]): per pixel the nearest surface at
+//! least a separation farther from the camera than the visible one (layer
+//! 0) under it, back faces included. SSBC gathers from its surfaces too:
+//! the hidden faces of objects light the visible surfaces around them.
 
 use std::sync::Arc;
 
 use ash::vk;
 
 use super::{Pass, Recording, SlotSetup};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::gpu_scene::GpuScene;
-use crate::shaders::{gbuffer_frag, gbuffer_vert};
+use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
 use crate::vk::{
     push_size, Access, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc,
     Pipeline, Recorder, Shader, ShaderBindings, ShaderInterface,
@@ -184,59 +192,103 @@ pub(crate) struct Push {
     pub layer1_shift: u32,
 }
 
-/// The G-buffer pipeline and its descriptor layout.
+/// The G-buffer pipeline of one layer and its descriptor layout.
 pub struct GBufferPass {
     layout: DescriptorSetLayout,
     pipeline: Pipeline,
+    layer: u32,
 }
 
 impl GBufferPass {
-    /// Creates the pipeline.
-    pub fn new(device: &Arc<Device>) -> Result<Self> {
-        let (layout, pipeline) = raster_pipeline::<gbuffer_frag::Interface>(device, "gbuffer")?;
-        Ok(Self { layout, pipeline })
+    /// Creates the pipeline for layer `layer`: 0 rasterizes the visible
+    /// surfaces, 1 peels the surfaces behind them.
+    pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
+        let name = super::layer_name("gbuffer", layer);
+        let (layout, pipeline) = match layer {
+            0 => raster_pipeline::<gbuffer_frag::Interface>(device, &name)?,
+            _ => raster_pipeline::<gbuffer_peel_frag::Interface>(device, &name)?,
+        };
+        Ok(Self {
+            layout,
+            pipeline,
+            layer,
+        })
     }
 }
 
 impl Pass for GBufferPass {
     const NAME: &'static str = "gbuffer";
+    fn layer(&self) -> u32 {
+        self.layer
+    }
     /// Width and height.
     type Key = (u32, u32);
     type Resources = GBuffer;
-    type Reads<'a> = &'a GpuScene;
+    /// The scene and, on layer 1, layer 0 (the surfaces to peel behind).
+    type Reads<'a> = (&'a GpuScene, Option<&'a GBuffer>);
 
     fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
-        setup.extent()
+        setup.layer_extent(self.layer)
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
-        GBuffer::new(setup.device, "gbuffer", setup.extent())
+        let name = super::layer_name("gbuffer", self.layer);
+        GBuffer::new(setup.device, &name, setup.layer_extent(self.layer))
     }
 
     fn set_layouts(&self, _: &GBuffer) -> Vec<&DescriptorSetLayout> {
         vec![&self.layout]
     }
 
-    /// Rasterizes the scene from the frame's camera.
+    /// Rasterizes the scene from the frame's camera (on layer 1 keeping
+    /// only what lies a separation behind layer 0).
     fn record(
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        scene: &GpuScene,
+        (scene, front): (&GpuScene, Option<&GBuffer>),
         gbuffer: &GBuffer,
     ) -> Result<()> {
         let Recording {
             rec,
             profiler,
             view,
+            settings,
             ..
         } = cx;
-        let set = pool.allocate(&self.layout, &material_bindings(scene).bindings())?;
-        let scope = profiler.begin(rec.cmd, "gbuffer");
+        let materials = material_bindings(scene);
+        let (set, push) = match (self.layer, front) {
+            (0, _) => {
+                let set = pool.allocate(&self.layout, &materials.bindings())?;
+                (set, view.camera.position.extend(1.0))
+            }
+            (_, Some(front)) => {
+                let bindings = gbuffer_peel_frag::Bindings {
+                    materials: materials.materials,
+                    color_textures: materials.color_textures,
+                    linear_textures: materials.linear_textures,
+                    layer0_position: &front.position,
+                };
+                rec.use_image(&front.position, Access::GraphicsStorageRead);
+                let set = pool.allocate(&self.layout, &bindings.bindings())?;
+                let separation = settings.ssbc.layer_separation * view.diagonal;
+                (set, view.camera.position.extend(separation))
+            }
+            (layer, None) => {
+                return Err(Error::InvalidParameter(format!(
+                    "G-buffer layer {layer} needs the layer in front of it"
+                )))
+            }
+        };
+        let name = super::layer_name("gbuffer", self.layer);
+        let scope = profiler.begin(rec.cmd, &name);
         let push = Push {
             view_proj: view.view_proj.to_cols_array(),
-            camera_position: view.camera.position.extend(1.0).into(),
-            layer1_shift: 0,
+            camera_position: push.into(),
+            layer1_shift: match self.layer {
+                0 => 0,
+                _ => settings.ssbc.layer1_resolution.shift(),
+            },
         };
         gbuffer.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);

@@ -295,6 +295,9 @@ impl IndirectBoundedPass {
 
 impl Pass for IndirectBoundedPass {
     const NAME: &'static str = "indirect_bounded";
+    fn layer(&self) -> u32 {
+        self.layer
+    }
     /// Width, height and the side of the interleaved pattern (1: full gather).
     type Key = (u32, u32, u32);
     type Resources = BoundedLighting;

@@ -11,7 +11,6 @@
 //! the renderer's `Passes`, and one line in the renderer's list of passes,
 //! naming what it reads.
 
-pub mod deep_gbuffer;
 pub mod direct_lighting;
 pub mod gbuffer;
 pub mod indirect_bounded;
@@ -48,7 +47,7 @@ pub struct SlotSetup<'a> {
 
 impl SlotSetup<'_> {
     /// The extent of G-buffer layer `layer` (layer 1 at
-    /// `ssbc.layer1_resolution`, see [`deep_gbuffer`]).
+    /// `ssbc.layer1_resolution`, see [`gbuffer`]).
     pub fn layer_extent(&self, layer: u32) -> (u32, u32) {
         match layer {
             0 => self.extent(),
@@ -117,6 +116,11 @@ pub trait Pass {
     /// What it reads from earlier passes.
     type Reads<'a>;
 
+    /// The G-buffer layer it works on (0: the visible surfaces; 1: the
+    /// deep G-buffer's second layer); its name gets a `_layer1` suffix.
+    fn layer(&self) -> u32 {
+        0
+    }
     /// The key of the resources `setup` needs.
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key;
     /// Makes the resources.
@@ -204,6 +208,7 @@ impl<P: Pass> Stage<P> {
         reads: P::Reads<'_>,
     ) -> Result<&P::Resources> {
         let pass = &self.pass;
+        let name = layer_name(P::NAME, pass.layer());
         let held = PassSlot::refresh(
             &mut self.slots[setup.slot],
             pass.key(setup),
@@ -212,15 +217,14 @@ impl<P: Pass> Stage<P> {
             |resources| {
                 let pool = DescriptorPool::new(setup.device, &pass.set_layouts(resources))?;
                 pool.name(&format!(
-                    "frame slot {} {} descriptor pool",
-                    setup.slot,
-                    P::NAME
+                    "frame slot {} {name} descriptor pool",
+                    setup.slot
                 ));
                 Ok(pool)
             },
         )?;
         pass.record(cx, &held.pool, reads, &held.resources)?;
-        cx.checkpoint(P::NAME)?;
+        cx.checkpoint(&name)?;
         Ok(&held.resources)
     }
 

@@ -198,7 +198,24 @@ pub struct Frame {
 }
 
 impl Frame {
-    /// The image of `layer`, if the frame read it back.
+    /// The image of `layer`, if the frame read it back: [`Layer::Final`]
+    /// always, the others with `debug_readback`.
+    ///
+    /// ```no_run
+    /// # fn main() -> ssbc::Result<()> {
+    /// use ssbc::Layer;
+    /// let mut renderer = ssbc::Renderer::new(&ssbc::RendererConfig::default())?;
+    /// let mut scene = ssbc::scene::load("cornell")?;
+    /// scene.ensure_light();
+    /// let mut settings = ssbc::RenderSettings::new(320, 240);
+    /// settings.debug_readback = true;
+    /// let frame = renderer.render(&scene, &settings)?;
+    /// // What the first SSBC step gave back (RGBA f32, row 0 at the top).
+    /// let s1 = frame.layer(Layer::Residual(1)).expect("read back");
+    /// let mean_red = s1.rgba.chunks(4).map(|p| p[0]).sum::<f32>() / (320.0 * 240.0);
+    /// println!("S_1 adds {mean_red} W/(sr m^2) of red on average");
+    /// # Ok(()) }
+    /// ```
     pub fn layer(&self, layer: Layer) -> Option<&LayerImage> {
         std::iter::once(&self.image)
             .chain(&self.layers)

@@ -3,10 +3,10 @@
 //! style top-down integration over mip chains) or by brute force.
 //!
 //! Per frame: the geometry pyramid (area-weighted position and normal, summed
-//! area `A_y`, discontinuity flag) is built once ([`pyramids`]); each step
-//! ([`step`]) builds the radiance pyramid of the previous term, integrates
+//! area `A_y`, discontinuity flag) is built once (`pyramids.rs`); each step
+//! (`step.rs`) builds the radiance pyramid of the previous term, integrates
 //! the residual, and adds it to the final image. Each kernel has its own
-//! push block ([`push`]) and takes its bindings by the names its shader
+//! push block (`push.rs`) and takes its bindings by the names its shader
 //! gives them (`crate::shaders::<kernel>::Bindings`).
 
 mod push;
