@@ -5,7 +5,7 @@
 
 use super::push::{FrameBlock, GeometryBasePush, GeometryMipsPush, RadiancePush};
 use super::{SsbcFrame, SsbcGBuffer, SsbcPass};
-use super::{AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, RADIANCE_BYTES};
+use super::frame::{AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, RADIANCE_BYTES};
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
 use crate::shaders::{ssbc_geometry_base_comp, ssbc_geometry_mips_comp, ssbc_radiance_mips_comp};
