@@ -69,6 +69,28 @@ impl HostMemory {
         }))
     }
 
+    /// Memory for a resource with `requirements` (`linear`: a buffer or a
+    /// linearly tiled image).
+    fn allocate(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        location: MemoryLocation,
+        linear: bool,
+    ) -> Result<Allocation, Error> {
+        Ok(self
+            .allocator
+            .lock()
+            .unwrap()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })?)
+    }
+
     /// A `width` x `height` RGBA32F image for storage and copies.
     fn image(self: &Arc<Self>, name: &str, width: u32, height: u32) -> Result<Image, Error> {
         let raw_device = &self.device.raw;
@@ -94,17 +116,7 @@ impl HostMemory {
         let raw = unsafe { raw_device.create_image(&info, None)? };
         // SAFETY: `raw` is a live image of this device.
         let requirements = unsafe { raw_device.get_image_memory_requirements(raw) };
-        let allocation = self
-            .allocator
-            .lock()
-            .unwrap()
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location: MemoryLocation::GpuOnly,
-                linear: false,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })?;
+        let allocation = self.allocate(name, requirements, MemoryLocation::GpuOnly, false)?;
         // SAFETY: the allocation fits the image's requirements; not bound yet.
         unsafe { raw_device.bind_image_memory(raw, allocation.memory(), allocation.offset())? };
         let view_info = vk::ImageViewCreateInfo::default()
@@ -138,17 +150,7 @@ impl HostMemory {
         let raw = unsafe { raw_device.create_buffer(&info, None)? };
         // SAFETY: `raw` is a live buffer of this device.
         let requirements = unsafe { raw_device.get_buffer_memory_requirements(raw) };
-        let allocation = self
-            .allocator
-            .lock()
-            .unwrap()
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear: true,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })?;
+        let allocation = self.allocate(name, requirements, location, true)?;
         // SAFETY: the allocation fits; the buffer is not bound yet.
         unsafe { raw_device.bind_buffer_memory(raw, allocation.memory(), allocation.offset())? };
         Ok(Buffer {

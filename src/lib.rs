@@ -48,10 +48,19 @@
 #![warn(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 
-/// Declares an item `pub` with the `unstable` feature and `pub(crate)`
+/// Declares items `pub` with the `unstable` feature and `pub(crate)`
 /// without it: the renderer's internals, reachable by ssbc's own binary,
-/// tests, benches and examples, never part of the supported API.
+/// tests, benches and examples, never part of the supported API. Takes one
+/// item, or a list of `mod name;` and `use path;` items.
 macro_rules! unstable_pub {
+    ($(#[$meta:meta])* mod $name:ident; $($rest:tt)+) => {
+        unstable_pub! { $(#[$meta])* mod $name; }
+        unstable_pub! { $($rest)+ }
+    };
+    ($(#[$meta:meta])* use $head:tt $(:: $segment:tt)*; $($rest:tt)+) => {
+        unstable_pub! { $(#[$meta])* use $head $(:: $segment)*; }
+        unstable_pub! { $($rest)+ }
+    };
     ($(#[$meta:meta])* $kw:ident $($rest:tt)*) => {
         #[cfg(feature = "unstable")]
         $(#[$meta])*
@@ -83,17 +92,9 @@ pub mod vk;
 
 unstable_pub! {
     mod cpu;
-}
-unstable_pub! {
     mod gpu_scene;
-}
-unstable_pub! {
     mod gpu_types;
-}
-unstable_pub! {
     mod passes;
-}
-unstable_pub! {
     mod scene_cache;
 }
 unstable_pub! {

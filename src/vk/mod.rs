@@ -25,30 +25,16 @@
 //! # Ok(()) }
 //! ```
 
-unstable_pub! {
-    mod barrier;
-}
-unstable_pub! {
-    mod buffer;
-}
-unstable_pub! {
-    mod buffer_view;
-}
-unstable_pub! {
-    mod commands;
-}
-unstable_pub! {
-    mod descriptor;
-}
 mod device;
-unstable_pub! {
-    mod image;
-}
 mod instance;
 unstable_pub! {
+    mod barrier;
+    mod buffer;
+    mod buffer_view;
+    mod commands;
+    mod descriptor;
+    mod image;
     mod pipeline;
-}
-unstable_pub! {
     mod profiler;
 }
 
@@ -57,27 +43,13 @@ pub use instance::{Instance, Validation, ValidationLog};
 pub use profiler::{GpuFrameTimes, PassTiming};
 unstable_pub! {
     use self::barrier::Access;
-}
-unstable_pub! {
     use self::buffer::Buffer;
-}
-unstable_pub! {
     use self::buffer_view::BufferView;
-}
-unstable_pub! {
     use self::commands::{CommandPool, Recorder, TrackedImage};
-}
-unstable_pub! {
     use self::descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
-}
-unstable_pub! {
     use self::image::{Image, ImageDesc, Sampler};
-}
-unstable_pub! {
     use self::pipeline::{
         push_size, ComputeKernel, GraphicsDesc, Pipeline, Shader, ShaderBindings, ShaderInterface,
     };
-}
-unstable_pub! {
     use self::profiler::GpuProfiler;
 }
