@@ -5,7 +5,7 @@
 
 mod common;
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::renderer::{Bound, Frame};
 use ssbc::scene::{
@@ -412,7 +412,8 @@ fn a_normal_map_tilts_the_shading_normal() {
     let f = common::render_validated(&s, &settings);
     // The stored texel, decoded, is the normal the renderer should use.
     let decode = |c: u8| c as f32 / 255.0 * 2.0 - 1.0;
-    let expected = Vec3::new(decode(texel[0]), decode(texel[2]), -decode(texel[1])).normalize();
+    // Tangent +x, bitangent (green, image-up = -v) +z, normal +y.
+    let expected = Vec3::new(decode(texel[0]), decode(texel[2]), decode(texel[1])).normalize();
     let n = layer(&f, "gbuffer_normal");
     let d = layer(&f, "direct");
     let mid = (12 * 32 + 16) * 4;
@@ -437,6 +438,98 @@ fn a_normal_map_tilts_the_shading_normal() {
     );
     // VPLs leave around the geometric normal.
     assert!((surf.geometric_normal - Vec3::Y).length() < 1e-6);
+}
+
+/// A normal map's green channel tilts the normal towards image-up (-v) with
+/// generated tangents exactly as with glTF's own TANGENT (w = 1 for this
+/// layout). Generated tangents had the opposite handedness: the quad
+/// without TANGENT rendered black under a light from image-up.
+#[test]
+fn generated_tangents_read_green_as_image_up() {
+    let tilt = 60f32.to_radians();
+    let mut s = Scene::new("green-up");
+    s.textures.push(Texture {
+        width: 1,
+        height: 1,
+        rgba8: vec![
+            128,
+            ((tilt.sin() * 0.5 + 0.5) * 255.0).round() as u8,
+            ((tilt.cos() * 0.5 + 0.5) * 255.0).round() as u8,
+            255,
+        ],
+    });
+    let mut m = Material::diffuse(Vec3::splat(0.5), None);
+    m.normal_texture = Some(TextureRef {
+        index: 0,
+        sampler: TextureSampler::default(),
+    });
+    let m = add(&mut s, m);
+    // Two floor quads, u along +x and v along +z (image-up, -v, is -z; seen
+    // from above, the texture is not mirrored): the left one without
+    // tangents, the right one with glTF's (+x, w = 1).
+    let uv = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    for (x0, tangents) in [
+        (-2.1, vec![]),
+        (0.1, vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 4]),
+    ] {
+        let c = Vec3::new(x0, 0.0, -1.0);
+        let p = [
+            c,
+            c + Vec3::X * 2.0,
+            c + Vec3::new(2.0, 0.0, 2.0),
+            c + Vec3::Z * 2.0,
+        ];
+        s.add_mesh_with_tangents(
+            &p,
+            &[Vec3::Y; 4],
+            &uv,
+            &tangents,
+            &[0, 2, 1, 0, 3, 2],
+            Mat4::IDENTITY,
+            m,
+        )
+        .unwrap();
+    }
+    // Light grazing in from -z, 20 degrees above the floor: normals tilted
+    // towards -z face it, normals tilted towards +z face away.
+    let to_light = Vec3::new(0.0, 20f32.to_radians().sin(), -20f32.to_radians().cos());
+    s.lights.push(Light {
+        kind: LightKind::Directional,
+        position: Vec3::ZERO,
+        direction: -to_light,
+        intensity: Vec3::splat(3.0),
+    });
+    s.cameras.push(Camera::look_at(
+        Vec3::new(0.0, 5.0, 0.01),
+        Vec3::ZERO,
+        50f32.to_radians(),
+    ));
+    let mut settings = common::small(64, 32);
+    settings.vpl.count = 0;
+    settings.ssbc.steps = 0;
+    settings.debug_readback = true;
+    let f = common::render_validated(&s, &settings);
+    let d = layer(&f, "direct");
+    let at = |x: usize| d[(16 * 64 + x) * 4];
+
+    let n = Vec3::new(0.0, tilt.cos(), -tilt.sin());
+    let expected = 0.5 / std::f32::consts::PI * 3.0 * n.dot(to_light);
+    // The quads' centres are 7.5 pixels either side of the image's.
+    eprintln!("green up: {} and {} / expected {expected}", at(25), at(39));
+    for x in [25, 39] {
+        assert!(
+            (at(x) / expected - 1.0).abs() < 0.02,
+            "pixel {x}: {} vs {expected}",
+            at(x)
+        );
+    }
+    for v in &s.vertices {
+        let t = Vec4::from(v.tangent);
+        assert!(
+            (t - Vec4::new(1.0, 0.0, 0.0, 1.0)).length() < 1e-5,
+            "{t}: not as glTF's"
+        );
+    }
 }
 
 #[test]

@@ -613,8 +613,18 @@ fn triangle_tangent(p: &[Vec3; 3], uv: &[[f32; 2]; 3], n: Vec3) -> Vec4 {
     let t = (e1 * dv2 - e2 * dv1) / det;
     let b = (e2 * du1 - e1 * du2) / det;
     let t = (t - n * n.dot(t)).normalize_or_zero();
-    let w = if n.cross(t).dot(b) < 0.0 { -1.0 } else { 1.0 };
-    t.extend(w)
+    t.extend(handedness(n, t, b))
+}
+
+/// The bitangent sign glTF's TANGENT.w holds: `cross(n, t) * w` points
+/// along -v, image-up (glTF's v runs down the image, a normal map's green
+/// channel up it), so w is -1 where `cross(n, t)` runs along +v (`dp_dv`).
+fn handedness(n: Vec3, t: Vec3, dp_dv: Vec3) -> f32 {
+    if n.cross(t).dot(dp_dv) > 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
 }
 
 /// Per-vertex tangents: triangle tangents (weighted by area through the
@@ -649,12 +659,7 @@ fn vertex_tangents(
         .map(|i| {
             let n = normals[i];
             let t = (t_sum[i] - n * n.dot(t_sum[i])).normalize_or_zero();
-            let w = if n.cross(t).dot(b_sum[i]) < 0.0 {
-                -1.0
-            } else {
-                1.0
-            };
-            t.extend(w)
+            t.extend(handedness(n, t, b_sum[i]))
         })
         .collect()
 }
