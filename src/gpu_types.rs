@@ -205,7 +205,7 @@ impl GpuVpl {
         Self {
             position: v.position.extend(f32::from_bits(point_block)).into(),
             normal: v.normal.extend(f32::from_bits(cell)).into(),
-            power: (v.albedo * v.flux).extend(0.0).into(),
+            power: (v.brdf.base * v.flux).extend(0.0).into(),
         }
     }
 }

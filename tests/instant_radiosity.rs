@@ -6,6 +6,7 @@ mod common;
 
 use glam::Vec3;
 use ssbc::cpu::bvh::SceneBvh;
+use ssbc::cpu::brdf::Brdf;
 use ssbc::cpu::vpl::bounded_radiance;
 use ssbc::renderer::{Bound, RenderSettings};
 use ssbc::settings::SsbcSettings;
@@ -64,12 +65,13 @@ fn gpu_bounded_indirect_equals_cpu_vpl_sum() {
         if pos[i * 4 + 3] == 0.0 {
             continue;
         }
-        let (x, n, a) = (rgb(pos, i), rgb(nrm, i), rgb(alb, i));
+        let (x, n) = (rgb(pos, i), rgb(nrm, i));
+        let a = Brdf::lambertian(rgb(alb, i));
         gpu.push(rgb(gpu_layer, i));
-        cpu_ism.push(bounded_radiance(x, n, a, &f.vpls, f.bound, |k, v| {
+        cpu_ism.push(bounded_radiance(x, n, &a, n, &f.vpls, f.bound, |k, v| {
             ism.visible(k, v, x, n)
         }));
-        cpu_exact.push(bounded_radiance(x, n, a, &f.vpls, f.bound, |_, v| {
+        cpu_exact.push(bounded_radiance(x, n, &a, n, &f.vpls, f.bound, |_, v| {
             // Exact visibility, with the receiver nudged off its surface.
             !bvh.occluded(v.position + v.normal * 1e-4, x + n * 1e-4)
         }));

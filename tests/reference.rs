@@ -109,6 +109,8 @@ fn closed_box_bounce_orders_scale_by_the_albedo() {
             normal: n,
             geometric_normal: n,
             albedo: Vec3::splat(rho),
+            brdf: ssbc::cpu::brdf::Brdf::lambertian(Vec3::splat(rho)),
+            wo: n,
             emission: Vec3::ZERO,
             front: true,
             double_sided: true,

@@ -12,6 +12,7 @@ use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 
+use super::brdf::Brdf;
 use super::shading;
 use crate::scene::{AlphaMode, Scene, Texture, TextureSampler};
 
@@ -36,8 +37,13 @@ pub struct Surface {
     pub normal: Vec3,
     /// Geometric normal, on the same side as `normal`.
     pub geometric_normal: Vec3,
-    /// Linear albedo (base colour x texture).
+    /// Linear base colour (factor x texture): the albedo of a Lambertian
+    /// surface.
     pub albedo: Vec3,
+    /// The BRDF there.
+    pub brdf: Brdf,
+    /// Unit direction it is seen from (`toward`).
+    pub wo: Vec3,
     /// Radiance emitted towards `toward` (W/(m² sr)); zero seen from behind
     /// a one-sided emitter.
     pub emission: Vec3,
@@ -425,7 +431,7 @@ impl SceneBvh {
         if !front {
             normal = -normal;
         }
-        let albedo = shading::base_color(scene, material, uv).truncate();
+        let brdf = shading::brdf(scene, material, uv);
         let emission = if front || material.double_sided {
             shading::emission(scene, material, uv)
         } else {
@@ -435,7 +441,9 @@ impl SceneBvh {
             position,
             normal,
             geometric_normal,
-            albedo,
+            albedo: brdf.base,
+            brdf,
+            wo: toward.normalize_or_zero(),
             emission,
             front,
             double_sided: material.double_sided,

@@ -41,6 +41,8 @@ pub struct Emitters {
     power: Vec<Vec3>,
     /// Cumulative luminance of the power.
     cdf: Vec<f32>,
+    /// Scene triangle -> index into `triangles`.
+    index: std::collections::HashMap<u32, usize>,
 }
 
 /// Luminance weights (Rec. 709).
@@ -87,6 +89,7 @@ impl Emitters {
                 continue;
             }
             total += weight;
+            e.index.insert(t as u32, e.triangles.len());
             e.triangles.push((t as u32, area, sides));
             e.power.push(power);
             e.cdf.push(total);
@@ -102,6 +105,17 @@ impl Emitters {
     /// Total power (W, rgb).
     pub fn power(&self) -> Vec3 {
         self.power.iter().sum()
+    }
+
+    /// The density per unit area with which [`Emitters::sample`] draws a
+    /// point (and side) of scene triangle `triangle`; 0 if it does not emit.
+    pub fn pdf_area(&self, triangle: u32) -> f32 {
+        let (Some(&i), Some(&total)) = (self.index.get(&triangle), self.cdf.last()) else {
+            return 0.0;
+        };
+        let p_triangle = (self.cdf[i] - if i > 0 { self.cdf[i - 1] } else { 0.0 }) / total;
+        let (_, area, sides) = self.triangles[i];
+        p_triangle / (area * sides as f32)
     }
 
     /// A point on an emitter: triangle by power (`u.x` picks it), uniform

@@ -117,7 +117,8 @@ mod tests {
         let vpl = Vpl {
             position: Vec3::new(0.01, 2.0, 0.02),
             normal: -Vec3::Y,
-            albedo: Vec3::ONE,
+            brdf: crate::cpu::brdf::Brdf::lambertian(Vec3::ONE),
+            incident: -Vec3::Y,
             flux: Vec3::ONE,
             bounce: 1,
             path: 0,

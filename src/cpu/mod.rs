@@ -3,6 +3,7 @@
 //! maps, materials (textures, alpha masks, emission, normal maps), emitters,
 //! and low-discrepancy sampling.
 
+pub mod brdf;
 pub mod bvh;
 pub mod default_light;
 pub mod emitters;

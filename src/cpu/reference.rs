@@ -12,6 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::brdf::BrdfSample;
 use super::bvh::{SceneBvh, Surface, RAY_EPSILON};
 use super::emitters::{luminance, EmitterSample, Emitters};
 use super::sampling::{cosine_hemisphere, hash64};
@@ -117,6 +118,19 @@ pub struct Reference<'a> {
     emitters: Emitters,
 }
 
+/// The power heuristic's weight for a sample drawn with density `p` when
+/// another strategy could have drawn it with density `q`.
+fn power_heuristic(p: f32, q: f32) -> f32 {
+    let (p2, q2) = (p * p, q * q);
+    if p2 + q2 > 0.0 && (p2 + q2).is_finite() {
+        p2 / (p2 + q2)
+    } else if p > q {
+        1.0
+    } else {
+        0.0
+    }
+}
+
 /// Offset from a surface along its geometric normal, scaled to the scene.
 fn offset(s: &Surface) -> Vec3 {
     s.position + s.geometric_normal * RAY_EPSILON * (1.0 + s.position.abs().max_element())
@@ -214,15 +228,17 @@ impl<'a> Reference<'a> {
                 continue;
             }
             if !self.bvh.occluded(origin, target) {
-                e += irradiance * cos;
+                e += s.brdf.eval(s.normal, s.wo, to_light) * irradiance * cos;
             }
         }
-        s.albedo / std::f32::consts::PI * e
+        e
     }
 
     /// Direct light from emissive triangles leaving `s`: one point sampled
-    /// on them in proportion to power (next-event estimation).
-    fn direct_emitters(&self, s: &Surface, rng: &mut Rng) -> Vec3 {
+    /// on them in proportion to power (next-event estimation), weighted
+    /// against sampling the BRDF by the power heuristic if `mis` (the path
+    /// then also counts emitters its BRDF-sampled ray hits).
+    fn direct_emitters(&self, s: &Surface, rng: &mut Rng, mis: bool) -> Vec3 {
         let u = glam::Vec4::new(rng.next(), rng.next(), rng.next(), rng.next());
         let Some(e) = self.emitters.sample(self.scene, u) else {
             return Vec3::ZERO;
@@ -240,7 +256,13 @@ impl<'a> Reference<'a> {
         if self.bvh.occluded_except(offset(s), e.position, e.triangle) {
             return Vec3::ZERO;
         }
-        s.albedo / std::f32::consts::PI * e.radiance * (cos_x * cos_e / d2 / e.pdf_area)
+        let weight = if mis {
+            let p_light = e.pdf_area * d2 / cos_e;
+            power_heuristic(p_light, s.brdf.pdf(s.normal, s.wo, dir))
+        } else {
+            1.0
+        };
+        s.brdf.eval(s.normal, s.wo, dir) * e.radiance * (cos_x * cos_e / d2 / e.pdf_area) * weight
     }
 
     /// What the VPL method shows at `s`: direct light plus the clamped VPL
@@ -255,7 +277,8 @@ impl<'a> Reference<'a> {
         bounded_radiance(
             s.position,
             s.normal,
-            s.albedo,
+            &s.brdf,
+            s.wo,
             &self.vpls,
             self.settings.bound,
             |_, v| {
@@ -282,23 +305,30 @@ impl<'a> Reference<'a> {
         let mut throughput = Vec3::ONE;
         let mut radiance = Vec3::ZERO;
         for bounce in 0..=max_bounce {
-            if bounce >= min_bounce {
-                // Emitters hit by a bounce are not counted: next-event
-                // estimation covers them.
-                radiance +=
-                    throughput * (self.direct(&surface) + self.direct_emitters(&surface, &mut rng));
+            // Emitters a BRDF-sampled ray hits count only off glossy
+            // surfaces (weighted against next-event estimation); off
+            // Lambertian ones next-event estimation alone covers them.
+            let mis = !surface.brdf.is_lambertian() && bounce < max_bounce;
+            let counted = bounce >= min_bounce;
+            if counted {
+                radiance += throughput
+                    * (self.direct(&surface) + self.direct_emitters(&surface, &mut rng, mis));
             }
             if bounce == max_bounce {
                 break;
             }
-            // Russian roulette by albedo, then a cosine-sampled bounce
-            // (f_r cos / pdf = albedo).
-            let survive = surface.albedo.max_element().min(1.0);
-            if survive <= 0.0 || rng.next() >= survive {
+            // Russian roulette by f cos / pdf (the albedo of a Lambertian
+            // surface), then a bounce sampled from the BRDF.
+            let roulette = rng.next();
+            let Some(sample) = self.sample_brdf(&surface, &mut rng) else {
+                break;
+            };
+            let survive = sample.weight.max_element().min(1.0);
+            if survive <= 0.0 || roulette >= survive {
                 break;
             }
-            throughput *= surface.albedo / survive;
-            let dir = cosine_hemisphere(surface.normal, rng.next2());
+            throughput *= sample.weight / survive;
+            let dir = sample.wi;
             if dir.dot(surface.geometric_normal) <= 0.0 {
                 break;
             }
@@ -308,9 +338,27 @@ impl<'a> Reference<'a> {
             else {
                 break;
             };
-            surface = self.bvh.surface(self.scene, &hit, -dir);
+            let next = self.bvh.surface(self.scene, &hit, -dir);
+            if mis && counted && next.emission.max_element() > 0.0 {
+                let cos_e = next.geometric_normal.dot(-dir).abs().max(1e-8);
+                let p_light = self.emitters.pdf_area(hit.triangle) * hit.t * hit.t / cos_e;
+                radiance += throughput * next.emission * power_heuristic(sample.pdf, p_light);
+            }
+            surface = next;
         }
         radiance
+    }
+
+    /// A direction from `s`'s BRDF (a Lambertian one draws two numbers, as
+    /// cosine sampling always did; a glossy one a third for the lobe).
+    fn sample_brdf(&self, s: &Surface, rng: &mut Rng) -> Option<BrdfSample> {
+        let lobe = if s.brdf.is_lambertian() {
+            0.0
+        } else {
+            rng.next()
+        };
+        let u = rng.next2();
+        s.brdf.sample(s.normal, s.wo, Vec3::new(lobe, u.x, u.y))
     }
 
     unstable_pub! {
@@ -383,14 +431,17 @@ impl<'a> Reference<'a> {
     }
 
     /// Kollig & Keller: L(x) = direct + clamped VPL sum + residual, the
-    /// residual estimated by a cosine-sampled ray weighted by max(1 - b/G, 0)
+    /// residual estimated by a BRDF-sampled ray weighted by max(1 - b/G, 0)
     /// and recursing with the same estimator.
     fn kollig_keller(&self, s: &Surface, rng: &mut Rng, depth: u32) -> Vec3 {
         let mut l = self.direct(s) + self.vpl_sum(s);
         if depth >= self.settings.bounces || !self.settings.bound.is_finite() {
             return l;
         }
-        let dir = cosine_hemisphere(s.normal, rng.next2());
+        let Some(sample) = self.sample_brdf(s, rng) else {
+            return l;
+        };
+        let dir = sample.wi;
         if dir.dot(s.geometric_normal) <= 0.0 {
             return l;
         }
@@ -402,8 +453,8 @@ impl<'a> Reference<'a> {
         let cos_y = y.normal.dot(-dir);
         let g = cos_x * cos_y / (hit.t * hit.t);
         if g > self.settings.bound {
-            // f_r cos_x / pdf = albedo; the residual keeps the part of G above b.
-            let weight = s.albedo * (1.0 - self.settings.bound / g);
+            // f cos_x / pdf, and the part of G above b.
+            let weight = sample.weight * (1.0 - self.settings.bound / g);
             l += weight * self.kollig_keller(&y, rng, depth + 1);
         }
         l

@@ -1,10 +1,11 @@
 //! Materials evaluated on the CPU, the twins of `shaders/include/material.glsl`:
 //! texture sampling with the glTF sampler's wrap and filter, base colour and
-//! alpha mask, emission, and normal maps.
+//! alpha mask, emission, the BRDF's parameters, and normal maps.
 
 use glam::{Vec2, Vec3, Vec4};
 
-use crate::scene::{AlphaMode, Material, Scene, Texture, TextureSampler, Wrap};
+use super::brdf::Brdf;
+use crate::scene::{AlphaMode, Material, Reflectance, Scene, Texture, TextureSampler, Wrap};
 
 /// sRGB-encoded 8-bit value to linear.
 pub fn srgb_to_linear(c: u8) -> f32 {
@@ -81,6 +82,34 @@ pub fn base_color(scene: &Scene, m: &Material, uv: Vec2) -> Vec4 {
     match m.texture {
         Some(t) => m.base_color * sample(&scene.textures[t], m.sampler, uv, true),
         None => m.base_color,
+    }
+}
+
+/// The BRDF of `m` at `uv`: base colour (texture included), and for glTF's
+/// metallic-roughness model metallic and roughness, each factor times its
+/// channel (B, G) of the linear metallic-roughness texture.
+pub fn brdf(scene: &Scene, m: &Material, uv: Vec2) -> Brdf {
+    let base = base_color(scene, m, uv).truncate();
+    match m.reflectance {
+        Reflectance::Lambertian => Brdf::lambertian(base),
+        Reflectance::MetallicRoughness {
+            metallic,
+            roughness,
+            texture,
+        } => {
+            let (mut metallic, mut roughness) = (metallic, roughness);
+            if let Some(t) = texture {
+                let texel = sample(&scene.textures[t.index], t.sampler, uv, false);
+                metallic *= texel.z;
+                roughness *= texel.y;
+            }
+            Brdf {
+                base,
+                metallic,
+                roughness,
+                specular: 1.0,
+            }
+        }
     }
 }
 

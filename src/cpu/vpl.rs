@@ -10,6 +10,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::brdf::Brdf;
 use super::bvh::{SceneBvh, RAY_EPSILON};
 use super::emitters::{luminance, Emitters};
 use super::sampling::{cosine_hemisphere, uniform_cone, uniform_disk, uniform_sphere, Halton};
@@ -23,8 +24,12 @@ pub struct Vpl {
     pub position: Vec3,
     /// Unit normal on the side the light arrived from.
     pub normal: Vec3,
-    /// Linear albedo at z_i (f_r(z_i) = albedo / pi); 1 on an emitter.
-    pub albedo: Vec3,
+    /// The BRDF at z_i (Lambertian of albedo 1 on an emitter, whose
+    /// radiance is the same in every direction).
+    pub brdf: Brdf,
+    /// Unit direction the light arrived from (on an emitter, its normal):
+    /// a glossy VPL sends `f(incident, w) Phi_i` towards w.
+    pub incident: Vec3,
     /// Flux Phi_i (W) the path carried into z_i (on an emitter: the flux it
     /// leaves with).
     pub flux: Vec3,
@@ -38,6 +43,15 @@ pub struct Vpl {
 }
 
 impl Vpl {
+    /// f at z_i for light leaving towards `w` (unit): what the VPL sends
+    /// that way per unit flux and geometry term.
+    pub fn brdf_towards(&self, w: Vec3) -> Vec3 {
+        if self.brdf.is_lambertian() {
+            return self.brdf.base / std::f32::consts::PI;
+        }
+        self.brdf.eval(self.normal, self.incident, w)
+    }
+
     /// A number fixed by the VPL's identity (path, bounce), uniform over u64:
     /// what assigns it an interleaving subset and an ISM point set, so that
     /// neither changes between frames unless its own path does.
@@ -163,7 +177,8 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             raw.push(Vpl {
                 position: e.position,
                 normal: e.normal,
-                albedo: Vec3::ONE,
+                brdf: Brdf::lambertian(Vec3::ONE),
+                incident: e.normal,
                 flux: flux / p_light,
                 bounce: 0,
                 path,
@@ -243,7 +258,7 @@ fn punctual_start(
 /// Follows light path `path` from `origin` (on triangle `leaving`, if it
 /// starts on an emitter) along `dir` carrying `flux`: a VPL at every diffuse
 /// hit, Russian roulette by albedo, cosine-sampled bounces (Halton
-/// dimensions from 7 on, 3 per bounce).
+/// dimensions from 7 on, 3 per bounce, the lobe from 1025 on).
 #[allow(clippy::too_many_arguments)]
 fn trace_path(
     scene: &Scene,
@@ -269,12 +284,13 @@ fn trace_path(
             return;
         };
         let surf = bvh.surface(scene, &hit, -dir);
-        // The VPL emits around the geometric normal (a normal map shades,
+        // The VPL reflects around the geometric normal (a normal map shades,
         // it does not tilt the surface that reflects).
         out.push(Vpl {
             position: surf.position,
             normal: surf.geometric_normal,
-            albedo: surf.albedo,
+            brdf: surf.brdf,
+            incident: -dir,
             flux,
             bounce,
             path,
@@ -282,17 +298,28 @@ fn trace_path(
         if bounce == settings.bounces {
             return;
         }
-        // Russian roulette with survival probability max(albedo).
+        // A direction from the BRDF (f is reciprocal: sampled as if seen
+        // from where the light came), then Russian roulette by f cos / pdf
+        // (the albedo of a Lambertian surface), at most MAX_SURVIVAL.
         let dim = 7 + 3 * (bounce as usize - 1);
-        let survive = surf.albedo.max_element().min(MAX_SURVIVAL);
-        if survive <= 0.0 || halton.sample(path, dim) >= survive {
+        let u = |k: usize| halton.sample(path, dim + k);
+        // The lobe's number comes from dimensions past the bounces' (a
+        // Lambertian surface draws none, as before glossy surfaces).
+        let lobe = if surf.brdf.is_lambertian() {
+            0.0
+        } else {
+            halton.sample(path, 1024 + bounce as usize)
+        };
+        let Some(sample) = surf.brdf.sample(surf.normal, -dir, Vec3::new(lobe, u(1), u(2)))
+        else {
+            return;
+        };
+        let survive = sample.weight.max_element().min(MAX_SURVIVAL);
+        if survive <= 0.0 || u(0) >= survive {
             return;
         }
-        flux *= surf.albedo / survive;
-        dir = cosine_hemisphere(
-            surf.normal,
-            Vec2::new(halton.sample(path, dim + 1), halton.sample(path, dim + 2)),
-        );
+        flux *= sample.weight / survive;
+        dir = sample.wi;
         if dir.dot(surf.geometric_normal) <= 0.0 {
             return;
         }
@@ -321,13 +348,15 @@ pub fn interleave(vpls: &mut [Vpl], subsets: u32) -> Vec<u32> {
     offsets
 }
 
-/// Bounded VPL lighting at one surface point, the CPU twin of the GPU's
-/// `indirect_bounded` pass: `albedo/pi * sum_i min(G, b) V(x, z_i) albedo_i/pi Phi_i`.
+/// Bounded VPL lighting at one surface point seen from `wo`, the CPU twin
+/// of the GPU's `indirect_bounded` pass:
+/// `sum_i f_x(wo, x->z_i) min(G, b) V(x, z_i) f_i(incident_i, z_i->x) Phi_i`.
 /// `visible(i, vpl)` decides visibility (exact ray casts, or an ISM lookup).
 pub fn bounded_radiance(
     position: Vec3,
     normal: Vec3,
-    albedo: Vec3,
+    brdf: &Brdf,
+    wo: Vec3,
     vpls: &[Vpl],
     bound: f32,
     mut visible: impl FnMut(usize, &Vpl) -> bool,
@@ -346,10 +375,15 @@ pub fn bounded_radiance(
         }
         let g = (cos_x * cos_z / d2).min(bound);
         if visible(i, v) {
-            sum += v.albedo * v.flux * g;
+            let receiver = if brdf.is_lambertian() {
+                brdf.base / std::f32::consts::PI
+            } else {
+                brdf.eval(normal, wo, -w)
+            };
+            sum += receiver * v.brdf_towards(w) * v.flux * g;
         }
     }
-    albedo * sum / (std::f32::consts::PI * std::f32::consts::PI)
+    sum
 }
 
 #[cfg(test)]

@@ -190,7 +190,13 @@ impl Loader<'_> {
             scene.materials.push(material);
             material_map.push((scene.materials.len() - 1) as u32);
         }
-        let default_material = scene.add_material(Vec3::splat(0.8), None);
+        // glTF's default material: white, metallic 1, roughness 1, one-sided.
+        scene.materials.push(super::Material {
+            double_sided: false,
+            ..super::Material::metallic_roughness(Vec3::ONE, 1.0, 1.0)
+        });
+        let default_material = (scene.materials.len() - 1) as u32;
+        self.warn_unsupported_extensions();
 
         let roots: Vec<usize> = match (self.root.scene, self.root.scenes.first()) {
             (Some(i), _) => self
@@ -232,6 +238,38 @@ impl Loader<'_> {
             return Err(self.err("the scene has no triangles"));
         }
         Ok(scene)
+    }
+
+    /// One warning naming the material extensions the file uses that ssbc
+    /// does not implement (they change the BRDF or its texture lookups).
+    fn warn_unsupported_extensions(&self) {
+        const NOT_IMPLEMENTED: [&str; 14] = [
+            "KHR_materials_anisotropy",
+            "KHR_materials_clearcoat",
+            "KHR_materials_diffuse_transmission",
+            "KHR_materials_dispersion",
+            "KHR_materials_ior",
+            "KHR_materials_iridescence",
+            "KHR_materials_pbrSpecularGlossiness",
+            "KHR_materials_sheen",
+            "KHR_materials_specular",
+            "KHR_materials_transmission",
+            "KHR_materials_unlit",
+            "KHR_materials_volume",
+            "KHR_materials_volume_scatter",
+            "KHR_texture_transform",
+        ];
+        let used: Vec<&str> = NOT_IMPLEMENTED
+            .into_iter()
+            .filter(|e| self.root.extensions_used.iter().any(|u| u == e))
+            .collect();
+        if !used.is_empty() {
+            log::warn!(
+                "{}: ignoring {}: materials use glTF's core metallic-roughness model",
+                self.name,
+                used.join(", ")
+            );
+        }
     }
 
     /// Material `index`: base colour, emission (factor x strength, and
@@ -310,6 +348,16 @@ impl Loader<'_> {
             Some(A::Blend) => super::AlphaMode::Mask(0.5),
             None => return Err(self.err(format!("material {index}: invalid alphaMode"))),
         };
+        let (metallic, roughness) = (pbr.metallic_factor.0, pbr.roughness_factor.0);
+        for (name, v) in [("metallicFactor", metallic), ("roughnessFactor", roughness)] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(self.err(format!("material {index}: {name} {v} is outside [0, 1]")));
+            }
+        }
+        let reflectance_texture = match &pbr.metallic_roughness_texture {
+            Some(info) => Some(self.texture_ref(info.index.value(), scene, slots)?),
+            None => None,
+        };
         Ok(super::Material {
             base_color,
             texture,
@@ -320,6 +368,11 @@ impl Loader<'_> {
             normal_scale,
             alpha,
             double_sided: m.double_sided,
+            reflectance: super::Reflectance::MetallicRoughness {
+                metallic,
+                roughness,
+                texture: reflectance_texture,
+            },
         })
     }
 

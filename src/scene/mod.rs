@@ -76,7 +76,27 @@ pub enum AlphaMode {
     Mask(f32),
 }
 
-/// A Lambertian material, possibly emissive.
+/// How a material reflects light.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Reflectance {
+    /// Lambertian: `f = base / pi` (glTF with `KHR_materials_specular`'s
+    /// `specular` 0). Built-in scenes and [`Material::diffuse`] use it.
+    #[default]
+    Lambertian,
+    /// glTF 2.0's metallic-roughness model (its specification's appendix B:
+    /// Lambert diffuse under a GGX specular layer for dielectrics, GGX with
+    /// the base colour as Fresnel F0 for metals), see `docs/conventions.md`.
+    MetallicRoughness {
+        /// `metallicFactor` in [0, 1].
+        metallic: f32,
+        /// `roughnessFactor` in [0, 1] (perceptual; GGX alpha = roughness²).
+        roughness: f32,
+        /// `metallicRoughnessTexture` (linear; B scales metallic, G roughness).
+        texture: Option<TextureRef>,
+    },
+}
+
+/// A material: its reflectance, emission, normal map and alpha.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// Linear base colour (albedo) factor; alpha scales the texture's alpha
@@ -101,6 +121,8 @@ pub struct Material {
     /// the camera when seen from behind and emit only from the front; light
     /// transport treats every surface as a two-sided occluder.
     pub double_sided: bool,
+    /// How it reflects (the base colour above is its albedo or F0).
+    pub reflectance: Reflectance,
 }
 
 impl Material {
@@ -116,6 +138,19 @@ impl Material {
             normal_scale: 1.0,
             alpha: AlphaMode::Opaque,
             double_sided: true,
+            reflectance: Reflectance::Lambertian,
+        }
+    }
+
+    /// A two-sided, opaque glTF metallic-roughness material.
+    pub fn metallic_roughness(base_color: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self {
+            reflectance: Reflectance::MetallicRoughness {
+                metallic,
+                roughness,
+                texture: None,
+            },
+            ..Self::diffuse(base_color, None)
         }
     }
 
@@ -583,10 +618,25 @@ impl Scene {
             if !m.normal_scale.is_finite() {
                 return bad("normal scale is not finite".into());
             }
+            let mut reflectance_texture = None;
+            if let Reflectance::MetallicRoughness {
+                metallic,
+                roughness,
+                texture,
+            } = m.reflectance
+            {
+                for (name, v) in [("metallic", metallic), ("roughness", roughness)] {
+                    if !(0.0..=1.0).contains(&v) {
+                        return bad(format!("{name} {v} is outside [0, 1]"));
+                    }
+                }
+                reflectance_texture = texture.map(|t| t.index);
+            }
             let textures = [
                 m.texture,
                 m.emissive_texture.map(|t| t.index),
                 m.normal_texture.map(|t| t.index),
+                reflectance_texture,
             ];
             if let Some(t) = textures
                 .into_iter()
