@@ -17,6 +17,7 @@ layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_emission;
 layout(push_constant) uniform Push {
     uvec2 size;
     uint light_count;
+    vec4 camera_position;   // xyz: the eye, which glossy surfaces reflect towards
 } pc;
 
 #include "shadow.glsl"
@@ -29,11 +30,12 @@ void main() {
         imageStore(direct, pixel, vec4(0.0));
         return;
     }
-    vec3 n = imageLoad(g_normal, pixel).xyz;
-    vec3 albedo = imageLoad(g_albedo, pixel).rgb;
+    vec4 normal = imageLoad(g_normal, pixel);
+    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), normal);
+    vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec3 radiance = imageLoad(g_emission, pixel).rgb;
     for (uint i = 0u; i < pc.light_count; i++) {
-        radiance += direct_radiance(lights[i], position.xyz, n, albedo);
+        radiance += direct_radiance(lights[i], position.xyz, normal.xyz, b, wo);
     }
     imageStore(direct, pixel, vec4(radiance, 1.0));
 }

@@ -90,7 +90,10 @@ impl GpuScene {
             {
                 as_color[t] = true;
             }
-            if let Some(t) = m.normal_texture {
+            for t in [m.normal_texture, m.reflectance_texture()]
+                .into_iter()
+                .flatten()
+            {
                 as_linear[t.index] = true;
             }
         }

@@ -3,7 +3,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec4};
 
-use crate::scene::{AlphaMode, Light, LightKind, Material, TextureSampler, Wrap};
+use crate::scene::{AlphaMode, Light, LightKind, Material, Reflectance, TextureSampler, Wrap};
 
 /// `GpuLight` in common.glsl.
 #[repr(C)]
@@ -68,11 +68,13 @@ pub struct GpuMaterial {
     /// Emitted radiance (rgb), alpha cutoff (w; < 0: opaque).
     pub emission_cutoff: [f32; 4],
     /// Layers of the base-colour and emissive textures (colour array) and of
-    /// the normal map (linear array), -1 for none; w bit 0: double-sided.
+    /// the normal map (linear array), -1 for none; w bit 0: double-sided,
+    /// bits 1..: the metallic-roughness map's layer + 1 (0: none).
     pub textures: [i32; 4],
     /// Sampler of each texture (see [`sampler_bits`]).
     pub samplers: [i32; 4],
-    /// x: normal-map scale.
+    /// x: normal-map scale; y metallic, z roughness, w the specular layer
+    /// (1: glTF metallic-roughness, 0: Lambertian).
     pub normal: [f32; 4],
 }
 
@@ -97,6 +99,15 @@ impl GpuMaterial {
             AlphaMode::Opaque => -1.0,
             AlphaMode::Mask(c) => c,
         };
+        let (metallic, roughness, specular) = match m.reflectance {
+            Reflectance::Lambertian => (0.0, 1.0, 0.0),
+            Reflectance::MetallicRoughness {
+                metallic,
+                roughness,
+                ..
+            } => (metallic, roughness, 1.0),
+        };
+        let reflectance_texture = m.reflectance_texture();
         Self {
             base_color: m.base_color.into(),
             emission_cutoff: m.emission.extend(cutoff).into(),
@@ -104,7 +115,8 @@ impl GpuMaterial {
                 layer(color_layer, m.texture),
                 layer(color_layer, m.emissive_texture.map(|t| t.index)),
                 layer(linear_layer, m.normal_texture.map(|t| t.index)),
-                m.double_sided as i32,
+                m.double_sided as i32
+                    | (layer(linear_layer, reflectance_texture.map(|t| t.index)) + 1) << 1,
             ],
             samplers: [
                 sampler_bits(m.sampler),
@@ -114,9 +126,11 @@ impl GpuMaterial {
                 m.normal_texture
                     .map(|t| sampler_bits(t.sampler))
                     .unwrap_or(0),
-                0,
+                reflectance_texture
+                    .map(|t| sampler_bits(t.sampler))
+                    .unwrap_or(0),
             ],
-            normal: [m.normal_scale, 0.0, 0.0, 0.0],
+            normal: [m.normal_scale, metallic, roughness, specular],
         }
     }
 }

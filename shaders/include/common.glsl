@@ -30,10 +30,12 @@ struct GpuMaterial {
     vec4 base_color;          // rgb linear albedo factor, a alpha factor
     vec4 emission_cutoff;     // rgb emitted radiance W/(m^2 sr), w alpha cutoff (< 0: opaque)
     ivec4 textures;           // layers: x base colour, y emissive (colour array), z normal map
-                              // (linear array); -1: none; w bit 0: double-sided
-    ivec4 samplers;           // x, y, z: sampler of each texture (bits 0-1 wrap s,
+                              // (linear array); -1: none; w bit 0: double-sided, bits 1..:
+                              // metallic-roughness map's layer + 1 (linear array; 0: none)
+    ivec4 samplers;           // x, y, z, w: sampler of each texture (bits 0-1 wrap s,
                               // 2-3 wrap t: 0 repeat, 1 clamp, 2 mirror; bit 4 nearest)
-    vec4 normal;              // x normal-map scale
+    vec4 normal;              // x normal-map scale, y metallic, z roughness, w specular
+                              // layer (1: glTF metallic-roughness, 0: Lambertian)
 };
 
 #endif

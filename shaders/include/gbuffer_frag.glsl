@@ -32,6 +32,19 @@ layout(set = 0, binding = 2) uniform sampler2DArray linear_textures;
 
 #include "material.glsl"
 
+// (metallic, roughness, specular layer) of m at uv: factors times the
+// metallic-roughness map's B and G channels.
+vec3 material_reflectance(GpuMaterial m, vec2 uv) {
+    vec3 r = m.normal.yzw;
+    int layer = (m.textures.w >> 1) - 1;
+    if (layer >= 0) {
+        vec4 t = sample_texture(linear_textures, layer, m.samplers.w, uv);
+        r.x *= t.b;
+        r.y *= t.g;
+    }
+    return r;
+}
+
 #ifdef PEEL
 // Layer 0 at full resolution: a layer-1 pixel p covers its pixels
 // p << shift .. ((p + 1) << shift) - 1.
@@ -88,9 +101,13 @@ void main() {
     // Two-sided shading: the normal faces the viewer.
     if (!front) n = -n;
 #endif
+    // The BRDF as brdf_from_gbuffer reads it: metallic in albedo.w,
+    // roughness in normal.w (-1: Lambertian).
+    vec3 reflectance = material_reflectance(m, v_uv);
+    bool lambertian = reflectance.z == 0.0 && reflectance.x == 0.0;
     out_position = vec4(v_position, 1.0);
-    out_normal = vec4(n, 0.0);
-    out_albedo = vec4(material_base_color(m, v_uv).rgb, 1.0);
+    out_normal = vec4(n, lambertian ? -1.0 : reflectance.y);
+    out_albedo = vec4(material_base_color(m, v_uv).rgb, reflectance.x);
     out_emission = vec4(material_emission(m, v_uv), 1.0);
 }
 

@@ -3,6 +3,8 @@
 #ifndef SSBC_SHADOW_GLSL
 #define SSBC_SHADOW_GLSL
 
+#include "brdf.glsl"
+
 // Cube face of a direction, in the order +X, -X, +Y, -Y, +Z, -Z.
 int cube_face(vec3 d) {
     vec3 a = abs(d);
@@ -44,8 +46,8 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n) {
     return lit / 9.0;
 }
 
-// Radiance reflected towards the viewer at p (normal n, albedo) from one light.
-vec3 direct_radiance(GpuLight light, vec3 p, vec3 n, vec3 albedo) {
+// Radiance reflected towards wo at p (normal n, BRDF b) from one light.
+vec3 direct_radiance(GpuLight light, vec3 p, vec3 n, Brdf b, vec3 wo) {
     uint kind = uint(light.position_kind.w);
     vec3 irradiance_dir;
     vec3 e;
@@ -69,7 +71,7 @@ vec3 direct_radiance(GpuLight light, vec3 p, vec3 n, vec3 albedo) {
     if (cos_theta <= 0.0 || max(e.r, max(e.g, e.b)) <= 0.0) {
         return vec3(0.0);
     }
-    return albedo / PI * e * cos_theta * shadow_visibility(light, p, n);
+    return brdf_eval(b, n, wo, irradiance_dir) * e * cos_theta * shadow_visibility(light, p, n);
 }
 
 #endif

@@ -104,7 +104,8 @@ impl Brdf {
         if h == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let schlick = (1.0 - wo.dot(h).abs()).clamp(0.0, 1.0).powi(5);
+        let s1 = (1.0 - wo.dot(h).abs()).clamp(0.0, 1.0);
+        let schlick = s1 * s1 * s1 * s1 * s1;
         let fd = 0.04 + 0.96 * schlick;
         let fm = self.base + (Vec3::ONE - self.base) * schlick;
         let a = self.alpha();

@@ -26,6 +26,9 @@ pub struct DirectLightingPass {
 struct Push {
     size: [u32; 2],
     light_count: u32,
+    pad: u32,
+    /// xyz: the eye (glossy surfaces reflect towards it).
+    camera_position: [f32; 4],
 }
 
 impl DirectLightingPass {
@@ -77,7 +80,9 @@ impl Pass for DirectLightingPass {
         (gbuffer, shadows): (&GBuffer, &ShadowMaps),
         direct: &Image,
     ) -> Result<()> {
-        let Recording { rec, profiler, .. } = cx;
+        let Recording {
+            rec, profiler, view, ..
+        } = cx;
         let scope = profiler.begin(rec.cmd, &super::layer_name("direct_lighting", self.layer));
         gbuffer.read_in_compute(rec);
         rec.use_image(&gbuffer.emission, Access::ComputeRead);
@@ -90,6 +95,8 @@ impl Pass for DirectLightingPass {
         let push = Push {
             size: [w, h],
             light_count: shadows.light_count,
+            pad: 0,
+            camera_position: view.camera.position.extend(1.0).into(),
         };
         let bindings = direct_lighting_comp::Bindings {
             g_position: &gbuffer.position,

@@ -1,5 +1,6 @@
 //! Built-in scenes, generated in code so no files are needed:
-//! `cornell` (the default) and `tori` (as in the slides).
+//! `cornell` (the default), `tori` (as in the slides) and `spheres` (glossy
+//! and metallic spheres in the Cornell box).
 
 use std::f32::consts::PI;
 
@@ -8,13 +9,14 @@ use glam::{Mat4, Quat, Vec3};
 use super::{Camera, Light, LightKind, Scene};
 
 /// Names of the built-in scenes.
-pub const NAMES: [&str; 2] = ["cornell", "tori"];
+pub const NAMES: [&str; 3] = ["cornell", "tori", "spheres"];
 
 /// The built-in scene called `name`, if any.
 pub fn by_name(name: &str) -> Option<Scene> {
     match name {
         "cornell" => Some(cornell()),
         "tori" => Some(tori()),
+        "spheres" => Some(spheres()),
         _ => None,
     }
 }
@@ -130,6 +132,111 @@ pub fn cornell() -> Scene {
         Vec3::new(0.0, 1.0, 0.0),
         40f32.to_radians(),
     ));
+    s
+}
+
+/// The Cornell box's walls (floor, ceiling, back, red left, green right;
+/// Lambertian), its camera and a 10 W/sr point light at `light`, the floor
+/// made of `floor`.
+fn cornell_room(s: &mut Scene, floor: u32, light: Vec3) {
+    let white = s.add_material(Vec3::new(0.73, 0.73, 0.73), None);
+    let red = s.add_material(Vec3::new(0.63, 0.065, 0.05), None);
+    let green = s.add_material(Vec3::new(0.14, 0.45, 0.091), None);
+    let walls = [
+        (Vec3::new(-1.0, 0.0, 1.0), Vec3::X * 2.0, -Vec3::Z * 2.0, floor),
+        (Vec3::new(-1.0, 2.0, -1.0), Vec3::X * 2.0, Vec3::Z * 2.0, white),
+        (Vec3::new(-1.0, 0.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0, white),
+        (Vec3::new(-1.0, 0.0, 1.0), -Vec3::Z * 2.0, Vec3::Y * 2.0, red),
+        (Vec3::new(1.0, 0.0, -1.0), Vec3::Z * 2.0, Vec3::Y * 2.0, green),
+    ];
+    for (corner, u, v, m) in walls {
+        quad(s, corner, u, v, m);
+    }
+    s.lights.push(Light {
+        kind: LightKind::Point,
+        position: light,
+        direction: -Vec3::Y,
+        intensity: Vec3::splat(10.0),
+    });
+    s.cameras.push(Camera::look_at(
+        Vec3::new(0.0, 1.0, 3.9),
+        Vec3::new(0.0, 1.0, 0.0),
+        40f32.to_radians(),
+    ));
+}
+
+/// A sphere of `radius` at `centre` (smooth normals, UVs by longitude and
+/// latitude).
+fn sphere(scene: &mut Scene, centre: Vec3, radius: f32, material: u32) {
+    let (nu, nv) = (40u32, 20u32);
+    let (mut positions, mut normals, mut uvs) = (Vec::new(), Vec::new(), Vec::new());
+    for j in 0..=nv {
+        let theta = j as f32 / nv as f32 * PI;
+        for i in 0..=nu {
+            let phi = i as f32 / nu as f32 * 2.0 * PI;
+            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            positions.push(n * radius);
+            normals.push(n);
+            uvs.push([i as f32 / nu as f32, j as f32 / nv as f32]);
+        }
+    }
+    let mut indices = Vec::new();
+    for j in 0..nv {
+        for i in 0..nu {
+            let a = j * (nu + 1) + i;
+            let (b, c, d) = (a + 1, a + nu + 2, a + nu + 1);
+            indices.extend([a, b, c, a, c, d]);
+        }
+    }
+    scene
+        .add_mesh(
+            &positions,
+            &normals,
+            &uvs,
+            &indices,
+            Mat4::from_translation(centre),
+            material,
+        )
+        .expect("built-in sphere is valid");
+}
+
+/// Nine spheres in the Cornell box, a grid facing the camera of glTF
+/// metallic-roughness materials (as Khronos's MetalRoughSpheres): metals at
+/// the top (gold), half-metals in the middle (silver), dielectrics at the
+/// bottom (red, blue, white), roughness 0.2, 0.45 and 0.7 from left to
+/// right, above a glossy floor (white dielectric, roughness 0.5); walls
+/// Lambertian; the point light 10 cm under the ceiling, 0.9 m in front of
+/// the grid.
+pub fn spheres() -> Scene {
+    let mut s = Scene::new("spheres");
+    let floor = s.materials.len() as u32;
+    s.materials
+        .push(super::Material::metallic_roughness(Vec3::splat(0.7), 0.0, 0.5));
+    // The light 10 cm under the ceiling, in front of the spheres.
+    cornell_room(&mut s, floor, Vec3::new(0.0, 1.9, 0.7));
+    let rows = [
+        (1.35, 1.0, [Vec3::new(1.0, 0.78, 0.34); 3]),
+        (0.85, 0.5, [Vec3::new(0.9, 0.9, 0.9); 3]),
+        (
+            0.35,
+            0.0,
+            [
+                Vec3::new(0.8, 0.1, 0.08),
+                Vec3::new(0.1, 0.2, 0.8),
+                Vec3::new(0.85, 0.85, 0.85),
+            ],
+        ),
+    ];
+    let radius = 0.2;
+    for (y, metallic, colors) in rows {
+        for (k, (roughness, color)) in [0.2, 0.45, 0.7].into_iter().zip(colors).enumerate() {
+            let m = s.materials.len() as u32;
+            s.materials
+                .push(super::Material::metallic_roughness(color, metallic, roughness));
+            let x = (k as f32 - 1.0) * 0.55;
+            sphere(&mut s, Vec3::new(x, y, -0.2), radius, m);
+        }
+    }
     s
 }
 

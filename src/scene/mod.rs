@@ -154,6 +154,14 @@ impl Material {
         }
     }
 
+    /// The metallic-roughness texture, if it has one.
+    pub fn reflectance_texture(&self) -> Option<TextureRef> {
+        match self.reflectance {
+            Reflectance::MetallicRoughness { texture, .. } => texture,
+            Reflectance::Lambertian => None,
+        }
+    }
+
     /// Whether the material emits light.
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0

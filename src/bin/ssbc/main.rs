@@ -50,7 +50,7 @@ enum Command {
 
 #[derive(clap::Args)]
 struct ReferenceArgs {
-    /// Scene: a .gltf/.glb path or a built-in name (cornell, tori).
+    /// Scene: a .gltf/.glb path or a built-in name (cornell, tori, spheres).
     #[arg(default_value = "cornell")]
     scene: String,
     /// Image size.
@@ -175,7 +175,7 @@ fn parse_bound(s: &str) -> Result<Bound, String> {
 
 #[derive(clap::Args)]
 struct SceneOptions {
-    /// Scene: a .gltf/.glb path or a built-in name (cornell, tori).
+    /// Scene: a .gltf/.glb path or a built-in name (cornell, tori, spheres).
     #[arg(default_value = "cornell")]
     scene: String,
     /// Image size.

@@ -1,0 +1,76 @@
+// glTF 2.0's metallic-roughness BRDF (specification, appendix B); the CPU
+// twin, with the formulas, is src/cpu/brdf.rs:
+//   f = (1 - m) (1 - w Fd) base / pi + ((1 - m) w Fd + m Fm) D V
+// with Schlick Fresnel (Fd for ior 1.5, Fm with F0 = base), GGX D and
+// height-correlated Smith V; w = 0 makes it Lambertian.
+#ifndef SSBC_BRDF_GLSL
+#define SSBC_BRDF_GLSL
+
+#include "common.glsl"
+
+// Smallest roughness used (MIN_ROUGHNESS in brdf.rs).
+const float BRDF_MIN_ROUGHNESS = 0.05;
+
+struct Brdf {
+    vec3 base;        // linear base colour
+    float metallic;   // [0, 1]
+    float roughness;  // perceptual [0, 1]
+    float specular;   // dielectric specular layer: 1 (glTF) or 0 (Lambertian)
+};
+
+Brdf brdf_lambertian(vec3 base) {
+    return Brdf(base, 0.0, 1.0, 0.0);
+}
+
+bool brdf_is_lambertian(Brdf b) {
+    return b.specular == 0.0 && b.metallic == 0.0;
+}
+
+// The G-buffer's encoding: albedo.rgb base, albedo.w metallic, normal.w
+// roughness (< 0: Lambertian).
+Brdf brdf_from_gbuffer(vec4 albedo, vec4 normal) {
+    if (normal.w < 0.0) return brdf_lambertian(albedo.rgb);
+    return Brdf(albedo.rgb, albedo.w, normal.w, 1.0);
+}
+
+float brdf_alpha(Brdf b) {
+    float r = clamp(b.roughness, BRDF_MIN_ROUGHNESS, 1.0);
+    return r * r;
+}
+
+float ggx_d(float nh, float a) {
+    if (nh <= 0.0) return 0.0;
+    float a2 = a * a;
+    float d = nh * nh * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+float smith_v(float nv, float nl, float a) {
+    float a2 = a * a;
+    float gv = nl * sqrt(nv * nv * (1.0 - a2) + a2);
+    float gl = nv * sqrt(nl * nl * (1.0 - a2) + a2);
+    return 0.5 / (gv + gl);
+}
+
+// f(wo, wi) around unit normal n (no cosine); zero unless both are above.
+vec3 brdf_eval(Brdf b, vec3 n, vec3 wo, vec3 wi) {
+    float nv = dot(n, wo);
+    float nl = dot(n, wi);
+    if (nv <= 0.0 || nl <= 0.0) return vec3(0.0);
+    vec3 diffuse = b.base * (1.0 - b.metallic) / PI;
+    if (brdf_is_lambertian(b)) return diffuse;
+    vec3 sum = wo + wi;
+    float len2 = dot(sum, sum);
+    if (len2 <= 0.0) return vec3(0.0);
+    vec3 h = sum * inversesqrt(len2);
+    float s1 = clamp(1.0 - abs(dot(wo, h)), 0.0, 1.0);
+    float schlick = s1 * s1 * s1 * s1 * s1;
+    float fd = 0.04 + 0.96 * schlick;
+    vec3 fm = b.base + (vec3(1.0) - b.base) * schlick;
+    float a = brdf_alpha(b);
+    float specular = ggx_d(dot(n, h), a) * smith_v(nv, nl, a);
+    float m = b.metallic;
+    return diffuse * (1.0 - b.specular * fd) + ((1.0 - m) * b.specular * fd + m * fm) * specular;
+}
+
+#endif
