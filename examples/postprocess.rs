@@ -22,7 +22,7 @@ use glam::Vec3;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
 use gpu_allocator::MemoryLocation;
 use ssbc::postprocess::{
-    HostImage, PostOutput, PostProcessInputs, PostProcessLayer, SsbcPostProcess,
+    HostImage, PostOutput, PostProcessInputs, PostProcessLayer, ReceiverBrdf, SsbcPostProcess,
 };
 use ssbc::reference::{BruteForceTwin, GBufferView, TwinCamera};
 use ssbc::settings::{Integration, LayerResolution, SsbcSettings};
@@ -737,6 +737,8 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
                 normal: host_image(&normal),
                 albedo: host_image(&albedo),
                 s0: host_image(&s0),
+                sources: None,
+                receivers: ReceiverBrdf::Lambertian,
                 output: host_image(&output),
                 camera_position: eye,
                 camera_forward: forward,

@@ -2,7 +2,7 @@
 // Bounded VPL lighting T_b L^ by the full gather: every VPL at every pixel,
 // f_r(x) min(G, b) V_ISM f_r(z) Phi summed (the reference of the
 // interleaved gather). Also writes S0 = direct + bounded indirect, the term
-// SSBC compensates.
+// SSBC compensates, and its diffuse, view-independent part (SSBC's sources).
 #include "common.glsl"
 #include "ism.glsl"
 
@@ -16,6 +16,8 @@ layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance bits / far
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_diffuse;
+layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_diffuse;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -26,6 +28,7 @@ layout(push_constant) uniform Push {
     float bound;          // b [1/m^2]; +inf disables clamping
     float ism_bias;       // relative depth tolerance of the ISM test
     float point_radius;   // world radius of one splatted point
+    vec4 camera_position; // xyz: the eye (glossy receivers reflect towards it)
 } pc;
 
 #include "vpl_gather.glsl"
@@ -36,11 +39,16 @@ void main() {
     vec4 position = imageLoad(g_position, pixel);
     vec4 direct_radiance = imageLoad(direct, pixel);
     vec3 radiance = vec3(0.0);
+    vec3 diffuse = vec3(0.0);
     if (position.w != 0.0) {
-        vec3 n = imageLoad(g_normal, pixel).xyz;
-        vec3 albedo = imageLoad(g_albedo, pixel).rgb;
-        radiance = vpl_sum(position.xyz, n, 0u, pc.vpl_count) * albedo / (PI * PI);
+        vec4 n = imageLoad(g_normal, pixel);
+        Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+        vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
+        VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, 0u, pc.vpl_count);
+        diffuse = brdf_diffuse_color(b) / PI * light.irradiance;
+        radiance = diffuse + light.glossy;
     }
     imageStore(indirect_bounded, pixel, vec4(radiance, position.w));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));
+    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + diffuse, position.w));
 }

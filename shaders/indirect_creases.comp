@@ -20,6 +20,8 @@ layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance bits / far
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 8) readonly buffer Creases { uvec4 header; uint pixels[]; } creases;
+layout(set = 0, binding = 9, rgba32f) uniform readonly image2D direct_diffuse;
+layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D s0_diffuse;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -30,6 +32,7 @@ layout(push_constant) uniform Push {
     float bound;
     float ism_bias;
     float point_radius;
+    vec4 camera_position; // xyz: the eye
 } pc;
 
 #include "vpl_gather.glsl"
@@ -40,9 +43,13 @@ void main() {
     uint packed = creases.pixels[item];
     ivec2 pixel = ivec2(packed & 0xFFFFu, packed >> 16);
     vec3 x = imageLoad(g_position, pixel).xyz;
-    vec3 n = imageLoad(g_normal, pixel).xyz;
-    vec3 albedo = imageLoad(g_albedo, pixel).rgb;
-    vec3 radiance = vpl_sum(x, n, 0u, pc.vpl_count) * albedo / (PI * PI);
+    vec4 n = imageLoad(g_normal, pixel);
+    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+    vec3 wo = normalize(pc.camera_position.xyz - x);
+    VplLight light = vpl_sum(x, n.xyz, b, wo, 0u, pc.vpl_count);
+    vec3 diffuse = brdf_diffuse_color(b) / PI * light.irradiance;
+    vec3 radiance = diffuse + light.glossy;
     imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
     imageStore(s0, pixel, vec4(imageLoad(direct, pixel).rgb + radiance, 1.0));
+    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + diffuse, 1.0));
 }

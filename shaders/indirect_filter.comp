@@ -13,7 +13,7 @@
 // some subsets go missing. Where the whole (2N - 1)^2 window is on the
 // surface, tent weights (N - |dx|)(N - |dy|) instead: each subset's total
 // weight is still N^2, and its pixels' offsets average to zero. Then the
-// receiver's albedo, and S0.
+// receiver's diffuse colour, the glossy rest, S0 and its diffuse part.
 //
 // A pixel beside a crease or contact (a neighbour of another surface
 // within crease_footprints x its footprint in space) is listed for
@@ -33,6 +33,21 @@ layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D interleaved_glossy;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_diffuse;
+layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_diffuse;
+
+// Writes the pixel's bounded indirect light from the filtered sums (the
+// diffuse part per unit diffuse colour, the glossy rest), S0 and its
+// diffuse part.
+void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weight) {
+    vec4 albedo = imageLoad(g_albedo, pixel);
+    vec3 diffuse = albedo.rgb * (1.0 - albedo.w) * sum / weight;
+    vec3 radiance = diffuse + glossy / weight;
+    imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
+    imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
+    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + diffuse, 1.0));
+}
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -50,6 +65,7 @@ void main() {
     if (own.w == NO_GEOMETRY) {
         imageStore(indirect_bounded, pixel, vec4(0.0));
         imageStore(s0, pixel, vec4(direct_radiance.rgb, 0.0));
+        imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb, 0.0));
         return;
     }
     vec3 x = guide_position(own);
@@ -99,19 +115,20 @@ void main() {
         complete = complete && rows[dy] == full_row;
     }
     vec3 sum = vec3(0.0);
+    vec3 glossy = vec3(0.0);
     float weights = 0.0;
     if (complete) {
         for (int dy = 0; dy <= 2 * reach; dy++) {
             float wy = float(pc.side - abs(dy - reach));
             for (int dx = 0; dx <= 2 * reach; dx++) {
                 float w = wy * float(pc.side - abs(dx - reach));
-                sum += w * imageLoad(interleaved, pixel + ivec2(dx, dy) - reach).rgb;
+                ivec2 q = pixel + ivec2(dx, dy) - reach;
+                sum += w * imageLoad(interleaved, q).rgb;
+                glossy += w * imageLoad(interleaved_glossy, q).rgb;
                 weights += w;
             }
         }
-        vec3 radiance = imageLoad(g_albedo, pixel).rgb * sum / weights;
-        imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
-        imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
+        store(pixel, direct_radiance, sum, glossy, weights);
         return;
     }
     // Otherwise the box (its corner (bx, by) in the window) with most such pixels.
@@ -138,11 +155,11 @@ void main() {
         uint row = (rows[dy] >> uint(best_box.x)) & box_mask;
         for (int dx = 0; dx < pc.side; dx++) {
             if ((row & (1u << uint(dx))) == 0u) continue;
-            sum += imageLoad(interleaved, pixel + ivec2(best_box.x + dx, dy) - reach).rgb;
+            ivec2 q = pixel + ivec2(best_box.x + dx, dy) - reach;
+            sum += imageLoad(interleaved, q).rgb;
+            glossy += imageLoad(interleaved_glossy, q).rgb;
         }
     }
     // The pixel itself is in every box: best >= 1.
-    vec3 radiance = imageLoad(g_albedo, pixel).rgb * sum / float(best);
-    imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
-    imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
+    store(pixel, direct_radiance, sum, glossy, float(best));
 }

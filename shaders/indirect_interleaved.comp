@@ -4,8 +4,9 @@
 // an N x N block evaluates one subset, the one of its position in the
 // block. The dispatch is de-interleaved: work group z = subset, so a
 // group's invocations share one subset and loop over the same VPLs. It
-// writes N^2 x its subset's sum without the receiver's albedo, and the
-// pixel's position and normal for the filter (indirect_filter.comp).
+// writes N^2 x its subset's sum: the diffuse part without the receiver's
+// diffuse colour (`interleaved`), the glossy rest (`interleaved_glossy`),
+// and the pixel's position and normal for the filter (indirect_filter.comp).
 #include "common.glsl"
 #include "ism.glsl"
 #include "guide.glsl"
@@ -19,6 +20,8 @@ layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D ism; // distance b
 layout(set = 0, binding = 4) readonly buffer Subsets { uint subset_start[]; };
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D interleaved;
 layout(set = 0, binding = 6, rgba32ui) uniform writeonly uimage2D guide;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D interleaved_glossy;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -29,6 +32,7 @@ layout(push_constant) uniform Push {
     float bound;
     float ism_bias;
     float point_radius;
+    vec4 camera_position; // xyz: the eye
 } pc;
 
 #include "vpl_gather.glsl"
@@ -41,12 +45,16 @@ void main() {
     vec4 position = imageLoad(g_position, pixel);
     if (position.w == 0.0) {
         imageStore(interleaved, pixel, vec4(0.0));
+        imageStore(interleaved_glossy, pixel, vec4(0.0));
         imageStore(guide, pixel, uvec4(0u, 0u, 0u, NO_GEOMETRY));
         return;
     }
-    vec3 n = imageLoad(g_normal, pixel).xyz;
-    vec3 sum = vpl_sum(position.xyz, n, subset_start[subset], subset_start[subset + 1u]);
+    vec4 n = imageLoad(g_normal, pixel);
+    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+    vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
+    VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, subset_start[subset], subset_start[subset + 1u]);
     float subsets = float(pc.side * pc.side);
-    imageStore(interleaved, pixel, vec4(sum * (subsets / (PI * PI)), 1.0));
-    imageStore(guide, pixel, pack_guide(position.xyz, n));
+    imageStore(interleaved, pixel, vec4(light.irradiance * (subsets / PI), 1.0));
+    imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, 1.0));
+    imageStore(guide, pixel, pack_guide(position.xyz, n.xyz));
 }

@@ -1,8 +1,8 @@
 #version 460
 // SSBC fallback: the residual integral at the pixels no evaluation point can
-// stand for (at corners, contacts and silhouettes), each from its own
-// position and normal. Dispatched indirectly over the fallback list (bound
-// as pending_in).
+// stand for (at corners, contacts and silhouettes, and every glossy
+// receiver), each from its own position, normal and BRDF. Dispatched
+// indirectly over the fallback list (bound as pending_in).
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform FallbackPush {
@@ -23,8 +23,12 @@ void main() {
     ivec2 p = unpack_item(pending_in.items[i]);
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
+    Brdf b = pixel_brdf(p);
+    glossy_active = !brdf_is_lambertian(b);
+    glossy_brdf = b;
+    glossy_wo = normalize(pc.frame.camera_position.xyz - x);
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(p), count, variation);
-    write_residual(p, residual_at(residual, nx), float(count));
+    write_residual(p, b, residual_at(residual, nx), glossy_rest, float(count));
 }

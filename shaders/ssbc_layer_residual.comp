@@ -1,7 +1,8 @@
 #version 460
 // SSBC with a second layer, before a further step: the residual S_k at the
 // pixels of layer 1 (full or half resolution), each evaluated alone over both
-// layers' pyramids: what layer 1's surfaces send in the next step.
+// layers' pyramids: what layer 1's surfaces send in the next step (the
+// diffuse part, as every source).
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform LayerResidualPush {
@@ -32,7 +33,9 @@ void main() {
         // Its centre in image pixels (pixel centres at integers).
         vec2 centre = (vec2(q) + 0.5) * float(1u << layer_shift(1u)) - 0.5;
         Residual r = residual_integral(position.xyz, nx, centre, count, variation);
-        s = imageLoad(g_albedo, q).rgb / PI * residual_at(r, nx);
+        // Its diffuse, view-independent part: all a source sends.
+        Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
+        s = brdf_diffuse_color(b) / PI * residual_at(r, nx);
     }
     imageStore(residual, q, vec4(s, 1.0));
 }

@@ -68,12 +68,20 @@ void main() {
     vec4 xp = imageLoad(g_position, p);
     if (xp.w == 0.0) {
         imageStore(residual, p, vec4(0.0));
+        imageStore(residual_sources, p, vec4(0.0));
         imageStore(final_image, p, imageLoad(previous, p));
         imageStore(samples, p, vec4(0.0));
         return;
     }
     vec3 x = xp.xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
+    Brdf b = pixel_brdf(p);
+    // A glossy receiver's BRDF depends on each source's direction, which an
+    // evaluation point does not keep: it is evaluated alone.
+    if (!brdf_is_lambertian(b)) {
+        append(p);
+        return;
+    }
     int l = int(pc.level);
     float t_cam = length(x - pc.frame.camera_position.xyz);
     float r_world = inversesqrt(pc.frame.bound);
@@ -105,7 +113,7 @@ void main() {
         }
     }
     if (ok) {
-        write_residual(p, residual_at(blend, nx), 0.0);
+        write_residual(p, b, residual_at(blend, nx), vec3(0.0), 0.0);
         return;
     }
     if (l >= 2) {

@@ -206,8 +206,14 @@ pub struct GpuVpl {
     pub position: [f32; 4],
     /// xyz unit normal; w: the bits of its ISM tile's column | row << 16.
     pub normal: [f32; 4],
-    /// rgb albedo x flux (W).
+    /// rgb: base colour x flux (W) for a Lambertian VPL (it sends
+    /// `power / pi` per unit G), the flux for a glossy one; w: -1 for a
+    /// Lambertian VPL, else its metallic.
     pub power: [f32; 4],
+    /// A glossy VPL's base colour (rgb) and roughness (w).
+    pub base: [f32; 4],
+    /// A glossy VPL's incident direction (xyz) and specular layer (w).
+    pub incident: [f32; 4],
 }
 
 impl GpuVpl {
@@ -219,7 +225,14 @@ impl GpuVpl {
         Self {
             position: v.position.extend(f32::from_bits(point_block)).into(),
             normal: v.normal.extend(f32::from_bits(cell)).into(),
-            power: (v.brdf.base * v.flux).extend(0.0).into(),
+            power: if v.brdf.is_lambertian() {
+                (v.brdf.base * v.flux).extend(-1.0)
+            } else {
+                v.flux.extend(v.brdf.metallic)
+            }
+            .into(),
+            base: v.brdf.base.extend(v.brdf.roughness).into(),
+            incident: v.incident.extend(v.brdf.specular).into(),
         }
     }
 }
@@ -242,6 +255,6 @@ fn gpu_vpl_matches_glsl() {
         .filter_map(|l| l.split("//").next().unwrap().trim().strip_prefix("vec4 "))
         .map(|n| n.trim_end_matches(';'))
         .collect();
-    assert_eq!(names, ["position", "normal", "power"]);
-    assert_eq!(std::mem::size_of::<GpuVpl>(), 48);
+    assert_eq!(names, ["position", "normal", "power", "base", "incident"]);
+    assert_eq!(std::mem::size_of::<GpuVpl>(), 80);
 }

@@ -78,6 +78,22 @@ pub enum PostOutput {
     Residual(u32),
 }
 
+/// How SSBC reads the receivers' BRDF from the host's images.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ReceiverBrdf {
+    /// Lambertian of the albedo image's rgb; the w channels of the albedo
+    /// and normal images are not read (what every host got before there
+    /// was a choice, bit for bit).
+    #[default]
+    Lambertian,
+    /// glTF 2.0 metallic-roughness (ssbc's G-buffer encoding): the albedo
+    /// image's rgb is the base colour and w the metallic, the normal image's
+    /// w the perceptual roughness (negative: that pixel is Lambertian).
+    /// Such receivers reflect the residual towards the camera with their
+    /// BRDF, each evaluated alone.
+    MetallicRoughnessInW,
+}
+
 /// The host's inputs for one frame.
 #[derive(Clone, Copy, Debug)]
 pub struct PostProcessInputs {
@@ -87,8 +103,14 @@ pub struct PostProcessInputs {
     pub normal: HostImage,
     /// Diffuse albedo (rgb).
     pub albedo: HostImage,
-    /// The clamped lighting `S0` (rgb radiance).
+    /// The clamped lighting `S0` (rgb radiance towards the camera).
     pub s0: HostImage,
+    /// `S0`'s diffuse, view-independent part, what each pixel sends as a
+    /// source of the first step (None: `s0` itself, right for Lambertian
+    /// surfaces).
+    pub sources: Option<HostImage>,
+    /// How the receivers reflect.
+    pub receivers: ReceiverBrdf,
     /// Where the result goes.
     pub output: HostImage,
     /// Camera position (world).
@@ -136,7 +158,7 @@ type SsbcSlot = PassSlot<(u32, u32, u32, u32, Option<LayerResolution>), SsbcFram
 ///
 /// ```no_run
 /// use ash::vk;
-/// use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+/// use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, ReceiverBrdf, SsbcPostProcess};
 ///
 /// /// Records SSBC after the host's G-buffer and clamped-lighting passes.
 /// fn compensate(
@@ -152,6 +174,8 @@ type SsbcSlot = PassSlot<(u32, u32, u32, u32, Option<LayerResolution>), SsbcFram
 ///         normal,
 ///         albedo,
 ///         s0,
+///         sources: None,
+///         receivers: ReceiverBrdf::Lambertian,
 ///         output,
 ///         camera_position: camera.position,
 ///         camera_forward: camera.forward,
@@ -202,6 +226,9 @@ impl SsbcPostProcess {
             ("s0", &inputs.s0, extent, same.clone()),
             ("output", &inputs.output, extent, same.clone()),
         ];
+        if let Some(sources) = &inputs.sources {
+            named.push(("sources", sources, extent, same.clone()));
+        }
         // The second layer's position image says its resolution; the other
         // three follow it.
         let mut layer1 = None;
@@ -340,6 +367,7 @@ impl SsbcPostProcess {
             wrap(&inputs.albedo, storage),
             wrap(&inputs.s0, storage),
         );
+        let sources = inputs.sources.map(|image| wrap(&image, storage));
         let out = wrap(&inputs.output, vk::ImageUsageFlags::TRANSFER_DST);
         let hidden = inputs
             .hidden
@@ -375,6 +403,7 @@ impl SsbcPostProcess {
                     albedo: &albedo,
                 },
                 s0: &s0,
+                sources: sources.as_ref().unwrap_or(&s0),
             },
             hidden
                 .as_ref()
@@ -385,12 +414,14 @@ impl SsbcPostProcess {
                         albedo,
                     },
                     s0,
+                    sources: s0,
                 }),
             &SsbcInputs {
                 camera: &camera,
                 bound: inputs.bound,
                 eval_level,
                 settings,
+                glossy_receivers: inputs.receivers == ReceiverBrdf::MetallicRoughnessInW,
             },
             frame,
         );

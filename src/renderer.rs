@@ -21,12 +21,12 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 use crate::gpu_scene::GpuScene;
-use crate::passes::direct_lighting::DirectLightingPass;
+use crate::passes::direct_lighting::{DirectLight, DirectLightingPass};
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass};
 use crate::passes::ism::{Ism, IsmPass};
 use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
-use crate::passes::ssbc::{SsbcCamera, SsbcLayer, SsbcPass};
+use crate::passes::ssbc::{SsbcCamera, SsbcPass};
 use crate::passes::{FrameView, Recording, SlotSetup, Stage};
 use crate::postprocess::HostImage;
 use crate::resident::{ResidentScene, SceneVersions};
@@ -68,7 +68,7 @@ struct LayerStages {
 }
 
 /// What one layer's stages wrote in a slot.
-type LayerImages<'a> = (&'a GBuffer, &'a Image, &'a BoundedLighting);
+type LayerImages<'a> = (&'a GBuffer, &'a DirectLight, &'a BoundedLighting);
 
 impl LayerStages {
     fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
@@ -80,20 +80,21 @@ impl LayerStages {
     }
 
     /// The layer's G-buffer (peeled behind `front` on layer 1), direct
-    /// lighting and bounded indirect lighting: its G-buffer and `S0`.
+    /// lighting and bounded indirect lighting: its G-buffer and `S0` (and
+    /// its diffuse part).
     fn run(
         &mut self,
         cx: &mut Recording<'_, '_>,
         setup: &SlotSetup<'_>,
         (scene, front): (&GpuScene, Option<&GBuffer>),
         (shadows, ism): (&ShadowMaps, &Ism),
-    ) -> Result<(&GBuffer, &Image)> {
+    ) -> Result<(&GBuffer, &BoundedLighting)> {
         let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
         let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
         let bounded = self
             .indirect_bounded
             .run(cx, setup, (gbuffer, direct, ism))?;
-        Ok((gbuffer, &bounded.s0))
+        Ok((gbuffer, bounded))
     }
 
     fn images(&self, slot: usize) -> Option<LayerImages<'_>> {
@@ -142,18 +143,12 @@ impl Passes {
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
         let ism = self.ism.run(cx, setup, ())?;
         let [layer0, layer1] = &mut self.layers;
-        let (front, s0) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
-        let visible = SsbcLayer {
-            gbuffer: front.into(),
-            s0,
-        };
+        let (front, bounded) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
+        let visible = bounded.ssbc_layer(front);
         let ssbc = &setup.settings.ssbc;
         let hidden = if ssbc.layers == 2 && ssbc.steps > 0 {
-            let (gbuffer, s0) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
-            Some(SsbcLayer {
-                gbuffer: gbuffer.into(),
-                s0,
-            })
+            let (gbuffer, bounded) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
+            Some(bounded.ssbc_layer(gbuffer))
         } else {
             // Not drawn this frame: free what an earlier frame held.
             layer1.forget(setup.slot);

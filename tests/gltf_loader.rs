@@ -148,14 +148,16 @@ fn base_color_texture_is_sampled_in_the_render() {
         bin.len(),
         5123,
         Some(0),
-        r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"baseColorTexture":{"index":0}}}],
+        r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"baseColorTexture":{"index":0},"metallicFactor":0}}],
 "textures":[{"source":0}],"images":[{"uri":"tex.png"}]"#,
     );
     let mut scene = load_str(dir.path(), "t.gltf", json.as_bytes()).unwrap();
     // The quad spans x 0..4, z -2..2 after the hierarchy, with u = (1 - z/2) / 2.
     // Looking straight down (image up = -Z), the top of the image sees u > 1/2
     // (right half of the texture) and the bottom u < 1/2. A perpendicular
-    // directional light of 1 W/m^2 makes the radiance albedo / pi.
+    // directional light of 1 W/m^2 makes the radiance f(n, n): for this
+    // rough dielectric (metallic 0, roughness 1: F = 0.04, D = 1/pi,
+    // V = 1/4) (0.96 base + 0.01) / pi.
     let center = Vec3::new(2.0, 1.0, 0.0);
     scene.cameras.push(ssbc::scene::Camera {
         position: center + Vec3::Y * 3.0,
@@ -187,7 +189,7 @@ fn base_color_texture_is_sampled_in_the_render() {
         (50, 56, left),
     ] {
         let got = pixel(&frame, "direct", x, y);
-        let want = linear(texel) / PI;
+        let want = (0.96 * linear(texel) + Vec3::splat(0.01)) / PI;
         assert!(
             (got - want).abs().max_element() < 0.01 * want.max_element(),
             "pixel ({x},{y}): got {got}, expected {want}"

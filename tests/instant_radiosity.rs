@@ -5,8 +5,8 @@
 mod common;
 
 use glam::Vec3;
-use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::brdf::Brdf;
+use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::vpl::bounded_radiance;
 use ssbc::renderer::{Bound, RenderSettings};
 use ssbc::settings::SsbcSettings;

@@ -61,7 +61,9 @@ fn check_report(report: postprocess::PostProcessReport) {
 #[test]
 fn bad_host_inputs_are_clear_errors() {
     use ash::vk;
-    use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, SsbcPostProcess};
+    use ssbc::postprocess::{
+        HostImage, PostOutput, PostProcessInputs, ReceiverBrdf, SsbcPostProcess,
+    };
     use ssbc::settings::SsbcSettings;
     use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
 
@@ -91,6 +93,8 @@ fn bad_host_inputs_are_clear_errors() {
         normal: image,
         albedo: image,
         s0: image,
+        sources: None,
+        receivers: ReceiverBrdf::Lambertian,
         output: image,
         camera_position: glam::Vec3::new(0.0, 1.0, 3.0),
         camera_forward: -glam::Vec3::Z,

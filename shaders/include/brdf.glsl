@@ -52,25 +52,42 @@ float smith_v(float nv, float nl, float a) {
     return 0.5 / (gv + gl);
 }
 
-// f(wo, wi) around unit normal n (no cosine); zero unless both are above.
-vec3 brdf_eval(Brdf b, vec3 n, vec3 wo, vec3 wi) {
+// The diffuse colour (1 - m) base: f's diffuse lobe is that / pi times
+// the weight brdf_parts gives.
+vec3 brdf_diffuse_color(Brdf b) {
+    return b.base * (1.0 - b.metallic);
+}
+
+// f(wo, wi) split as brdf_diffuse_color(b) / pi * diffuse_weight + specular,
+// around unit normal n; both zero unless wo and wi are above the surface.
+void brdf_parts(Brdf b, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
+    diffuse_weight = 0.0;
+    specular = vec3(0.0);
     float nv = dot(n, wo);
     float nl = dot(n, wi);
-    if (nv <= 0.0 || nl <= 0.0) return vec3(0.0);
-    vec3 diffuse = b.base * (1.0 - b.metallic) / PI;
-    if (brdf_is_lambertian(b)) return diffuse;
+    if (nv <= 0.0 || nl <= 0.0) return;
+    diffuse_weight = 1.0;
+    if (brdf_is_lambertian(b)) return;
     vec3 sum = wo + wi;
     float len2 = dot(sum, sum);
-    if (len2 <= 0.0) return vec3(0.0);
+    if (len2 <= 0.0) return;
     vec3 h = sum * inversesqrt(len2);
     float s1 = clamp(1.0 - abs(dot(wo, h)), 0.0, 1.0);
     float schlick = s1 * s1 * s1 * s1 * s1;
     float fd = 0.04 + 0.96 * schlick;
     vec3 fm = b.base + (vec3(1.0) - b.base) * schlick;
     float a = brdf_alpha(b);
-    float specular = ggx_d(dot(n, h), a) * smith_v(nv, nl, a);
     float m = b.metallic;
-    return diffuse * (1.0 - b.specular * fd) + ((1.0 - m) * b.specular * fd + m * fm) * specular;
+    diffuse_weight = 1.0 - b.specular * fd;
+    specular = ((1.0 - m) * b.specular * fd + m * fm) * (ggx_d(dot(n, h), a) * smith_v(nv, nl, a));
+}
+
+// f(wo, wi) around unit normal n (no cosine); zero unless both are above.
+vec3 brdf_eval(Brdf b, vec3 n, vec3 wo, vec3 wi) {
+    float diffuse_weight;
+    vec3 specular;
+    brdf_parts(b, n, wo, wi, diffuse_weight, specular);
+    return brdf_diffuse_color(b) / PI * diffuse_weight + specular;
 }
 
 #endif

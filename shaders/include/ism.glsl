@@ -3,14 +3,20 @@
 #ifndef SSBC_ISM_GLSL
 #define SSBC_ISM_GLSL
 
-// A VPL (mirrors GpuVpl in src/gpu_types.rs). The gathers read it as three
+// A VPL (mirrors GpuVpl in src/gpu_types.rs). The gathers read it as five
 // RGBA32F texels (vpl_gather.glsl), the splat as a struct.
 struct GpuVpl {
     vec4 position;   // xyz position; w: bits of its ISM point block (uint)
     vec4 normal;     // xyz unit normal (hemisphere it emits into); w: bits of
                      // its atlas tile's column | row << 16 (uint)
-    vec4 power;      // rgb albedo x flux Phi [W] (f_r(z) Phi x pi)
+    vec4 power;      // rgb: Lambertian: albedo x flux Phi [W] (f_r(z) Phi x pi); glossy:
+                     // Phi. w: -1 Lambertian, else metallic
+    vec4 base;       // glossy: rgb base colour, w roughness
+    vec4 incident;   // glossy: xyz direction the light arrived from, w specular layer
 };
+
+// Texels per GpuVpl in the gathers' texel view.
+const uint VPL_TEXELS = 5u;
 
 // Orthonormal basis around n (Duff et al. 2017); matches cpu::sampling::basis.
 void ism_basis(vec3 n, out vec3 t, out vec3 b) {

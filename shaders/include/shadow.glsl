@@ -46,8 +46,10 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n) {
     return lit / 9.0;
 }
 
-// Radiance reflected towards wo at p (normal n, BRDF b) from one light.
-vec3 direct_radiance(GpuLight light, vec3 p, vec3 n, Brdf b, vec3 wo) {
+// Adds the radiance one light reflects towards wo at p (normal n, BRDF b)
+// to `radiance`, and its diffuse, view-independent part
+// (brdf_diffuse_color / pi x irradiance) to `diffuse`.
+void direct_radiance(GpuLight light, vec3 p, vec3 n, Brdf b, vec3 wo, inout vec3 radiance, inout vec3 diffuse) {
     uint kind = uint(light.position_kind.w);
     vec3 irradiance_dir;
     vec3 e;
@@ -69,9 +71,11 @@ vec3 direct_radiance(GpuLight light, vec3 p, vec3 n, Brdf b, vec3 wo) {
     }
     float cos_theta = dot(n, irradiance_dir);
     if (cos_theta <= 0.0 || max(e.r, max(e.g, e.b)) <= 0.0) {
-        return vec3(0.0);
+        return;
     }
-    return brdf_eval(b, n, wo, irradiance_dir) * e * cos_theta * shadow_visibility(light, p, n);
+    vec3 irradiance = e * cos_theta * shadow_visibility(light, p, n);
+    radiance += brdf_eval(b, n, wo, irradiance_dir) * irradiance;
+    diffuse += brdf_diffuse_color(b) / PI * irradiance;
 }
 
 #endif

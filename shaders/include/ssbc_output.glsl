@@ -16,13 +16,23 @@ layout(set = 0, binding = 11, rgba32f) uniform writeonly image2D final_image;
 layout(set = 0, binding = 12, rgba32f) uniform writeonly image2D residual;  // S_k
 layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
 layout(set = 0, binding = 14) uniform usamplerBuffer point_texels;          // points[] as texels (reads)
+layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // S_k's diffuse part
 
-// S_k(p) = albedo / pi * I; final = previous + S_k; `reads`: the pixel's own.
-void write_residual(ivec2 p, vec3 integral, float reads) {
-    vec3 s = imageLoad(g_albedo, p).rgb / PI * integral;
+// S_k(p) = diffuse colour / pi * I + the glossy rest (0 on a Lambertian
+// receiver); its diffuse, view-independent part (what the pixel sends in
+// the next step); final = previous + S_k; `reads`: the pixel's own.
+void write_residual(ivec2 p, Brdf b, vec3 integral, vec3 rest, float reads) {
+    vec3 diffuse = brdf_diffuse_color(b) / PI * integral;
+    vec3 s = diffuse + rest;
     imageStore(residual, p, vec4(s, 1.0));
+    imageStore(residual_sources, p, vec4(diffuse, 1.0));
     imageStore(final_image, p, vec4(imageLoad(previous, p).rgb + s, 1.0));
     imageStore(samples, p, vec4(reads));
+}
+
+// The pixel's BRDF.
+Brdf pixel_brdf(ivec2 p) {
+    return receiver_brdf(imageLoad(g_albedo, p), imageLoad(g_normal, p));
 }
 
 #endif

@@ -30,6 +30,8 @@
 #ifndef SSBC_PYRAMID_GLSL
 #define SSBC_PYRAMID_GLSL
 
+#include "brdf.glsl"
+
 // Pyramids the residual gathers from.
 uint layer_count() {
     return pc.frame.layers & 15u;
@@ -90,6 +92,14 @@ float screen_radius(vec3 x, float r) {
         radius_px = min(radius_px, pc.frame.camera_forward.w * r / ((z - r) * cos_alpha * cos_alpha) + 1.0);
     }
     return radius_px;
+}
+
+// A receiver's BRDF from its G-buffer albedo and normal: glTF
+// metallic-roughness where the frame says the w channels hold it, else
+// Lambertian of the albedo.
+Brdf receiver_brdf(vec4 albedo, vec4 normal) {
+    if ((pc.frame.layers & GLOSSY_RECEIVERS) != 0u) return brdf_from_gbuffer(albedo, normal);
+    return brdf_lambertian(albedo.rgb);
 }
 
 // I(x) for the normal n from the linear form.

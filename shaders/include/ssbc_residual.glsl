@@ -15,6 +15,26 @@
 // normal differs a little from an evaluation point's gets n . V - b C, right
 // to first order (the set where G > b moves only where G - b is near 0).
 
+// A glossy receiver (a pixel evaluated alone whose BRDF is not
+// Lambertian) also sums what the rest of its BRDF adds, per cluster at
+// direction w with excess max(G - b, 0):
+//   glossy_rest = sum (f_x(wo, w) - diffuse / pi) max(G - b, 0) A_y S(y),
+// so that its S_k = diffuse / pi I(x) + glossy_rest. Set by the fallback
+// before residual_integral; inactive elsewhere.
+bool glossy_active = false;
+Brdf glossy_brdf;
+vec3 glossy_wo;
+vec3 glossy_rest = vec3(0.0);
+
+void add_glossy(vec3 nx, vec3 w, float excess, vec3 as) {
+    if (!glossy_active || !(excess > 0.0)) return;
+    float diffuse_weight;
+    vec3 specular;
+    brdf_parts(glossy_brdf, nx, glossy_wo, w, diffuse_weight, specular);
+    vec3 diffuse = brdf_diffuse_color(glossy_brdf) / PI;
+    glossy_rest += (diffuse * (diffuse_weight - 1.0) + specular) * (excess * as);
+}
+
 // Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`) if G > b there.
 // `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is
 // then the area-weighted mean of the cosines. Returns what it added per unit
@@ -28,6 +48,7 @@ float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 
     acc.r += vec4(wk * as.r, as.r);
     acc.g += vec4(wk * as.g, as.g);
     acc.b += vec4(wk * as.b, as.b);
+    add_glossy(nx, w, cos_x * k - pc.frame.bound, as);
     return cos_x * k - pc.frame.bound;
 }
 

@@ -22,10 +22,14 @@ struct SsbcFrame {
     uvec2 pyramid_size;       // level 0 of the pyramids (padded)
     uint levels;              // pyramid levels
     uint layers;              // bits 0..3: pyramids the residual gathers from (1, or 2 with a
-                              // second layer); bits 4..7: log2 of layer 1's pixel side
+                              // second layer); bits 4..7: log2 of layer 1's pixel side;
+                              // bit 8 (GLOSSY_RECEIVERS): the receivers' BRDF is in the
+                              // G-buffer's w channels (brdf_from_gbuffer), else Lambertian
     float bound;              // b [1/m^2]
     float min_cos_view;       // lower clamp of cos(theta_view) in A_y
 };
+
+const uint GLOSSY_RECEIVERS = 256u;
 
 const uint INTEGRATION_HIERARCHICAL = 0u;
 const uint INTEGRATION_BRUTE = 1u;

@@ -32,6 +32,7 @@ struct Visit {
     vec3 wk;          // weight x w cos(theta_y) / d^2 at the mean (+ the straddling term)
     float weight;     // 0: adds nothing
     float inv_dist;   // 1 / distance to its mean
+    vec3 w;           // unit direction to its mean (a glossy receiver's BRDF)
 };
 
 // Adding a cluster from its mean takes max(G - b, 0) at the mean for the
@@ -97,7 +98,7 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     int action = skip ? SKIP : (level > 0 && extent.x > pc.residual.refine_ratio * dist && may_exceed ? REFINE : ADD);
     // The straddling term t/2 s is constant: n . n = 1 carries it in V.
     vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
-    return Visit(action, wk, weight, inv_dist);
+    return Visit(action, wk, weight, inv_dist, d * inv_dist);
 }
 
 // Adds a visited cluster from its means: the mean of max(G - b, 0) over it
@@ -107,7 +108,9 @@ void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
         acc.r += vec4(v.wk * as.r, v.weight * as.r);
         acc.g += vec4(v.wk * as.g, v.weight * as.g);
         acc.b += vec4(v.wk * as.b, v.weight * as.b);
-        add_to_scale(scale, max(dot(nx, v.wk) - pc.frame.bound * v.weight, 0.0) * (as.r + as.g + as.b), v.inv_dist);
+        float excess = max(dot(nx, v.wk) - pc.frame.bound * v.weight, 0.0);
+        add_glossy(nx, v.w, excess, as);
+        add_to_scale(scale, excess * (as.r + as.g + as.b), v.inv_dist);
     }
 }
 

@@ -1,12 +1,13 @@
 // The bounded VPL sum at one receiver, shared by the gathers: sum over VPLs
-// [first, last) of albedo_i Phi_i min(G, b) V_ISM (times albedo(x) / pi^2 it
-// is T_b L^). The including shader declares `vpl_texels` (the GpuVpls as
-// RGBA32F texels: lavapipe fetches a texel in one vector gather, a struct
-// from a storage buffer a component and a lane at a time), `ism` (the atlas,
-// r32f) and push constants `pc` with tile, far, bound,
-// ism_bias and point_radius.
+// [first, last) of f_x f_z Phi_i min(G, b) V_ISM, T_b L^. The including
+// shader declares `vpl_texels` (the GpuVpls as RGBA32F texels: lavapipe
+// fetches a texel in one vector gather, a struct from a storage buffer a
+// component and a lane at a time), `ism` (the atlas, r32f) and push
+// constants `pc` with tile, far, bound, ism_bias and point_radius.
 #ifndef SSBC_VPL_GATHER_GLSL
 #define SSBC_VPL_GATHER_GLSL
+
+#include "brdf.glsl"
 
 // ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
 // n), whose surface makes cos_x with -w. The tolerance grows with the
@@ -18,24 +19,55 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
     return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, pc.ism_bias) ? 1.0 : 0.0;
 }
 
-vec3 vpl_sum(vec3 x, vec3 n, uint first, uint last) {
-    vec3 radiance = vec3(0.0);
+// What VPLs [first, last) send to a receiver at x (normal n, BRDF bx, seen
+// from wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
+// irradiance = sum f_z(incident, z->x) Phi min(G, b) V_ISM (its diffuse,
+// view-independent part), glossy = what the rest of f_x adds (0 on a
+// Lambertian receiver, which never evaluates its BRDF).
+struct VplLight {
+    vec3 irradiance;
+    vec3 glossy;
+};
+
+VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last) {
+    bool lambertian = brdf_is_lambertian(bx);
+    vec3 diffuse = brdf_diffuse_color(bx) / PI;
+    VplLight light = VplLight(vec3(0.0), vec3(0.0));
     for (uint i = first; i < last; i++) {
-        vec3 z = texelFetch(vpl_texels, int(3u * i)).xyz;
+        int at = int(VPL_TEXELS * i);
+        vec3 z = texelFetch(vpl_texels, at).xyz;
         vec3 d = x - z;
         float d2 = dot(d, d);
         if (d2 < 1e-10) continue;
         float dist = sqrt(d2);
         vec3 w = d / dist;
-        vec4 n_z = texelFetch(vpl_texels, int(3u * i + 1u));
+        vec4 n_z = texelFetch(vpl_texels, at + 1);
         float cos_z = dot(n_z.xyz, w);
         float cos_x = -dot(n, w);
         if (cos_z <= 0.0 || cos_x <= 0.0) continue;
         float g = min(cos_x * cos_z / d2, pc.bound);
         float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, cos_x);
-        radiance += texelFetch(vpl_texels, int(3u * i + 2u)).rgb * (g * v);
+        vec4 power = texelFetch(vpl_texels, at + 2);
+        vec3 sent;
+        if (power.w < 0.0) {
+            // Lambertian: albedo Phi / pi every way.
+            sent = power.rgb / PI;
+        } else {
+            vec4 base = texelFetch(vpl_texels, at + 3);
+            vec4 incident = texelFetch(vpl_texels, at + 4);
+            Brdf bz = Brdf(base.rgb, power.w, base.w, incident.w);
+            sent = brdf_eval(bz, n_z.xyz, incident.xyz, w) * power.rgb;
+        }
+        sent *= g * v;
+        light.irradiance += sent;
+        if (!lambertian) {
+            float diffuse_weight;
+            vec3 specular;
+            brdf_parts(bx, n, wo, -w, diffuse_weight, specular);
+            light.glossy += (diffuse * (diffuse_weight - 1.0) + specular) * sent;
+        }
     }
-    return radiance;
+    return light;
 }
 
 #endif

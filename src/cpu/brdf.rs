@@ -72,6 +72,21 @@ impl Brdf {
         }
     }
 
+    /// The G-buffer's encoding (`brdf_from_gbuffer` in brdf.glsl): albedo
+    /// rgb base, w metallic; the normal's w roughness, negative for a
+    /// Lambertian surface.
+    pub fn from_gbuffer(albedo: glam::Vec4, normal_w: f32) -> Self {
+        if normal_w < 0.0 {
+            return Self::lambertian(albedo.truncate());
+        }
+        Self {
+            base: albedo.truncate(),
+            metallic: albedo.w,
+            roughness: normal_w,
+            specular: 1.0,
+        }
+    }
+
     /// Whether it is `base / pi` (no specular lobe).
     pub fn is_lambertian(&self) -> bool {
         self.specular == 0.0 && self.metallic == 0.0

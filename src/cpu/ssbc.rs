@@ -4,6 +4,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::brdf::Brdf;
 use crate::settings::LayerResolution;
 
 /// The G-buffer as read back (RGBA per pixel, rows top to bottom).
@@ -269,6 +270,8 @@ pub struct BruteForceTwin<'a> {
     /// Sources only: a second G-buffer layer, its term, and its pixels'
     /// (position, normal, area x term).
     hidden: Vec<(Vec3, Vec3, Vec3)>,
+    /// With glossy receivers, the eye they reflect towards.
+    glossy_eye: Option<Vec3>,
 }
 
 fn vec3_at(buf: &[f32], i: usize) -> Vec3 {
@@ -296,7 +299,18 @@ impl<'a> BruteForceTwin<'a> {
             area,
             across_creases,
             hidden: Vec::new(),
+            glossy_eye: None,
         }
+    }
+
+    /// Reads the receivers' BRDF from the G-buffer's w channels (albedo.w
+    /// metallic, normal.w roughness, negative: Lambertian), as ssbc's own
+    /// G-buffer holds it, and reflects towards the camera at `eye`:
+    /// `S(x) = sum_y f_x(x->eye, x->y) max(G - b, 0) A_y S_prev(y)`.
+    /// Without it every receiver is Lambertian of the albedo's rgb.
+    pub fn with_glossy_receivers(mut self, eye: Vec3) -> Self {
+        self.glossy_eye = Some(eye);
+        self
     }
 
     /// Adds the pixels of a second G-buffer layer (a deep G-buffer's, as
@@ -351,10 +365,30 @@ impl<'a> BruteForceTwin<'a> {
         let across = self.across_creases.iter();
         let others = across.map(|&(y, ny, a, j)| (y, ny, a * vec3_at(self.s_prev, j)));
         let sources = own.chain(others).chain(self.hidden.iter().copied());
-        let sum: Vec3 = sources
-            .map(|(y, ny, area_s)| residual_weight(x, nx, y, ny, self.bound) * area_s)
-            .sum();
-        vec3_at(g.albedo, i) / std::f32::consts::PI * sum
+        let brdf = match self.glossy_eye {
+            Some(eye) => {
+                let albedo = glam::Vec4::from_slice(&g.albedo[i * 4..i * 4 + 4]);
+                Some((Brdf::from_gbuffer(albedo, g.normal[i * 4 + 3]), eye))
+            }
+            None => None,
+        };
+        match brdf {
+            Some((b, eye)) if !b.is_lambertian() => {
+                let wo = (eye - x).normalize_or_zero();
+                sources
+                    .map(|(y, ny, area_s)| {
+                        let w = (y - x).normalize_or_zero();
+                        b.eval(nx, wo, w) * residual_weight(x, nx, y, ny, self.bound) * area_s
+                    })
+                    .sum()
+            }
+            _ => {
+                let sum: Vec3 = sources
+                    .map(|(y, ny, area_s)| residual_weight(x, nx, y, ny, self.bound) * area_s)
+                    .sum();
+                vec3_at(g.albedo, i) / std::f32::consts::PI * sum
+            }
+        }
     }
 
     /// The residual at every pixel, RGBA (alpha 1 on geometry).

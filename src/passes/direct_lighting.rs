@@ -14,6 +14,16 @@ use crate::error::Result;
 use crate::shaders::direct_lighting_comp;
 use crate::vk::{Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler};
 
+/// What the pass writes.
+pub struct DirectLight {
+    /// `T Le` towards the camera, the `direct` layer.
+    pub radiance: Image,
+    /// Its diffuse, view-independent part (the diffuse colour / pi x the
+    /// irradiance, plus emission): what the pixel sends as an SSBC source.
+    /// The same as `radiance` on Lambertian surfaces.
+    pub diffuse: Image,
+}
+
 /// The direct-lighting compute kernel, for one G-buffer layer.
 pub struct DirectLightingPass {
     kernel: ComputeKernel<direct_lighting_comp::Interface, Push>,
@@ -55,20 +65,26 @@ impl Pass for DirectLightingPass {
     }
     /// Width and height.
     type Key = (u32, u32);
-    /// The `direct` layer.
-    type Resources = Image;
+    type Resources = DirectLight;
     type Reads<'a> = (&'a GBuffer, &'a ShadowMaps);
 
     fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
         setup.layer_extent(self.layer)
     }
 
-    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Image> {
-        let name = super::layer_name("lighting.direct", self.layer);
-        super::radiance_image(setup.device, &name, setup.layer_extent(self.layer))
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<DirectLight> {
+        let extent = setup.layer_extent(self.layer);
+        let image = |base: &str| {
+            let name = super::layer_name(base, self.layer);
+            super::radiance_image(setup.device, &name, extent)
+        };
+        Ok(DirectLight {
+            radiance: image("lighting.direct")?,
+            diffuse: image("lighting.direct_diffuse")?,
+        })
     }
 
-    fn set_layouts(&self, _: &Image) -> Vec<&DescriptorSetLayout> {
+    fn set_layouts(&self, _: &DirectLight) -> Vec<&DescriptorSetLayout> {
         vec![self.kernel.set_layout()]
     }
 
@@ -78,7 +94,7 @@ impl Pass for DirectLightingPass {
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
         (gbuffer, shadows): (&GBuffer, &ShadowMaps),
-        direct: &Image,
+        direct: &DirectLight,
     ) -> Result<()> {
         let Recording {
             rec, profiler, view, ..
@@ -89,7 +105,8 @@ impl Pass for DirectLightingPass {
         rec.use_image(&shadows.depth, Access::ComputeSampled);
         rec.use_buffer(&shadows.lights, Access::ComputeRead);
         rec.use_buffer(&shadows.views, Access::ComputeRead);
-        rec.use_image(direct, Access::ComputeWrite);
+        rec.use_image(&direct.radiance, Access::ComputeWrite);
+        rec.use_image(&direct.diffuse, Access::ComputeWrite);
         rec.flush_barriers();
         let (w, h) = gbuffer.extent();
         let push = Push {
@@ -102,7 +119,8 @@ impl Pass for DirectLightingPass {
             g_position: &gbuffer.position,
             g_normal: &gbuffer.normal,
             g_albedo: &gbuffer.albedo,
-            direct,
+            direct: &direct.radiance,
+            direct_diffuse: &direct.diffuse,
             lights: &shadows.lights,
             shadow_views: &shadows.views,
             shadow_maps: (&shadows.depth, &self.shadow_sampler),

@@ -20,9 +20,11 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::direct_lighting::DirectLight;
 use super::gbuffer::GBuffer;
+use super::ssbc::SsbcLayer;
 use super::ism::Ism;
-use super::{Pass, Recording, SlotSetup};
+use super::{FrameView, Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::settings::Gather;
 use crate::shaders::{
@@ -66,14 +68,31 @@ pub struct BoundedLighting {
     pub indirect: Image,
     /// `S0 = T Le + T_b L^`, what the SSBC steps start from.
     pub s0: Image,
+    /// Its diffuse, view-independent part: what SSBC's sources send (the
+    /// same as `s0` on Lambertian surfaces).
+    pub s0_diffuse: Image,
     /// The interleaved gather's intermediate images (None: full gather).
     pub interleaved: Option<Interleaved>,
 }
 
+impl BoundedLighting {
+    /// The layer as SSBC gathers from it, with `gbuffer`.
+    pub fn ssbc_layer<'a>(&'a self, gbuffer: &'a GBuffer) -> SsbcLayer<'a> {
+        SsbcLayer {
+            gbuffer: gbuffer.into(),
+            s0: &self.s0,
+            sources: &self.s0_diffuse,
+        }
+    }
+}
+
 /// What the interleaved gather hands its filter.
 pub struct Interleaved {
-    /// N² x each pixel's own subset's sum, without the receiver's albedo.
+    /// N² x each pixel's own subset's sum: its diffuse part per unit
+    /// diffuse colour.
     pub sums: Image,
+    /// N² x the rest, the glossy part (zero on Lambertian receivers).
+    pub glossy: Image,
     /// Each pixel's position and normal, packed (`guide.glsl`).
     pub guide: Image,
     /// The pixels beside a crease or contact (dispatch header, count, then
@@ -104,10 +123,13 @@ struct GatherPush {
     bound: f32,
     ism_bias: f32,
     point_radius: f32,
+    pad: [u32; 3],
+    /// xyz: the eye (glossy receivers reflect towards it).
+    camera_position: [f32; 4],
 }
 
 impl GatherPush {
-    fn new(gbuffer: &GBuffer, ism: &Ism, bound: f32, count: u32) -> Self {
+    fn new(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> Self {
         let (w, h) = gbuffer.extent();
         Self {
             size: [w, h],
@@ -115,9 +137,11 @@ impl GatherPush {
             tile: ism.tile,
             tiles_per_row: ism.tiles_per_row,
             far: ism.far,
-            bound,
+            bound: view.bound,
             ism_bias: ISM_BIAS,
             point_radius: ism.point_radius,
+            pad: [0; 3],
+            camera_position: view.camera.position.extend(1.0).into(),
         }
     }
 }
@@ -150,25 +174,29 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, direct, ism): (&GBuffer, &Image, &Ism),
+        (gbuffer, direct, ism): (&GBuffer, &DirectLight, &Ism),
         out: &BoundedLighting,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
         gbuffer.read_in_compute(rec);
-        rec.use_image(direct, Access::ComputeRead);
+        rec.use_image(&direct.radiance, Access::ComputeRead);
+        rec.use_image(&direct.diffuse, Access::ComputeRead);
         rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
+        rec.use_image(&out.s0_diffuse, Access::ComputeWrite);
         rec.flush_barriers();
-        let push = GatherPush::new(gbuffer, ism, view.bound, ism.vpl_count);
+        let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
         let bindings = indirect_bounded_comp::Bindings {
             g_position: &gbuffer.position,
             g_normal: &gbuffer.normal,
             g_albedo: &gbuffer.albedo,
-            direct,
+            direct: &direct.radiance,
+            direct_diffuse: &direct.diffuse,
             indirect_bounded: &out.indirect,
             s0: &out.s0,
+            s0_diffuse: &out.s0_diffuse,
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
         };
@@ -185,23 +213,25 @@ impl IndirectBoundedPass {
         interleaved: &Interleaved,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
-        rec.use_image(&gbuffer.position, Access::ComputeRead);
-        rec.use_image(&gbuffer.normal, Access::ComputeRead);
+        gbuffer.read_in_compute(rec);
         rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(&ism.subsets, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeWrite);
+        rec.use_image(&interleaved.glossy, Access::ComputeWrite);
         rec.use_image(&interleaved.guide, Access::ComputeWrite);
         rec.flush_barriers();
         let side = ism.subset_count.isqrt();
-        let push = GatherPush::new(gbuffer, ism, view.bound, side);
+        let push = GatherPush::new(gbuffer, ism, view, side);
         let bindings = indirect_interleaved_comp::Bindings {
             g_position: &gbuffer.position,
             g_normal: &gbuffer.normal,
+            g_albedo: &gbuffer.albedo,
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
             subsets: &ism.subsets,
             interleaved: &interleaved.sums,
+            interleaved_glossy: &interleaved.glossy,
             guide: &interleaved.guide,
         };
         // One work group: 8 x 8 pixels of one subset (z), N pixels apart.
@@ -221,19 +251,22 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, direct, side): (&GBuffer, &Image, u32),
+        (gbuffer, direct, side): (&GBuffer, &DirectLight, u32),
         interleaved: &Interleaved,
         out: &BoundedLighting,
     ) -> Result<()> {
         let rec = &mut *cx.rec;
         rec.update_buffer(&interleaved.creases, 0, bytemuck::bytes_of(&LIST_HEADER));
         rec.use_image(&gbuffer.albedo, Access::ComputeRead);
-        rec.use_image(direct, Access::ComputeRead);
+        rec.use_image(&direct.radiance, Access::ComputeRead);
+        rec.use_image(&direct.diffuse, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeRead);
+        rec.use_image(&interleaved.glossy, Access::ComputeRead);
         rec.use_image(&interleaved.guide, Access::ComputeRead);
         rec.use_buffer(&interleaved.creases, Access::ComputeWrite);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
+        rec.use_image(&out.s0_diffuse, Access::ComputeWrite);
         rec.flush_barriers();
         let (w, h) = gbuffer.extent();
         let push = FilterPush {
@@ -246,10 +279,13 @@ impl IndirectBoundedPass {
         let bindings = indirect_filter_comp::Bindings {
             guide: &interleaved.guide,
             g_albedo: &gbuffer.albedo,
-            direct,
+            direct: &direct.radiance,
+            direct_diffuse: &direct.diffuse,
             interleaved: &interleaved.sums,
+            interleaved_glossy: &interleaved.glossy,
             indirect_bounded: &out.indirect,
             s0: &out.s0,
+            s0_diffuse: &out.s0_diffuse,
             creases: &interleaved.creases,
         };
         self.filter
@@ -261,29 +297,33 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        reads: (&GBuffer, &Image, &Ism),
+        reads: (&GBuffer, &DirectLight, &Ism),
         creases: &Buffer,
         out: &BoundedLighting,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
         let (gbuffer, direct, ism) = reads;
         gbuffer.read_in_compute(rec);
-        rec.use_image(direct, Access::ComputeRead);
+        rec.use_image(&direct.radiance, Access::ComputeRead);
+        rec.use_image(&direct.diffuse, Access::ComputeRead);
         rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(creases, Access::IndirectRead);
         rec.use_buffer(creases, Access::ComputeRead);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
+        rec.use_image(&out.s0_diffuse, Access::ComputeWrite);
         rec.flush_barriers();
-        let push = GatherPush::new(gbuffer, ism, view.bound, ism.vpl_count);
+        let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
         let bindings = indirect_creases_comp::Bindings {
             g_position: &gbuffer.position,
             g_normal: &gbuffer.normal,
             g_albedo: &gbuffer.albedo,
-            direct,
+            direct: &direct.radiance,
+            direct_diffuse: &direct.diffuse,
             indirect_bounded: &out.indirect,
             s0: &out.s0,
+            s0_diffuse: &out.s0_diffuse,
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
             creases,
@@ -301,8 +341,8 @@ impl Pass for IndirectBoundedPass {
     /// Width, height and the side of the interleaved pattern (1: full gather).
     type Key = (u32, u32, u32);
     type Resources = BoundedLighting;
-    /// The G-buffer, the `direct` layer, the ISM atlas and its VPLs.
-    type Reads<'a> = (&'a GBuffer, &'a Image, &'a Ism);
+    /// The G-buffer, the direct light, the ISM atlas and its VPLs.
+    type Reads<'a> = (&'a GBuffer, &'a DirectLight, &'a Ism);
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let (w, h) = setup.layer_extent(self.layer);
@@ -317,6 +357,7 @@ impl Pass for IndirectBoundedPass {
             Gather::Full => None,
             Gather::Interleaved => Some(Interleaved {
                 sums: image("lighting.interleaved")?,
+                glossy: image("lighting.interleaved_glossy")?,
                 guide: super::storage_image(
                     device,
                     &name("lighting.interleaved_guide"),
@@ -338,6 +379,7 @@ impl Pass for IndirectBoundedPass {
         Ok(BoundedLighting {
             indirect: image("lighting.indirect_bounded")?,
             s0: image("ssbc.s0")?,
+            s0_diffuse: image("ssbc.s0_diffuse")?,
             interleaved,
         })
     }
@@ -358,7 +400,7 @@ impl Pass for IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        reads: (&GBuffer, &Image, &Ism),
+        reads: (&GBuffer, &DirectLight, &Ism),
         out: &BoundedLighting,
     ) -> Result<()> {
         let name = super::layer_name("indirect_bounded", self.layer);

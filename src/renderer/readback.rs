@@ -7,6 +7,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::cpu::vpl::Vpl;
 use crate::error::{Error, Result};
+use crate::passes::direct_lighting::DirectLight;
 use crate::passes::gbuffer::GBuffer;
 use crate::passes::indirect_bounded::BoundedLighting;
 use crate::passes::ism::Ism;
@@ -226,7 +227,7 @@ impl Frame {
 /// The images one frame slot's passes wrote.
 pub(crate) struct FrameImages<'a> {
     pub gbuffer: &'a GBuffer,
-    pub direct: &'a Image,
+    pub direct: &'a DirectLight,
     pub bounded: &'a BoundedLighting,
     pub ssbc: &'a SsbcFrame,
     pub ism: &'a Ism,
@@ -250,7 +251,7 @@ impl<'a> FrameImages<'a> {
         let layer1 = self.layer1;
         Some(match layer {
             Layer::Final => self.final_image(),
-            Layer::Direct => self.direct,
+            Layer::Direct => &self.direct.radiance,
             Layer::IndirectBounded => &self.bounded.indirect,
             Layer::Residual(k) => self.ssbc.residuals.get((k as usize).checked_sub(1)?)?,
             Layer::GBufferPosition => &g.position,

@@ -143,11 +143,36 @@ fn cornell_room(s: &mut Scene, floor: u32, light: Vec3) {
     let red = s.add_material(Vec3::new(0.63, 0.065, 0.05), None);
     let green = s.add_material(Vec3::new(0.14, 0.45, 0.091), None);
     let walls = [
-        (Vec3::new(-1.0, 0.0, 1.0), Vec3::X * 2.0, -Vec3::Z * 2.0, floor),
-        (Vec3::new(-1.0, 2.0, -1.0), Vec3::X * 2.0, Vec3::Z * 2.0, white),
-        (Vec3::new(-1.0, 0.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0, white),
-        (Vec3::new(-1.0, 0.0, 1.0), -Vec3::Z * 2.0, Vec3::Y * 2.0, red),
-        (Vec3::new(1.0, 0.0, -1.0), Vec3::Z * 2.0, Vec3::Y * 2.0, green),
+        (
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::X * 2.0,
+            -Vec3::Z * 2.0,
+            floor,
+        ),
+        (
+            Vec3::new(-1.0, 2.0, -1.0),
+            Vec3::X * 2.0,
+            Vec3::Z * 2.0,
+            white,
+        ),
+        (
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::X * 2.0,
+            Vec3::Y * 2.0,
+            white,
+        ),
+        (
+            Vec3::new(-1.0, 0.0, 1.0),
+            -Vec3::Z * 2.0,
+            Vec3::Y * 2.0,
+            red,
+        ),
+        (
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::Z * 2.0,
+            Vec3::Y * 2.0,
+            green,
+        ),
     ];
     for (corner, u, v, m) in walls {
         quad(s, corner, u, v, m);
@@ -174,7 +199,11 @@ fn sphere(scene: &mut Scene, centre: Vec3, radius: f32, material: u32) {
         let theta = j as f32 / nv as f32 * PI;
         for i in 0..=nu {
             let phi = i as f32 / nu as f32 * 2.0 * PI;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let n = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             positions.push(n * radius);
             normals.push(n);
             uvs.push([i as f32 / nu as f32, j as f32 / nv as f32]);
@@ -210,8 +239,11 @@ fn sphere(scene: &mut Scene, centre: Vec3, radius: f32, material: u32) {
 pub fn spheres() -> Scene {
     let mut s = Scene::new("spheres");
     let floor = s.materials.len() as u32;
-    s.materials
-        .push(super::Material::metallic_roughness(Vec3::splat(0.7), 0.0, 0.5));
+    s.materials.push(super::Material::metallic_roughness(
+        Vec3::splat(0.7),
+        0.0,
+        0.5,
+    ));
     // The light 10 cm under the ceiling, in front of the spheres.
     cornell_room(&mut s, floor, Vec3::new(0.0, 1.9, 0.7));
     let rows = [
@@ -231,8 +263,9 @@ pub fn spheres() -> Scene {
     for (y, metallic, colors) in rows {
         for (k, (roughness, color)) in [0.2, 0.45, 0.7].into_iter().zip(colors).enumerate() {
             let m = s.materials.len() as u32;
-            s.materials
-                .push(super::Material::metallic_roughness(color, metallic, roughness));
+            s.materials.push(super::Material::metallic_roughness(
+                color, metallic, roughness,
+            ));
             let x = (k as f32 - 1.0) * 0.55;
             sphere(&mut s, Vec3::new(x, y, -0.2), radius, m);
         }

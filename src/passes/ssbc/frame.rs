@@ -49,6 +49,10 @@ pub struct SsbcFrame {
     pub stats: Buffer,
     /// `residual_k` for k = 1..=K.
     pub residuals: Vec<Image>,
+    /// Their diffuse, view-independent parts: what the pixels send as
+    /// sources of the next step (the same as `residuals` on Lambertian
+    /// receivers).
+    pub residual_sources: Vec<Image>,
     /// Texels read per pixel of each step (r32f: a pixel's own reads plus its
     /// share of the evaluation points whose blocks it is in).
     pub samples: Vec<Image>,
@@ -154,6 +158,14 @@ impl SsbcPass {
                 )
             })
             .collect::<Result<_>>()?;
+        let residual_sources = (1..=steps)
+            .map(|k| {
+                image(
+                    format!("ssbc.residual_sources_{k}"),
+                    vk::Format::R32G32B32A32_SFLOAT,
+                )
+            })
+            .collect::<Result<_>>()?;
         let samples = (1..=steps)
             .map(|k| image(format!("ssbc.samples_{k}"), vk::Format::R32_SFLOAT))
             .collect::<Result<_>>()?;
@@ -210,6 +222,7 @@ impl SsbcPass {
                 MemoryLocation::GpuToCpu,
             )?,
             residuals,
+            residual_sources,
             samples,
             final_image: image("ssbc.final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
             layer1_residuals,

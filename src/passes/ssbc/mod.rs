@@ -30,6 +30,7 @@ use crate::vk::{
 };
 pub use frame::SsbcFrame;
 pub use pyramids::{check_size, frame_bytes, pyramid_levels};
+pub use push::GLOSSY_RECEIVERS;
 use push::{
     EvalPush, GeometryBasePush, GeometryMipsPush, IntegralPush, RadiancePush, ResolvePush,
     SamplesPush,
@@ -77,6 +78,8 @@ pub struct SsbcInputs<'a> {
     pub eval_level: u32,
     /// Parameters.
     pub settings: &'a SsbcSettings,
+    /// Whether receivers may be glossy ([`GLOSSY_RECEIVERS`]).
+    pub glossy_receivers: bool,
 }
 
 impl SsbcPass {
@@ -206,10 +209,13 @@ impl SsbcGBuffer<'_> {
 /// One G-buffer layer SSBC gathers from: its G-buffer and its `S0`.
 #[derive(Clone, Copy)]
 pub struct SsbcLayer<'a> {
-    /// Position, normal, albedo.
+    /// Position, normal, albedo (w metallic), normal.w roughness.
     pub gbuffer: SsbcGBuffer<'a>,
-    /// `S0 = T Le + T_b L^` at its pixels.
+    /// `S0 = T Le + T_b L^` at its pixels, towards the camera.
     pub s0: &'a Image,
+    /// What its pixels send as sources of the first step: `S0`'s diffuse,
+    /// view-independent part (`S0` itself where surfaces are Lambertian).
+    pub sources: &'a Image,
 }
 
 impl Pass for SsbcPass {
@@ -257,6 +263,7 @@ impl Pass for SsbcPass {
         let inputs = SsbcInputs {
             camera: &view.camera,
             bound: view.bound,
+            glossy_receivers: true,
             eval_level: Self::eval_level(
                 &view.camera,
                 view.centre_depth,

@@ -9,6 +9,11 @@ use bytemuck::{Pod, Zeroable};
 use super::{SsbcCamera, SsbcFrame, SsbcInputs};
 use crate::settings::Integration;
 
+/// `SsbcFrame.layers` bit: the receivers' BRDF is in the G-buffer's w
+/// channels (albedo.w metallic, normal.w roughness, < 0 Lambertian), as
+/// ssbc's own G-buffer writes it; without it every receiver is Lambertian.
+pub const GLOSSY_RECEIVERS: u32 = 256;
+
 /// What every SSBC kernel reads of the frame (`SsbcFrame`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -25,7 +30,8 @@ pub(crate) struct FrameBlock {
     pyramid_size: [u32; 2],
     /// Pyramid levels.
     levels: u32,
-    /// Bits 0..3: pyramids gathered from; bits 4..7: log2 of layer 1's pixel side.
+    /// Bits 0..3: pyramids gathered from; bits 4..7: log2 of layer 1's pixel
+    /// side; bit 8: [`GLOSSY_RECEIVERS`].
     layers: u32,
     /// b (1/m²).
     bound: f32,
@@ -46,6 +52,10 @@ impl FrameBlock {
         let layers = match frame.layer1() {
             Some(r) if two_layers => 2 | r.shift() << 4,
             _ => 1,
+        } | if inputs.glossy_receivers {
+            GLOSSY_RECEIVERS
+        } else {
+            0
         };
         Self {
             camera_position: camera.position.extend(camera.pixel_side).into(),

@@ -76,8 +76,9 @@ pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerReso
     let points = pyramid_texels(size, levels);
     let lists = 4 * (16 + 4 * size.0 as u64 * size.1 as u64);
     let pixels = width as u64 * height as u64;
-    // Final image, and per step its residual (16 bytes) and samples (4).
-    let images = pixels * (16 + 20 * steps as u64);
+    // Final image, and per step its residual and its diffuse part (16
+    // bytes each) and samples (4).
+    let images = pixels * (16 + 36 * steps as u64);
     let layer1_images = layer1.map_or(0, |r| {
         let (w, h) = r.extent((width, height));
         16 * w as u64 * h as u64 * steps.saturating_sub(1) as u64

@@ -25,6 +25,7 @@ struct StepOutput<'a> {
     previous: &'a Image,
     final_image: &'a Image,
     residual: &'a Image,
+    residual_sources: &'a Image,
     samples: &'a Image,
 }
 
@@ -39,6 +40,7 @@ impl StepOutput<'_> {
         }
         rec.use_image(self.final_image, Access::ComputeWrite);
         rec.use_image(self.residual, Access::ComputeWrite);
+        rec.use_image(self.residual_sources, Access::ComputeWrite);
         rec.use_image(self.samples, Access::ComputeWrite);
     }
 }
@@ -129,9 +131,9 @@ impl SsbcPass {
                 &frame.final_image
             };
             let term = if step == 0 {
-                visible.s0
+                visible.sources
             } else {
-                &frame.residuals[step - 1]
+                &frame.residual_sources[step - 1]
             };
             let push = StepPush {
                 frame: frame_block,
@@ -147,7 +149,7 @@ impl SsbcPass {
             self.record_radiance_mips(rec, pool, term, 0, frame_block, frame)?;
             if let Some(hidden) = hidden {
                 let term = if step == 0 {
-                    hidden.s0
+                    hidden.sources
                 } else {
                     &frame.layer1_residuals[step - 1]
                 };
@@ -159,6 +161,7 @@ impl SsbcPass {
                 previous,
                 final_image: &frame.final_image,
                 residual: &frame.residuals[step],
+                residual_sources: &frame.residual_sources[step],
                 samples: &frame.samples[step],
             };
             self.record_residual(rec, profiler, &name, pool, &step_out, &push, frame)?;
@@ -280,6 +283,7 @@ impl SsbcPass {
             previous: out.previous,
             final_image: out.final_image,
             residual: out.residual,
+            residual_sources: out.residual_sources,
             samples: out.samples,
         };
         self.fallback.dispatch_indirect(
@@ -388,6 +392,7 @@ impl SsbcPass {
             previous: out.previous,
             final_image: out.final_image,
             residual: out.residual,
+            residual_sources: out.residual_sources,
             samples: out.samples,
             point_texels: &frame.point_view,
         };
