@@ -16,8 +16,9 @@
 // receiver's diffuse colour, the glossy rest, S0 and its diffuse part.
 //
 // A pixel beside a crease or contact (a neighbour of another surface
-// within crease_footprints x its footprint in space) is listed for
-// indirect_creases.comp, which evaluates every VPL there.
+// within crease_footprints x its footprint in space), or on a surface
+// smoother than glossy_roughness, is listed for indirect_creases.comp,
+// which evaluates every VPL there.
 #include "common.glsl"
 #include "guide.glsl"
 
@@ -36,6 +37,7 @@ layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } cre
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D interleaved_glossy;
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_diffuse;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_diffuse;
+layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
 
 // Writes the pixel's bounded indirect light from the filtered sums (the
 // diffuse part per unit diffuse colour, the glossy rest), S0 and its
@@ -55,6 +57,7 @@ layout(push_constant) uniform Push {
     float min_normal_cos;
     float max_plane_slope;
     float crease_footprints;
+    float glossy_roughness;  // glossier receivers evaluate every VPL
 } pc;
 
 void main() {
@@ -100,7 +103,12 @@ void main() {
         }
         rows[dy] = row;
     }
-    if (other <= pc.crease_footprints * footprint) {
+    // A glossy lobe narrower than the box (curved surfaces turn it across
+    // a few pixels) cannot be averaged over neighbours: such a receiver
+    // evaluates every VPL too.
+    float roughness = imageLoad(g_normal, pixel).w;
+    bool narrow_lobe = roughness >= 0.0 && roughness < pc.glossy_roughness;
+    if (other <= pc.crease_footprints * footprint || narrow_lobe) {
         uint slot = atomicAdd(creases.header.w, 1u);
         creases.pixels[slot] = uint(pixel.x) | uint(pixel.y) << 16;
         atomicMax(creases.header.x, slot / 64u + 1u);

@@ -59,6 +59,20 @@ pub const FILTER_NORMAL_COS: f32 = 0.9;
 /// count: there the filter's box turns to the pixel's own side.
 pub const CREASE_FOOTPRINTS: f32 = 4.0;
 
+/// Receivers smoother than this evaluate every VPL in the interleaved
+/// gather (the crease kernel), as pixels beside creases do: their glossy
+/// lobe turns across a few pixels of a curved surface, and averaging it over
+/// the filter's box smeared VPL highlights over the box.
+pub const GLOSSY_FILTER_ROUGHNESS: f32 = 0.4;
+
+/// [`GLOSSY_FILTER_ROUGHNESS`], or `SSBC_GLOSSY_FILTER_ROUGHNESS` (tuning).
+fn glossy_filter_roughness() -> f32 {
+    std::env::var("SSBC_GLOSSY_FILTER_ROUGHNESS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(GLOSSY_FILTER_ROUGHNESS)
+}
+
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
 const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
 
@@ -154,6 +168,7 @@ struct FilterPush {
     min_normal_cos: f32,
     max_plane_slope: f32,
     crease_footprints: f32,
+    glossy_roughness: f32,
 }
 
 impl IndirectBoundedPass {
@@ -258,6 +273,7 @@ impl IndirectBoundedPass {
         let rec = &mut *cx.rec;
         rec.update_buffer(&interleaved.creases, 0, bytemuck::bytes_of(&LIST_HEADER));
         rec.use_image(&gbuffer.albedo, Access::ComputeRead);
+        rec.use_image(&gbuffer.normal, Access::ComputeRead);
         rec.use_image(&direct.radiance, Access::ComputeRead);
         rec.use_image(&direct.diffuse, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeRead);
@@ -275,6 +291,7 @@ impl IndirectBoundedPass {
             min_normal_cos: FILTER_NORMAL_COS,
             max_plane_slope: FILTER_PLANE_SLOPE,
             crease_footprints: CREASE_FOOTPRINTS,
+            glossy_roughness: glossy_filter_roughness(),
         };
         let bindings = indirect_filter_comp::Bindings {
             guide: &interleaved.guide,
@@ -287,6 +304,7 @@ impl IndirectBoundedPass {
             s0: &out.s0,
             s0_diffuse: &out.s0_diffuse,
             creases: &interleaved.creases,
+            g_normal: &gbuffer.normal,
         };
         self.filter
             .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
