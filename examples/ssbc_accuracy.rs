@@ -33,6 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),
         ssbc_accuracy::open_box(),
+        ssbc::scene::builtin::spheres(),
     ];
     println!("| scene | size | bound | rel. RMSE | mean ratio | texels/px avg | max | alone | eval level | step ms |");
     println!("|---|---|---|---|---|---|---|---|---|---|");

@@ -170,6 +170,7 @@ fn hierarchical_matches_brute_force() {
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),
         common::ssbc_accuracy::open_box(),
+        ssbc::scene::builtin::spheres(),
     ];
     let mut failures = Vec::new();
     for scene in &scenes {

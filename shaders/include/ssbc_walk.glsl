@@ -95,7 +95,11 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     float t = clamp((m + s) / max(2.0 * s, 1e-30), 0.0, 1.0);
     bool straddles = m < s && s > 0.0;
     float weight = dist > 1e-6 ? (straddles ? 0.5 * t : (m > 0.0 ? 1.0 : 0.0)) : 0.0;
-    int action = skip ? SKIP : (level > 0 && extent.x > pc.residual.refine_ratio * dist && may_exceed ? REFINE : ADD);
+    float ratio = pc.residual.refine_ratio;
+    bool wide = extent.x > ratio * dist && may_exceed;
+    // A glossy receiver refines what is wide for its lobe wherever G > b.
+    wide = wide || (glossy_active && extent.x > glossy_refine_ratio * dist && !skip);
+    int action = skip ? SKIP : (level > 0 && wide ? REFINE : ADD);
     // The straddling term t/2 s is constant: n . n = 1 carries it in V.
     vec3 wk = weight * (d * (inv_dist * k) + (straddles ? s : 0.0) * nx);
     return Visit(action, wk, weight, inv_dist, d * inv_dist);

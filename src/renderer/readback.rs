@@ -47,6 +47,10 @@ pub enum Layer {
     GBufferAlbedo,
     /// G-buffer emitted radiance (debug read-back).
     GBufferEmission,
+    /// `S0`'s diffuse, view-independent part, what each pixel sends as a
+    /// source of SSBC's first step (`S0` itself on Lambertian surfaces;
+    /// debug read-back).
+    Sources,
     /// The deep G-buffer's second layer: position, at its resolution (debug
     /// read-back with `ssbc.layers` 2).
     Layer1Position,
@@ -54,8 +58,8 @@ pub enum Layer {
     Layer1Normal,
     /// Its albedo.
     Layer1Albedo,
-    /// Its `S0`.
-    Layer1S0,
+    /// What it sends as SSBC sources (its `S0`'s diffuse part).
+    Layer1Sources,
 }
 
 impl Layer {
@@ -76,7 +80,7 @@ impl Layer {
 }
 
 /// Every layer but the residuals, with its name.
-const NAMED: [(Layer, &str); 11] = [
+const NAMED: [(Layer, &str); 12] = [
     (Layer::Final, "final"),
     (Layer::Direct, "direct"),
     (Layer::IndirectBounded, "indirect_bounded"),
@@ -84,10 +88,11 @@ const NAMED: [(Layer, &str); 11] = [
     (Layer::GBufferNormal, "gbuffer_normal"),
     (Layer::GBufferAlbedo, "gbuffer_albedo"),
     (Layer::GBufferEmission, "gbuffer_emission"),
+    (Layer::Sources, "sources"),
     (Layer::Layer1Position, "layer1_position"),
     (Layer::Layer1Normal, "layer1_normal"),
     (Layer::Layer1Albedo, "layer1_albedo"),
-    (Layer::Layer1S0, "layer1_s0"),
+    (Layer::Layer1Sources, "layer1_sources"),
 ];
 
 impl std::fmt::Display for Layer {
@@ -258,10 +263,11 @@ impl<'a> FrameImages<'a> {
             Layer::GBufferNormal => &g.normal,
             Layer::GBufferAlbedo => &g.albedo,
             Layer::GBufferEmission => &g.emission,
+            Layer::Sources => &self.bounded.s0_diffuse,
             Layer::Layer1Position => &layer1?.0.position,
             Layer::Layer1Normal => &layer1?.0.normal,
             Layer::Layer1Albedo => &layer1?.0.albedo,
-            Layer::Layer1S0 => &layer1?.1.s0,
+            Layer::Layer1Sources => &layer1?.1.s0_diffuse,
         })
     }
 

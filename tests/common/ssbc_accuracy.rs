@@ -165,11 +165,8 @@ pub fn residual_vs_twin(
         normal: layer("gbuffer_normal"),
         albedo: layer("gbuffer_albedo"),
     };
-    let s0: Vec<f32> = layer("direct")
-        .iter()
-        .zip(layer("indirect_bounded"))
-        .map(|(a, b)| a + b)
-        .collect();
+    // What the pixels send: S0's diffuse part (S0 on Lambertian surfaces).
+    let s0 = layer("sources");
     let twin_camera = TwinCamera {
         position: camera.position,
         forward: camera.forward,
@@ -177,7 +174,8 @@ pub fn residual_vs_twin(
         pixel_side: 2.0 * (camera.yfov * 0.5).tan() / frame.height as f32,
         min_cos_view: settings.ssbc.min_cos_view,
     };
-    let twin = BruteForceTwin::new(&g, &s0, twin_camera, frame.bound);
+    let twin = BruteForceTwin::new(&g, s0, twin_camera, frame.bound)
+        .with_glossy_receivers(camera.position);
     let comparison = compare_with_twin(&twin, layer("residual_1"), stride);
     (comparison, frame)
 }
