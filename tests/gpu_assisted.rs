@@ -30,10 +30,12 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
     let log = renderer.validation_log();
     let mut open_box = common::ssbc_accuracy::open_box();
     open_box.ensure_light();
+    // (spheres: glossy VPLs, receivers, and SSBC receivers evaluated alone.)
     let scenes = [
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),
         open_box,
+        ssbc::scene::builtin::spheres(),
     ];
     for scene in &scenes {
         // (The odd size also with a half-resolution second G-buffer layer:
@@ -169,6 +171,7 @@ fn no_layer_holds_nan_or_infinity() {
     for scene in [
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),
+        ssbc::scene::builtin::spheres(),
     ] {
         let mut s = common::small(128, 96);
         s.vpl.count = 64;

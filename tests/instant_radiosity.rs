@@ -47,11 +47,28 @@ fn relative_rmse(a: &[Vec3], b: &[Vec3]) -> f64 {
     (num / den).sqrt()
 }
 
+/// On the Lambertian Cornell box, and on glossy spheres (glossy VPLs and
+/// receivers, each with its BRDF). ISM visibility is coarser on the small
+/// spheres (measured: 88.2% agreement, 17.7% error against exact
+/// visibility with 64 VPLs, against 92.8% and 6.7% on the box).
 #[test]
 fn gpu_bounded_indirect_equals_cpu_vpl_sum() {
-    let scene = ssbc::scene::builtin::cornell();
-    let f = common::render_validated(&scene, &settings(Bound::Auto));
-    let bvh = SceneBvh::new(&scene);
+    for (scene, min_agreement, max_ism_error) in [
+        (ssbc::scene::builtin::cornell(), 0.90, 0.15),
+        (ssbc::scene::builtin::spheres(), 0.86, 0.20),
+    ] {
+        bounded_indirect_equals_cpu_vpl_sum(&scene, min_agreement, max_ism_error);
+    }
+}
+
+fn bounded_indirect_equals_cpu_vpl_sum(
+    scene: &ssbc::Scene,
+    min_agreement: f64,
+    max_ism_error: f64,
+) {
+    let f = common::render_validated(scene, &settings(Bound::Auto));
+    let eye = scene.camera(None).unwrap().position;
+    let bvh = SceneBvh::new(scene);
     let ism = f.ism.as_ref().unwrap();
     let (pos, nrm, alb) = (
         layer(&f, "gbuffer_position"),
@@ -66,12 +83,14 @@ fn gpu_bounded_indirect_equals_cpu_vpl_sum() {
             continue;
         }
         let (x, n) = (rgb(pos, i), rgb(nrm, i));
-        let a = Brdf::lambertian(rgb(alb, i));
+        let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
+        let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
+        let wo = (eye - x).normalize();
         gpu.push(rgb(gpu_layer, i));
-        cpu_ism.push(bounded_radiance(x, n, &a, n, &f.vpls, f.bound, |k, v| {
+        cpu_ism.push(bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |k, v| {
             ism.visible(k, v, x, n)
         }));
-        cpu_exact.push(bounded_radiance(x, n, &a, n, &f.vpls, f.bound, |_, v| {
+        cpu_exact.push(bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |_, v| {
             // Exact visibility, with the receiver nudged off its surface.
             !bvh.occluded(v.position + v.normal * 1e-4, x + n * 1e-4)
         }));
@@ -95,14 +114,21 @@ fn gpu_bounded_indirect_equals_cpu_vpl_sum() {
     let exact_err = relative_rmse(&gpu, &cpu_exact);
     let agreement = agree as f64 / pairs as f64;
     eprintln!(
-        "bounded indirect: GPU vs CPU sum with the same ISM visibility: relative RMSE {sum_err:.2e}; \
+        "{}: bounded indirect: GPU vs CPU sum with the same ISM visibility: relative RMSE {sum_err:.2e}; \
          vs exact visibility: {:.2}%; ISM agrees with ray casts on {:.2}% of {pairs} pairs",
+        scene.name,
         exact_err * 100.0,
         agreement * 100.0
     );
     assert!(sum_err < 1e-3, "the GPU sum itself is off: {sum_err}");
-    assert!(agreement >= 0.90, "ISM visibility agreement {agreement}");
-    assert!(exact_err < 0.15, "ISM approximation error {exact_err}");
+    assert!(
+        agreement >= min_agreement,
+        "ISM visibility agreement {agreement}"
+    );
+    assert!(
+        exact_err < max_ism_error,
+        "ISM approximation error {exact_err}"
+    );
 }
 
 #[test]
