@@ -1,7 +1,8 @@
 //! Per-pass GPU time from timestamp queries, reported as ratios within one
 //! run (machines are shared and noisy). Run with
 //! `cargo bench --bench passes` (`-- --frames N` for the median of N warm
-//! frames per configuration; default 3; `--quick` measures 320x240 only).
+//! frames per configuration; default 3; `--quick` measures 320x240 only;
+//! `--only glossy` runs table 6 alone).
 //!
 //! Every configuration is measured as `ssbc render --frames N` does
 //! ([`ssbc::profile::render_frames`]): one warm-up frame (pipelines, first
@@ -14,7 +15,10 @@
 //!    of its frame and against the 0-step frame, texels read per pixel;
 //! 4. where one step's time goes (its parts), at 1024x768;
 //! 5. hierarchical vs brute-force integration: time and texel ratios (at
-//!    256x192: brute force is quadratic in the radius).
+//!    256x192: brute force is quadratic in the radius);
+//! 6. glTF metallic-roughness against Lambertian: `spheres` with its glossy
+//!    materials and with each made Lambertian of its base colour, the same
+//!    VPL count: the gather, an SSBC step, direct light.
 
 mod common;
 
@@ -74,6 +78,10 @@ fn main() {
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
     let device = renderer.device().name().to_string();
     println!("# ssbc benchmark on {device}, defaults, median of {reps} warm frames\n");
+    if args.only.as_deref() == Some("glossy") {
+        glossy_against_lambertian(&mut renderer, sizes, reps);
+        return;
+    }
     let scenes = ["cornell", "tori"];
     let settings = |size: (u32, u32), steps: u32| {
         let mut s = RenderSettings::new(size.0, size.1);
@@ -241,6 +249,48 @@ fn main() {
             "| {scene_name} | {th:.1} | {tb:.1} | {:.1}x | {sh:.1} | {sb:.1} | {:.1}x |",
             tb / th,
             sb / sh
+        );
+    }
+    glossy_against_lambertian(&mut renderer, sizes, reps);
+}
+
+/// `scene` with every material made Lambertian of its base colour.
+fn lambertian(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    for m in &mut s.materials {
+        m.reflectance = ssbc::scene::Reflectance::Lambertian;
+    }
+    s
+}
+
+/// Table 6: what glossy materials cost against Lambertian ones.
+fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
+    println!("\n## glTF metallic-roughness against Lambertian (spheres, one step): GPU ms\n");
+    println!("| size | VPLs | direct | gather | gather ratio | step | step ratio | glossy px alone | frame ratio |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let glossy = ssbc::scene::builtin::spheres();
+    let matte = lambertian(&glossy);
+    for &size in sizes {
+        let s = RenderSettings::new(size.0, size.1);
+        let g = measure(renderer, &glossy, &s, reps);
+        let m = measure(renderer, &matte, &s, reps);
+        let ratio = |name: &str| pass_ms(&g, name) / pass_ms(&m, name);
+        println!(
+            "| {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1}% / {:.1}% | {:.2}x |",
+            size.0,
+            size.1,
+            g.timings.vpl_count,
+            pass_ms(&g, "direct_lighting"),
+            pass_ms(&m, "direct_lighting"),
+            pass_ms(&g, "indirect_bounded"),
+            pass_ms(&m, "indirect_bounded"),
+            ratio("indirect_bounded"),
+            step_ms(&g, 1),
+            step_ms(&m, 1),
+            step_ms(&g, 1) / step_ms(&m, 1),
+            g.timings.ssbc_steps[0].fallback_fraction * 100.0,
+            m.timings.ssbc_steps[0].fallback_fraction * 100.0,
+            frame_ms(&g) / frame_ms(&m),
         );
     }
 }

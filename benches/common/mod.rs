@@ -1,11 +1,15 @@
 //! Command-line arguments the benchmarks share.
 
-/// `--frames N` (or `default`) and `--quick` from the command line.
+/// `--frames N` (or `default`), `--quick` and `--only NAME` from the
+/// command line.
 pub struct BenchArgs {
     /// Frames to measure per configuration.
     pub frames: u32,
     /// Measure 320x240 only.
     pub quick: bool,
+    /// Run only the table of this name (the benchmark says which exist).
+    #[allow(dead_code)] // not every benchmark has several tables
+    pub only: Option<String>,
 }
 
 impl BenchArgs {
@@ -19,7 +23,16 @@ impl BenchArgs {
             .and_then(|v| v.parse().ok())
             .unwrap_or(default_frames);
         let quick = args.iter().any(|a| a == "--quick");
-        Self { frames, quick }
+        let only = args
+            .iter()
+            .position(|a| a == "--only")
+            .and_then(|i| args.get(i + 1))
+            .cloned();
+        Self {
+            frames,
+            quick,
+            only,
+        }
     }
 
     /// The image sizes to measure: 320x240, and 1024x768 unless quick.

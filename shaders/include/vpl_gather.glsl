@@ -47,6 +47,8 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last) {
         if (cos_z <= 0.0 || cos_x <= 0.0) continue;
         float g = min(cos_x * cos_z / d2, pc.bound);
         float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, cos_x);
+        // Hidden from the VPL: neither BRDF is needed.
+        if (v == 0.0) continue;
         vec4 power = texelFetch(vpl_texels, at + 2);
         vec3 sent;
         if (power.w < 0.0) {
