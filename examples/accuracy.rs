@@ -3,12 +3,14 @@
 //! unclamped image, on the built-in scenes, with the time each took; and the
 //! Kollig–Keller baseline's time.
 //!
-//! `cargo run --release --example accuracy -- [WxH] [reference spp] [Kollig-Keller WxH] [Kollig-Keller spp]`
-//! (defaults 512x384, 256, 1024x768, 4).
+//! `cargo run --release --example accuracy -- [WxH] [reference spp] [Kollig-Keller WxH] [Kollig-Keller spp] [scenes]`
+//! (defaults 512x384, 256, 1024x768, 4, `cornell,tori,spheres`; a Kollig-Keller
+//! size of `0x0` skips it).
 
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+use ssbc::compare::{block_average, compare};
 use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::renderer::{Bound, RenderSettings, Renderer, RendererConfig};
 
@@ -26,10 +28,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let spp: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(256);
     let (kw, kh) = size(args.next(), (1024, 768));
     let kk_spp: u32 = args.next().and_then(|s| s.parse().ok()).unwrap_or(4);
+    let scenes = args
+        .next()
+        .unwrap_or_else(|| "cornell,tori,spheres".to_string());
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    println!("| scene | image | relMSE | mean / truth | time |");
-    println!("|---|---|---|---|---|");
-    for name in ["cornell", "tori"] {
+    println!("| scene | image | relMSE | relMSE (4x4) | mean / truth | time |");
+    println!("|---|---|---|---|---|---|");
+    for name in scenes.split(',') {
         let scene = ssbc::scene::load(name)?;
         let t = Instant::now();
         let settings = ReferenceSettings {
@@ -40,7 +45,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let (truth, _) = Reference::new(&scene, settings)?.render(&AtomicBool::new(false), |_| {});
         println!(
-            "| {name} | path-traced reference, {spp} spp | — | 1 | {:.1} s CPU |",
+            "| {name} | path-traced reference, {spp} spp | — | — | 1 | {:.1} s CPU |",
             t.elapsed().as_secs_f64()
         );
         let configs: [(&str, u32, Bound); 5] = [
@@ -55,14 +60,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             s.bound = bound;
             s.ssbc.steps = steps;
             let frame = renderer.render(&scene, &s)?;
-            let c = ssbc::compare::compare(&frame.image.rgba, &truth)?;
+            let c = compare(&frame.image.rgba, &truth)?;
+            let blocks = compare(
+                &block_average(&frame.image.rgba, w, h, 4),
+                &block_average(&truth, w, h, 4),
+            )?;
             println!(
-                "| {name} | {label} | {:.4} | {:.4} | {:.0} ms GPU |",
+                "| {name} | {label} | {:.4} | {:.4} | {:.4} | {:.0} ms GPU |",
                 c.rel_mse,
+                blocks.rel_mse,
                 c.mean_ratio,
                 frame.timings.frame_gpu_ms.unwrap_or(f64::NAN)
             );
         }
+    }
+    if kw == 0 || kh == 0 {
+        return Ok(());
     }
     let scene = ssbc::scene::load("cornell")?;
     let settings = ReferenceSettings {

@@ -27,7 +27,8 @@ void main() {
     glossy_active = !brdf_is_lambertian(b);
     glossy_brdf = b;
     glossy_wo = normalize(pc.frame.camera_position.xyz - x);
-    glossy_refine_ratio = max(brdf_alpha(b), 0.02);
+    glossy_mirror = reflect(-glossy_wo, nx);
+    glossy_alpha = brdf_alpha(b);
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(p), count, variation);

@@ -212,7 +212,9 @@ pub struct GpuVpl {
     pub power: [f32; 4],
     /// A glossy VPL's base colour (rgb) and roughness (w).
     pub base: [f32; 4],
-    /// A glossy VPL's incident direction (xyz) and specular layer (w).
+    /// A glossy VPL's incident direction (xyz); w: every VPL's radius (m),
+    /// which widens glossy lobes towards and from it. (A glossy VPL's
+    /// specular layer is glTF's, 1.)
     pub incident: [f32; 4],
 }
 
@@ -222,6 +224,7 @@ impl GpuVpl {
     pub fn new(v: &crate::cpu::vpl::Vpl, index: u32, count: u32, point_block: u32) -> Self {
         let per_row = ism_tiles_per_row(count);
         let cell = (index % per_row) | (index / per_row) << 16;
+        debug_assert!(v.brdf.is_lambertian() || v.brdf.specular == 1.0);
         Self {
             position: v.position.extend(f32::from_bits(point_block)).into(),
             normal: v.normal.extend(f32::from_bits(cell)).into(),
@@ -232,7 +235,7 @@ impl GpuVpl {
             }
             .into(),
             base: v.brdf.base.extend(v.brdf.roughness).into(),
-            incident: v.incident.extend(v.brdf.specular).into(),
+            incident: v.incident.extend(v.radius).into(),
         }
     }
 }

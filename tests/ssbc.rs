@@ -156,8 +156,8 @@ fn hierarchical_reads_far_fewer_texels_than_brute_force() {
 
 /// The hierarchical residual (evaluation points, interpolation, fallback)
 /// against the brute-force twin: relative RMSE at most 2% and mean within 1%
-/// on both built-in scenes and an open-front box, at three sizes and two
-/// bounds (one validated renderer for all 18 frames).
+/// on the three built-in scenes and an open-front box, at three sizes and
+/// two bounds (one validated renderer for all 24 frames).
 #[test]
 fn hierarchical_matches_brute_force() {
     let mut renderer = ssbc::Renderer::new(&ssbc::RendererConfig {
@@ -177,8 +177,11 @@ fn hierarchical_matches_brute_force() {
         for size in [(256, 192), (320, 240), (640, 480)] {
             for bound in [Bound::Auto, Bound::Value(10.0)] {
                 let settings = common::ssbc_accuracy::one_step(size, bound);
-                // About 2000 pixels spread over the image.
-                let stride = ((size.0 * size.1) as usize / 2000) | 1;
+                // About 4000 pixels spread over the image (2000 missed the
+                // one pixel beside a glossy sphere's contact that held 79%
+                // of the squared error at 640x480 before glossy receivers
+                // refined by their lobe).
+                let stride = ((size.0 * size.1) as usize / 4000).max(1) | 1;
                 let (c, f) = common::ssbc_accuracy::residual_vs_twin(
                     &mut renderer,
                     scene,

@@ -38,6 +38,15 @@ float brdf_alpha(Brdf b) {
     return r * r;
 }
 
+// The same BRDF with its GGX lobe widened: alpha^2 grows by spread2 (an
+// angle squared, rad^2). Brdf::widened in brdf.rs.
+Brdf brdf_widened(Brdf b, float spread2) {
+    if (brdf_is_lambertian(b) || !(spread2 > 0.0)) return b;
+    float a = brdf_alpha(b);
+    b.roughness = sqrt(min(sqrt(a * a + spread2), 1.0));
+    return b;
+}
+
 float ggx_d(float nh, float a) {
     if (nh <= 0.0) return 0.0;
     float a2 = a * a;

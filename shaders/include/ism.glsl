@@ -12,7 +12,8 @@ struct GpuVpl {
     vec4 power;      // rgb: Lambertian: albedo x flux Phi [W] (f_r(z) Phi x pi); glossy:
                      // Phi. w: -1 Lambertian, else metallic
     vec4 base;       // glossy: rgb base colour, w roughness
-    vec4 incident;   // glossy: xyz direction the light arrived from, w specular layer
+    vec4 incident;   // glossy: xyz direction the light arrived from; w: radius (m),
+                     // which widens glossy lobes towards and from it
 };
 
 // Texels per GpuVpl in the gathers' texel view.

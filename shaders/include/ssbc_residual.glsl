@@ -25,10 +25,10 @@ bool glossy_active = false;
 Brdf glossy_brdf;
 vec3 glossy_wo;
 vec3 glossy_rest = vec3(0.0);
-// Its lobe's angular width (GGX alpha): clusters wider than that as seen
-// from it are refined (their BRDF changes across them), not only those G
-// changes across.
-float glossy_refine_ratio = 1.0;
+// Its lobe: the mirror direction of wo and GGX alpha. A cluster is refined
+// where the BRDF changes across it, not only where G does (see visit()).
+vec3 glossy_mirror = vec3(0.0);
+float glossy_alpha = 1.0;
 
 void add_glossy(vec3 nx, vec3 w, float excess, vec3 as) {
     if (!glossy_active || !(excess > 0.0)) return;

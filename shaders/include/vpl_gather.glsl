@@ -50,14 +50,23 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last) {
         // Hidden from the VPL: neither BRDF is needed.
         if (v == 0.0) continue;
         vec4 power = texelFetch(vpl_texels, at + 2);
+        bool glossy_vpl = power.w >= 0.0;
+        // Glossy lobes towards and from the VPL widen by the angle its
+        // radius subtends (a virtual spherical light): a narrow lobe then
+        // cannot make one VPL a spike.
+        float spread2 = 0.0;
+        vec4 incident = vec4(0.0);
+        if (glossy_vpl || !lambertian) {
+            incident = texelFetch(vpl_texels, at + 4);
+            spread2 = incident.w * incident.w / d2;
+        }
         vec3 sent;
-        if (power.w < 0.0) {
+        if (!glossy_vpl) {
             // Lambertian: albedo Phi / pi every way.
             sent = power.rgb / PI;
         } else {
             vec4 base = texelFetch(vpl_texels, at + 3);
-            vec4 incident = texelFetch(vpl_texels, at + 4);
-            Brdf bz = Brdf(base.rgb, power.w, base.w, incident.w);
+            Brdf bz = brdf_widened(Brdf(base.rgb, power.w, base.w, 1.0), spread2);
             sent = brdf_eval(bz, n_z.xyz, incident.xyz, w) * power.rgb;
         }
         sent *= g * v;
@@ -65,7 +74,7 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last) {
         if (!lambertian) {
             float diffuse_weight;
             vec3 specular;
-            brdf_parts(bx, n, wo, -w, diffuse_weight, specular);
+            brdf_parts(brdf_widened(bx, spread2), n, wo, -w, diffuse_weight, specular);
             light.glossy += (diffuse * (diffuse_weight - 1.0) + specular) * sent;
         }
     }

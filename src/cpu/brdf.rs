@@ -98,6 +98,19 @@ impl Brdf {
         r * r
     }
 
+    /// The same BRDF with its GGX lobe widened: alpha² grows by `spread2`
+    /// (the square of an angle in radians). Lambertian BRDFs are unchanged.
+    pub fn widened(&self, spread2: f32) -> Brdf {
+        if self.is_lambertian() || !(spread2 > 0.0) {
+            return *self;
+        }
+        let alpha = (self.alpha() * self.alpha() + spread2).sqrt().min(1.0);
+        Brdf {
+            roughness: alpha.sqrt(),
+            ..*self
+        }
+    }
+
     /// The diffuse colour `(1 - m) base`: what the surface reflects
     /// diffusely at most (at normal incidence, before the specular layer).
     pub fn diffuse_color(&self) -> Vec3 {

@@ -120,6 +120,7 @@ mod tests {
             brdf: crate::cpu::brdf::Brdf::lambertian(Vec3::ONE),
             incident: -Vec3::Y,
             flux: Vec3::ONE,
+            radius: 0.0,
             bounce: 1,
             path: 0,
         };

@@ -1,7 +1,8 @@
 //! VPL distribution by light tracing (Keller 1997): paths leave the lights
 //! (punctual lights and emissive triangles) with their share of the emitted
-//! power, deposit a VPL at every diffuse hit, and continue by cosine sampling
-//! with Russian roulette by albedo (at most [`MAX_SURVIVAL`]), which is what
+//! power, deposit a VPL at every hit, and continue by sampling the surface's
+//! BRDF with Russian roulette by the sample's weight f cos / pdf (a
+//! Lambertian surface's albedo; at most [`MAX_SURVIVAL`]), which is what
 //! ends them (the bounce limit is only a safety net). A path that starts on
 //! an emitter's side facing into a solid, whose light cannot leave
 //! it, deposits nothing. A path from an emitter first deposits a VPL
@@ -9,6 +10,7 @@
 //! near the fixture is what SSBC gives back.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::brdf::Brdf;
 use super::bvh::{SceneBvh, RAY_EPSILON};
@@ -33,6 +35,11 @@ pub struct Vpl {
     /// Flux Phi_i (W) the path carried into z_i (on an emitter: the flux it
     /// leaves with).
     pub flux: Vec3,
+    /// Radius (m) of the surface it stands for, from the distance to its
+    /// nearest VPLs ([`VSL_NEIGHBOURS`]): glossy lobes are widened by the
+    /// angle it subtends, as for a virtual spherical light (Hašan et al.
+    /// 2009), which bounds what a narrow lobe makes of one VPL.
+    pub radius: f32,
     /// Bounce at which it was deposited (0 = on an emitter, 1 = first hit).
     pub bounce: u32,
     /// The light path that deposited it (its index in the Halton sequence).
@@ -43,13 +50,22 @@ pub struct Vpl {
 }
 
 impl Vpl {
-    /// f at z_i for light leaving towards `w` (unit): what the VPL sends
-    /// that way per unit flux and geometry term.
-    pub fn brdf_towards(&self, w: Vec3) -> Vec3 {
+    /// f at z_i for light leaving towards `w` (unit) to a receiver at
+    /// squared distance `d2`: what the VPL sends that way per unit flux and
+    /// geometry term, its lobe widened by the angle its radius subtends.
+    pub fn brdf_towards(&self, w: Vec3, d2: f32) -> Vec3 {
         if self.brdf.is_lambertian() {
             return self.brdf.base / std::f32::consts::PI;
         }
-        self.brdf.eval(self.normal, self.incident, w)
+        self.brdf
+            .widened(self.spread2(d2))
+            .eval(self.normal, self.incident, w)
+    }
+
+    /// The square of the angle (rad) its radius subtends at squared
+    /// distance `d2`: how much glossy lobes towards or from it widen.
+    pub fn spread2(&self, d2: f32) -> f32 {
+        self.radius * self.radius / d2.max(1e-12)
     }
 
     /// A number fixed by the VPL's identity (path, bounce), uniform over u64:
@@ -180,6 +196,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
                 brdf: Brdf::lambertian(Vec3::ONE),
                 incident: e.normal,
                 flux: flux / p_light,
+                radius: 0.0,
                 bounce: 0,
                 path,
             });
@@ -216,7 +233,45 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             ..v
         })
         .collect();
+    assign_radii(&mut set.vpls);
     Ok(set)
+}
+
+/// How many nearest VPLs set a VPL's radius.
+pub const VSL_NEIGHBOURS: usize = 8;
+
+/// Gives every VPL the radius of the disk that holds its share of the
+/// surface around it: the distance to its [`VSL_NEIGHBOURS`]-th nearest
+/// VPL over sqrt(VSL_NEIGHBOURS) (that disk holds about that many VPLs, so
+/// each stands for 1 / VSL_NEIGHBOURS of its area). Alone: radius 0.
+pub fn assign_radii(vpls: &mut [Vpl]) {
+    let k = VSL_NEIGHBOURS.min(vpls.len().saturating_sub(1));
+    if k == 0 {
+        vpls.iter_mut().for_each(|v| v.radius = 0.0);
+        return;
+    }
+    let mut tree = kdtree::KdTree::with_capacity(3, vpls.len().max(1));
+    for (i, v) in vpls.iter().enumerate() {
+        // Positions are finite (they lie on the scene's validated geometry).
+        let _ = tree.add(v.position.to_array(), i);
+    }
+    let radii: Vec<f32> = vpls
+        .par_iter()
+        .map(|v| {
+            // The VPL itself is its own nearest (distance 0): k + 1 of them.
+            tree.nearest(
+                &v.position.to_array(),
+                k + 1,
+                &kdtree::distance::squared_euclidean,
+            )
+            .ok()
+            .and_then(|n| n.last().map(|(d2, _)| d2.sqrt() / (k as f32).sqrt()))
+            .unwrap_or(0.0)
+        })
+        .collect();
+    for (v, r) in vpls.iter_mut().zip(radii) {
+        v.radius = r;
+    }
 }
 
 /// Where a light path from the punctual light `light` starts, in which
@@ -256,8 +311,8 @@ fn punctual_start(
 }
 
 /// Follows light path `path` from `origin` (on triangle `leaving`, if it
-/// starts on an emitter) along `dir` carrying `flux`: a VPL at every diffuse
-/// hit, Russian roulette by albedo, cosine-sampled bounces (Halton
+/// starts on an emitter) along `dir` carrying `flux`: a VPL at every hit,
+/// Russian roulette by f cos / pdf, BRDF-sampled bounces (Halton
 /// dimensions from 7 on, 3 per bounce, the lobe from 1025 on).
 #[allow(clippy::too_many_arguments)]
 fn trace_path(
@@ -292,6 +347,7 @@ fn trace_path(
             brdf: surf.brdf,
             incident: -dir,
             flux,
+            radius: 0.0,
             bounce,
             path,
         });
@@ -350,7 +406,8 @@ pub fn interleave(vpls: &mut [Vpl], subsets: u32) -> Vec<u32> {
 
 /// Bounded VPL lighting at one surface point seen from `wo`, the CPU twin
 /// of the GPU's `indirect_bounded` pass:
-/// `sum_i f_x(wo, x->z_i) min(G, b) V(x, z_i) f_i(incident_i, z_i->x) Phi_i`.
+/// `sum_i f_x(wo, x->z_i) min(G, b) V(x, z_i) f_i(incident_i, z_i->x) Phi_i`,
+/// both glossy lobes widened by the angle VPL i's radius subtends at x.
 /// `visible(i, vpl)` decides visibility (exact ray casts, or an ISM lookup).
 pub fn bounded_radiance(
     position: Vec3,
@@ -378,9 +435,9 @@ pub fn bounded_radiance(
             let receiver = if brdf.is_lambertian() {
                 brdf.base / std::f32::consts::PI
             } else {
-                brdf.eval(normal, wo, -w)
+                brdf.widened(v.spread2(d2)).eval(normal, wo, -w)
             };
-            sum += receiver * v.brdf_towards(w) * v.flux * g;
+            sum += receiver * v.brdf_towards(w, d2) * v.flux * g;
         }
     }
     sum
@@ -390,6 +447,56 @@ pub fn bounded_radiance(
 mod tests {
     use super::*;
     use crate::scene::Scene;
+
+    /// A VPL seen in a near-mirror floor: without a radius its reflection is
+    /// a spike as high as the lobe is narrow; with one it is bounded by the
+    /// radiance of the patch the VPL stands for, and the light the floor
+    /// reflects towards the eye, summed over the floor, stays the same.
+    #[test]
+    fn a_vpl_radius_bounds_its_glossy_reflection_and_keeps_its_energy() {
+        let mirror = Brdf::from_gbuffer(glam::Vec4::new(1.0, 1.0, 1.0, 1.0), super::super::brdf::MIN_ROUGHNESS);
+        let eye = Vec3::new(-1.0, 1.0, 0.0);
+        let mut vpl = Vpl {
+            position: Vec3::new(1.0, 1.0, 0.0),
+            normal: -Vec3::Y,
+            brdf: Brdf::lambertian(Vec3::ONE),
+            incident: -Vec3::Y,
+            flux: Vec3::ONE,
+            radius: 0.0,
+            bounce: 1,
+            path: 0,
+        };
+        // The floor y = 0 around the mirror point (0, 0, 0), on a fine grid.
+        let (n, half) = (401, 0.4f32);
+        let scan = |vpl: &Vpl| {
+            let (mut peak, mut sum) = (0.0f32, 0.0f64);
+            for i in 0..n {
+                for j in 0..n {
+                    let t = |k| (k as f32 / (n - 1) as f32 * 2.0 - 1.0) * half;
+                    let x = Vec3::new(t(i), 0.0, t(j));
+                    let wo = (eye - x).normalize();
+                    let l = bounded_radiance(x, Vec3::Y, &mirror, wo, std::slice::from_ref(vpl), f32::INFINITY, |_, _| true).x;
+                    peak = peak.max(l);
+                    sum += l as f64;
+                }
+            }
+            (peak, sum)
+        };
+        let (peak_point, sum_point) = scan(&vpl);
+        vpl.radius = 0.05;
+        let (peak_sphere, sum_sphere) = scan(&vpl);
+        // A Lambertian disk of radius r sending flux Phi has radiance
+        // Phi / (pi * pi r^2); the mirror reflects it with Fresnel about 1.
+        let patch = 1.0 / (std::f32::consts::PI.powi(2) * vpl.radius * vpl.radius);
+        assert!(peak_point > 10.0 * patch, "no spike to bound: {peak_point} vs {patch}");
+        assert!(
+            (0.1 * patch..2.0 * patch).contains(&peak_sphere),
+            "peak {peak_sphere}, patch radiance {patch}"
+        );
+        let ratio = sum_sphere / sum_point;
+        eprintln!("VPL in a mirror: peak {peak_point} -> {peak_sphere} (patch radiance {patch}), reflected light x {ratio:.4}");
+        assert!((ratio - 1.0).abs() < 0.05, "reflected light changed by {ratio}");
+    }
 
     #[test]
     fn first_bounce_flux_equals_emitted_power_in_a_closed_box() {
