@@ -204,13 +204,15 @@ fn glossy_scenes_at_the_defaults_match_the_path_tracer() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
     let mut failures = Vec::new();
-    // Against 4096-spp references at 160x120: 0.0083 (spheres) and 0.0120
-    // (metallic); here the 1024-spp reference's own noise adds about 0.002
-    // (measured 0.0105 and 0.0130). What is left is glossy reflections of
-    // glossy VPLs and ISM leaks under small objects (docs/accuracy.md).
+    // Measured 0.0067 (spheres) and 0.0109 (metallic) here; against
+    // 4096-spp references at 160x120 0.0065 and 0.0106. The metallic
+    // variant's limit is above the 0.01 aimed at: its VPL image is 1.5%
+    // dark even unclamped (0.9845 of the path tracer at 160x120; clamped
+    // 0.979, with SSBC 0.983): ISM visibility and glossy VPLs' sampling,
+    // not what SSBC gives back (docs/accuracy.md).
     for (scene, max_rel_mse) in [
-        (ssbc::scene::builtin::spheres(), 0.012),
-        (metallic_spheres(), 0.015),
+        (ssbc::scene::builtin::spheres(), 0.01),
+        (metallic_spheres(), 0.0125),
     ] {
         let gpu = renderer
             .render(&scene, &RenderSettings::new(size.0, size.1))
