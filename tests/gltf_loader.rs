@@ -197,6 +197,85 @@ fn base_color_texture_is_sampled_in_the_render() {
     }
 }
 
+/// glTF's metallicRoughnessTexture is linear, B scales metallic and G
+/// roughness, with the texture's own sampler; the same image used as base
+/// colour is sRGB. The G-buffer (albedo.w metallic, normal.w roughness) and
+/// the CPU's BRDF must both read it so.
+#[test]
+fn metallic_roughness_texture_is_linear_blue_metal_green_roughness() {
+    let dir = tempfile::tempdir().unwrap();
+    // Left half: G 64, B 255 (rough 0.8 x 0.251, metal 0.5 x 1); right
+    // half: G 200, B 0 (rough 0.8 x 0.784, metal 0). R is the opposite of B.
+    let (left, right) = ([0u8, 64, 255], [255u8, 200, 0]);
+    let tex = image::RgbaImage::from_fn(64, 64, |x, _| {
+        let c = if x < 32 { left } else { right };
+        image::Rgba([c[0], c[1], c[2], 255])
+    });
+    tex.save(dir.path().join("mr.png")).unwrap();
+    let (bin, _) = quad_buffer(2);
+    let json = quad_gltf(
+        Some(&data_uri(&bin)),
+        bin.len(),
+        5123,
+        Some(0),
+        r#","materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},
+"metallicFactor":0.5,"roughnessFactor":0.8,"metallicRoughnessTexture":{"index":0}}}],
+"textures":[{"source":0}],"images":[{"uri":"mr.png"}]"#,
+    );
+    let mut scene = load_str(dir.path(), "mr.gltf", json.as_bytes()).unwrap();
+    // As in base_color_texture_is_sampled_in_the_render: the top of the
+    // image sees the texture's right half, the bottom its left half.
+    let center = Vec3::new(2.0, 1.0, 0.0);
+    scene.cameras.push(ssbc::scene::Camera {
+        position: center + Vec3::Y * 3.0,
+        forward: -Vec3::Y,
+        up: -Vec3::Z,
+        yfov: 60f32.to_radians(),
+    });
+    scene.lights.push(ssbc::scene::Light {
+        kind: LightKind::Directional,
+        position: Vec3::ZERO,
+        direction: -Vec3::Y,
+        intensity: Vec3::ONE,
+    });
+    let mut settings = small(64, 64);
+    settings.debug_readback = true;
+    let frame = render_validated(&scene, &settings);
+    let w = |layer: &str, x: u32, y: u32| {
+        let l = frame.layer(layer.parse().unwrap()).unwrap();
+        l.rgba[((y * frame.width + x) * 4 + 3) as usize]
+    };
+    let srgb = |v: u8| {
+        let s = v as f32 / 255.0;
+        if s <= 0.04045 {
+            s / 12.92
+        } else {
+            ((s + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    for (x, y, texel, u) in [(32, 12, right, 0.75f32), (32, 52, left, 0.25)] {
+        let metallic = 0.5 * texel[2] as f32 / 255.0;
+        let roughness = 0.8 * texel[1] as f32 / 255.0;
+        let (got_m, got_r) = (w("gbuffer_albedo", x, y), w("gbuffer_normal", x, y));
+        assert!(
+            (got_m - metallic).abs() < 0.01 && (got_r - roughness).abs() < 0.01,
+            "pixel ({x},{y}): G-buffer metallic {got_m}, roughness {got_r}; expected {metallic}, {roughness}"
+        );
+        let base = pixel(&frame, "gbuffer_albedo", x, y);
+        assert!(
+            (base.y - srgb(texel[1])).abs() < 0.01,
+            "pixel ({x},{y}): base colour {base} is not the sRGB-decoded texel"
+        );
+        let cpu = ssbc::cpu::shading::brdf(&scene, &scene.materials[0], glam::Vec2::new(u, 0.5));
+        assert!(
+            (cpu.metallic - metallic).abs() < 0.01 && (cpu.roughness - roughness).abs() < 0.01,
+            "CPU BRDF at u = {u}: metallic {}, roughness {}",
+            cpu.metallic,
+            cpu.roughness
+        );
+    }
+}
+
 /// A 2x2 PNG as a data URI.
 fn png_uri() -> String {
     let img = image::RgbaImage::from_pixel(2, 2, image::Rgba([128, 128, 255, 200]));
