@@ -2,7 +2,7 @@
 //! run (machines are shared and noisy). Run with
 //! `cargo bench --bench passes` (`-- --frames N` for the median of N warm
 //! frames per configuration; default 3; `--quick` measures 320x240 only;
-//! `--only glossy` runs table 6 alone).
+//! `--only glossy` or `--only reuse` runs table 6 or 7 alone).
 //!
 //! Every configuration is measured as `ssbc render --frames N` does
 //! ([`ssbc::profile::render_frames`]): one warm-up frame (pipelines, first
@@ -16,9 +16,13 @@
 //! 4. where one step's time goes (its parts), at 1024x768;
 //! 5. hierarchical vs brute-force integration: time and texel ratios (at
 //!    256x192: brute force is quadratic in the radius);
-//! 6. glTF metallic-roughness against Lambertian: `spheres` with its glossy
-//!    materials and with each made Lambertian of its base colour, the same
-//!    VPL count: the gather, an SSBC step, direct light.
+//! 6. glTF metallic-roughness against Lambertian: `spheres` and the glTF
+//!    open-front box (rough dielectrics) with their materials and with each
+//!    made Lambertian of its base colour, the same VPL count: the gather, an
+//!    SSBC step, direct light;
+//! 7. camera-only frames of a resident scene (the camera moved 1 cm per
+//!    frame) with shadow maps and ISMs kept from the slot's previous frame,
+//!    against the same frames redrawing them (`reuse_unchanged` off).
 
 mod common;
 
@@ -80,6 +84,10 @@ fn main() {
     println!("# ssbc benchmark on {device}, defaults, median of {reps} warm frames\n");
     if args.only.as_deref() == Some("glossy") {
         glossy_against_lambertian(&mut renderer, sizes, reps);
+        return;
+    }
+    if args.only.as_deref() == Some("reuse") {
+        camera_only_frames(&mut renderer, sizes, reps);
         return;
     }
     let scenes = ["cornell", "tori"];
@@ -265,18 +273,26 @@ fn lambertian(scene: &Scene) -> Scene {
 
 /// Table 6: what glossy materials cost against Lambertian ones.
 fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
-    println!("\n## glTF metallic-roughness against Lambertian (spheres, one step): GPU ms\n");
-    println!("| size | VPLs | direct | gather | gather ratio | step | step ratio | glossy px alone | frame ratio |");
-    println!("|---|---|---|---|---|---|---|---|---|");
-    let glossy = ssbc::scene::builtin::spheres();
-    let matte = lambertian(&glossy);
-    for &size in sizes {
+    println!("\n## glTF metallic-roughness against Lambertian (one step): GPU ms\n");
+    println!("| scene | size | VPLs | direct | gather | gather ratio | step | step ratio | glossy px alone | frame ratio |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let scenes = [
+        ssbc::scene::builtin::spheres(),
+        // Rough dielectrics, as most glTF assets' materials.
+        ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
+    ];
+    for (glossy, &size) in scenes
+        .iter()
+        .flat_map(|s| sizes.iter().map(move |z| (s, z)))
+    {
+        let matte = lambertian(glossy);
         let s = RenderSettings::new(size.0, size.1);
-        let g = measure(renderer, &glossy, &s, reps);
+        let g = measure(renderer, glossy, &s, reps);
         let m = measure(renderer, &matte, &s, reps);
         let ratio = |name: &str| pass_ms(&g, name) / pass_ms(&m, name);
         println!(
-            "| {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1}% / {:.1}% | {:.2}x |",
+            "| {} | {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1}% / {:.1}% | {:.2}x |",
+            glossy.name,
             size.0,
             size.1,
             g.timings.vpl_count,
@@ -292,6 +308,59 @@ fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps
             m.timings.ssbc_steps[0].fallback_fraction * 100.0,
             frame_ms(&g) / frame_ms(&m),
         );
+    }
+}
+
+/// Table 7: camera-only resident frames keeping the view-independent
+/// passes' output, against the same frames redrawing it.
+fn camera_only_frames(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
+    println!(
+        "\n## Camera-only frames of a resident scene (camera moved 1 cm per frame): frame GPU ms\n"
+    );
+    println!("| scene | size | redrawn | kept | ratio | passes kept |");
+    println!("|---|---|---|---|---|---|");
+    let scenes = [
+        ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
+        ssbc::scene::builtin::cornell(),
+        ssbc::scene::builtin::tori(),
+    ];
+    for scene in &scenes {
+        for &size in sizes {
+            let mut median = |reuse: bool| {
+                let mut settings = RenderSettings::new(size.0, size.1);
+                settings.reuse_unchanged = reuse;
+                let mut resident =
+                    ssbc::resident::ResidentScene::new(scene.clone()).expect("valid scene");
+                let mut camera = scene.camera(None).expect("a camera");
+                let mut frames = Vec::new();
+                // One warm-up frame per slot, then the measured ones.
+                for _ in 0..reps.max(1) + 2 {
+                    camera.position += 0.01 * camera.up.cross(camera.forward).normalize();
+                    resident.set_camera(camera.clone());
+                    frames.push(
+                        renderer
+                            .render_resident(&resident, &settings)
+                            .expect("frame"),
+                    );
+                }
+                let frames = frames.split_off(2);
+                let mut ms: Vec<f64> = frames
+                    .iter()
+                    .map(|f| f.timings.frame_gpu_ms.expect("GPU timestamps"))
+                    .collect();
+                ms.sort_by(f64::total_cmp);
+                (ms[ms.len() / 2], frames[0].timings.reused_passes.join(", "))
+            };
+            let (redrawn, _) = median(false);
+            let (kept, passes) = median(true);
+            println!(
+                "| {} | {}x{} | {redrawn:.1} | {kept:.1} | {:.2} | {passes} |",
+                scene.name,
+                size.0,
+                size.1,
+                kept / redrawn
+            );
+        }
     }
 }
 

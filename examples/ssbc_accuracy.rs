@@ -34,6 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ssbc::scene::builtin::tori(),
         ssbc_accuracy::open_box(),
         ssbc::scene::builtin::spheres(),
+        // glTF materials: rough dielectrics, nearly Lambertian receivers.
+        ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
     ];
     println!("| scene | size | bound | rel. RMSE | mean ratio | texels/px avg | max | alone | eval level | step ms |");
     println!("|---|---|---|---|---|---|---|---|---|---|");

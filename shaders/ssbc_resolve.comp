@@ -77,8 +77,11 @@ void main() {
     vec3 nx = imageLoad(g_normal, p).xyz;
     Brdf b = pixel_brdf(p);
     // A glossy receiver's BRDF depends on each source's direction, which an
-    // evaluation point does not keep: it is evaluated alone.
-    if (!brdf_is_lambertian(b)) {
+    // evaluation point does not keep: it is evaluated alone, unless its BRDF
+    // hardly depends on it (nearly_lambertian).
+    vec3 wo = normalize(pc.frame.camera_position.xyz - x);
+    bool lambertian = brdf_is_lambertian(b);
+    if (!lambertian && !nearly_lambertian(b, nx, wo)) {
         append(p);
         return;
     }
@@ -113,7 +116,9 @@ void main() {
         }
     }
     if (ok) {
-        write_residual(p, b, residual_at(blend, nx), vec3(0.0), 0.0);
+        vec3 integral = residual_at(blend, nx);
+        vec3 rest = lambertian ? vec3(0.0) : nearly_lambertian_rest(b, nx, wo, blend, integral);
+        write_residual(p, b, integral, rest, 0.0);
         return;
     }
     if (l >= 2) {

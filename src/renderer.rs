@@ -299,6 +299,8 @@ struct Finish<'r> {
     view: &'r FrameView,
     cache: &'r SceneCache,
     spans: Vec<CpuSpan>,
+    /// Passes that kept the slot's previous output.
+    reused: Vec<String>,
     record_start: u64,
     /// When the frame was submitted (ns, CLOCK_MONOTONIC; set by `submit`).
     submit_ns: u64,
@@ -360,6 +362,7 @@ impl FrameSink for ReadBack {
                 cache: f.cache,
                 gpu_times: f.profiler.resolve(f.slot)?,
                 spans: f.spans,
+                reused: f.reused,
                 submit_ns: f.submit_ns,
             },
         )
@@ -756,12 +759,17 @@ impl Renderer {
             scene,
             cache,
         };
+        let mut reused = Vec::new();
         let mut cx = Recording {
             rec: &mut rec,
             profiler: &mut self.profiler,
             view: &view,
             settings,
             fault: &mut self.fault,
+            // A host's command buffer may never run: nothing it records is
+            // kept for a later frame.
+            reuse: settings.reuse_unchanged && host.is_none(),
+            reused: &mut reused,
         };
         self.passes.record(&mut cx, &setup, &cache.gpu_scene)?;
         self.profiler.end_frame(rec.cmd);
@@ -780,6 +788,7 @@ impl Renderer {
                 view: &view,
                 cache,
                 spans,
+                reused,
                 record_start,
                 submit_ns: 0,
                 previous_timings,

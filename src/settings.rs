@@ -167,6 +167,11 @@ pub struct RenderSettings {
     pub ssbc: SsbcSettings,
     /// Also read back the G-buffer and the ISM atlas (for tests and tools).
     pub debug_readback: bool,
+    /// Keep the shadow maps and ISMs of the frame slot's previous frame
+    /// when the lights, surfaces, VPLs and their settings did not change
+    /// (resident scenes where only the camera moved; immediate-mode frames
+    /// never match). Off: every frame redraws them (for comparisons).
+    pub reuse_unchanged: bool,
 }
 
 /// The default number of VPLs for a `width` x `height` image: one per 150
@@ -214,6 +219,7 @@ impl Default for RenderSettings {
             bound: Bound::Auto,
             ssbc: SsbcSettings::default(),
             debug_readback: false,
+            reuse_unchanged: true,
         }
     }
 }

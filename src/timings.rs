@@ -232,6 +232,10 @@ pub struct Timings {
     /// the pass `pass` (timed inside it; not to be added to it). None (JSON
     /// `null`) when the device's queue has no timestamps.
     pub passes: Option<Vec<PassTiming>>,
+    /// Passes not recorded because what they depend on did not change since
+    /// the frame slot's previous frame, whose output they kept (shadow maps
+    /// and ISMs in a frame where only the camera moved).
+    pub reused_passes: Vec<String>,
     /// First to last timestamp of the frame (None without timestamps).
     pub frame_gpu_ms: Option<f64>,
     /// Statistics over several frames (`profile::render_frames`).

@@ -74,8 +74,10 @@ fn frames_redo_only_what_changed_and_allocate_nothing() {
             stages(&first)
         );
     }
+    assert!(first.timings.reused_passes.is_empty());
     renderer.render_resident(&resident, &s).unwrap();
     let created = renderer.device().resources_created();
+    let view_independent = ["shadow_maps", "ism"];
 
     // Nothing changed: no CPU stage but recording and the wait.
     let same = renderer.render_resident(&resident, &s).unwrap();
@@ -92,12 +94,19 @@ fn frames_redo_only_what_changed_and_allocate_nothing() {
         );
     }
     assert!(max_relative_difference(&same, &first) == 0.0);
+    assert_eq!(same.timings.reused_passes, view_independent);
 
     // A camera move: still none; the image is the immediate-mode image.
     resident.set_camera(moved_camera(resident.scene()));
     let moved = renderer.render_resident(&resident, &s).unwrap();
     for stage in cpu_work {
         assert!(!stages(&moved).contains(&stage), "camera move ran {stage}");
+    }
+    // Shadow maps and ISMs are kept, not redrawn, and not timed.
+    assert_eq!(moved.timings.reused_passes, view_independent);
+    for scope in ["shadow_maps", "ism_splat"] {
+        assert!(first.timings.pass_ms(scope).is_some(), "{scope} not timed");
+        assert!(moved.timings.pass_ms(scope).is_none(), "{scope} ran");
     }
     let immediate = immediate_renderer.render(resident.scene(), &s).unwrap();
     let d = max_relative_difference(&moved, &immediate);
@@ -116,6 +125,7 @@ fn frames_redo_only_what_changed_and_allocate_nothing() {
     resident.set_light(0, light.clone()).unwrap();
     let relit = renderer.render_resident(&resident, &s).unwrap();
     assert!(stages(&relit).contains(&"vpl_generation"));
+    assert!(relit.timings.reused_passes.is_empty());
     for stage in ["bvh_build", "scene_upload", "point_sampling"] {
         assert!(!stages(&relit).contains(&stage), "light move ran {stage}");
     }

@@ -171,6 +171,8 @@ fn hierarchical_matches_brute_force() {
         ssbc::scene::builtin::tori(),
         common::ssbc_accuracy::open_box(),
         ssbc::scene::builtin::spheres(),
+        // glTF materials: rough dielectrics, nearly Lambertian receivers.
+        ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
     ];
     let mut failures = Vec::new();
     for scene in &scenes {

@@ -111,6 +111,8 @@ impl IsmPass {
 
 impl Pass for IsmPass {
     const NAME: &'static str = "ism";
+    /// The atlas depends on the VPLs, the points, the far plane and the tile.
+    const VIEW_INDEPENDENT: bool = true;
     /// (VPL version, points version, far plane bits, tile side).
     type Key = (u64, u64, u32, u32);
     /// The atlas and the VPLs and points it is splatted from.

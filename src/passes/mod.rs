@@ -89,6 +89,13 @@ pub struct Recording<'r, 'a> {
     /// A pass after which recording fails (tests that a failed frame leaves
     /// the renderer usable).
     pub fault: &'r mut Option<String>,
+    /// Whether view-independent passes may keep what the slot's previous
+    /// frame wrote ([`Pass::VIEW_INDEPENDENT`]): the frame is submitted by
+    /// ssbc (a host's command buffer may never run) and the settings ask
+    /// for it.
+    pub reuse: bool,
+    /// Passes that kept the slot's previous output instead of recording.
+    pub reused: &'r mut Vec<String>,
 }
 
 impl Recording<'_, '_> {
@@ -107,6 +114,10 @@ impl Recording<'_, '_> {
 pub trait Pass {
     /// Its name (descriptor pools, injected faults).
     const NAME: &'static str;
+    /// Whether what it writes depends on nothing but its [`Key`](Pass::Key)
+    /// (not on the camera): a slot whose resources hold what an earlier,
+    /// submitted frame wrote for the same key keeps it and records nothing.
+    const VIEW_INDEPENDENT: bool = false;
     /// What its resources were made for (size, settings, versions of the
     /// data they hold); they are updated or made anew when it changes.
     type Key: PartialEq;
@@ -150,6 +161,9 @@ pub struct PassSlot<K, R> {
     pub resources: R,
     /// Sized for the sets one frame allocates; reset every frame.
     pub pool: DescriptorPool,
+    /// Whether `resources` hold what the pass wrote for `key` in a frame
+    /// ssbc submitted (cleared when they are made or rewritten).
+    holds_output: bool,
 }
 
 impl<K: PartialEq, R> PassSlot<K, R> {
@@ -163,13 +177,14 @@ impl<K: PartialEq, R> PassSlot<K, R> {
         update: impl FnOnce(&mut R) -> Result<bool>,
         prepare: impl FnOnce() -> Result<R>,
         pool: impl FnOnce(&R) -> Result<DescriptorPool>,
-    ) -> Result<&Self> {
+    ) -> Result<&mut Self> {
         if let Some(s) = held.as_mut() {
             let same = s.key == key;
             if same || update(&mut s.resources)? {
+                s.holds_output &= same;
                 s.key = key;
                 s.pool.reset()?;
-                return Ok(held.as_ref().expect("checked above"));
+                return Ok(held.as_mut().expect("checked above"));
             }
         }
         *held = None; // free the old resources first
@@ -179,6 +194,7 @@ impl<K: PartialEq, R> PassSlot<K, R> {
             key,
             resources,
             pool,
+            holds_output: false,
         }))
     }
 }
@@ -223,7 +239,16 @@ impl<P: Pass> Stage<P> {
                 Ok(pool)
             },
         )?;
-        pass.record(cx, &held.pool, reads, &held.resources)?;
+        if P::VIEW_INDEPENDENT && cx.reuse && held.holds_output {
+            // Its inputs are those of the slot's previous frame, which ran.
+            cx.reused.push(name.clone());
+        } else {
+            held.holds_output = false;
+            pass.record(cx, &held.pool, reads, &held.resources)?;
+            // Valid once the frame runs: a frame that fails before it is
+            // submitted drops the slot's resources (`forget`).
+            held.holds_output = P::VIEW_INDEPENDENT && cx.reuse;
+        }
         cx.checkpoint(&name)?;
         Ok(&held.resources)
     }

@@ -158,9 +158,11 @@ impl ShadowMapPass {
 
 impl Pass for ShadowMapPass {
     const NAME: &'static str = "shadow_maps";
-    /// The (lights, geometry) versions the views were made for, and the
-    /// resolution.
-    type Key = (u64, u64, u32);
+    /// The depth layers depend on the lights, the surfaces and the resolution.
+    const VIEW_INDEPENDENT: bool = true;
+    /// The (lights, geometry, materials: alpha masks cut them) versions the
+    /// views were made for, and the resolution.
+    type Key = (u64, u64, u64, u32);
     /// Depth layers and the light table.
     type Resources = ShadowMaps;
     type Reads<'a> = &'a GpuScene;
@@ -168,7 +170,7 @@ impl Pass for ShadowMapPass {
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let versions = &setup.cache.versions;
         let resolution = setup.settings.shadow_map_size;
-        (versions.lights, versions.geometry, resolution)
+        (versions.lights, versions.geometry, versions.materials, resolution)
     }
 
     /// Allocates the shadow maps of the lights at the resolution asked for.

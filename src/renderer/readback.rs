@@ -357,6 +357,8 @@ pub(crate) struct FrameRecord<'a> {
     pub gpu_times: Option<GpuFrameTimes>,
     /// The frame's CPU stages.
     pub spans: Vec<CpuSpan>,
+    /// Passes that kept the slot's previous output.
+    pub reused: Vec<String>,
     /// When it was submitted (ns, CLOCK_MONOTONIC).
     pub submit_ns: u64,
 }
@@ -406,6 +408,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         cache,
         gpu_times,
         spans,
+        reused,
         submit_ns,
     } = record;
     let geometry: Vec<bool> = layers[0]
@@ -424,6 +427,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         frame_gpu_ms: gpu_times.as_ref().map(|t| t.frame_ms),
         gpu_start_ns: gpu_times.as_ref().and_then(|t| t.start_monotonic_ns),
         passes: gpu_times.map(|t| t.passes),
+        reused_passes: reused,
         stats: None,
         cpu_ms: CpuTimings {
             bvh_build: span_ms(&spans, "bvh_build"),

@@ -349,6 +349,7 @@ impl SceneOptions {
                 ..Default::default()
             },
             debug_readback: false,
+            reuse_unchanged: true,
         }
     }
 
