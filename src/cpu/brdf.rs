@@ -101,7 +101,7 @@ impl Brdf {
     /// The same BRDF with its GGX lobe widened: alpha² grows by `spread2`
     /// (the square of an angle in radians). Lambertian BRDFs are unchanged.
     pub fn widened(&self, spread2: f32) -> Brdf {
-        if self.is_lambertian() || !(spread2 > 0.0) {
+        if self.is_lambertian() || spread2.is_nan() || spread2 <= 0.0 {
             return *self;
         }
         let alpha = (self.alpha() * self.alpha() + spread2).sqrt().min(1.0);
