@@ -124,6 +124,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         count: vpls,
         bounces: 16,
         seed: 0,
+        first_path: 0,
     };
     let reference = |method| -> Result<Vec<f32>, ssbc::Error> {
         Ok(Reference::new(

@@ -11,6 +11,7 @@
 //! `Passes::record` is the list of passes in frame order; each pass owns
 //! its per-slot resources (`src/passes/`).
 
+mod accumulate;
 mod guard_band;
 mod limits;
 mod readback;

@@ -29,6 +29,10 @@ pub struct VplSettings {
     pub bounces: u32,
     /// Seed of the low-discrepancy sequence.
     pub seed: u64,
+    /// Index of the first light path in the sequence: 0 for a frame of its
+    /// own; for progressive refinement, the paths the frames before it
+    /// traced, so that a frame continues the sequence with the next paths.
+    pub first_path: u64,
 }
 
 impl Default for VplSettings {
@@ -37,6 +41,7 @@ impl Default for VplSettings {
             count: 256,
             bounces: DEFAULT_BOUNCES,
             seed: 0,
+            first_path: 0,
         }
     }
 }

@@ -29,6 +29,7 @@ fn hidden_surfaces_give_back_clamped_energy() {
         count: 256,
         bounces: 16,
         seed: 0,
+        first_path: 0,
     };
     let reference = |method| {
         Reference::new(

@@ -193,6 +193,7 @@ fn kollig_keller_equals_the_unclamped_vpl_sum_in_expectation() {
                 count: 128,
                 bounces: 4,
                 seed,
+                first_path: 0,
             },
             ..Default::default()
         };
@@ -343,6 +344,7 @@ fn clamped_radiance_is_what_the_vpl_method_shows() {
             count: 64,
             bounces: 8,
             seed: 3,
+            first_path: 0,
         },
         bound: 0.5,
         ..Default::default()

@@ -153,11 +153,13 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     let halton = Halton::new(settings.seed);
     let max_paths = settings.count as u64 * 64;
     let mut raw = Vec::with_capacity(settings.count);
-    let mut path = 0u64;
+    // Paths continue the sequence after those of earlier frames.
+    let first = settings.first_path;
+    let mut path = first;
     // Flux of the paths started on emitters, and of those left out.
     let (mut emitter_flux, mut enclosed) = (Vec3::ZERO, Vec3::ZERO);
     let enclosure = (!emitters.is_empty()).then(|| super::enclosure::Enclosure::new(scene, bvh));
-    while raw.len() < settings.count && path < max_paths {
+    while raw.len() < settings.count && path - first < max_paths && path < u64::MAX {
         let before = raw.len();
         let s = |d: usize| halton.sample(path, d);
         // Choose a source in proportion to its power.
@@ -222,8 +224,8 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         );
         set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
     }
-    set.paths = path;
-    let norm = 1.0 / path.max(1) as f32;
+    set.paths = path - first;
+    let norm = 1.0 / set.paths.max(1) as f32;
     set.emitted_power = emitters.power();
     set.enclosed_power = set.emitted_power * (enclosed / emitter_flux.max(Vec3::splat(1e-30)));
     set.vpls = raw
@@ -327,10 +329,10 @@ fn trace_path(
     mut flux: Vec3,
     out: &mut Vec<Vpl>,
 ) {
+    // A path runs to its end even past `settings.count` VPLs: cutting the
+    // last one short would lose the light of its later bounces (a bias of
+    // about 1/paths: 1-2% with 64 VPLs).
     for bounce in 1..=settings.bounces {
-        if out.len() >= settings.count {
-            return;
-        }
         let hit = match leaving.filter(|_| bounce == 1) {
             Some(t) => bvh.intersect_leaving(origin, dir, t),
             None => bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY),
@@ -527,6 +529,7 @@ mod tests {
                 count: 20_000,
                 bounces: 1,
                 seed: 3,
+                first_path: 0,
             },
         )
         .unwrap();
@@ -562,6 +565,7 @@ mod tests {
             count: 64,
             bounces: 4,
             seed: 11,
+            first_path: 0,
         };
         assert_eq!(
             generate(&scene, &bvh, &s).unwrap().vpls,
@@ -670,7 +674,8 @@ mod tests {
             &VplSettings {
                 count: 8,
                 bounces: 0,
-                seed: 0
+                seed: 0,
+                first_path: 0,
             }
         )
         .is_err());

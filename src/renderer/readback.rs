@@ -201,6 +201,9 @@ pub struct Frame {
     pub ism: Option<IsmReadback>,
     /// Texels read per pixel of each SSBC step (see [`SsbcStepTiming`]).
     pub samples: Vec<Vec<f32>>,
+    /// Frames with independent VPL sets averaged into it (1 but for
+    /// [`Renderer::render_accumulated`](super::Renderer::render_accumulated)).
+    pub accumulated: u32,
 }
 
 impl Frame {
@@ -473,6 +476,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         bound,
         ism: ism_readback,
         samples,
+        accumulated: 1,
     })
 }
 

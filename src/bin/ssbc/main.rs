@@ -8,6 +8,8 @@ mod viewer;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Parser, Subcommand};
@@ -285,6 +287,12 @@ struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: Option<u32>,
 
+    /// Progressive refinement: average N frames with independent VPL sets
+    /// (each frame the light paths after the previous frame's) into one
+    /// image, as N times the VPLs would give (Ctrl-C writes the mean so far).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000), conflicts_with = "frames")]
+    accumulate: Option<u32>,
+
     /// Do not count shader invocations per pass (pipeline-statistics
     /// queries, on by default where the device supports them).
     #[arg(long)]
@@ -332,6 +340,7 @@ impl SceneOptions {
                 },
                 bounces: self.bounces,
                 seed: self.seed,
+                first_path: 0,
             },
             ism_tile: self.ism_res,
             points_per_vpl: self.points_per_vpl,
@@ -398,11 +407,36 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         .trace
         .as_ref()
         .map(|_| ssbc::profile::ChromeTrace::new());
-    let frame = match args.frames {
-        Some(n) => {
+    let frame = match (args.frames, args.accumulate) {
+        (Some(n), _) => {
             ssbc::profile::render_frames(&mut renderer, &scene, &settings, n, trace.as_mut())
         }
-        None => renderer.render(&scene, &settings).inspect(|f| {
+        (None, Some(n)) => {
+            let stop = Arc::new(AtomicBool::new(false));
+            {
+                let stop = stop.clone();
+                // Ctrl-C finishes the frame in flight and writes the mean.
+                let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
+            }
+            let bar = indicatif::ProgressBar::new(n as u64);
+            bar.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:40}] {pos}/{len} frames, eta {eta}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            let frame = renderer
+                .render_accumulated(&scene, &settings, n, &stop, |k| bar.set_position(k as u64));
+            bar.finish_and_clear();
+            frame.inspect(|f| {
+                log::info!(
+                    "accumulated {} frames, {} VPLs in all",
+                    f.accumulated,
+                    f.vpls.len()
+                )
+            })
+        }
+        (None, None) => renderer.render(&scene, &settings).inspect(|f| {
             if let Some(trace) = trace.as_mut() {
                 trace.add_frame(&f.timings);
             }
@@ -445,8 +479,6 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
 }
 
 fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
-    use std::sync::atomic::{AtomicBool, Ordering};
-    use std::sync::Arc;
     let mut scene = ssbc::scene::load(&args.scene)?;
     scene.ensure_light();
     let bound = args.bound.resolve(2.0 * scene.bounds().radius());
@@ -462,6 +494,7 @@ fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
             count: args.vpls,
             bounces: args.bounces.max(1),
             seed: args.seed,
+            first_path: 0,
         },
         bound,
     };
