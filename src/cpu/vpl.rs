@@ -225,7 +225,28 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
         set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
     }
     set.paths = path - first;
-    let norm = 1.0 / set.paths.max(1) as f32;
+    // The last path ran to its end (cutting it short would lose the light
+    // of its later bounces: a bias of about 1/paths). To keep exactly
+    // `count` VPLs (GPU resources are sized by it), the surplus is thinned
+    // without bias: the VPLs with the lowest identity hashes (a choice
+    // independent of what they carry) are dropped and the rest weighted up.
+    let surplus = raw.len().saturating_sub(settings.count);
+    let mut norm = 1.0 / set.paths.max(1) as f32;
+    if surplus > 0 {
+        let mut order: Vec<(u64, usize)> = raw
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (v.identity_hash(), i))
+            .collect();
+        order.sort_unstable();
+        let mut keep = vec![true; raw.len()];
+        for &(_, i) in &order[..surplus] {
+            keep[i] = false;
+        }
+        norm *= raw.len() as f32 / settings.count as f32;
+        let mut k = keep.iter();
+        raw.retain(|_| *k.next().expect("one flag per VPL"));
+    }
     set.emitted_power = emitters.power();
     set.enclosed_power = set.emitted_power * (enclosed / emitter_flux.max(Vec3::splat(1e-30)));
     set.vpls = raw
@@ -329,9 +350,8 @@ fn trace_path(
     mut flux: Vec3,
     out: &mut Vec<Vpl>,
 ) {
-    // A path runs to its end even past `settings.count` VPLs: cutting the
-    // last one short would lose the light of its later bounces (a bias of
-    // about 1/paths: 1-2% with 64 VPLs).
+    // A path runs to its end even past `settings.count` VPLs (`generate`
+    // thins the surplus without bias).
     for bounce in 1..=settings.bounces {
         let hit = match leaving.filter(|_| bounce == 1) {
             Some(t) => bvh.intersect_leaving(origin, dir, t),
