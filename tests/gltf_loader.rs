@@ -132,11 +132,14 @@ fn lights_and_cameras_are_read_radiometrically() {
     assert!((s.lights[1].direction - -Vec3::Z).length() < 1e-6);
 }
 
-#[test]
-fn base_color_texture_is_sampled_in_the_render() {
-    // A 64x64 texture: left half sRGB (200, 40, 40), right half (30, 60, 220).
+/// The quad with material 0 given as JSON (its textures all image 0, a
+/// 64x64 PNG whose left half is `left` and right half `right`), loaded and
+/// seen from straight above under a perpendicular 1 W/m^2 directional
+/// light. The quad spans x 0..4, z -2..2 after the hierarchy, with u =
+/// (1 - z/2) / 2; image up is -Z, so the top of the image sees u > 1/2 (the
+/// texture's right half) and the bottom u < 1/2.
+fn textured_quad_from_above(material: &str, left: [u8; 3], right: [u8; 3]) -> ssbc::Scene {
     let dir = tempfile::tempdir().unwrap();
-    let (left, right) = ([200u8, 40, 40], [30u8, 60, 220]);
     let tex = image::RgbaImage::from_fn(64, 64, |x, _| {
         let c = if x < 32 { left } else { right };
         image::Rgba([c[0], c[1], c[2], 255])
@@ -148,16 +151,11 @@ fn base_color_texture_is_sampled_in_the_render() {
         bin.len(),
         5123,
         Some(0),
-        r#","materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"baseColorTexture":{"index":0},"metallicFactor":0}}],
-"textures":[{"source":0}],"images":[{"uri":"tex.png"}]"#,
+        &format!(
+            r#","materials":[{material}],"textures":[{{"source":0}}],"images":[{{"uri":"tex.png"}}]"#
+        ),
     );
     let mut scene = load_str(dir.path(), "t.gltf", json.as_bytes()).unwrap();
-    // The quad spans x 0..4, z -2..2 after the hierarchy, with u = (1 - z/2) / 2.
-    // Looking straight down (image up = -Z), the top of the image sees u > 1/2
-    // (right half of the texture) and the bottom u < 1/2. A perpendicular
-    // directional light of 1 W/m^2 makes the radiance f(n, n): for this
-    // rough dielectric (metallic 0, roughness 1: F = 0.04, D = 1/pi,
-    // V = 1/4) (0.96 base + 0.01) / pi.
     let center = Vec3::new(2.0, 1.0, 0.0);
     scene.cameras.push(ssbc::scene::Camera {
         position: center + Vec3::Y * 3.0,
@@ -171,6 +169,20 @@ fn base_color_texture_is_sampled_in_the_render() {
         direction: -Vec3::Y,
         intensity: Vec3::ONE,
     });
+    scene
+}
+
+#[test]
+fn base_color_texture_is_sampled_in_the_render() {
+    // Left half sRGB (200, 40, 40), right half (30, 60, 220). The light
+    // makes the radiance f(n, n): for this rough dielectric (metallic 0,
+    // roughness 1: F = 0.04, D = 1/pi, V = 1/4) (0.96 base + 0.01) / pi.
+    let (left, right) = ([200u8, 40, 40], [30u8, 60, 220]);
+    let scene = textured_quad_from_above(
+        r#"{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"baseColorTexture":{"index":0},"metallicFactor":0}}"#,
+        left,
+        right,
+    );
     let frame = render_validated(&scene, &small(64, 64));
     let linear = |c: [u8; 3]| {
         Vec3::from(c.map(|v| {
@@ -203,41 +215,15 @@ fn base_color_texture_is_sampled_in_the_render() {
 /// the CPU's BRDF must both read it so.
 #[test]
 fn metallic_roughness_texture_is_linear_blue_metal_green_roughness() {
-    let dir = tempfile::tempdir().unwrap();
     // Left half: G 64, B 255 (rough 0.8 x 0.251, metal 0.5 x 1); right
     // half: G 200, B 0 (rough 0.8 x 0.784, metal 0). R is the opposite of B.
     let (left, right) = ([0u8, 64, 255], [255u8, 200, 0]);
-    let tex = image::RgbaImage::from_fn(64, 64, |x, _| {
-        let c = if x < 32 { left } else { right };
-        image::Rgba([c[0], c[1], c[2], 255])
-    });
-    tex.save(dir.path().join("mr.png")).unwrap();
-    let (bin, _) = quad_buffer(2);
-    let json = quad_gltf(
-        Some(&data_uri(&bin)),
-        bin.len(),
-        5123,
-        Some(0),
-        r#","materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},
-"metallicFactor":0.5,"roughnessFactor":0.8,"metallicRoughnessTexture":{"index":0}}}],
-"textures":[{"source":0}],"images":[{"uri":"mr.png"}]"#,
+    let scene = textured_quad_from_above(
+        r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},
+"metallicFactor":0.5,"roughnessFactor":0.8,"metallicRoughnessTexture":{"index":0}}}"#,
+        left,
+        right,
     );
-    let mut scene = load_str(dir.path(), "mr.gltf", json.as_bytes()).unwrap();
-    // As in base_color_texture_is_sampled_in_the_render: the top of the
-    // image sees the texture's right half, the bottom its left half.
-    let center = Vec3::new(2.0, 1.0, 0.0);
-    scene.cameras.push(ssbc::scene::Camera {
-        position: center + Vec3::Y * 3.0,
-        forward: -Vec3::Y,
-        up: -Vec3::Z,
-        yfov: 60f32.to_radians(),
-    });
-    scene.lights.push(ssbc::scene::Light {
-        kind: LightKind::Directional,
-        position: Vec3::ZERO,
-        direction: -Vec3::Y,
-        intensity: Vec3::ONE,
-    });
     let mut settings = small(64, 64);
     settings.debug_readback = true;
     let frame = render_validated(&scene, &settings);
