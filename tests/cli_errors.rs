@@ -216,6 +216,12 @@ fn bad_instant_radiosity_parameters() {
         "exceeds the device limit",
     );
     fails_with(&["--size", "8x8", "--ism-res", "48"], &[], "power of two");
+    fails_with(&["--size", "8x8", "--accumulate", "0"], &[], "--accumulate");
+    fails_with(
+        &["--size", "8x8", "--accumulate", "2", "--frames", "2"],
+        &[],
+        "--accumulate",
+    );
     fails_with(&["--size", "8x8", "--steps", "100"], &[], "--steps");
     fails_with(
         &[
