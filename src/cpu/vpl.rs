@@ -15,7 +15,9 @@ use rayon::prelude::*;
 use super::brdf::Brdf;
 use super::bvh::{SceneBvh, RAY_EPSILON};
 use super::emitters::{luminance, Emitters};
-use super::sampling::{cosine_hemisphere, uniform_cone, uniform_disk, uniform_sphere, Halton};
+use super::sampling::{
+    cosine_hemisphere, hash64, uniform_cone, uniform_disk, uniform_sphere, Halton,
+};
 use crate::error::{Error, Result};
 use crate::scene::{Light, LightKind, Scene};
 
@@ -228,15 +230,16 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     // The last path ran to its end (cutting it short would lose the light
     // of its later bounces: a bias of about 1/paths). To keep exactly
     // `count` VPLs (GPU resources are sized by it), the surplus is thinned
-    // without bias: the VPLs with the lowest identity hashes (a choice
-    // independent of what they carry) are dropped and the rest weighted up.
+    // without bias: the VPLs lowest in a hash of their identity (a choice
+    // independent of what they carry, and of the interleaving subset the
+    // identity hash's high bits pick) are dropped and the rest weighted up.
     let surplus = raw.len().saturating_sub(settings.count);
     let mut norm = 1.0 / set.paths.max(1) as f32;
     if surplus > 0 {
         let mut order: Vec<(u64, usize)> = raw
             .iter()
             .enumerate()
-            .map(|(i, v)| (v.identity_hash(), i))
+            .map(|(i, v)| (hash64(v.identity_hash() ^ 0xD1B5_4A32_D192_ED03), i))
             .collect();
         order.sort_unstable();
         let mut keep = vec![true; raw.len()];
