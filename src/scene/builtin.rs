@@ -66,47 +66,8 @@ fn block(scene: &mut Scene, base: Vec3, size: Vec3, angle: f32, material: u32) {
 /// the ceiling.
 pub fn cornell() -> Scene {
     let mut s = Scene::new("cornell");
-    let white = s.add_material(Vec3::new(0.73, 0.73, 0.73), None);
-    let red = s.add_material(Vec3::new(0.63, 0.065, 0.05), None);
-    let green = s.add_material(Vec3::new(0.14, 0.45, 0.091), None);
-    let (x0, x1, y0, y1, z0, z1) = (-1.0, 1.0, 0.0, 2.0, -1.0, 1.0);
-    // Inward-facing walls.
-    quad(
-        &mut s,
-        Vec3::new(x0, y0, z1),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, -2.0),
-        white,
-    ); // floor
-    quad(
-        &mut s,
-        Vec3::new(x0, y1, z0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 2.0),
-        white,
-    ); // ceiling
-    quad(
-        &mut s,
-        Vec3::new(x0, y0, z0),
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(0.0, 2.0, 0.0),
-        white,
-    ); // back
-    quad(
-        &mut s,
-        Vec3::new(x0, y0, z1),
-        Vec3::new(0.0, 0.0, -2.0),
-        Vec3::new(0.0, 2.0, 0.0),
-        red,
-    ); // left
-    quad(
-        &mut s,
-        Vec3::new(x1, y0, z0),
-        Vec3::new(0.0, 0.0, 2.0),
-        Vec3::new(0.0, 2.0, 0.0),
-        green,
-    ); // right
-    let _ = (x1, z1);
+    let (white, red, green) = cornell_wall_materials(&mut s);
+    cornell_room(&mut s, [white, white, red, green], Vec3::new(0.0, 1.9, 0.0));
     block(
         &mut s,
         Vec3::new(0.33, 0.0, 0.37),
@@ -121,27 +82,22 @@ pub fn cornell() -> Scene {
         0.29,
         white,
     );
-    s.lights.push(Light {
-        kind: LightKind::Point,
-        position: Vec3::new(0.0, 1.9, 0.0),
-        direction: -Vec3::Y,
-        intensity: Vec3::splat(10.0),
-    });
-    s.cameras.push(Camera::look_at(
-        Vec3::new(0.0, 1.0, 3.9),
-        Vec3::new(0.0, 1.0, 0.0),
-        40f32.to_radians(),
-    ));
     s
 }
 
-/// The Cornell box's walls (floor, ceiling, back, red left, green right;
-/// Lambertian), its camera and a 10 W/sr point light at `light`, the floor
-/// made of `floor`.
-fn cornell_room(s: &mut Scene, floor: u32, light: Vec3) {
-    let white = s.add_material(Vec3::new(0.73, 0.73, 0.73), None);
-    let red = s.add_material(Vec3::new(0.63, 0.065, 0.05), None);
-    let green = s.add_material(Vec3::new(0.14, 0.45, 0.091), None);
+/// The Cornell box's Lambertian white, red and green.
+fn cornell_wall_materials(s: &mut Scene) -> (u32, u32, u32) {
+    (
+        s.add_material(Vec3::new(0.73, 0.73, 0.73), None),
+        s.add_material(Vec3::new(0.63, 0.065, 0.05), None),
+        s.add_material(Vec3::new(0.14, 0.45, 0.091), None),
+    )
+}
+
+/// The Cornell box's inward-facing walls (floor, ceiling, back, left,
+/// right, made of `[floor, white, red, green]`), its camera and a 10 W/sr
+/// point light at `light`.
+fn cornell_room(s: &mut Scene, [floor, white, red, green]: [u32; 4], light: Vec3) {
     let walls = [
         (
             Vec3::new(-1.0, 0.0, 1.0),
@@ -245,7 +201,8 @@ pub fn spheres() -> Scene {
         0.5,
     ));
     // The light 10 cm under the ceiling, in front of the spheres.
-    cornell_room(&mut s, floor, Vec3::new(0.0, 1.9, 0.7));
+    let (white, red, green) = cornell_wall_materials(&mut s);
+    cornell_room(&mut s, [floor, white, red, green], Vec3::new(0.0, 1.9, 0.7));
     let rows = [
         (1.35, 1.0, [Vec3::new(1.0, 0.78, 0.34); 3]),
         (0.85, 0.5, [Vec3::new(0.9, 0.9, 0.9); 3]),
