@@ -129,5 +129,5 @@ pub mod reference {
 pub use error::{Error, Result};
 pub use renderer::{Frame, GpuImage, Layer, LayerImage, Renderer};
 pub use scene::Scene;
-pub use settings::{RenderSettings, RendererConfig, SsbcSettings};
+pub use settings::{HistorySettings, RenderSettings, RendererConfig, SsbcSettings};
 pub use timings::Timings;

@@ -13,6 +13,7 @@
 
 mod accumulate;
 mod guard_band;
+mod history;
 mod limits;
 mod readback;
 
@@ -28,6 +29,7 @@ use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass};
 use crate::passes::ism::{Ism, IsmPass};
 use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
 use crate::passes::ssbc::{SsbcCamera, SsbcPass};
+use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
 use crate::passes::{FrameView, Recording, SlotSetup, Stage};
 use crate::postprocess::HostImage;
 use crate::resident::{ResidentScene, SceneVersions};
@@ -41,6 +43,7 @@ use crate::vk::{
     ValidationLog,
 };
 use guard_band::GuardBand;
+use history::{History, HistoryPlan};
 use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
 pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 
@@ -121,6 +124,18 @@ struct Passes {
     /// layer (`ssbc.layers` 2).
     layers: [LayerStages; 2],
     ssbc: Stage<SsbcPass>,
+    /// Temporal history (resident frames).
+    temporal: Stage<TemporalPass>,
+    /// Whether each slot's last frame ran `temporal` (its output is then
+    /// the final image).
+    temporal_ran: [bool; FRAME_SLOTS],
+}
+
+/// How a frame uses temporal history: its fold, and the slot it reads.
+#[derive(Clone, Copy)]
+struct HistoryFrame {
+    step: HistoryStep,
+    previous_slot: Option<usize>,
 }
 
 impl Passes {
@@ -130,6 +145,8 @@ impl Passes {
             ism: Stage::new(IsmPass::new(device)?, FRAME_SLOTS),
             layers: [LayerStages::new(device, 0)?, LayerStages::new(device, 1)?],
             ssbc: Stage::new(SsbcPass::new(device)?, FRAME_SLOTS),
+            temporal: Stage::new(TemporalPass::new(device)?, FRAME_SLOTS),
+            temporal_ran: [false; FRAME_SLOTS],
         })
     }
 
@@ -140,7 +157,9 @@ impl Passes {
         cx: &mut Recording<'_, '_>,
         setup: &SlotSetup<'_>,
         scene: &GpuScene,
+        history: Option<HistoryFrame>,
     ) -> Result<()> {
+        self.temporal_ran[setup.slot] = false;
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
         let ism = self.ism.run(cx, setup, ())?;
         let [layer0, layer1] = &mut self.layers;
@@ -156,7 +175,44 @@ impl Passes {
             None
         };
         self.ssbc.run(cx, setup, (visible, hidden))?;
+        if let Some(history) = history {
+            self.temporal(cx, setup, history)?;
+        }
         Ok(())
+    }
+
+    /// Folds the frame into the history the previous frame left in its
+    /// slot (taken out of its stage while this slot's pass records).
+    fn temporal(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        history: HistoryFrame,
+    ) -> Result<()> {
+        let slot = setup.slot;
+        let (gbuffer, direct, bounded) = self.layers[0].images(slot).expect("recorded above");
+        let ssbc = self.ssbc.resources(slot).expect("recorded above");
+        let final_image = if ssbc.steps() > 0 {
+            &ssbc.final_image
+        } else {
+            &bounded.s0
+        };
+        let previous_slot = history.previous_slot.filter(|&s| s != slot);
+        let previous = previous_slot.and_then(|s| self.temporal.take(s));
+        let previous_gbuffer = previous_slot.and_then(|s| self.layers[0].gbuffer.resources(s));
+        let reads = TemporalReads {
+            gbuffer,
+            final_image,
+            direct: &direct.radiance,
+            previous: previous_gbuffer.zip(previous.as_ref().map(|p| &p.resources)),
+            step: history.step,
+        };
+        let result = self.temporal.run(cx, setup, reads).map(|_| ());
+        if let Some(s) = previous_slot {
+            self.temporal.restore(s, previous);
+        }
+        self.temporal_ran[slot] = result.is_ok();
+        result
     }
 
     /// The images the slot's last recorded frame wrote.
@@ -168,6 +224,9 @@ impl Passes {
             .layer1()
             .and_then(|_| self.layers[1].images(slot))
             .map(|(gbuffer, _, bounded)| (gbuffer, bounded));
+        let temporal = self.temporal_ran[slot]
+            .then(|| self.temporal.resources(slot))
+            .flatten();
         Some(FrameImages {
             gbuffer,
             direct,
@@ -175,6 +234,7 @@ impl Passes {
             ssbc,
             ism: self.ism.resources(slot)?,
             layer1,
+            temporal,
         })
     }
 
@@ -186,6 +246,19 @@ impl Passes {
             layer.forget(slot);
         }
         self.ssbc.forget(slot);
+        self.temporal.forget(slot);
+        self.temporal_ran[slot] = false;
+    }
+
+    /// Device memory the temporal history's images take in every slot.
+    fn history_bytes(&self) -> u64 {
+        (0..FRAME_SLOTS)
+            .filter_map(|slot| self.temporal.resources(slot))
+            .map(|t| {
+                let (w, h) = (t.output.desc.width, t.output.desc.height);
+                crate::passes::temporal::slot_bytes((w, h))
+            })
+            .sum()
     }
 }
 
@@ -209,6 +282,8 @@ pub struct Renderer {
     output: Option<FrameOutput>,
     /// A pass after which the next frame fails (tests of recovery).
     fault: Option<String>,
+    /// What the last resident frame left in temporal history.
+    history: History,
     device: Arc<Device>,
     validation_log: Arc<ValidationLog>,
 }
@@ -510,6 +585,7 @@ impl Renderer {
             readback: (0..FRAME_SLOTS).map(|_| None).collect(),
             scene_cache: None,
             fault: None,
+            history: History::default(),
             device,
             validation_log,
             output: None,
@@ -558,7 +634,14 @@ impl Renderer {
     /// descriptor pools are still reused while the size and settings fit).
     /// See [`Renderer::render_resident`] for frames that redo only what changed.
     pub fn render(&mut self, scene: &Scene, settings: &RenderSettings) -> Result<Frame> {
-        self.read_back(scene, SceneVersions::fresh(), settings)
+        self.run(
+            scene,
+            SceneVersions::fresh(),
+            settings,
+            ReadBack,
+            None,
+            false,
+        )
     }
 
     /// Renders a [`ResidentScene`] and reads the result back, redoing only
@@ -568,16 +651,30 @@ impl Renderer {
         scene: &ResidentScene,
         settings: &RenderSettings,
     ) -> Result<Frame> {
-        self.read_back(scene.scene(), scene.versions(), settings)
+        let mut frame = self.run(
+            scene.scene(),
+            scene.versions(),
+            settings,
+            ReadBack,
+            None,
+            true,
+        )?;
+        frame.accumulated = self.accumulated_frames().max(1);
+        Ok(frame)
     }
 
-    fn read_back(
-        &mut self,
-        scene: &Scene,
-        versions: SceneVersions,
-        settings: &RenderSettings,
-    ) -> Result<Frame> {
-        self.run(scene, versions, settings, ReadBack, None)
+    /// Frames of a still view the last resident frame's temporal history
+    /// averages (1 after any change; 0 without history: before the first
+    /// resident frame, after an immediate-mode frame or with
+    /// `history.enabled` off).
+    pub fn accumulated_frames(&self) -> u32 {
+        self.history.accumulated()
+    }
+
+    /// Device memory the temporal history takes now (bytes, every frame
+    /// slot: the history, its reprojection and the image made from it).
+    pub fn history_memory(&self) -> u64 {
+        self.passes.history_bytes()
     }
 
     /// Records and submits a frame without waiting for it or reading it
@@ -591,7 +688,9 @@ impl Renderer {
         settings: &RenderSettings,
         layer: Layer,
     ) -> Result<GpuSubmission> {
-        self.submit_to_gpu(scene, SceneVersions::fresh(), settings, layer)
+        Self::check_layer(layer, settings)?;
+        let versions = SceneVersions::fresh();
+        self.run(scene, versions, settings, KeepOnGpu(layer), None, false)
     }
 
     /// [`Renderer::render_to_gpu`] for a [`ResidentScene`]: only what changed
@@ -602,18 +701,9 @@ impl Renderer {
         settings: &RenderSettings,
         layer: Layer,
     ) -> Result<GpuSubmission> {
-        self.submit_to_gpu(scene.scene(), scene.versions(), settings, layer)
-    }
-
-    fn submit_to_gpu(
-        &mut self,
-        scene: &Scene,
-        versions: SceneVersions,
-        settings: &RenderSettings,
-        layer: Layer,
-    ) -> Result<GpuSubmission> {
         Self::check_layer(layer, settings)?;
-        self.run(scene, versions, settings, KeepOnGpu(layer), None)
+        let (scene, versions) = (scene.scene(), scene.versions());
+        self.run(scene, versions, settings, KeepOnGpu(layer), None, true)
     }
 
     fn check_layer(layer: Layer, settings: &RenderSettings) -> Result<()> {
@@ -665,7 +755,8 @@ impl Renderer {
         }
         let sink = IntoHost { cmd, output, layer };
         // The host guarantees the slot's previous frame is done.
-        self.run(scene.scene(), scene.versions(), settings, sink, Some(slot))
+        let (scene, versions) = (scene.scene(), scene.versions());
+        self.run(scene, versions, settings, sink, Some(slot), false)
     }
 
     unstable_pub! {
@@ -680,7 +771,8 @@ impl Renderer {
 
     /// Records a frame in `slot` (the host's, or the next of ssbc's own,
     /// waiting for the frame that used it last) and sends it where `sink`
-    /// says; after a failure the slot's resources are dropped.
+    /// says; after a failure the slot's resources are dropped. `resident`
+    /// frames of ssbc's own keep temporal history; any other cuts it.
     fn run<S: FrameSink>(
         &mut self,
         scene: &Scene,
@@ -688,6 +780,7 @@ impl Renderer {
         settings: &RenderSettings,
         sink: S,
         host_slot: Option<usize>,
+        resident: bool,
     ) -> Result<S::Output> {
         limits::check_settings(&self.device, settings, scene.lights.len())?;
         let (slot, previous_timings) = match host_slot {
@@ -704,8 +797,20 @@ impl Renderer {
                 (slot, previous)
             }
         };
-        let result = self.frame(scene, versions, settings, sink, slot, previous_timings);
+        let history = (resident && host_slot.is_none() && settings.history.enabled)
+            .then(|| self.history.plan(slot, versions, settings));
+        if history.is_none() {
+            self.history.reset();
+        }
+        let frame = FrameRequest {
+            versions,
+            slot,
+            previous_timings,
+            history,
+        };
+        let result = self.frame(scene, settings, sink, frame);
         if result.is_err() {
+            self.history.reset();
             // Whatever was recorded was never submitted, but the resources'
             // tracked states say otherwise: forget them, and the scene's
             // GPU copy, so the next frame starts from known states.
@@ -719,16 +824,33 @@ impl Renderer {
         result
     }
 
-    /// Records one frame in `slot` and sends it where `sink` says.
+    /// Records one frame and sends it where `sink` says.
     fn frame<S: FrameSink>(
         &mut self,
         scene: &Scene,
-        versions: SceneVersions,
         settings: &RenderSettings,
         sink: S,
-        slot: usize,
-        previous_timings: Option<GpuFrameTimes>,
+        request: FrameRequest,
     ) -> Result<S::Output> {
+        let FrameRequest {
+            versions,
+            slot,
+            previous_timings,
+            history,
+        } = request;
+        let host_settings = settings;
+        // A still view's frame continues the light paths after its
+        // history's (an independent VPL set).
+        let shifted;
+        let settings = match history {
+            Some(plan) if plan.path_offset > 0 => {
+                let mut s = settings.clone();
+                s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
+                shifted = s;
+                &shifted
+            }
+            _ => settings,
+        };
         let device = self.device.clone();
         let mut spans = Vec::new();
         let cache = SceneCache::update(
@@ -772,12 +894,18 @@ impl Renderer {
             reuse: settings.reuse_unchanged && host.is_none(),
             reused: &mut reused,
         };
-        self.passes.record(&mut cx, &setup, &cache.gpu_scene)?;
+        let history_frame = history.map(|plan| HistoryFrame {
+            step: self.history.step(&plan, settings, view.view_proj),
+            previous_slot: plan.previous_slot,
+        });
+        self.passes
+            .record(&mut cx, &setup, &cache.gpu_scene, history_frame)?;
         self.profiler.end_frame(rec.cmd);
+        let light_paths = cache.vpls().set.paths;
 
         let images = self.passes.images(slot).expect("recorded above");
         rec.use_buffer(&images.ssbc.stats, Access::HostRead);
-        sink.finish(
+        let output = sink.finish(
             rec,
             Finish {
                 images,
@@ -798,6 +926,21 @@ impl Renderer {
                 slot_done: &mut self.slot_done[slot],
                 output: &mut self.output,
             },
-        )
+        )?;
+        if let Some(plan) = history {
+            let view_proj = view.view_proj;
+            self.history
+                .commit(&plan, slot, versions, host_settings, view_proj, light_paths);
+        }
+        Ok(output)
     }
+}
+
+/// A frame to record: the scene's versions, its slot, and how it uses
+/// temporal history.
+struct FrameRequest {
+    versions: SceneVersions,
+    slot: usize,
+    previous_timings: Option<GpuFrameTimes>,
+    history: Option<HistoryPlan>,
 }

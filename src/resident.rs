@@ -9,6 +9,10 @@
 //! | materials | GPU scene copy, BVH (alpha masks), VPLs, ISM points |
 //! | geometry ([`ResidentScene::edit`]) | everything |
 //!
+//! Frames also keep a temporal history of the indirect light (a running
+//! mean that converges while nothing moves, reprojected when the camera
+//! does; see [`HistorySettings`](crate::settings::HistorySettings)).
+//!
 //! Nothing else is rebuilt, and the renderer's images, buffers and
 //! descriptor pools are reused until the size or settings change.
 //!
@@ -55,6 +59,9 @@ pub struct SceneVersions {
     pub lights: u64,
     /// Cameras.
     pub camera: u64,
+    /// Temporal history: changes when the host cuts it
+    /// ([`ResidentScene::reset_history`]).
+    pub history: u64,
 }
 
 impl SceneVersions {
@@ -65,6 +72,7 @@ impl SceneVersions {
             materials: next_version(),
             lights: next_version(),
             camera: next_version(),
+            history: next_version(),
         }
     }
 }
@@ -102,6 +110,13 @@ impl ResidentScene {
             None => self.scene.cameras.push(camera),
         }
         self.versions.camera = next_version();
+    }
+
+    /// Cuts the temporal history: the next frame starts anew, as after a
+    /// change of geometry, but redoes only the screen-space work (for a
+    /// cut in a sequence, or to compare frames without history).
+    pub fn reset_history(&mut self) {
+        self.versions.history = next_version();
     }
 
     /// Replaces light `index` (position, direction, intensity, kind).

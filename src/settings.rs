@@ -145,7 +145,7 @@ impl Bound {
 }
 
 /// What to render.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
     /// Image width in pixels.
     pub width: u32,
@@ -177,6 +177,71 @@ pub struct RenderSettings {
     /// (resident scenes where only the camera moved; immediate-mode frames
     /// never match). Off: every frame redraws them (for comparisons).
     pub reuse_unchanged: bool,
+    /// Temporal history of resident frames (see [`HistorySettings`]).
+    pub history: HistorySettings,
+}
+
+/// Temporal history: what a [`ResidentScene`](crate::resident::ResidentScene)
+/// frame keeps of the frames before it. The indirect light (bounded +
+/// SSBC's residual: the final image minus the direct light) is a running
+/// mean per pixel over the frames whose surfaces, lights and view it can
+/// still use:
+///
+/// | since the last frame | the frame | history |
+/// |---|---|---|
+/// | nothing changed | traces the next light paths (new VPLs, ISMs) | running mean, up to `max_frames` |
+/// | the camera moved | keeps the VPLs (and ISMs) | reprojected; pixels whose surface was not seen (depth, normal) start anew; at most `moving_frames` |
+/// | lights changed | the same light paths from the new lights | kept where the indirect light changed little (4x4-block means), at most `light_frames`; dropped where it changed by `light_change` or more |
+/// | geometry, materials, settings | everything | dropped |
+///
+/// Immediate-mode frames ([`Renderer::render`](crate::Renderer::render)) and
+/// frames recorded into a host's command buffer have none.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HistorySettings {
+    /// Keep history (off: every resident frame stands alone).
+    pub enabled: bool,
+    /// Most frames a still view's running mean averages (beyond, an
+    /// exponential mean with weight 1 / `max_frames`).
+    pub max_frames: u32,
+    /// Most frames of history a moving camera keeps (each reprojection
+    /// resamples the history bilinearly, which blurs it a little).
+    pub moving_frames: u32,
+    /// Most frames of history kept when the lights changed.
+    pub light_frames: u32,
+    /// Relative change of a 4x4 block's mean indirect light at which the
+    /// history is dropped when lights changed (the weight of history falls
+    /// linearly from `light_frames` at no change to none at this change).
+    pub light_change: f32,
+}
+
+impl Default for HistorySettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            max_frames: 1024,
+            moving_frames: 8,
+            light_frames: 4,
+            light_change: 0.25,
+        }
+    }
+}
+
+impl HistorySettings {
+    fn validate(&self) -> Result<()> {
+        let frames = [self.max_frames, self.moving_frames, self.light_frames];
+        if frames.iter().any(|&n| n == 0 || n > 1 << 20) {
+            return Err(Error::InvalidParameter(format!(
+                "history.max_frames, moving_frames and light_frames must be in 1..=1048576 (are {frames:?})"
+            )));
+        }
+        if !(self.light_change.is_finite() && self.light_change > 0.0) {
+            return Err(Error::InvalidParameter(format!(
+                "history.light_change must be positive (is {})",
+                self.light_change
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// The default number of VPLs for a `width` x `height` image: one per 150
@@ -225,6 +290,7 @@ impl Default for RenderSettings {
             ssbc: SsbcSettings::default(),
             debug_readback: false,
             reuse_unchanged: true,
+            history: HistorySettings::default(),
         }
     }
 }
@@ -246,6 +312,7 @@ impl RenderSettings {
                 self.interleave
             )));
         }
+        self.history.validate()?;
         self.ssbc.validate()
     }
 }
@@ -310,7 +377,7 @@ impl LayerResolution {
 }
 
 /// SSBC parameters.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SsbcSettings {
     /// Number of residual steps K (0 = no compensation). One by default:
     /// on the open-front box a second step moved the relMSE against a

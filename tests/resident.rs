@@ -9,8 +9,12 @@ use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Scene};
 
+/// Frames without temporal history: each resident frame must equal the
+/// immediate-mode frame (history has its own tests, tests/history.rs).
 fn settings() -> RenderSettings {
-    common::tiny_settings()
+    let mut s = common::tiny_settings();
+    s.history.enabled = false;
+    s
 }
 
 fn validated() -> Renderer {

@@ -17,6 +17,7 @@ pub mod indirect_bounded;
 pub mod ism;
 pub mod shadow_maps;
 pub mod ssbc;
+pub mod temporal;
 
 use std::sync::Arc;
 
@@ -251,6 +252,17 @@ impl<P: Pass> Stage<P> {
         }
         cx.checkpoint(&name)?;
         Ok(&held.resources)
+    }
+
+    /// Takes the slot's resources out, to read them while another slot's
+    /// are brought up; [`Stage::restore`] puts them back.
+    pub fn take(&mut self, slot: usize) -> Option<PassSlot<P::Key, P::Resources>> {
+        self.slots[slot].take()
+    }
+
+    /// Puts back what [`Stage::take`] took.
+    pub fn restore(&mut self, slot: usize, held: Option<PassSlot<P::Key, P::Resources>>) {
+        self.slots[slot] = held;
     }
 
     /// The slot's resources, if prepared.

@@ -48,6 +48,8 @@ impl Renderer {
         // made once; each frame traces its own VPLs.
         let resident = ResidentScene::new(scene.clone())?;
         let mut settings = settings.clone();
+        // The mean is taken here, of frames that stand alone.
+        settings.history.enabled = false;
         let mut sum: Option<Frame> = None;
         for k in 0..frames {
             let frame = self.render_resident(&resident, &settings)?;

@@ -57,7 +57,13 @@ pub(super) fn frame_memory(settings: &RenderSettings, lights: usize) -> u64 {
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
     let ism = vpls * (tile * tile * 4 + 48 + 256) + blocks * settings.points_per_vpl as u64 * 16;
     let shadow = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
-    w * h * per_pixel + layer1 + ssbc + ism + shadow
+    // Resident frames' temporal history.
+    let history = if settings.history.enabled {
+        crate::passes::temporal::slot_bytes((settings.width, settings.height))
+    } else {
+        0
+    };
+    w * h * per_pixel + layer1 + ssbc + ism + shadow + history
 }
 
 /// Fails, before anything is allocated, if one frame slot's resources

@@ -12,6 +12,7 @@ use crate::passes::gbuffer::GBuffer;
 use crate::passes::indirect_bounded::BoundedLighting;
 use crate::passes::ism::Ism;
 use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
+use crate::passes::temporal::Temporal;
 use crate::passes::FrameView;
 use crate::postprocess::HostImage;
 use crate::scene_cache::SceneCache;
@@ -241,11 +242,14 @@ pub(crate) struct FrameImages<'a> {
     pub ism: &'a Ism,
     /// The deep G-buffer's second layer and its lighting, if the frame had one.
     pub layer1: Option<(&'a GBuffer, &'a BoundedLighting)>,
+    /// The temporal history, if the frame folded into it (its output is
+    /// then the final image).
+    pub temporal: Option<&'a Temporal>,
 }
 
 impl<'a> FrameImages<'a> {
-    /// The final image: SSBC's sum, or S0 without steps.
-    fn final_image(&self) -> &'a Image {
+    /// This frame's own final image: SSBC's sum, or S0 without steps.
+    fn frame_final_image(&self) -> &'a Image {
         if self.ssbc.steps() > 0 {
             &self.ssbc.final_image
         } else {
@@ -258,7 +262,9 @@ impl<'a> FrameImages<'a> {
         let g = self.gbuffer;
         let layer1 = self.layer1;
         Some(match layer {
-            Layer::Final => self.final_image(),
+            Layer::Final => self
+                .temporal
+                .map_or_else(|| self.frame_final_image(), |t| &t.output),
             Layer::Direct => &self.direct.radiance,
             Layer::IndirectBounded => &self.bounded.indirect,
             Layer::Residual(k) => self.ssbc.residuals.get((k as usize).checked_sub(1)?)?,

@@ -16,8 +16,8 @@ use clap::{Parser, Subcommand};
 
 use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::settings::{
-    Bound, Gather, Integration, LayerResolution, NamedChoice, RenderSettings, RendererConfig,
-    SsbcSettings, VplSettings, DEFAULT_BOUNCES,
+    Bound, Gather, HistorySettings, Integration, LayerResolution, NamedChoice, RenderSettings,
+    RendererConfig, SsbcSettings, VplSettings, DEFAULT_BOUNCES,
 };
 use ssbc::vk::DeviceSelector;
 use ssbc::{Layer, Renderer};
@@ -244,6 +244,11 @@ struct SceneOptions {
     /// side), cropped back (not in the viewer).
     #[arg(long)]
     guard_band: bool,
+    /// Frames stand alone: no temporal history (the viewer and
+    /// `render --sequence` keep one by default: a running mean of the
+    /// indirect light that converges while nothing moves).
+    #[arg(long)]
+    no_history: bool,
     /// Lower clamp of cos(view angle) in the pixel area A_y (grazing views).
     #[arg(long, default_value_t = RenderSettings::default().ssbc.min_cos_view)]
     min_cos_view: f32,
@@ -359,6 +364,10 @@ impl SceneOptions {
             },
             debug_readback: false,
             reuse_unchanged: true,
+            history: HistorySettings {
+                enabled: !self.no_history,
+                ..Default::default()
+            },
         }
     }
 

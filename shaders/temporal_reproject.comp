@@ -1,0 +1,74 @@
+#version 460
+// Temporal history, step 1: the previous frame's history of indirect light,
+// reprojected into this frame. Each pixel's surface point is projected with
+// the previous view; of the four history pixels around it, those that saw
+// the same surface (normal within ~25 degrees, on the pixel's tangent plane)
+// are blended bilinearly. None: the surface was not seen (disocclusion, the
+// image border) and the pixel starts anew (alpha 0).
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D previous_position;
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D previous_normal;
+// rgb: the previous frame's mean indirect light; a: frames it averages.
+layout(set = 0, binding = 4, rgba32f) uniform readonly image2D previous_history;
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D reprojected;
+
+layout(push_constant) uniform Push {
+    mat4 previous_view_proj;   // world to clip space of the previous frame
+    vec4 camera_position;      // xyz: this frame's eye
+    uvec2 size;
+    uint has_history;          // 0: every pixel starts anew
+} pc;
+
+const float MIN_NORMAL_COS = 0.9;
+// A history pixel is on the same surface when it lies within this fraction
+// of the distance to the eye from the pixel's tangent plane.
+const float MAX_PLANE = 0.01;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(p), pc.size))) return;
+    vec4 xp = imageLoad(g_position, p);
+    if (xp.w == 0.0 || pc.has_history == 0u) {
+        imageStore(reprojected, p, vec4(0.0));
+        return;
+    }
+    vec3 x = xp.xyz;
+    vec3 n = imageLoad(g_normal, p).xyz;
+    vec4 clip = pc.previous_view_proj * vec4(x, 1.0);
+    vec4 result = vec4(0.0);
+    if (clip.w > 0.0) {
+        // Continuous pixel coordinates (pixel centres at i + 0.5).
+        vec2 t = (clip.xy / clip.w * 0.5 + 0.5) * vec2(pc.size) - 0.5;
+        ivec2 t0 = ivec2(floor(t));
+        vec2 f = t - vec2(t0);
+        float tolerance = MAX_PLANE * length(x - pc.camera_position.xyz);
+        float total = 0.0;
+        vec4 sum = vec4(0.0);
+        for (int k = 0; k < 4; k++) {
+            ivec2 q = t0 + ivec2(k & 1, k >> 1);
+            float w = ((k & 1) == 1 ? f.x : 1.0 - f.x) * ((k >> 1) == 1 ? f.y : 1.0 - f.y);
+            if (w <= 0.0 || any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) {
+                continue;
+            }
+            vec4 y = imageLoad(previous_position, q);
+            vec4 h = imageLoad(previous_history, q);
+            bool same = y.w != 0.0 && h.a > 0.0
+                && dot(imageLoad(previous_normal, q).xyz, n) >= MIN_NORMAL_COS
+                && abs(dot(n, y.xyz - x)) <= tolerance;
+            if (same) {
+                sum += w * h;
+                total += w;
+            }
+        }
+        // Most of the footprint must be the same surface (a sliver of it
+        // would extrapolate one history pixel over a disoccluded one).
+        if (total >= 0.25) {
+            result = sum / total;
+        }
+    }
+    imageStore(reprojected, p, result);
+}

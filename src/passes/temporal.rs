@@ -1,0 +1,196 @@
+//! Temporal history: this frame's indirect light (the final image minus the
+//! direct light) folded into a per-pixel running mean of earlier frames',
+//! reprojected from the previous frame's view with depth and normal
+//! rejection, and the image made of the direct light and that mean. The
+//! renderer decides per frame how many frames the mean may hold
+//! ([`HistoryStep`]; see [`HistorySettings`](crate::settings::HistorySettings)).
+//!
+//! The history a frame reads is the one the previous frame wrote in the
+//! other frame slot, with that slot's G-buffer: both stay untouched until
+//! their slot's next frame, which the queue runs after this one.
+
+use std::sync::Arc;
+
+use glam::Mat4;
+
+use super::gbuffer::GBuffer;
+use super::{Pass, Recording, SlotSetup};
+use crate::error::Result;
+use crate::shaders::{temporal_blend_comp, temporal_reproject_comp};
+use crate::vk::{Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
+
+/// What the pass writes.
+pub struct Temporal {
+    /// Direct light + the mean indirect light: the frame's final image.
+    pub output: Image,
+    /// rgb: the mean indirect light; a: frames it averages (0: background).
+    pub history: Image,
+    /// The previous frame's history in this frame's pixels (a = 0 where
+    /// the surface was not seen).
+    pub reprojected: Image,
+}
+
+/// Bytes of device memory the pass's images take per pixel and frame slot.
+pub const BYTES_PER_PIXEL: u64 = 3 * 16;
+
+/// How a frame folds into history.
+#[derive(Clone, Copy, Debug)]
+pub struct HistoryStep {
+    /// Frames the mean may average (1: the frame alone).
+    pub max_frames: u32,
+    /// Weigh history by the local change of the indirect light, dropping it
+    /// at this relative change (lights changed).
+    pub light_change: Option<f32>,
+    /// The previous frame's world-to-clip transform (its history's pixels).
+    pub previous_view_proj: Mat4,
+}
+
+/// What the pass reads.
+pub struct TemporalReads<'a> {
+    /// This frame's G-buffer.
+    pub gbuffer: &'a GBuffer,
+    /// Its final image and direct light.
+    pub final_image: &'a Image,
+    /// Its direct light.
+    pub direct: &'a Image,
+    /// The previous frame's G-buffer and history (None: start anew).
+    pub previous: Option<(&'a GBuffer, &'a Temporal)>,
+    /// How this frame folds in.
+    pub step: HistoryStep,
+}
+
+/// The reprojection and blending kernels.
+pub struct TemporalPass {
+    reproject: ComputeKernel<temporal_reproject_comp::Interface, ReprojectPush>,
+    blend: ComputeKernel<temporal_blend_comp::Interface, BlendPush>,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ReprojectPush {
+    previous_view_proj: [f32; 16],
+    camera_position: [f32; 4],
+    size: [u32; 2],
+    has_history: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct BlendPush {
+    size: [u32; 2],
+    max_frames: f32,
+    lights_changed: u32,
+    light_change: f32,
+}
+
+impl TemporalPass {
+    /// Creates both kernels.
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        Ok(Self {
+            reproject: ComputeKernel::new(device)?.named("temporal_reproject"),
+            blend: ComputeKernel::new(device)?.named("temporal_blend"),
+        })
+    }
+}
+
+impl Pass for TemporalPass {
+    const NAME: &'static str = "temporal";
+    /// Width and height.
+    type Key = (u32, u32);
+    type Resources = Temporal;
+    type Reads<'a> = TemporalReads<'a>;
+
+    fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
+        setup.extent()
+    }
+
+    fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Temporal> {
+        let image = |name: &str| super::radiance_image(setup.device, name, setup.extent());
+        Ok(Temporal {
+            output: image("temporal.output")?,
+            history: image("temporal.history")?,
+            reprojected: image("temporal.reprojected")?,
+        })
+    }
+
+    fn set_layouts(&self, _: &Temporal) -> Vec<&DescriptorSetLayout> {
+        vec![self.reproject.set_layout(), self.blend.set_layout()]
+    }
+
+    fn record(
+        &self,
+        cx: &mut Recording<'_, '_>,
+        pool: &DescriptorPool,
+        reads: TemporalReads<'_>,
+        out: &Temporal,
+    ) -> Result<()> {
+        let Recording {
+            rec, profiler, view, ..
+        } = cx;
+        let scope = profiler.begin(rec.cmd, "temporal");
+        let (w, h) = reads.gbuffer.extent();
+        let step = reads.step;
+        // Without history the kernel reads nothing and marks every pixel
+        // new; its bindings still need images: this frame's own.
+        let (previous_gbuffer, previous_history) = match reads.previous {
+            Some((gbuffer, temporal)) => (gbuffer, &temporal.history),
+            None => (reads.gbuffer, &out.history),
+        };
+        let reads_images = [
+            &reads.gbuffer.position,
+            &reads.gbuffer.normal,
+            &previous_gbuffer.position,
+            &previous_gbuffer.normal,
+            previous_history,
+        ];
+        for image in reads_images {
+            rec.use_image(image, Access::ComputeRead);
+        }
+        rec.use_image(&out.reprojected, Access::ComputeWrite);
+        rec.flush_barriers();
+        let push = ReprojectPush {
+            previous_view_proj: step.previous_view_proj.to_cols_array(),
+            camera_position: view.camera.position.extend(1.0).into(),
+            size: [w, h],
+            has_history: reads.previous.is_some() as u32,
+        };
+        let bindings = temporal_reproject_comp::Bindings {
+            g_position: &reads.gbuffer.position,
+            g_normal: &reads.gbuffer.normal,
+            previous_position: &previous_gbuffer.position,
+            previous_normal: &previous_gbuffer.normal,
+            previous_history,
+            reprojected: &out.reprojected,
+        };
+        self.reproject
+            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;
+        rec.use_image(&out.reprojected, Access::ComputeRead);
+        rec.use_image(reads.final_image, Access::ComputeRead);
+        rec.use_image(reads.direct, Access::ComputeRead);
+        rec.use_image(&out.history, Access::ComputeWrite);
+        rec.use_image(&out.output, Access::ComputeWrite);
+        rec.flush_barriers();
+        let push = BlendPush {
+            size: [w, h],
+            max_frames: step.max_frames as f32,
+            lights_changed: step.light_change.is_some() as u32,
+            light_change: step.light_change.unwrap_or(1.0),
+        };
+        let bindings = temporal_blend_comp::Bindings {
+            frame_final: reads.final_image,
+            frame_direct: reads.direct,
+            reprojected: &out.reprojected,
+            history: &out.history,
+            temporal_final: &out.output,
+        };
+        self.blend
+            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;
+        profiler.end(rec.cmd, scope);
+        Ok(())
+    }
+}
+
+/// The extent's history images in one slot (bytes).
+pub fn slot_bytes(extent: (u32, u32)) -> u64 {
+    extent.0 as u64 * extent.1 as u64 * BYTES_PER_PIXEL
+}

@@ -1,0 +1,154 @@
+//! Which history a resident frame reads and how it folds in (see
+//! [`HistorySettings`](crate::settings::HistorySettings)): the renderer
+//! compares the frame with the last one that wrote history.
+
+use glam::Mat4;
+
+use crate::passes::temporal::HistoryStep;
+use crate::resident::SceneVersions;
+use crate::settings::RenderSettings;
+
+/// What changed since the last history frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Motion {
+    /// No usable history: the first frame, a cut, other surfaces,
+    /// materials or settings.
+    Reset,
+    /// Lights changed (perhaps the camera too).
+    Lights,
+    /// Only the camera.
+    Camera,
+    /// Nothing: the frame adds an independent VPL set.
+    Still,
+}
+
+/// The last frame that wrote history.
+struct LastFrame {
+    slot: usize,
+    versions: SceneVersions,
+    /// Its settings as the host gave them (before the light-path offset).
+    settings: RenderSettings,
+    view_proj: Mat4,
+    /// Light paths its VPLs took.
+    light_paths: u64,
+}
+
+/// The renderer's history bookkeeping.
+#[derive(Default)]
+pub(super) struct History {
+    last: Option<LastFrame>,
+    /// Frames of a still view the history averages (1 after any change).
+    accumulated: u32,
+    /// Light paths the still view's earlier frames traced: the next frame
+    /// starts its paths after them (its own VPL set).
+    path_offset: u64,
+}
+
+/// How one frame uses history.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct HistoryPlan {
+    pub motion: Motion,
+    /// The slot whose history and G-buffer it reads.
+    pub previous_slot: Option<usize>,
+    /// Added to the VPL settings' `first_path`.
+    pub path_offset: u64,
+    /// The still view's frame count after this frame.
+    pub accumulated: u32,
+}
+
+impl History {
+    /// Forgets every earlier frame (the next frame starts anew).
+    pub fn reset(&mut self) {
+        self.last = None;
+    }
+
+    /// Frames a still view's history averages (0 before any history frame).
+    pub fn accumulated(&self) -> u32 {
+        if self.last.is_some() {
+            self.accumulated
+        } else {
+            0
+        }
+    }
+
+    /// How a frame in `slot` of a scene at `versions` with `settings` uses
+    /// history.
+    pub fn plan(
+        &self,
+        slot: usize,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+    ) -> HistoryPlan {
+        let motion = match &self.last {
+            None => Motion::Reset,
+            Some(last)
+                if last.slot == slot
+                    || last.versions.geometry != versions.geometry
+                    || last.versions.materials != versions.materials
+                    || last.versions.history != versions.history
+                    || last.settings != *settings =>
+            {
+                Motion::Reset
+            }
+            Some(last) if last.versions.lights != versions.lights => Motion::Lights,
+            Some(last) if last.versions.camera != versions.camera => Motion::Camera,
+            Some(_) => Motion::Still,
+        };
+        let last = self.last.as_ref().filter(|_| motion != Motion::Reset);
+        HistoryPlan {
+            motion,
+            previous_slot: last.map(|l| l.slot),
+            path_offset: match (motion, last) {
+                (Motion::Reset, _) | (_, None) => 0,
+                (Motion::Still, Some(l)) => self.path_offset.saturating_add(l.light_paths.max(1)),
+                _ => self.path_offset,
+            },
+            accumulated: match motion {
+                Motion::Still => self.accumulated.saturating_add(1),
+                _ => 1,
+            },
+        }
+    }
+
+    /// The fold of a planned frame whose view is `view_proj`.
+    pub fn step(
+        &self,
+        plan: &HistoryPlan,
+        settings: &RenderSettings,
+        view_proj: Mat4,
+    ) -> HistoryStep {
+        let h = &settings.history;
+        let max_frames = match plan.motion {
+            Motion::Reset => 1,
+            Motion::Lights => h.light_frames,
+            Motion::Camera => h.moving_frames,
+            Motion::Still => h.max_frames,
+        };
+        HistoryStep {
+            max_frames,
+            light_change: (plan.motion == Motion::Lights).then_some(h.light_change),
+            previous_view_proj: self.last.as_ref().map_or(view_proj, |l| l.view_proj),
+        }
+    }
+
+    /// Records a submitted frame that wrote history.
+    pub fn commit(
+        &mut self,
+        plan: &HistoryPlan,
+        slot: usize,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+        view_proj: Mat4,
+        light_paths: u64,
+    ) {
+        self.accumulated = plan.accumulated;
+        self.path_offset = plan.path_offset;
+        self.last = Some(LastFrame {
+            slot,
+            versions,
+            settings: settings.clone(),
+            view_proj,
+            light_paths,
+        });
+    }
+}

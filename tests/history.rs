@@ -1,0 +1,297 @@
+//! Temporal history of resident frames: a still view's frames average into
+//! exactly the mean of the same frames taken one by one; a moved camera
+//! reprojects history and never carries it onto surfaces the previous
+//! frame did not see; changed lights drop history where the indirect light
+//! changed; the host can cut it; no resources are made per frame.
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use glam::Vec3;
+use ssbc::resident::ResidentScene;
+use ssbc::scene::{Camera, Scene};
+use ssbc::{Frame, RenderSettings};
+
+fn settings() -> RenderSettings {
+    let mut s = common::small(64, 48);
+    s.vpl.count = 64;
+    s
+}
+
+fn without_history(s: &RenderSettings) -> RenderSettings {
+    let mut s = s.clone();
+    s.history.enabled = false;
+    s
+}
+
+fn open_box() -> Scene {
+    ssbc::scene::load("assets/open-front-box.gltf").unwrap()
+}
+
+/// Largest difference between two frames' final images relative to the
+/// brightest pixel of `b`.
+fn max_difference(a: &Frame, b: &Frame) -> f32 {
+    let peak = b.image.rgba.iter().fold(0.0f32, |m, v| m.max(*v));
+    let d = a
+        .image
+        .rgba
+        .iter()
+        .zip(&b.image.rgba)
+        .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+    d / peak
+}
+
+/// Mean absolute difference of the geometry pixels' indirect light (final
+/// minus direct), relative to `truth`'s mean indirect light.
+fn indirect_error(frame: &Frame, truth: &Frame) -> f64 {
+    let indirect = |f: &Frame| -> Vec<f32> {
+        let direct = f.layer(ssbc::Layer::Direct).expect("read back");
+        f.image
+            .rgba
+            .iter()
+            .zip(&direct.rgba)
+            .map(|(a, d)| a - d)
+            .collect()
+    };
+    let (a, t) = (indirect(frame), indirect(truth));
+    let (mut err, mut sum) = (0.0f64, 0.0f64);
+    for (i, (x, y)) in a.iter().zip(&t).enumerate() {
+        if i % 4 != 3 {
+            err += (x - y).abs() as f64;
+            sum += y.abs() as f64;
+        }
+    }
+    err / sum
+}
+
+#[test]
+fn a_still_view_averages_its_frames_exactly() {
+    let scene = open_box();
+    let s = settings();
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    let resident = ResidentScene::new(scene.clone()).unwrap();
+    let mut last = None;
+    let mut created = 0;
+    for k in 1..=8u32 {
+        let frame = renderer.render_resident(&resident, &s).unwrap();
+        assert_eq!(frame.accumulated, k);
+        assert_eq!(renderer.accumulated_frames(), k);
+        if k == 2 {
+            created = renderer.device().resources_created();
+        }
+        last = Some(frame);
+    }
+    let last = last.unwrap();
+    assert_eq!(
+        renderer.device().resources_created(),
+        created,
+        "still frames created resources"
+    );
+    let (w, h) = (s.width as u64, s.height as u64);
+    assert_eq!(renderer.history_memory(), 2 * 48 * w * h);
+    // The same eight frames (the same light paths), averaged on the host.
+    let stop = AtomicBool::new(false);
+    let mean = renderer
+        .render_accumulated(&scene, &s, 8, &stop, |_| {})
+        .unwrap();
+    let d = max_difference(&last, &mean);
+    eprintln!("8 still frames vs their mean on the host: {d:.2e} of the peak");
+    assert!(d < 1e-4, "differs by {d}");
+    // They converge: 8 frames are closer to 32 frames' mean than 1 is.
+    let truth = renderer
+        .render_accumulated(&scene, &s, 32, &stop, |_| {})
+        .unwrap();
+    let one = renderer.render(&scene, &s).unwrap();
+    let (e1, e8) = (max_difference(&one, &truth), max_difference(&last, &truth));
+    eprintln!("largest difference from 32 frames: 1 frame {e1:.4}, 8 frames {e8:.4}");
+    assert!(e8 < 0.6 * e1);
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+fn camera(scene: &Scene) -> Camera {
+    scene.camera(None).unwrap()
+}
+
+#[test]
+fn a_moving_camera_keeps_history_where_it_saw_the_surface() {
+    let scene = open_box();
+    let mut s = settings();
+    s.debug_readback = true;
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    for _ in 0..16 {
+        renderer.render_resident(&resident, &s).unwrap();
+    }
+    let created = renderer.device().resources_created();
+    // Pan a little: history is reprojected.
+    let start = camera(&scene);
+    let mut moved = start;
+    moved.position += 0.02 * scene_size(&scene) * Vec3::X;
+    resident.set_camera(moved.clone());
+    let panned = renderer.render_resident(&resident, &s).unwrap();
+    assert_eq!(panned.accumulated, 1);
+    assert_eq!(renderer.device().resources_created(), created);
+    // The truth: many frames at the moved camera, standing alone.
+    let mut at_moved = scene.clone();
+    at_moved.cameras = vec![moved.clone()];
+    let stop = AtomicBool::new(false);
+    let truth = renderer
+        .render_accumulated(&at_moved, &s, 32, &stop, |_| {})
+        .unwrap();
+    let fresh = renderer.render(&at_moved, &without_history(&s)).unwrap();
+    let (e_fresh, e_panned) = (
+        indirect_error(&fresh, &truth),
+        indirect_error(&panned, &truth),
+    );
+    eprintln!(
+        "indirect light after a pan, mean |error| / mean: a fresh frame {e_fresh:.4}, with \
+         history {e_panned:.4}"
+    );
+    assert!(e_panned < 0.8 * e_fresh, "{e_panned} vs {e_fresh}");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+/// In a closed room, turning round sees only what was behind the camera:
+/// no pixel takes history (the frame is the frame alone), and none of the
+/// previous view's light is smeared onto the new surfaces.
+#[test]
+fn turning_round_carries_nothing_over() {
+    let mut scene = ssbc::scene::load("tests/scenes/closed-room.gltf").unwrap();
+    scene.ensure_light();
+    let s = settings();
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    // Each still frame traces the light paths after its predecessors'; a
+    // camera move keeps the last frame's.
+    let mut first_path = 0;
+    for k in 0..4 {
+        let frame = renderer.render_resident(&resident, &s).unwrap();
+        if k < 3 {
+            first_path += frame.timings.light_paths;
+        }
+    }
+    let mut turned = camera(&scene);
+    turned.forward = -turned.forward;
+    resident.set_camera(turned.clone());
+    let back = renderer.render_resident(&resident, &s).unwrap();
+    let mut at_turned = scene.clone();
+    at_turned.cameras = vec![turned];
+    let mut same_paths = without_history(&s);
+    same_paths.vpl.first_path = first_path;
+    let alone = renderer.render(&at_turned, &same_paths).unwrap();
+    let covered = alone.image.rgba.chunks(4).filter(|p| p[3] > 0.0).count();
+    assert!(
+        covered == alone.image.rgba.len() / 4,
+        "the room surrounds the camera"
+    );
+    let d = max_difference(&back, &alone);
+    assert!(d < 1e-5, "turned round: history carried over ({d})");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+fn scene_size(scene: &Scene) -> f32 {
+    let (lo, hi) = scene.vertices.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), v| {
+            let p = Vec3::from(v.position);
+            (lo.min(p), hi.max(p))
+        },
+    );
+    (hi - lo).length()
+}
+
+#[test]
+fn changed_lights_drop_history_where_the_light_changed() {
+    let scene = open_box();
+    let mut s = settings();
+    s.debug_readback = true;
+    let mut renderer = common::validated_renderer();
+    // Frames standing alone come from a second renderer (an immediate-mode
+    // frame would cut the first one's history).
+    let mut other = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    let mut first_path = 0;
+    for k in 0..8 {
+        let frame = renderer.render_resident(&resident, &s).unwrap();
+        if k < 7 {
+            first_path += frame.timings.light_paths;
+        }
+    }
+    // A light-changed frame traces the same light paths as the last frame.
+    let mut alone = without_history(&s);
+    alone.vpl.first_path = first_path;
+    let mut alone_frame = |scene: &Scene| other.render(scene, &alone).unwrap();
+
+    // Every light off: no indirect light at once, and no dark history after.
+    let mut dark = scene.lights.clone();
+    dark.iter_mut().for_each(|l| l.intensity = Vec3::ZERO);
+    resident.set_lights(dark).unwrap();
+    let off = renderer.render_resident(&resident, &s).unwrap();
+    assert!(max_difference(&off, &alone_frame(resident.scene())) < 1e-5);
+    resident.set_lights(scene.lights.clone()).unwrap();
+    let back = renderer.render_resident(&resident, &s).unwrap();
+    let d = max_difference(&back, &alone_frame(&scene));
+    assert!(d < 1e-5, "lights back on: {d}");
+
+    // A light jumps by half the box: history is dropped where the light
+    // changed, so the frame is as good as one standing alone.
+    let mut jumped = scene.lights.clone();
+    jumped[0].position += 0.5 * scene_size(&scene) * Vec3::new(0.4, -0.8, 0.2).normalize();
+    resident.set_lights(jumped.clone()).unwrap();
+    let after_jump = renderer.render_resident(&resident, &s).unwrap();
+    let mut at_jump = scene.clone();
+    at_jump.lights = jumped;
+    let stop = AtomicBool::new(false);
+    let truth = other
+        .render_accumulated(&at_jump, &s, 32, &stop, |_| {})
+        .unwrap();
+    let standalone = other.render(&at_jump, &alone).unwrap();
+    let (e_jump, e_alone) = (
+        indirect_error(&after_jump, &truth),
+        indirect_error(&standalone, &truth),
+    );
+    eprintln!("after a jump: mean |error| of the indirect light {e_jump:.4}, alone {e_alone:.4}");
+    assert!(e_jump < 1.1 * e_alone, "{e_jump} vs {e_alone}");
+    drop((renderer, other));
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+#[test]
+fn the_host_cuts_history() {
+    let scene = open_box();
+    let s = settings();
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    for _ in 0..4 {
+        renderer.render_resident(&resident, &s).unwrap();
+    }
+    assert_eq!(renderer.accumulated_frames(), 4);
+    resident.reset_history();
+    let cut = renderer.render_resident(&resident, &s).unwrap();
+    assert_eq!(cut.accumulated, 1);
+    // A cut starts the light paths anew too.
+    let alone = renderer.render(&scene, &without_history(&s)).unwrap();
+    assert!(max_difference(&cut, &alone) < 1e-5);
+    // Immediate-mode frames stand alone and cut it too.
+    assert_eq!(renderer.accumulated_frames(), 0);
+    let next = renderer.render_resident(&resident, &s).unwrap();
+    assert_eq!(next.accumulated, 1);
+    // On the GPU path too.
+    for k in 2..=3 {
+        renderer
+            .render_resident_to_gpu(&resident, &s, ssbc::Layer::Final)
+            .unwrap();
+        assert_eq!(renderer.accumulated_frames(), k);
+    }
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
