@@ -86,6 +86,7 @@ pub mod profile;
 pub mod renderer;
 pub mod resident;
 pub mod scene;
+pub mod sequence;
 pub mod settings;
 pub mod timings;
 pub mod vk;

@@ -375,3 +375,150 @@ fn reference_and_compare_work_and_refuse_bad_input() {
         );
     }
 }
+
+#[test]
+fn bad_sequences() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("f_%02d.exr").display().to_string();
+    let seq = |name: &str, json: &str| write(dir.path(), name, json.as_bytes());
+    let cases = [
+        ("not-json.json", "{frames: [", "sequence"),
+        ("empty.json", r#"{"frames": []}"#, "0 frames"),
+        (
+            "light.json",
+            r#"{"frames": [{"lights": {"7": {"position": [0, 1, 0]}}}]}"#,
+            "no light 7",
+        ),
+        (
+            "name.json",
+            r#"{"frames": [{"lights": {"key": {}}}]}"#,
+            "by index",
+        ),
+        (
+            "unknown.json",
+            r#"{"frames": [{"camera": {"fov": 1}}]}"#,
+            "unknown field",
+        ),
+        (
+            "same.json",
+            r#"{"frames": [{"camera": {"position": [0, 1, 0], "target": [0, 1, 0]}}]}"#,
+            "target is its position",
+        ),
+        (
+            "huge.json",
+            r#"{"frames": [{"lights": {"0": {"intensity": [1e39, 0, 0]}}}]}"#,
+            "sequence",
+        ),
+    ];
+    for (name, json, needle) in cases {
+        let path = seq(name, json);
+        fails_with(
+            &["cornell", "--size", "8x8", "--sequence", &path, "-o", &out],
+            &[],
+            needle,
+        );
+    }
+    let ok = seq("ok.json", r#"{"frames": [{}]}"#);
+    fails_with(
+        &[
+            "cornell",
+            "--size",
+            "8x8",
+            "--sequence",
+            &ok,
+            "-o",
+            "/tmp/one.exr",
+        ],
+        &[],
+        "frame number",
+    );
+    fails_with(
+        &[
+            "cornell",
+            "--size",
+            "8x8",
+            "--sequence",
+            "/nonexistent/seq.json",
+            "-o",
+            &out,
+        ],
+        &[],
+        "no such file",
+    );
+    fails_with(
+        &[
+            "cornell",
+            "--size",
+            "8x8",
+            "--sequence",
+            &ok,
+            "--frames",
+            "2",
+            "-o",
+            &out,
+        ],
+        &[],
+        "--sequence",
+    );
+}
+
+/// A sequence writes one file per frame, and history carries over: a
+/// still frame's image differs from the first (a second VPL set averaged
+/// in), a frame that names nothing changes nothing else.
+#[test]
+fn a_sequence_writes_every_frame_with_history() {
+    let dir = tempfile::tempdir().unwrap();
+    let seq = write(
+        dir.path(),
+        "seq.json",
+        br#"{"frames": [{}, {}, {"camera": {"position": [0.1, 1.0, 3.4]}}, {"lights": {"0": {"intensity": [0, 0, 0]}}}]}"#,
+    );
+    let out = dir.path().join("frame_%03d.exr").display().to_string();
+    let (ok, stderr) = run(
+        &[
+            "cornell",
+            "--size",
+            "32x24",
+            "--vpls",
+            "64",
+            "--sequence",
+            &seq,
+            "-o",
+            &out,
+            "--layers",
+        ],
+        &[("RUST_LOG", "info")],
+    );
+    assert!(ok, "{stderr}");
+    for k in 0..4 {
+        assert!(
+            dir.path().join(format!("frame_{k:03}.exr")).exists(),
+            "frame {k}"
+        );
+    }
+    assert!(
+        stderr.contains("frame 1: 2 still frame(s) averaged"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("frame 2: 1 still frame(s) averaged"),
+        "{stderr}"
+    );
+    let read = |k: usize| {
+        let path = dir.path().join(format!("frame_{k:03}.exr"));
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            &path,
+            |res, _| vec![0.0f32; res.width() * res.height() * 3],
+            |px: &mut Vec<f32>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let i = (pos.y() * 32 + pos.x()) * 3;
+                px[i..i + 3].copy_from_slice(&[r, g, b]);
+            },
+        )
+        .unwrap();
+        image.layer_data.channel_data.pixels
+    };
+    let (first, second, dark) = (read(0), read(1), read(3));
+    assert!(first != second, "a still frame averaged nothing in");
+    // Light off: only the emitters' own light is left (cornell has none).
+    assert!(dark.iter().all(|v| *v == 0.0), "light off left light");
+}

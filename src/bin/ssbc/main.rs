@@ -6,7 +6,7 @@ mod swapchain;
 #[cfg(feature = "viewer")]
 mod viewer;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -298,6 +298,13 @@ struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=100_000), conflicts_with = "frames")]
     accumulate: Option<u32>,
 
+    /// Render one frame per entry of SEQ.json (camera and light changes,
+    /// see the library's `sequence` module), keeping temporal history
+    /// between frames as the viewer does; `-o`, `--timings` name each frame
+    /// with a printf-style number: `-o 'frame_%03d.exr'`.
+    #[arg(long, value_name = "SEQ.json", conflicts_with_all = ["frames", "accumulate"])]
+    sequence: Option<PathBuf>,
+
     /// Do not count shader invocations per pass (pipeline-statistics
     /// queries, on by default where the device supports them).
     #[arg(long)]
@@ -410,6 +417,9 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         ..Default::default()
     };
     let settings = args.common.settings();
+    if let Some(path) = &args.sequence {
+        return render_sequence(&args, path, scene, &config, &settings);
+    }
     let mut renderer = Renderer::new(&config)?;
     let log = renderer.validation_log();
     let mut trace = args
@@ -460,19 +470,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         trace.write(path)?;
         log::info!("wrote {}", path.display());
     }
-    if let Some(wanted) = args.output_layer {
-        let layer = frame.layer(wanted).cloned().ok_or_else(|| {
-            let names: Vec<String> = std::iter::once(&frame.image)
-                .chain(&frame.layers)
-                .map(|l| l.layer.to_string())
-                .collect();
-            ssbc::Error::InvalidParameter(format!(
-                "--output-layer: no layer {wanted} (have: {})",
-                names.join(", ")
-            ))
-        })?;
-        frame.image = layer;
-    }
+    select_output_layer(&mut frame, args.output_layer)?;
     for path in &args.output {
         ssbc::output::write_image(&frame, path, args.layers, args.common.exposure)?;
         log::info!("wrote {}", path.display());
@@ -484,6 +482,103 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     if let Some(stats) = &frame.timings.stats {
         eprint!("{}", stats.table());
     }
+    Ok(log.total())
+}
+
+/// Makes `wanted` the frame's image (`--output-layer`).
+fn select_output_layer(frame: &mut ssbc::Frame, wanted: Option<Layer>) -> Result<(), ssbc::Error> {
+    let Some(wanted) = wanted else {
+        return Ok(());
+    };
+    let layer = frame.layer(wanted).cloned().ok_or_else(|| {
+        let names: Vec<String> = std::iter::once(&frame.image)
+            .chain(&frame.layers)
+            .map(|l| l.layer.to_string())
+            .collect();
+        ssbc::Error::InvalidParameter(format!(
+            "--output-layer: no layer {wanted} (have: {})",
+            names.join(", ")
+        ))
+    })?;
+    frame.image = layer;
+    Ok(())
+}
+
+/// `pattern` with its printf-style frame number (`%d`, `%03d`) replaced
+/// by `k`; None if it has none.
+fn numbered(pattern: &Path, k: usize) -> Option<PathBuf> {
+    let text = pattern.to_str()?;
+    let start = text.find('%')?;
+    let rest = &text[start + 1..];
+    let digits = rest.len() - rest.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    if !rest[digits..].starts_with('d') {
+        return None;
+    }
+    let width: usize = rest[..digits].parse().unwrap_or(0).min(32);
+    let number = format!("{k:0width$}");
+    Some(PathBuf::from(format!(
+        "{}{number}{}",
+        &text[..start],
+        &rest[digits + 1..]
+    )))
+}
+
+/// `render --sequence`: one frame per entry, history kept between them.
+fn render_sequence(
+    args: &RenderArgs,
+    path: &Path,
+    scene: ssbc::scene::Scene,
+    config: &RendererConfig,
+    settings: &RenderSettings,
+) -> Result<u32, ssbc::Error> {
+    let sequence = ssbc::sequence::Sequence::load(path)?;
+    if sequence.uses_time() {
+        log::warn!("the sequence names times: glTF animation is not played yet, they are ignored");
+    }
+    let outputs: Vec<&PathBuf> = args.output.iter().chain(&args.timings).collect();
+    for out in &outputs {
+        if numbered(out, 0).is_none() {
+            return Err(ssbc::Error::InvalidParameter(format!(
+                "--sequence writes one file per frame: '{}' needs a frame number such as %03d",
+                out.display()
+            )));
+        }
+    }
+    let mut resident = ssbc::resident::ResidentScene::new(scene)?;
+    let mut renderer = Renderer::new(config)?;
+    let log = renderer.validation_log();
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // Ctrl-C stops after the frame in flight (its files are written).
+        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
+    }
+    let bar = indicatif::ProgressBar::new(sequence.len() as u64);
+    for k in 0..sequence.len() {
+        sequence.apply(k, &mut resident)?;
+        let mut frame = renderer.render_resident(&resident, settings)?;
+        select_output_layer(&mut frame, args.output_layer)?;
+        for out in &args.output {
+            let file = numbered(out, k).expect("checked above");
+            ssbc::output::write_image(&frame, &file, args.layers, args.common.exposure)?;
+        }
+        if let Some(out) = &args.timings {
+            ssbc::output::write_timings(&frame, &numbered(out, k).expect("checked above"))?;
+        }
+        bar.suspend(|| {
+            log::info!(
+                "frame {k}: {} still frame(s) averaged, GPU {:.2} ms",
+                frame.accumulated,
+                frame.timings.frame_gpu_ms.unwrap_or(f64::NAN)
+            )
+        });
+        bar.inc(1);
+        if stop.load(Ordering::Relaxed) {
+            break;
+        }
+    }
+    bar.finish_and_clear();
+    drop(renderer);
     Ok(log.total())
 }
 

@@ -637,12 +637,18 @@ impl Viewer {
         }
         if self.last_title.elapsed().as_secs_f32() >= 1.0 {
             self.last_title = Instant::now();
+            // Frames the still view has averaged (temporal history).
+            let accumulated = self
+                .gpu
+                .as_ref()
+                .map_or(0, |g| g.renderer.accumulated_frames());
             let title = format!(
-                "ssbc | {} | {} steps | b {} | GPU frame {:.1} ms",
+                "ssbc | {} | {} steps | b {} | GPU frame {:.1} ms | {} frames accumulated",
                 self.current(),
                 self.options.settings.ssbc.steps,
                 self.options.settings.bound.resolve(2.0 * self.radius),
-                self.timings.get("frame").copied().unwrap_or(0.0)
+                self.timings.get("frame").copied().unwrap_or(0.0),
+                accumulated
             );
             if let Some(w) = &self.window {
                 w.set_title(&title);
