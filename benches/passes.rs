@@ -2,7 +2,8 @@
 //! run (machines are shared and noisy). Run with
 //! `cargo bench --bench passes` (`-- --frames N` for the median of N warm
 //! frames per configuration; default 3; `--quick` measures 320x240 only;
-//! `--only glossy` or `--only reuse` runs table 6 or 7 alone).
+//! `--only glossy`, `--only reuse` or `--only history` runs table 6, 7 or 8
+//! alone).
 //!
 //! Every configuration is measured as `ssbc render --frames N` does
 //! ([`ssbc::profile::render_frames`]): one warm-up frame (pipelines, first
@@ -22,7 +23,10 @@
 //!    SSBC step, direct light;
 //! 7. camera-only frames of a resident scene (the camera moved 1 cm per
 //!    frame) with shadow maps and ISMs kept from the slot's previous frame,
-//!    against the same frames redrawing them (`reuse_unchanged` off).
+//!    against the same frames redrawing them (`reuse_unchanged` off);
+//! 8. still, camera-moved and light-moved resident frames with temporal
+//!    history and kept passes (the defaults) against frames standing alone
+//!    that redraw everything: per-pass GPU ms and the CPU's ms.
 
 mod common;
 
@@ -88,6 +92,10 @@ fn main() {
     }
     if args.only.as_deref() == Some("reuse") {
         camera_only_frames(&mut renderer, sizes, reps);
+        return;
+    }
+    if args.only.as_deref() == Some("history") {
+        frame_kinds(&mut renderer, sizes, reps);
         return;
     }
     let scenes = ["cornell", "tori"];
@@ -329,6 +337,8 @@ fn camera_only_frames(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) 
             let mut median = |reuse: bool| {
                 let mut settings = RenderSettings::new(size.0, size.1);
                 settings.reuse_unchanged = reuse;
+                // Kept passes alone (table 8 adds history).
+                settings.history.enabled = false;
                 let mut resident =
                     ssbc::resident::ResidentScene::new(scene.clone()).expect("valid scene");
                 let mut camera = scene.camera(None).expect("a camera");
@@ -360,6 +370,132 @@ fn camera_only_frames(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) 
                 size.1,
                 kept / redrawn
             );
+        }
+    }
+}
+
+/// What changes between the frames of table 8.
+#[derive(Clone, Copy, PartialEq)]
+enum Change {
+    Still,
+    Camera,
+    Light,
+}
+
+/// Table 8: still, camera-moved (1 cm) and light-moved (1 cm) frames of a
+/// resident scene, with the defaults (temporal history, kept passes) and
+/// standing alone (both off): median per-pass GPU ms, frame GPU ms and the
+/// CPU's ms (its stages and recording, without the wait for the GPU).
+fn frame_kinds(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
+    println!("\n## Resident frames by what changed: median GPU ms per pass, frame, CPU ms\n");
+    let groups = [
+        "shadow_maps",
+        "ism",
+        "gbuffer",
+        "direct_lighting",
+        "indirect_bounded",
+        "ssbc",
+        "temporal",
+    ];
+    println!(
+        "| scene | size | change | frames | {} | frame GPU | CPU | kept |",
+        groups.join(" | ")
+    );
+    println!(
+        "|---|---|---|---|{}---|---|---|",
+        "---|".repeat(groups.len())
+    );
+    let scenes = [
+        ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
+        ssbc::scene::builtin::cornell(),
+    ];
+    for scene in &scenes {
+        let mut scene = scene.clone();
+        scene.ensure_light();
+        for &size in sizes {
+            for change in [Change::Still, Change::Camera, Change::Light] {
+                let mut rows = Vec::new();
+                for defaults in [false, true] {
+                    let mut settings = RenderSettings::new(size.0, size.1);
+                    settings.history.enabled = defaults;
+                    settings.reuse_unchanged = defaults;
+                    let mut resident =
+                        ssbc::resident::ResidentScene::new(scene.clone()).expect("valid scene");
+                    let mut camera = scene.camera(None).expect("a camera");
+                    let mut lights = scene.lights.clone();
+                    let mut frames = Vec::new();
+                    for _ in 0..reps.max(1) + 2 {
+                        match change {
+                            Change::Still => {}
+                            Change::Camera => {
+                                camera.position +=
+                                    0.01 * camera.up.cross(camera.forward).normalize();
+                                resident.set_camera(camera.clone());
+                            }
+                            Change::Light => {
+                                lights[0].position += glam::Vec3::X * 0.01;
+                                resident.set_lights(lights.clone()).expect("lights");
+                            }
+                        }
+                        frames.push(
+                            renderer
+                                .render_resident(&resident, &settings)
+                                .expect("frame"),
+                        );
+                    }
+                    let frames = frames.split_off(2);
+                    let median = |f: &dyn Fn(&Frame) -> f64| {
+                        let mut v: Vec<f64> = frames.iter().map(f).collect();
+                        v.sort_by(f64::total_cmp);
+                        v[v.len() / 2]
+                    };
+                    let group_ms = |g: &str| {
+                        median(&|f: &Frame| {
+                            f.timings
+                                .passes
+                                .iter()
+                                .flatten()
+                                .filter(|p| p.name.starts_with(g))
+                                .map(|p| p.gpu_ms)
+                                .sum()
+                        })
+                    };
+                    let passes: Vec<String> = groups
+                        .iter()
+                        .map(|g| format!("{:.1}", group_ms(g)))
+                        .collect();
+                    let gpu = median(&|f: &Frame| f.timings.frame_gpu_ms.expect("GPU timestamps"));
+                    let cpu = median(&|f: &Frame| {
+                        f.timings
+                            .cpu_spans
+                            .iter()
+                            .filter(|s| s.name != "wait_for_gpu")
+                            .map(|s| s.ms())
+                            .sum()
+                    });
+                    rows.push((passes, gpu, cpu, frames[0].timings.reused_passes.join(", ")));
+                }
+                for (label, (passes, gpu, cpu, kept)) in ["alone", "defaults"].iter().zip(&rows) {
+                    println!(
+                        "| {} | {}x{} | {} | {label} | {} | {gpu:.1} | {cpu:.1} | {kept} |",
+                        scene.name,
+                        size.0,
+                        size.1,
+                        match change {
+                            Change::Still => "still",
+                            Change::Camera => "camera 1 cm",
+                            Change::Light => "light 1 cm",
+                        },
+                        passes.join(" | ")
+                    );
+                }
+                println!(
+                    "| | | | defaults / alone |{} {:.2} | {:.2} | |",
+                    " |".repeat(groups.len()),
+                    rows[1].1 / rows[0].1,
+                    rows[1].2 / rows[0].2.max(1e-9)
+                );
+            }
         }
     }
 }

@@ -11,7 +11,16 @@
 //! what moves the VPLs between positions: paths whose VPL count changed
 //! (crossing an edge), VPLs that left their position by more than 5 cm.
 //!
-//! `cargo run --release --example flicker -- [SCENE] [--size WxH] [--spp N] [-- render options]`
+//! With `--history`, the positions are frames of one resident scene with
+//! temporal history (after `--still N`, default 8, frames of the still
+//! view), as in the viewer or `ssbc render --sequence`; then the light jumps
+//! by half the scene's diagonal towards its centre, and switches off:
+//! the indirect light's mean against the new truth's and its error on 4x4
+//! blocks (mean |ours - truth| / mean truth) against a frame standing
+//! alone, for the 3 frames after each. `--light-frames N` and
+//! `--light-change X` set the history's weighting of light-changed frames.
+//!
+//! `cargo run --release --example flicker -- [SCENE] [--size WxH] [--spp N] [--history] [-- render options]`
 //! e.g. `... --example flicker -- --vpls 1024 --steps 1`. References are kept in
 //! out/flicker/ (keyed by scene, size, spp and position).
 
@@ -21,8 +30,9 @@ use std::sync::atomic::AtomicBool;
 use glam::Vec3;
 use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::renderer::{RenderSettings, Renderer, RendererConfig};
+use ssbc::resident::ResidentScene;
 use ssbc::settings::Gather;
-use ssbc::Scene;
+use ssbc::{Frame, Scene};
 
 const MOVES: usize = 8;
 const STEP: f32 = 0.01;
@@ -81,6 +91,33 @@ fn stability(s: &[Vec<f32>], r: &[Vec<f32>], size: (u32, u32)) -> (f64, f64) {
     (err / (steps * n as f64) / mean_r, ds_sum / dr_sum)
 }
 
+/// A frame's indirect light: the final image minus the direct light.
+fn indirect(frame: &Frame) -> Vec<f32> {
+    let direct = &frame.layer(ssbc::Layer::Direct).expect("layer").rgba;
+    minus(&frame.image.rgba, direct)
+}
+
+/// Mean over RGB and geometry of an indirect image.
+fn mean_rgb(img: &[f32]) -> f64 {
+    img.chunks(4)
+        .map(|p| (p[0] + p[1] + p[2]) as f64 / 3.0)
+        .sum::<f64>()
+        / (img.len() / 4) as f64
+}
+
+/// mean |a - t| / mean t on 4x4 blocks (RGB mean).
+fn block_error(a: &[f32], t: &[f32], size: (u32, u32)) -> f64 {
+    let (a, t) = (
+        ssbc::compare::block_average(a, size.0, size.1, BLOCK),
+        ssbc::compare::block_average(t, size.0, size.1, BLOCK),
+    );
+    let rgb = |v: &[f32], i: usize| (v[i * 4] + v[i * 4 + 1] + v[i * 4 + 2]) as f64 / 3.0;
+    let n = a.len() / 4;
+    let err: f64 = (0..n).map(|i| (rgb(&a, i) - rgb(&t, i)).abs()).sum();
+    let sum: f64 = (0..n).map(|i| rgb(&t, i).abs()).sum();
+    err / sum.max(1e-30)
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let split = args.iter().position(|a| a == "--").unwrap_or(args.len());
@@ -130,6 +167,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(v) = num("--bound") {
         settings.bound = ssbc::renderer::Bound::Value(v as f32);
     }
+    let history = ours.iter().any(|a| a == "--history");
+    settings.history.enabled = history;
+    if let Some(v) = value(ours, "--light-frames").and_then(|v| v.parse().ok()) {
+        settings.history.light_frames = v;
+    }
+    if let Some(v) = value(ours, "--light-change").and_then(|v| v.parse().ok()) {
+        settings.history.light_change = v;
+    }
+    let still: usize = value(ours, "--still")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(8);
     let mut scene = ssbc::scene::load(&scene_path)?;
     scene.ensure_light();
     let start = scene.lights[0].position;
@@ -138,11 +186,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (mut finals, mut indirects, mut ref_finals, mut ref_indirects) =
         (vec![], vec![], vec![], vec![]);
     let mut vpl_sets = Vec::new();
+    let mut resident = ResidentScene::new(scene.clone())?;
+    if history {
+        for _ in 1..still {
+            renderer.render_resident(&resident, &settings)?;
+        }
+    }
     for t in 0..=MOVES {
         scene.lights[0].position = start + Vec3::X * (STEP * t as f32);
-        let frame = renderer.render(&scene, &settings)?;
-        let direct = &frame.layer(ssbc::Layer::Direct).expect("layer").rgba;
-        indirects.push(minus(&frame.image.rgba, direct));
+        let frame = if history {
+            resident.set_lights(scene.lights.clone())?;
+            renderer.render_resident(&resident, &settings)?
+        } else {
+            renderer.render(&scene, &settings)?
+        };
+        indirects.push(indirect(&frame));
         finals.push(frame.image.rgba.clone());
         vpl_sets.push(frame.vpls.clone());
         let key = format!("out/flicker/{}-{}x{}-{spp}-{t}", scene.name, size.0, size.1);
@@ -183,6 +241,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
+    if history {
+        lag(&mut renderer, &mut resident, &scene, &settings, spp)?;
+    }
     println!(
         "| {} | {}x{} | {} | indirect: {:.2}% / {:.2}x | final: {:.2}% / {:.2}x | paths changing length per move {:.1} | VPLs moved > 5 cm {:.2}% |",
         scene.name,
@@ -196,5 +257,68 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         paths_changed as f64 / MOVES as f64,
         100.0 * moved as f64 / total.max(1) as f64,
     );
+    Ok(())
+}
+
+/// After the moves: the light jumps by half the scene's diagonal towards
+/// the centre of its bounds, then switches off; for the 3 frames after
+/// each, the indirect light against the new truth, and a frame standing
+/// alone (the same light paths, no history).
+fn lag(
+    renderer: &mut Renderer,
+    resident: &mut ResidentScene,
+    scene: &Scene,
+    settings: &RenderSettings,
+    spp: u32,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let size = (settings.width, settings.height);
+    let bounds = scene.bounds();
+    let from = scene.lights[0].position;
+    let towards = (bounds.center() - from).normalize_or_zero();
+    let mut jumped = scene.clone();
+    jumped.lights[0].position = from + towards * bounds.radius();
+    let key = format!(
+        "out/flicker/{}-{}x{}-{spp}-jump",
+        scene.name, size.0, size.1
+    );
+    let full = reference(
+        &jumped,
+        size,
+        spp,
+        ssbc::settings::DEFAULT_BOUNCES,
+        &format!("{key}.exr"),
+    );
+    let direct = reference(&jumped, size, spp, 0, &format!("{key}-direct.exr"));
+    let truth = minus(&full, &direct);
+    let mut alone_settings = settings.clone();
+    alone_settings.vpl.first_path = 0;
+    alone_settings.history.enabled = false;
+    let mut other = Renderer::new(&RendererConfig::default())?;
+    resident.set_lights(jumped.lights.clone())?;
+    for k in 1..=3 {
+        let frame = renderer.render_resident(resident, settings)?;
+        let ours = indirect(&frame);
+        // A frame standing alone (other light paths; the same error in
+        // expectation).
+        let alone = indirect(&other.render(&jumped, &alone_settings)?);
+        println!(
+            "jump, frame {k}: mean indirect / truth {:.3}, 4x4-block error {:.2}% (a fresh frame {:.2}%, mean {:.3})",
+            mean_rgb(&ours) / mean_rgb(&truth),
+            100.0 * block_error(&ours, &truth, size),
+            100.0 * block_error(&alone, &truth, size),
+            mean_rgb(&alone) / mean_rgb(&truth),
+        );
+    }
+    let before = mean_rgb(&indirect(&renderer.render_resident(resident, settings)?));
+    let mut dark = jumped.lights.clone();
+    dark[0].intensity = Vec3::ZERO;
+    resident.set_lights(dark)?;
+    for k in 1..=3 {
+        let ours = indirect(&renderer.render_resident(resident, settings)?);
+        println!(
+            "light off, frame {k}: mean indirect {:.2e} of what it was ({before:.3e})",
+            mean_rgb(&ours) / before
+        );
+    }
     Ok(())
 }

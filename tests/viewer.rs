@@ -126,6 +126,8 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
             "--vpls",
             "32",
             "--validate",
+            // Frames standing alone, as the headless render (history: below).
+            "--no-history",
             "--screenshot",
         ])
         .arg(&shot)
@@ -175,4 +177,54 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     }
     eprintln!("displayed 8-bit frame vs headless render: worst difference {worst}/255");
     assert!(worst <= 1, "displayed frame differs by {worst}/255");
+
+    // With history (the default) a still view averages its frames: the
+    // screenshot is the mean of as many frames with independent VPL sets.
+    let out = Command::new(env!("CARGO_BIN_EXE_ssbc"))
+        .args([
+            "view",
+            "cornell",
+            "--size",
+            "96x72",
+            "--frames",
+            "3",
+            "--vpls",
+            "32",
+            "--validate",
+            "--screenshot",
+        ])
+        .arg(&shot)
+        .env("DISPLAY", &display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("run ssbc view");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "viewer failed:\n{stderr}");
+    let accumulated: u32 = stderr
+        .lines()
+        .find_map(|l| {
+            let (_, rest) = l.split_once(" (")?;
+            rest.strip_suffix(" frames accumulated)")?.parse().ok()
+        })
+        .unwrap_or_else(|| panic!("no accumulated count in:\n{stderr}"));
+    assert!(accumulated >= 3, "{accumulated} frames accumulated");
+    let (_, _, shown) = ssbc::output::read_exr_rgb(&shot.with_extension("exr")).unwrap();
+    let mut renderer = common::validated_renderer();
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mean = renderer
+        .render_accumulated(
+            &ssbc::scene::builtin::cornell(),
+            &settings,
+            accumulated,
+            &stop,
+            |_| {},
+        )
+        .unwrap();
+    let c = ssbc::compare::compare(&shown, &mean.image.rgba).unwrap();
+    eprintln!(
+        "viewer with history, {accumulated} still frames vs their mean: relMSE {:.2e}",
+        c.rel_mse
+    );
+    assert!(c.rel_mse < 1e-6, "{c:?}");
 }

@@ -688,7 +688,9 @@ impl Viewer {
         let Some(gpu) = self.gpu.as_mut() else {
             return Ok(());
         };
-        self.resident.set_camera(self.camera.clone());
+        if self.resident.scene().cameras.first() != Some(&self.camera) {
+            self.resident.set_camera(self.camera.clone());
+        }
         let frame = gpu
             .renderer
             .render_resident(&self.resident, &self.options.settings)?;
@@ -703,7 +705,12 @@ impl Viewer {
             &rgba,
             self.options.exposure,
         )?;
-        eprintln!("screenshot: {} and {}", exr.display(), png.display());
+        eprintln!(
+            "screenshot: {} and {} ({} frames accumulated)",
+            exr.display(),
+            png.display(),
+            frame.accumulated
+        );
         self.save_displayed(&path.with_file_name(format!(
             "{}-display.png",
             path.file_stem().map(|s| s.to_string_lossy()).unwrap_or_default()
