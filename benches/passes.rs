@@ -449,20 +449,25 @@ fn frame_kinds(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
                         v.sort_by(f64::total_cmp);
                         v[v.len() / 2]
                     };
+                    // Top-level passes (their parts are named `pass/part`);
+                    // absent: kept from the slot's previous frame.
                     let group_ms = |g: &str| {
                         median(&|f: &Frame| {
                             f.timings
                                 .passes
                                 .iter()
                                 .flatten()
-                                .filter(|p| p.name.starts_with(g))
+                                .filter(|p| p.name.starts_with(g) && !p.name.contains('/'))
                                 .map(|p| p.gpu_ms)
-                                .sum()
+                                .fold(f64::NAN, |sum, ms| if sum.is_nan() { ms } else { sum + ms })
                         })
                     };
                     let passes: Vec<String> = groups
                         .iter()
-                        .map(|g| format!("{:.1}", group_ms(g)))
+                        .map(|g| match group_ms(g) {
+                            ms if ms.is_nan() => "—".to_string(),
+                            ms => format!("{ms:.1}"),
+                        })
                         .collect();
                     let gpu = median(&|f: &Frame| f.timings.frame_gpu_ms.expect("GPU timestamps"));
                     let cpu = median(&|f: &Frame| {

@@ -126,14 +126,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let i = list.iter().position(|a| a == flag)?;
         list.get(i + 1).cloned()
     };
+    let valued = [
+        "--size",
+        "--spp",
+        "--still",
+        "--light-frames",
+        "--light-change",
+    ];
     let scene_path = ours
         .iter()
-        .find(|a| {
-            !a.starts_with("--")
-                && Some(*a) != value(ours, "--size").as_ref()
-                && Some(*a) != value(ours, "--spp").as_ref()
-        })
-        .cloned()
+        .enumerate()
+        .find(|(i, a)| !a.starts_with("--") && (*i == 0 || !valued.contains(&ours[i - 1].as_str())))
+        .map(|(_, a)| a.clone())
         .unwrap_or_else(|| "assets/open-front-box.gltf".into());
     let size = value(ours, "--size")
         .and_then(|s| {

@@ -190,7 +190,7 @@ pub struct RenderSettings {
 /// | since the last frame | the frame | history |
 /// |---|---|---|
 /// | nothing changed | traces the next light paths (new VPLs, ISMs) | running mean, up to `max_frames` |
-/// | the camera moved | keeps the VPLs (and ISMs) | reprojected; pixels whose surface was not seen (depth, normal) start anew; at most `moving_frames` |
+/// | the camera moved | keeps the VPLs (and ISMs; new ones with `new_vpls_while_moving`) | reprojected; pixels whose surface was not seen (depth, normal) start anew; at most `moving_frames` |
 /// | lights changed | the same light paths from the new lights | kept where the indirect light changed little (4x4-block means), at most `light_frames`; dropped where it changed by `light_change` or more |
 /// | geometry, materials, settings | everything | dropped |
 ///
@@ -206,6 +206,13 @@ pub struct HistorySettings {
     /// Most frames of history a moving camera keeps (each reprojection
     /// resamples the history bilinearly, which blurs it a little).
     pub moving_frames: u32,
+    /// A moving camera's frames trace new light paths too (their own VPLs
+    /// and ISMs, as still frames do): the history keeps converging while
+    /// the camera moves, at the cost of VPL tracing and ISMs each frame.
+    /// Off (the default), they keep the last VPL set and its ISMs, and the
+    /// history drifts towards that one set's noise (measured in
+    /// docs/performance.md).
+    pub new_vpls_while_moving: bool,
     /// Most frames of history kept when the lights changed.
     pub light_frames: u32,
     /// Relative change of a 4x4 block's mean indirect light at which the
@@ -220,6 +227,7 @@ impl Default for HistorySettings {
             enabled: true,
             max_frames: 1024,
             moving_frames: 8,
+            new_vpls_while_moving: false,
             light_frames: 4,
             light_change: 0.25,
         }

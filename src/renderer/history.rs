@@ -101,6 +101,9 @@ impl History {
             path_offset: match (motion, last) {
                 (Motion::Reset, _) | (_, None) => 0,
                 (Motion::Still, Some(l)) => self.path_offset.saturating_add(l.light_paths.max(1)),
+                (Motion::Camera, Some(l)) if settings.history.new_vpls_while_moving => {
+                    self.path_offset.saturating_add(l.light_paths.max(1))
+                }
                 _ => self.path_offset,
             },
             accumulated: match motion {
