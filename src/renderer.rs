@@ -896,7 +896,9 @@ impl Renderer {
             reused: &mut reused,
         };
         let history_frame = history.map(|plan| HistoryFrame {
-            step: self.history.step(&plan, settings, view.view_proj),
+            step: self
+                .history
+                .step(&plan, settings, (view.view_proj, view.camera.position)),
             previous_slot: plan.previous_slot,
         });
         self.passes
@@ -929,9 +931,9 @@ impl Renderer {
             },
         )?;
         if let Some(plan) = history {
-            let view_proj = view.view_proj;
+            let eye = (view.view_proj, view.camera.position);
             self.history
-                .commit(&plan, slot, versions, host_settings, view_proj, light_paths);
+                .commit(&plan, slot, versions, host_settings, eye, light_paths);
         }
         Ok(output)
     }

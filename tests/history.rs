@@ -295,3 +295,62 @@ fn the_host_cuts_history() {
     drop(renderer);
     assert_eq!(log.total(), 0, "{:?}", log.messages());
 }
+
+/// A glossy surface's light depends on the view: orbiting the camera by
+/// more than its lobe's width drops its history (smooth metal pixels are
+/// the frame alone), while the diffuse walls keep theirs.
+#[test]
+fn glossy_history_follows_the_view() {
+    let mut scene = ssbc::scene::load("spheres").unwrap();
+    scene.ensure_light();
+    let mut s = settings();
+    s.debug_readback = true;
+    let mut renderer = common::validated_renderer();
+    let mut other = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    let mut first_path = 0;
+    for k in 0..4 {
+        let frame = renderer.render_resident(&resident, &s).unwrap();
+        if k < 3 {
+            first_path += frame.timings.light_paths;
+        }
+    }
+    // Orbit 10 degrees about a point 3 m ahead.
+    let start = camera(&scene);
+    let pivot = start.position + 3.0 * start.forward;
+    let turn = glam::Quat::from_rotation_y(10f32.to_radians());
+    let mut orbited = start.clone();
+    orbited.position = pivot + turn * (start.position - pivot);
+    orbited.forward = (turn * start.forward).normalize();
+    orbited.up = (turn * start.up).normalize();
+    resident.set_camera(orbited.clone());
+    let moved = renderer.render_resident(&resident, &s).unwrap();
+    let mut posed = scene.clone();
+    posed.cameras = vec![orbited];
+    let mut alone = without_history(&s);
+    alone.vpl.first_path = first_path;
+    let fresh = other.render(&posed, &alone).unwrap();
+    let albedo = &fresh.layer(ssbc::Layer::GBufferAlbedo).unwrap().rgba;
+    let normal = &fresh.layer(ssbc::Layer::GBufferNormal).unwrap().rgba;
+    let (mut smooth_metal, mut diffuse_kept) = (0, 0);
+    let peak = fresh.image.rgba.iter().fold(0.0f32, |m, v| m.max(*v));
+    for i in 0..albedo.len() / 4 {
+        let (metallic, roughness) = (albedo[i * 4 + 3], normal[i * 4 + 3]);
+        let d = (0..3)
+            .map(|c| (moved.image.rgba[i * 4 + c] - fresh.image.rgba[i * 4 + c]).abs())
+            .fold(0.0f32, f32::max);
+        if metallic > 0.5 && (0.0..0.35).contains(&roughness) {
+            smooth_metal += 1;
+            assert!(d < 1e-5 * peak, "smooth metal pixel {i} kept history ({d})");
+        } else if roughness < 0.0 && d > 1e-4 * peak {
+            diffuse_kept += 1;
+        }
+    }
+    eprintln!(
+        "{smooth_metal} smooth metal pixels alone, {diffuse_kept} diffuse pixels kept history"
+    );
+    assert!(smooth_metal > 20 && diffuse_kept > 200);
+    drop((renderer, other));
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}

@@ -43,6 +43,8 @@ pub struct HistoryStep {
     pub light_change: Option<f32>,
     /// The previous frame's world-to-clip transform (its history's pixels).
     pub previous_view_proj: Mat4,
+    /// The previous frame's eye (glossy history depends on the view).
+    pub previous_camera: glam::Vec3,
 }
 
 /// What the pass reads.
@@ -70,6 +72,7 @@ pub struct TemporalPass {
 struct ReprojectPush {
     previous_view_proj: [f32; 16],
     camera_position: [f32; 4],
+    previous_camera: [f32; 4],
     size: [u32; 2],
     has_history: u32,
 }
@@ -139,8 +142,10 @@ impl Pass for TemporalPass {
         let reads_images = [
             &reads.gbuffer.position,
             &reads.gbuffer.normal,
+            &reads.gbuffer.albedo,
             &previous_gbuffer.position,
             &previous_gbuffer.normal,
+            &previous_gbuffer.albedo,
             previous_history,
         ];
         for image in reads_images {
@@ -151,6 +156,7 @@ impl Pass for TemporalPass {
         let push = ReprojectPush {
             previous_view_proj: step.previous_view_proj.to_cols_array(),
             camera_position: view.camera.position.extend(1.0).into(),
+            previous_camera: step.previous_camera.extend(1.0).into(),
             size: [w, h],
             has_history: reads.previous.is_some() as u32,
         };
@@ -161,6 +167,8 @@ impl Pass for TemporalPass {
             previous_normal: &previous_gbuffer.normal,
             previous_history,
             reprojected: &out.reprojected,
+            g_albedo: &reads.gbuffer.albedo,
+            previous_albedo: &previous_gbuffer.albedo,
         };
         self.reproject
             .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;

@@ -29,6 +29,8 @@ struct LastFrame {
     /// Its settings as the host gave them (before the light-path offset).
     settings: RenderSettings,
     view_proj: Mat4,
+    /// Its eye.
+    camera: glam::Vec3,
     /// Light paths its VPLs took.
     light_paths: u64,
 }
@@ -113,12 +115,12 @@ impl History {
         }
     }
 
-    /// The fold of a planned frame whose view is `view_proj`.
+    /// The fold of a planned frame whose view is `view_proj` from `camera`.
     pub fn step(
         &self,
         plan: &HistoryPlan,
         settings: &RenderSettings,
-        view_proj: Mat4,
+        (view_proj, camera): (Mat4, glam::Vec3),
     ) -> HistoryStep {
         let h = &settings.history;
         let max_frames = match plan.motion {
@@ -131,6 +133,7 @@ impl History {
             max_frames,
             light_change: (plan.motion == Motion::Lights).then_some(h.light_change),
             previous_view_proj: self.last.as_ref().map_or(view_proj, |l| l.view_proj),
+            previous_camera: self.last.as_ref().map_or(camera, |l| l.camera),
         }
     }
 
@@ -141,7 +144,7 @@ impl History {
         slot: usize,
         versions: SceneVersions,
         settings: &RenderSettings,
-        view_proj: Mat4,
+        (view_proj, camera): (Mat4, glam::Vec3),
         light_paths: u64,
     ) {
         self.accumulated = plan.accumulated;
@@ -151,6 +154,7 @@ impl History {
             versions,
             settings: settings.clone(),
             view_proj,
+            camera,
             light_paths,
         });
     }
