@@ -410,56 +410,19 @@ fn bad_sequences() {
             "sequence",
         ),
     ];
+    // A sequence of cornell at 8x8 with `args`.
+    let sequence = |path: &str, args: &[&str], needle: &str| {
+        let mut all = vec!["cornell", "--size", "8x8", "--sequence", path];
+        all.extend_from_slice(args);
+        fails_with(&all, &[], needle);
+    };
     for (name, json, needle) in cases {
-        let path = seq(name, json);
-        fails_with(
-            &["cornell", "--size", "8x8", "--sequence", &path, "-o", &out],
-            &[],
-            needle,
-        );
+        sequence(&seq(name, json), &["-o", &out], needle);
     }
     let ok = seq("ok.json", r#"{"frames": [{}]}"#);
-    fails_with(
-        &[
-            "cornell",
-            "--size",
-            "8x8",
-            "--sequence",
-            &ok,
-            "-o",
-            "/tmp/one.exr",
-        ],
-        &[],
-        "frame number",
-    );
-    fails_with(
-        &[
-            "cornell",
-            "--size",
-            "8x8",
-            "--sequence",
-            "/nonexistent/seq.json",
-            "-o",
-            &out,
-        ],
-        &[],
-        "no such file",
-    );
-    fails_with(
-        &[
-            "cornell",
-            "--size",
-            "8x8",
-            "--sequence",
-            &ok,
-            "--frames",
-            "2",
-            "-o",
-            &out,
-        ],
-        &[],
-        "--sequence",
-    );
+    sequence(&ok, &["-o", "/tmp/one.exr"], "frame number");
+    sequence("/nonexistent/seq.json", &["-o", &out], "no such file");
+    sequence(&ok, &["--frames", "2", "-o", &out], "--sequence");
 }
 
 /// A sequence writes one file per frame, and history carries over: a

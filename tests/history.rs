@@ -25,6 +25,26 @@ fn without_history(s: &RenderSettings) -> RenderSettings {
     s
 }
 
+/// Renders `n` still frames of `resident`; returns the settings of a frame
+/// standing alone with the last one's light paths (each still frame traces
+/// the paths after its predecessors'; a camera or light change keeps the
+/// last frame's).
+fn still_frames(
+    renderer: &mut ssbc::Renderer,
+    resident: &ResidentScene,
+    s: &RenderSettings,
+    n: usize,
+) -> RenderSettings {
+    let mut alone = without_history(s);
+    for k in 0..n {
+        let frame = renderer.render_resident(resident, s).unwrap();
+        if k + 1 < n {
+            alone.vpl.first_path += frame.timings.light_paths;
+        }
+    }
+    alone
+}
+
 fn open_box() -> Scene {
     ssbc::scene::load("assets/open-front-box.gltf").unwrap()
 }
@@ -167,23 +187,13 @@ fn turning_round_carries_nothing_over() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
-    // Each still frame traces the light paths after its predecessors'; a
-    // camera move keeps the last frame's.
-    let mut first_path = 0;
-    for k in 0..4 {
-        let frame = renderer.render_resident(&resident, &s).unwrap();
-        if k < 3 {
-            first_path += frame.timings.light_paths;
-        }
-    }
+    let same_paths = still_frames(&mut renderer, &resident, &s, 4);
     let mut turned = camera(&scene);
     turned.forward = -turned.forward;
     resident.set_camera(turned.clone());
     let back = renderer.render_resident(&resident, &s).unwrap();
     let mut at_turned = scene.clone();
     at_turned.cameras = vec![turned];
-    let mut same_paths = without_history(&s);
-    same_paths.vpl.first_path = first_path;
     let alone = renderer.render(&at_turned, &same_paths).unwrap();
     let covered = alone.image.rgba.chunks(4).filter(|p| p[3] > 0.0).count();
     assert!(
@@ -218,16 +228,8 @@ fn changed_lights_drop_history_where_the_light_changed() {
     let mut other = common::validated_renderer();
     let log = renderer.validation_log();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
-    let mut first_path = 0;
-    for k in 0..8 {
-        let frame = renderer.render_resident(&resident, &s).unwrap();
-        if k < 7 {
-            first_path += frame.timings.light_paths;
-        }
-    }
     // A light-changed frame traces the same light paths as the last frame.
-    let mut alone = without_history(&s);
-    alone.vpl.first_path = first_path;
+    let alone = still_frames(&mut renderer, &resident, &s, 8);
     let mut alone_frame = |scene: &Scene| other.render(scene, &alone).unwrap();
 
     // Every light off: no indirect light at once, and no dark history after.
@@ -309,13 +311,7 @@ fn glossy_history_follows_the_view() {
     let mut other = common::validated_renderer();
     let log = renderer.validation_log();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
-    let mut first_path = 0;
-    for k in 0..4 {
-        let frame = renderer.render_resident(&resident, &s).unwrap();
-        if k < 3 {
-            first_path += frame.timings.light_paths;
-        }
-    }
+    let alone = still_frames(&mut renderer, &resident, &s, 4);
     // Orbit 10 degrees about a point 3 m ahead.
     let start = camera(&scene);
     let pivot = start.position + 3.0 * start.forward;
@@ -328,8 +324,6 @@ fn glossy_history_follows_the_view() {
     let moved = renderer.render_resident(&resident, &s).unwrap();
     let mut posed = scene.clone();
     posed.cameras = vec![orbited];
-    let mut alone = without_history(&s);
-    alone.vpl.first_path = first_path;
     let fresh = other.render(&posed, &alone).unwrap();
     let albedo = &fresh.layer(ssbc::Layer::GBufferAlbedo).unwrap().rgba;
     let normal = &fresh.layer(ssbc::Layer::GBufferNormal).unwrap().rgba;

@@ -103,6 +103,21 @@ fn start_xvfb() -> Result<(Xvfb, String), NoServer> {
     ))
 }
 
+/// `ssbc view cornell` at 96x72 with 32 VPLs for 3 frames on `display`,
+/// validation on, a screenshot to `shot` on exit.
+fn view(display: &str, shot: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_ssbc"))
+        .args(["view", "cornell", "--size", "96x72", "--frames", "3"])
+        .args(["--vpls", "32", "--validate", "--screenshot"])
+        .arg(shot)
+        .args(extra)
+        .env("DISPLAY", display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("RUST_LOG", "warn")
+        .output()
+        .expect("run ssbc view")
+}
+
 #[test]
 fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     let (_server, display) = match start_xvfb() {
@@ -115,27 +130,8 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     };
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot");
-    let out = Command::new(env!("CARGO_BIN_EXE_ssbc"))
-        .args([
-            "view",
-            "cornell",
-            "--size",
-            "96x72",
-            "--frames",
-            "3",
-            "--vpls",
-            "32",
-            "--validate",
-            // Frames standing alone, as the headless render (history: below).
-            "--no-history",
-            "--screenshot",
-        ])
-        .arg(&shot)
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("RUST_LOG", "warn")
-        .output()
-        .expect("run ssbc view");
+    // Frames standing alone, as the headless render (history: below).
+    let out = view(&display, &shot, &["--no-history"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "viewer failed:\n{stderr}");
     assert!(
@@ -180,25 +176,7 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
 
     // With history (the default) a still view averages its frames: the
     // screenshot is the mean of as many frames with independent VPL sets.
-    let out = Command::new(env!("CARGO_BIN_EXE_ssbc"))
-        .args([
-            "view",
-            "cornell",
-            "--size",
-            "96x72",
-            "--frames",
-            "3",
-            "--vpls",
-            "32",
-            "--validate",
-            "--screenshot",
-        ])
-        .arg(&shot)
-        .env("DISPLAY", &display)
-        .env_remove("WAYLAND_DISPLAY")
-        .env("RUST_LOG", "warn")
-        .output()
-        .expect("run ssbc view");
+    let out = view(&display, &shot, &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "viewer failed:\n{stderr}");
     let accumulated: u32 = stderr

@@ -202,8 +202,11 @@ pub struct Frame {
     pub ism: Option<IsmReadback>,
     /// Texels read per pixel of each SSBC step (see [`SsbcStepTiming`]).
     pub samples: Vec<Vec<f32>>,
-    /// Frames with independent VPL sets averaged into it (1 but for
-    /// [`Renderer::render_accumulated`](super::Renderer::render_accumulated)).
+    /// Frames with independent VPL sets averaged into it: N for
+    /// [`Renderer::render_accumulated`](super::Renderer::render_accumulated),
+    /// the still frames a resident frame's temporal history averages
+    /// ([`Renderer::accumulated_frames`](super::Renderer::accumulated_frames)),
+    /// 1 otherwise.
     pub accumulated: u32,
 }
 
