@@ -485,3 +485,24 @@ fn a_sequence_writes_every_frame_with_history() {
     // Light off: only the emitters' own light is left (cornell has none).
     assert!(dark.iter().all(|v| *v == 0.0), "light off left light");
 }
+
+/// What ssbc does not play (animations, skins, morph targets) is named in
+/// one warning; the scene renders at rest.
+#[test]
+fn skins_are_named_as_not_played() {
+    let dir = tempfile::tempdir().unwrap();
+    let (bin, _) = common::quad_buffer(2);
+    let extra = r#","skins":[{"joints":[0]}]"#;
+    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, extra)
+        .replace(r#"{"mesh":0,"#, r#"{"mesh":0,"skin":0,"#);
+    let p = write(dir.path(), "skinned.gltf", json.as_bytes());
+    let out = dir.path().join("out.exr").display().to_string();
+    let (ok, stderr) = run(&[&p, "--size", "16x12", "--vpls", "16", "-o", &out], &[]);
+    assert!(ok, "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("not played"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    assert!(warnings[0].contains("1 skinned node"), "{stderr}");
+}

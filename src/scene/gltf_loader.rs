@@ -197,6 +197,7 @@ impl Loader<'_> {
         });
         let default_material = (scene.materials.len() - 1) as u32;
         self.warn_unsupported_extensions();
+        self.warn_not_played();
 
         let roots: Vec<usize> = match (self.root.scene, self.root.scenes.first()) {
             (Some(i), _) => self
@@ -268,6 +269,35 @@ impl Loader<'_> {
                 "{}: ignoring {}: materials use glTF's core metallic-roughness model",
                 self.name,
                 used.join(", ")
+            );
+        }
+    }
+
+    /// One warning naming what moves a glTF scene that ssbc does not play:
+    /// it renders every node at its rest transform and every mesh in its
+    /// bind pose, without morph targets.
+    fn warn_not_played(&self) {
+        let r = &self.root;
+        let skinned = r.nodes.iter().filter(|n| n.skin.is_some()).count();
+        let morphed = r
+            .meshes
+            .iter()
+            .filter(|m| m.primitives.iter().any(|p| p.targets.is_some()))
+            .count();
+        let parts: Vec<String> = [
+            (r.animations.len(), "animation", "animations"),
+            (skinned, "skinned node", "skinned nodes"),
+            (morphed, "mesh with morph targets", "meshes with morph targets"),
+        ]
+        .into_iter()
+        .filter(|(n, ..)| *n > 0)
+        .map(|(n, one, many)| format!("{n} {}", if n == 1 { one } else { many }))
+        .collect();
+        if !parts.is_empty() {
+            log::warn!(
+                "{}: not played: {} (nodes at their rest transforms, meshes in their bind pose)",
+                self.name,
+                parts.join(", ")
             );
         }
     }
