@@ -469,7 +469,10 @@ impl Scene {
             // Flat normals: unshare vertices, one normal per triangle.
             for tri in indices.chunks_exact(3) {
                 let p: Vec<Vec3> = tri.iter().map(|&i| world(positions[i as usize])).collect();
-                let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                // The front face is counter-clockwise in object space; a
+                // mirroring transform makes it clockwise in the world (glTF:
+                // the determinant decides the winding).
+                let n = handedness * (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
                 let uvt = [
                     uv(tri[0] as usize),
                     uv(tri[1] as usize),
@@ -753,4 +756,35 @@ pub fn load(name_or_path: &str) -> Result<Scene> {
 /// nothing outside it is read.
 pub fn load_gltf_bytes(name: &str, bytes: &[u8], base: &std::path::Path) -> Result<Scene> {
     gltf_loader::load_guarded(name, bytes, base)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Flat normals follow the front face, which a mirroring transform
+    /// turns clockwise (glTF: the determinant decides the winding): a quad
+    /// facing +y mirrored in x still faces +y.
+    #[test]
+    fn flat_normals_of_a_mirrored_mesh_face_its_front() {
+        let quad = [
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, -1.0),
+        ];
+        for transform in [
+            Mat4::IDENTITY,
+            Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)),
+            Mat4::from_scale(Vec3::new(2.0, 1.0, -3.0)),
+        ] {
+            let mut s = Scene::new("quad");
+            let m = s.add_material(Vec3::ONE, None);
+            s.add_mesh(&quad, &[], &[], &[0, 1, 2, 0, 2, 3], transform, m)
+                .unwrap();
+            for v in &s.vertices {
+                assert_eq!(v.normal, [0.0, 1.0, 0.0], "{transform}");
+            }
+        }
+    }
 }
