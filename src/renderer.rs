@@ -53,7 +53,8 @@ pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 /// percent); a frame that would not fit in the device's largest
 /// device-local heap is refused before anything is allocated. Frames in
 /// flight at once ([`Renderer::render_to_gpu`], [`FRAME_SLOTS`]) each take
-/// a slot.
+/// a slot. With `history.enabled` it counts the temporal history's images
+/// (48 bytes per pixel), which only resident frames allocate.
 ///
 /// ```
 /// let scene = ssbc::scene::load("cornell").unwrap();

@@ -16,9 +16,10 @@
 //! eye and keeps the view direction; its target alone turns the camera. A
 //! light is named by its index in the scene; `position`, `direction`
 //! (spots, directional lights) and `intensity` (W/sr, or W/m² for
-//! directional lights, per channel) replace its own. `time` (seconds) is
-//! for glTF animation, which ssbc does not play yet: it is accepted and
-//! ignored with a warning.
+//! directional lights, per channel) replace its own. `time` (seconds) plays
+//! the scene file's first glTF animation to that time: the renderer reloads
+//! the meshes at that pose (all of the scene's work is redone, and history
+//! starts anew; lights and cameras keep what the sequence set).
 //!
 //! ```
 //! let seq = ssbc::sequence::Sequence::parse(
@@ -147,9 +148,9 @@ impl Sequence {
         self.frames.is_empty()
     }
 
-    /// Whether any frame names a time (glTF animation, not played yet).
-    pub fn uses_time(&self) -> bool {
-        self.frames.iter().any(|f| f.time.is_some())
+    /// The animation time frame `k` names, if any.
+    pub fn time(&self, k: usize) -> Option<f64> {
+        self.frames.get(k).and_then(|f| f.time)
     }
 
     /// Applies frame `k`'s changes to `scene` (only what it names; a frame

@@ -506,3 +506,67 @@ fn skins_are_named_as_not_played() {
     assert_eq!(warnings.len(), 1, "{stderr}");
     assert!(warnings[0].contains("1 skinned node"), "{stderr}");
 }
+
+/// `--time` plays the first animation (render, reference, sequences); a
+/// time that is not a number is a clear error.
+#[test]
+fn animation_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "anim.gltf",
+        &common::animated_quad("LINEAR", common::CHANNEL),
+    );
+    let out = dir.path().join("t.exr").display().to_string();
+    let (ok, stderr) = run(
+        &[
+            &p, "--size", "16x12", "--vpls", "16", "--time", "0.5", "-o", &out,
+        ],
+        &[],
+    );
+    assert!(ok, "{stderr}");
+    fails_with(&[&p, "--size", "8x8", "--time", "nan"], &[], "finite");
+    let (ok, _, stderr) = run_any(&[
+        "reference",
+        &p,
+        "--size",
+        "8x6",
+        "--spp",
+        "1",
+        "--time",
+        "1",
+        "-o",
+        &out,
+    ]);
+    assert!(ok, "{stderr}");
+    let seq = write(
+        dir.path(),
+        "seq.json",
+        br#"{"frames": [{"time": 0}, {"time": 2}]}"#,
+    );
+    let frames = dir.path().join("f_%d.exr").display().to_string();
+    let (ok, stderr) = run(
+        &[
+            &p,
+            "--size",
+            "16x12",
+            "--vpls",
+            "16",
+            "--sequence",
+            &seq,
+            "-o",
+            &frames,
+        ],
+        &[],
+    );
+    assert!(ok, "{stderr}");
+    let read = |k: usize| {
+        ssbc::output::read_exr_rgb(&dir.path().join(format!("f_{k}.exr")))
+            .unwrap()
+            .2
+    };
+    assert!(
+        read(0) != read(1),
+        "the quad did not move between times 0 and 2"
+    );
+}

@@ -612,8 +612,9 @@ fn fuzz(
         TRACK.with(|t| t.set(true));
         let start = Instant::now();
         IN_LOADER.with(|f| f.set(true));
-        let result =
-            std::panic::catch_unwind(|| gltf_loader::load_bytes("fuzz.gltf", &bytes, base));
+        let result = std::panic::catch_unwind(|| {
+            gltf_loader::load_bytes("fuzz.gltf", &bytes, base, Some(0.5))
+        });
         IN_LOADER.with(|f| f.set(false));
         TRACK.with(|t| t.set(false));
         let elapsed = start.elapsed();
@@ -714,7 +715,7 @@ fn loader_survives_mutated_scenes() {
 
 /// Regression and boundary cases, each a clear error.
 fn load_doc(doc: &Value, folder: &Path) -> ssbc::Result<ssbc::Scene> {
-    gltf_loader::load_bytes("case.gltf", &serde_json::to_vec(doc).unwrap(), folder)
+    gltf_loader::load_bytes("case.gltf", &serde_json::to_vec(doc).unwrap(), folder, None)
 }
 
 fn base_doc(png: &[u8]) -> Value {
@@ -735,7 +736,7 @@ fn every_seed_loads() {
     let base = folder.path().canonicalize().unwrap();
     for (i, seed) in seeds(&png).iter().enumerate() {
         let bytes = serialise(&seed.doc, seed);
-        let scene = gltf_loader::load_bytes("seed.gltf", &bytes, &base)
+        let scene = gltf_loader::load_bytes("seed.gltf", &bytes, &base, None)
             .unwrap_or_else(|e| panic!("seed {i}: {e}"));
         assert!(scene.triangle_count() >= 2, "seed {i}");
         assert_eq!(scene.textures.len(), 1, "seed {i}");

@@ -49,7 +49,7 @@ fn check_quad(scene: &ssbc::Scene) {
 fn load_str(dir: &std::path::Path, name: &str, content: &[u8]) -> ssbc::Result<ssbc::Scene> {
     let path = dir.join(name);
     std::fs::write(&path, content).unwrap();
-    gltf_loader::load(&path)
+    gltf_loader::load(&path, None)
 }
 
 #[test]
@@ -358,4 +358,96 @@ fn bad_material_values_are_clear_errors() {
             .to_string();
         assert!(e.contains(expected) && !e.contains('\n'), "{material}: {e}");
     }
+}
+
+fn centre(scene: &ssbc::Scene) -> Vec3 {
+    scene
+        .vertices
+        .iter()
+        .map(|v| Vec3::from(v.position))
+        .sum::<Vec3>()
+        / scene.vertices.len() as f32
+}
+
+#[test]
+fn node_animations_play_at_a_time() {
+    let dir = std::env::temp_dir();
+    let at = |interp: &str, t: f32| {
+        let bytes = animated_quad(interp, CHANNEL);
+        ssbc::scene::load_gltf_bytes_at("anim.gltf", &bytes, &dir, t).unwrap()
+    };
+    let rest =
+        ssbc::scene::load_gltf_bytes("anim.gltf", &animated_quad("LINEAR", CHANNEL), &dir).unwrap();
+    assert!(centre(&rest).abs_diff_eq(Vec3::ZERO, 1e-6), "rest pose");
+    let cases = [
+        ("LINEAR", 0.5, Vec3::new(1.0, 0.0, 0.0)),
+        ("LINEAR", 1.5, Vec3::new(2.0, 2.0, 0.0)),
+        ("LINEAR", 9.0, Vec3::new(2.0, 4.0, 0.0)),
+        ("LINEAR", -1.0, Vec3::ZERO),
+        ("STEP", 0.99, Vec3::ZERO),
+        ("STEP", 1.0, Vec3::new(2.0, 0.0, 0.0)),
+        // Zero tangents: smoothstep, 0.15625 of the way at a quarter.
+        ("CUBICSPLINE", 0.25, Vec3::new(2.0 * 0.15625, 0.0, 0.0)),
+    ];
+    for (interp, t, expected) in cases {
+        let c = centre(&at(interp, t));
+        assert!(
+            c.abs_diff_eq(expected, 1e-5),
+            "{interp} at {t}: {c} (want {expected})"
+        );
+    }
+}
+
+#[test]
+fn bad_animations_are_clear_errors() {
+    let dir = std::env::temp_dir();
+    let cases = [
+        (
+            r#"{"sampler":0,"target":{"node":7,"path":"translation"}}"#,
+            "LINEAR",
+            "node 7",
+        ),
+        (
+            r#"{"sampler":3,"target":{"node":0,"path":"translation"}}"#,
+            "LINEAR",
+            "sampler 3",
+        ),
+        (
+            r#"{"sampler":0,"target":{"node":0,"path":"rotation"}}"#,
+            "LINEAR",
+            "accessor 3",
+        ),
+        (CHANNEL, "QUADRATIC", "interpolation"),
+        (
+            r#"{"sampler":0,"target":{"node":0,"path":"scale"}}"#,
+            "CUBICSPLINE_",
+            "interpolation",
+        ),
+    ];
+    for (channel, interp, needle) in cases {
+        let bytes = animated_quad(interp, channel);
+        let err = ssbc::scene::load_gltf_bytes_at("bad.gltf", &bytes, &dir, 0.5)
+            .expect_err(needle)
+            .to_string();
+        assert!(err.contains(needle), "{needle}: {err}");
+    }
+    // Times that do not increase.
+    let bytes = animated_quad_at("LINEAR", CHANNEL, [0.0, 2.0, 1.0]);
+    let err = ssbc::scene::load_gltf_bytes_at("t.gltf", &bytes, &dir, 0.5)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("increasing"), "{err}");
+    // A non-finite time.
+    let bytes = animated_quad("LINEAR", CHANNEL);
+    let err = ssbc::scene::load_gltf_bytes_at("t.gltf", &bytes, &dir, f32::INFINITY)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("finite"), "{err}");
+    // Without a time the animation is not read (a rest pose is always there).
+    assert!(ssbc::scene::load_gltf_bytes(
+        "t.gltf",
+        &animated_quad_at("LINEAR", CHANNEL, [0.0, 2.0, 1.0]),
+        &dir
+    )
+    .is_ok());
 }

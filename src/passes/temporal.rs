@@ -1,7 +1,8 @@
 //! Temporal history: this frame's indirect light (the final image minus the
 //! direct light) folded into a per-pixel running mean of earlier frames',
-//! reprojected from the previous frame's view with depth and normal
-//! rejection, and the image made of the direct light and that mean. The
+//! reprojected from the previous frame's view with depth, normal and
+//! material rejection, and the image made of the direct light and that
+//! mean. The
 //! renderer decides per frame how many frames the mean may hold
 //! ([`HistoryStep`]; see [`HistorySettings`](crate::settings::HistorySettings)).
 //!
@@ -11,7 +12,7 @@
 
 use std::sync::Arc;
 
-use glam::Mat4;
+use glam::{Mat4, Vec3};
 
 use super::gbuffer::GBuffer;
 use super::{Pass, Recording, SlotSetup};
@@ -44,14 +45,14 @@ pub struct HistoryStep {
     /// The previous frame's world-to-clip transform (its history's pixels).
     pub previous_view_proj: Mat4,
     /// The previous frame's eye (glossy history depends on the view).
-    pub previous_camera: glam::Vec3,
+    pub previous_camera: Vec3,
 }
 
 /// What the pass reads.
 pub struct TemporalReads<'a> {
     /// This frame's G-buffer.
     pub gbuffer: &'a GBuffer,
-    /// Its final image and direct light.
+    /// Its final image.
     pub final_image: &'a Image,
     /// Its direct light.
     pub direct: &'a Image,

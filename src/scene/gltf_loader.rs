@@ -14,13 +14,14 @@
 //! buffers and images it names), so a small hostile file cannot make a huge
 //! allocation. Textures are PNG or JPEG, at most 8192 texels a side.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use gltf::json::{self, accessor::ComponentType, accessor::Type, validation::Checked};
 
+use super::animation::{Interpolation, Path as AnimPath, PoseOverride, Sampler};
 use super::{Camera, Light, LightKind, Scene, Texture, MAX_TRIANGLES};
 use crate::error::{Error, Result};
 
@@ -35,8 +36,9 @@ pub const BUDGET_BASE: u64 = 32 << 20;
 /// ...plus this many times the bytes read.
 pub const BUDGET_FACTOR: u64 = 64;
 
-/// Loads a glTF or GLB file.
-pub fn load(path: &Path) -> Result<Scene> {
+/// Loads a glTF or GLB file; with `time`, its first animation's node
+/// transforms at that time (seconds).
+pub fn load(path: &Path, time: Option<f32>) -> Result<Scene> {
     let name = path.display().to_string();
     let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if !meta.is_file() {
@@ -59,15 +61,15 @@ pub fn load(path: &Path) -> Result<Scene> {
             }
         })
         .unwrap_or(Path::new("."));
-    load_guarded(&name, &bytes, dir)
+    load_guarded(&name, &bytes, dir, time)
 }
 
 /// [`load_bytes`] for any folder `base`, with a panic in a dependency on
 /// malformed input turned into an error (the last line of defence).
-pub fn load_guarded(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
+pub fn load_guarded(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> Result<Scene> {
     let base = base.canonicalize().map_err(|e| Error::io(base, e))?;
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        load_bytes(name, bytes, &base)
+        load_bytes(name, bytes, &base, time)
     })) {
         Ok(result) => result,
         Err(_) => Err(Error::scene(
@@ -78,9 +80,12 @@ pub fn load_guarded(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
 }
 
 /// Parses glTF/GLB `bytes`; external files are looked up below the
-/// canonical folder `base`.
-pub fn load_bytes(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
+/// canonical folder `base`; `time`: see [`load`].
+pub fn load_bytes(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> Result<Scene> {
     let err = |m: String| Error::scene(name, m);
+    if time.is_some_and(|t| !t.is_finite()) {
+        return Err(err("the animation time is not a finite number".into()));
+    }
     if bytes.starts_with(b"glTF") {
         check_glb_header(bytes).map_err(err)?;
     } else if bytes.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'{') {
@@ -97,6 +102,8 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path) -> Result<Scene> {
         blob,
         buffers: Vec::new(),
         input_bytes: std::cell::Cell::new(bytes.len() as u64),
+        time,
+        poses: HashMap::new(),
     }
     .load()
 }
@@ -138,6 +145,10 @@ struct Loader<'a> {
     buffers: Vec<Option<Vec<u8>>>,
     /// Bytes read so far: the file and every external buffer and image.
     input_bytes: std::cell::Cell<u64>,
+    /// The time the first animation is played at (None: rest pose).
+    time: Option<f32>,
+    /// Animated nodes' transforms at that time.
+    poses: HashMap<usize, PoseOverride>,
 }
 
 fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
@@ -198,6 +209,7 @@ impl Loader<'_> {
         let default_material = (scene.materials.len() - 1) as u32;
         self.warn_unsupported_extensions();
         self.warn_not_played();
+        self.poses = self.animation_poses()?;
 
         let roots: Vec<usize> = match (self.root.scene, self.root.scenes.first()) {
             (Some(i), _) => self
@@ -284,8 +296,10 @@ impl Loader<'_> {
             .iter()
             .filter(|m| m.primitives.iter().any(|p| p.targets.is_some()))
             .count();
+        // With a time, the first animation plays.
+        let played = usize::from(self.time.is_some());
         let parts: Vec<String> = [
-            (r.animations.len(), "animation", "animations"),
+            (r.animations.len().saturating_sub(played), "animation", "animations"),
             (skinned, "skinned node", "skinned nodes"),
             (morphed, "mesh with morph targets", "meshes with morph targets"),
         ]
@@ -300,6 +314,68 @@ impl Loader<'_> {
                 parts.join(", ")
             );
         }
+    }
+
+    /// The nodes the first animation moves, at `self.time` (none without a
+    /// time). Morph-target weights are not played (warned about with skins).
+    fn animation_poses(&mut self) -> Result<HashMap<usize, PoseOverride>> {
+        let mut poses = HashMap::new();
+        let Some(t) = self.time else {
+            return Ok(poses);
+        };
+        let root = self.root;
+        let Some(animation) = root.animations.first() else {
+            log::warn!("{}: a time was given but the file has no animation", self.name);
+            return Ok(poses);
+        };
+        if root.animations.len() > 1 {
+            log::warn!(
+                "{}: playing animation 0 ('{}') of {}",
+                self.name,
+                animation.name.as_deref().unwrap_or(""),
+                root.animations.len()
+            );
+        }
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let what = |m: String| format!("animation 0, channel {c}: {m}");
+            let node = channel.target.node.value();
+            if node >= root.nodes.len() {
+                return Err(self.err(what(format!("targets node {node}, which does not exist"))));
+            }
+            use json::animation::Property as P;
+            let path = match checked(&channel.target.path) {
+                Some(P::Translation) => AnimPath::Translation,
+                Some(P::Rotation) => AnimPath::Rotation,
+                Some(P::Scale) => AnimPath::Scale,
+                Some(P::MorphTargetWeights) => continue,
+                None => return Err(self.err(what("an unknown target path".into()))),
+            };
+            let k = channel.sampler.value();
+            let s = animation
+                .samplers
+                .get(k)
+                .ok_or_else(|| self.err(what(format!("sampler {k} does not exist"))))?;
+            use json::animation::Interpolation as I;
+            let interpolation = match checked(&s.interpolation) {
+                Some(I::Linear) => Interpolation::Linear,
+                Some(I::Step) => Interpolation::Step,
+                Some(I::CubicSpline) => Interpolation::CubicSpline,
+                None => return Err(self.err(what("an unknown interpolation".into()))),
+            };
+            let sampler = Sampler {
+                times: self.read_floats(s.input.value(), 1)?,
+                values: self.read_floats(s.output.value(), path.components())?,
+                interpolation,
+            };
+            sampler
+                .check(path.components())
+                .map_err(|m| self.err(what(format!("sampler {k}: {m}"))))?;
+            poses
+                .entry(node)
+                .or_insert_with(PoseOverride::default)
+                .set(path, sampler.sample(t, path));
+        }
+        Ok(poses)
     }
 
     /// Material `index`: base colour, emission (factor x strength, and
@@ -473,7 +549,7 @@ impl Loader<'_> {
                 "node {index} is reached twice (nodes must form trees; a cycle or a shared child)"
             )));
         }
-        let local = match node.matrix {
+        let rest = match node.matrix {
             Some(m) => Mat4::from_cols_array(&m),
             None => Mat4::from_scale_rotation_translation(
                 node.scale.map(Vec3::from).unwrap_or(Vec3::ONE),
@@ -482,6 +558,19 @@ impl Loader<'_> {
                     .unwrap_or(Quat::IDENTITY),
                 node.translation.map(Vec3::from).unwrap_or(Vec3::ZERO),
             ),
+        };
+        let local = match self.poses.get(&index) {
+            // Animated parts replace the rest pose's (animated nodes have
+            // no matrix in valid files; one is decomposed).
+            Some(pose) => {
+                let (scale, rotation, translation) = rest.to_scale_rotation_translation();
+                Mat4::from_scale_rotation_translation(
+                    pose.scale.unwrap_or(scale),
+                    pose.rotation.unwrap_or(rotation),
+                    pose.translation.unwrap_or(translation),
+                )
+            }
+            None => rest,
         };
         let world = parent * local;
         if !world.is_finite() {

@@ -244,3 +244,51 @@ pub fn data_uri(bytes: &[u8]) -> String {
         base64::engine::general_purpose::STANDARD.encode(bytes)
     )
 }
+
+/// A quad (node 0) moved by animation 0's `channel`: translation keyframes
+/// at `times` (0, 1, 2 s), `interpolation` (cubic splines get zero in and
+/// out tangents).
+pub fn animated_quad_at(interpolation: &str, channel: &str, times: [f32; 3]) -> Vec<u8> {
+    let mut bin: Vec<u8> = Vec::new();
+    let floats = |bin: &mut Vec<u8>, v: &[f32]| v.iter().for_each(|f| bin.extend(f.to_le_bytes()));
+    floats(
+        &mut bin,
+        &[-1., 0., -1., 1., 0., -1., 1., 0., 1., -1., 0., 1.],
+    ); // 0..48
+    for i in [0u16, 2, 1, 0, 3, 2] {
+        bin.extend(i.to_le_bytes()); // 48..60
+    }
+    bin.extend([0u8; 4]);
+    floats(&mut bin, &times); // 64..76
+    floats(&mut bin, &[0., 0., 0., 2., 0., 0., 2., 4., 0.]); // 76..112 linear/step values
+                                                             // 112..220: cubic: (in-tangent, value, out-tangent) per key.
+    floats(&mut bin, &[0., 0., 0., 0., 0., 0., 0., 0., 0.]);
+    floats(&mut bin, &[0., 0., 0., 2., 0., 0., 0., 0., 0.]);
+    floats(&mut bin, &[0., 0., 0., 2., 4., 0., 0., 0., 0.]);
+    let cubic = interpolation == "CUBICSPLINE";
+    let (output_offset, output_count) = if cubic { (112, 9) } else { (76, 3) };
+    let uri = data_uri(&bin);
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"mesh":0}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"buffers":[{{"byteLength":{len},"uri":"{uri}"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":12}},
+ {{"buffer":0,"byteOffset":64,"byteLength":12}},{{"buffer":0,"byteOffset":{output_offset},"byteLength":{output_bytes}}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},
+ {{"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}},
+ {{"bufferView":2,"componentType":5126,"count":3,"type":"SCALAR"}},
+ {{"bufferView":3,"componentType":5126,"count":{output_count},"type":"VEC3"}}],
+"animations":[{{"channels":[{channel}],
+ "samplers":[{{"input":2,"output":3,"interpolation":"{interpolation}"}}]}}]}}"#,
+        len = bin.len(),
+        output_bytes = output_count * 12,
+    )
+    .into_bytes()
+}
+
+pub fn animated_quad(interpolation: &str, channel: &str) -> Vec<u8> {
+    animated_quad_at(interpolation, channel, [0.0, 1.0, 2.0])
+}
+
+pub const CHANNEL: &str = r#"{"sampler":0,"target":{"node":0,"path":"translation"}}"#;

@@ -55,6 +55,10 @@ struct ReferenceArgs {
     /// Scene: a .gltf/.glb path or a built-in name (cornell, tori, spheres).
     #[arg(default_value = "cornell")]
     scene: String,
+    /// Play the glTF file's first animation to T seconds (node translation,
+    /// rotation and scale; clamped to its span) and render that pose.
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
+    time: Option<f32>,
     /// Image size.
     #[arg(long, default_value = "1024x768", value_parser = parse_size)]
     size: (u32, u32),
@@ -180,6 +184,10 @@ struct SceneOptions {
     /// Scene: a .gltf/.glb path or a built-in name (cornell, tori, spheres).
     #[arg(default_value = "cornell")]
     scene: String,
+    /// Play the glTF file's first animation to T seconds (node translation,
+    /// rotation and scale; clamped to its span) and render that pose.
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
+    time: Option<f32>,
     /// Image size.
     #[arg(long, default_value = "1024x768", value_parser = parse_size)]
     size: (u32, u32),
@@ -408,7 +416,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
             )));
         }
     }
-    let mut scene = ssbc::scene::load(&args.common.scene)?;
+    let mut scene = load_scene(&args.common.scene, args.common.time)?;
     scene.ensure_light();
     let config = RendererConfig {
         validation: args.common.validation(),
@@ -485,6 +493,14 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
     Ok(log.total())
 }
 
+/// The scene, at animation time `time` if given (`--time`).
+fn load_scene(name: &str, time: Option<f32>) -> Result<ssbc::scene::Scene, ssbc::Error> {
+    match time {
+        Some(t) => ssbc::scene::load_at(name, t),
+        None => ssbc::scene::load(name),
+    }
+}
+
 /// Makes `wanted` the frame's image (`--output-layer`).
 fn select_output_layer(frame: &mut ssbc::Frame, wanted: Option<Layer>) -> Result<(), ssbc::Error> {
     let Some(wanted) = wanted else {
@@ -532,9 +548,6 @@ fn render_sequence(
     settings: &RenderSettings,
 ) -> Result<u32, ssbc::Error> {
     let sequence = ssbc::sequence::Sequence::load(path)?;
-    if sequence.uses_time() {
-        log::warn!("the sequence names times: glTF animation is not played yet, they are ignored");
-    }
     let outputs: Vec<&PathBuf> = args.output.iter().chain(&args.timings).collect();
     for out in &outputs {
         if numbered(out, 0).is_none() {
@@ -554,7 +567,19 @@ fn render_sequence(
         let _ = ctrlc::set_handler(move || stop.store(true, Ordering::Relaxed));
     }
     let bar = indicatif::ProgressBar::new(sequence.len() as u64);
+    let mut time = args.common.time;
     for k in 0..sequence.len() {
+        if let Some(t) = sequence.time(k).map(|t| t as f32) {
+            if time != Some(t) {
+                // The animated pose's meshes; lights and cameras stay.
+                let posed = ssbc::scene::load_at(&args.common.scene, t)?;
+                resident.edit(|s| {
+                    s.vertices = posed.vertices;
+                    s.indices = posed.indices;
+                })?;
+                time = Some(t);
+            }
+        }
         sequence.apply(k, &mut resident)?;
         let mut frame = renderer.render_resident(&resident, settings)?;
         select_output_layer(&mut frame, args.output_layer)?;
@@ -583,7 +608,7 @@ fn render_sequence(
 }
 
 fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
-    let mut scene = ssbc::scene::load(&args.scene)?;
+    let mut scene = load_scene(&args.scene, args.time)?;
     scene.ensure_light();
     let bound = args.bound.resolve(2.0 * scene.bounds().radius());
     let settings = ReferenceSettings {
@@ -681,7 +706,7 @@ fn view(_: ViewArgs) -> Result<u32, ssbc::Error> {
 #[cfg(feature = "viewer")]
 fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
     args.common.check()?;
-    let scene = ssbc::scene::load(&args.common.scene)?;
+    let scene = load_scene(&args.common.scene, args.common.time)?;
     viewer::run(viewer::ViewOptions {
         scene,
         settings: args.common.settings(),
