@@ -451,3 +451,17 @@ fn bad_animations_are_clear_errors() {
     )
     .is_ok());
 }
+
+#[test]
+fn the_animation_end_comes_from_the_keyframes_declared_maximum() {
+    let dir = std::env::temp_dir();
+    let scene =
+        ssbc::scene::load_gltf_bytes("a.gltf", &animated_quad("STEP", CHANNEL), &dir).unwrap();
+    assert_eq!(scene.animation_end, Some(2.0));
+    let still = load_str(
+        &dir,
+        "still.gltf",
+        quad_gltf(None, 0, 0, None, "").as_bytes(),
+    );
+    assert!(still.is_err() || still.unwrap().animation_end.is_none());
+}

@@ -103,11 +103,16 @@ fn start_xvfb() -> Result<(Xvfb, String), NoServer> {
     ))
 }
 
-/// `ssbc view cornell` at 96x72 with 32 VPLs for 3 frames on `display`,
+/// `ssbc view SCENE` at 96x72 with 32 VPLs for 3 frames on `display`,
 /// validation on, a screenshot to `shot` on exit.
-fn view(display: &str, shot: &std::path::Path, extra: &[&str]) -> std::process::Output {
+fn view(
+    display: &str,
+    shot: &std::path::Path,
+    scene: &str,
+    extra: &[&str],
+) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_ssbc"))
-        .args(["view", "cornell", "--size", "96x72", "--frames", "3"])
+        .args(["view", scene, "--size", "96x72", "--frames", "3"])
         .args(["--vpls", "32", "--validate", "--screenshot"])
         .arg(shot)
         .args(extra)
@@ -131,7 +136,7 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot");
     // Frames standing alone, as the headless render (history: below).
-    let out = view(&display, &shot, &["--no-history"]);
+    let out = view(&display, &shot, "cornell", &["--no-history"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "viewer failed:\n{stderr}");
     assert!(
@@ -176,7 +181,7 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
 
     // With history (the default) a still view averages its frames: the
     // screenshot is the mean of as many frames with independent VPL sets.
-    let out = view(&display, &shot, &[]);
+    let out = view(&display, &shot, "cornell", &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "viewer failed:\n{stderr}");
     let accumulated: u32 = stderr
@@ -205,4 +210,27 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
         c.rel_mse
     );
     assert!(c.rel_mse < 1e-6, "{c:?}");
+
+    // A glTF animation plays: the screenshot is a later pose than the
+    // start, validation stays clean while the meshes are reloaded.
+    let anim = dir.path().join("anim.gltf");
+    std::fs::write(&anim, common::animated_quad("LINEAR", common::CHANNEL)).unwrap();
+    let out = view(&display, &shot, anim.to_str().unwrap(), &["--no-history"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "viewer failed:\n{stderr}");
+    assert!(
+        !stderr.contains("validation"),
+        "validation messages:\n{stderr}"
+    );
+    let (_, _, played) = ssbc::output::read_exr_rgb(&shot.with_extension("exr")).unwrap();
+    let mut start = ssbc::scene::load(anim.to_str().unwrap()).unwrap();
+    start.ensure_light();
+    let at_start = common::render_validated(&start, &settings);
+    assert!(
+        ssbc::compare::compare(&played, &at_start.image.rgba)
+            .unwrap()
+            .rel_mse
+            > 1e-3,
+        "the animation did not play"
+    );
 }

@@ -210,6 +210,7 @@ impl Loader<'_> {
         self.warn_unsupported_extensions();
         self.warn_not_played();
         self.poses = self.animation_poses()?;
+        scene.animation_end = self.animation_end();
 
         let roots: Vec<usize> = match (self.root.scene, self.root.scenes.first()) {
             (Some(i), _) => self
@@ -314,6 +315,21 @@ impl Loader<'_> {
                 parts.join(", ")
             );
         }
+    }
+
+    /// The first animation's last keyframe time, from its input accessors'
+    /// declared maxima (reading no data: a file whose animation is broken
+    /// still loads at rest).
+    fn animation_end(&self) -> Option<f32> {
+        let animation = self.root.animations.first()?;
+        animation
+            .samplers
+            .iter()
+            .filter_map(|s| self.root.accessors.get(s.input.value())?.max.as_ref())
+            .filter_map(|max| max.as_array()?.first()?.as_f64())
+            .map(|t| t as f32)
+            .filter(|t| t.is_finite() && *t >= 0.0)
+            .reduce(f32::max)
     }
 
     /// The nodes the first animation moves, at `self.time` (none without a

@@ -380,6 +380,10 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Cameras in document order (the first is used unless asked otherwise).
     pub cameras: Vec<Camera>,
+    /// The last keyframe time of the glTF file's first animation (seconds;
+    /// None without one), from its accessors' declared maxima: how long
+    /// [`load_at`] has poses to show.
+    pub animation_end: Option<f32>,
 }
 
 /// Maximum number of triangles a scene may hold (keeps hostile files bounded).

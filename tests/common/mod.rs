@@ -277,12 +277,14 @@ pub fn animated_quad_at(interpolation: &str, channel: &str, times: [f32; 3]) -> 
  {{"buffer":0,"byteOffset":64,"byteLength":12}},{{"buffer":0,"byteOffset":{output_offset},"byteLength":{output_bytes}}}],
 "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},
  {{"bufferView":1,"componentType":5123,"count":6,"type":"SCALAR"}},
- {{"bufferView":2,"componentType":5126,"count":3,"type":"SCALAR"}},
+ {{"bufferView":2,"componentType":5126,"count":3,"type":"SCALAR","min":[{t0}],"max":[{t2}]}},
  {{"bufferView":3,"componentType":5126,"count":{output_count},"type":"VEC3"}}],
 "animations":[{{"channels":[{channel}],
  "samplers":[{{"input":2,"output":3,"interpolation":"{interpolation}"}}]}}]}}"#,
         len = bin.len(),
         output_bytes = output_count * 12,
+        t0 = times[0],
+        t2 = times[2],
     )
     .into_bytes()
 }

@@ -717,6 +717,7 @@ fn view(args: ViewArgs) -> Result<u32, ssbc::Error> {
         screenshot: args.screenshot,
         animate: args.animate,
         resize_storm: args.resize_storm,
+        source: (args.common.scene.clone(), args.common.time.unwrap_or(0.0)),
     })
 }
 

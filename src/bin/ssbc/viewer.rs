@@ -76,6 +76,9 @@ pub struct ViewOptions {
     /// Resize the window this many times, one per frame, then minimise and
     /// restore it (robustness runs).
     pub resize_storm: u32,
+    /// The scene's file (or built-in name) and the animation time it was
+    /// loaded at: the viewer plays the file's first animation from there.
+    pub source: (String, f32),
 }
 
 /// Run-time figures of a viewer session (printed on exit).
@@ -110,7 +113,8 @@ fn median(values: &[f64]) -> f64 {
 
 const HELP: &str =
     "keys: WASD/QE move, drag to look, Space SSBC on/off, +/- steps, [ ] bound /2 x2, \
-L layer, arrows/PgUp/PgDn move the light, P screenshot, H help, Esc quit";
+L layer, arrows/PgUp/PgDn move the light, T play/pause the glTF animation, P screenshot, \
+H help, Esc quit";
 
 /// Per frame in flight: its commands, acquire semaphore and 8-bit image.
 struct FrameSlot {
@@ -283,6 +287,9 @@ struct Viewer {
     /// Frame slot whose display image holds the last GPU-presented frame.
     last_gpu_slot: Option<usize>,
     screenshots: u32,
+    /// The animation's time (s) and whether it plays (T toggles).
+    anim_time: f32,
+    playing: bool,
     result: Result<()>,
     log: Option<Arc<ValidationLog>>,
     gpu: Option<Gpu>,
@@ -383,6 +390,7 @@ pub fn run(options: ViewOptions) -> Result<u32> {
     let mut resident = ResidentScene::new(scene)?;
     resident.set_camera(camera.clone());
     options.settings.camera = Some(0);
+    let start_time = options.source.1;
     let mut viewer = Viewer {
         options,
         stats: SessionStats::default(),
@@ -401,6 +409,8 @@ pub fn run(options: ViewOptions) -> Result<u32> {
         frames_done: 0,
         last_gpu_slot: None,
         screenshots: 0,
+        anim_time: start_time,
+        playing: true,
         result: Ok(()),
         log: None,
         gpu: None,
@@ -558,6 +568,7 @@ impl Viewer {
         let dt = elapsed.as_secs_f32().min(0.5);
         self.last_frame = Instant::now();
         self.fly(dt);
+        self.play(dt)?;
         self.script(size);
         let wanted = vk::Extent2D {
             width: size.width,
@@ -794,6 +805,9 @@ impl Viewer {
                     s.bound = Bound::Value(if b.is_finite() { b * factor } else { 1.0 });
                 }
                 "l" => self.layer += 1,
+                "t" if self.resident.scene().animation_end.is_some() => {
+                    self.playing = !self.playing;
+                }
                 "h" => eprintln!("{HELP}"),
                 "p" => {
                     self.screenshots += 1;
@@ -804,6 +818,26 @@ impl Viewer {
             },
             _ => {}
         }
+        Ok(())
+    }
+
+    /// Plays the file's first animation (looping over its keyframes): the
+    /// scene's meshes are reloaded at the new time (the whole scene is
+    /// redone every frame until objects move on their own).
+    fn play(&mut self, dt: f32) -> Result<()> {
+        let Some(end) = self.resident.scene().animation_end.filter(|_| self.playing) else {
+            return Ok(());
+        };
+        self.anim_time = if end > 0.0 {
+            (self.anim_time + dt) % end
+        } else {
+            0.0
+        };
+        let posed = ssbc::scene::load_at(&self.options.source.0, self.anim_time)?;
+        self.resident.edit(|s| {
+            s.vertices = posed.vertices;
+            s.indices = posed.indices;
+        })?;
         Ok(())
     }
 
