@@ -226,7 +226,7 @@ impl Default for HistorySettings {
         Self {
             enabled: true,
             max_frames: 1024,
-            moving_frames: 8,
+            moving_frames: 32,
             new_vpls_while_moving: false,
             light_frames: 4,
             light_change: 0.25,
