@@ -194,11 +194,7 @@ impl Passes {
         let slot = setup.slot;
         let (gbuffer, direct, bounded) = self.layers[0].images(slot).expect("recorded above");
         let ssbc = self.ssbc.resources(slot).expect("recorded above");
-        let final_image = if ssbc.steps() > 0 {
-            &ssbc.final_image
-        } else {
-            &bounded.s0
-        };
+        let final_image = readback::frame_final(ssbc, bounded);
         let previous_slot = history.previous_slot.filter(|&s| s != slot);
         let previous = previous_slot.and_then(|s| self.temporal.take(s));
         let previous_gbuffer = previous_slot.and_then(|s| self.layers[0].gbuffer.resources(s));

@@ -250,16 +250,17 @@ pub(crate) struct FrameImages<'a> {
     pub temporal: Option<&'a Temporal>,
 }
 
-impl<'a> FrameImages<'a> {
-    /// This frame's own final image: SSBC's sum, or S0 without steps.
-    fn frame_final_image(&self) -> &'a Image {
-        if self.ssbc.steps() > 0 {
-            &self.ssbc.final_image
-        } else {
-            &self.bounded.s0
-        }
+/// A frame's own final image (before temporal history): SSBC's sum, or
+/// S0 without steps.
+pub(crate) fn frame_final<'a>(ssbc: &'a SsbcFrame, bounded: &'a BoundedLighting) -> &'a Image {
+    if ssbc.steps() > 0 {
+        &ssbc.final_image
+    } else {
+        &bounded.s0
     }
+}
 
+impl<'a> FrameImages<'a> {
     /// The image of `layer`, if the frame has it.
     pub fn layer(&self, layer: Layer) -> Option<&'a Image> {
         let g = self.gbuffer;
@@ -267,7 +268,7 @@ impl<'a> FrameImages<'a> {
         Some(match layer {
             Layer::Final => self
                 .temporal
-                .map_or_else(|| self.frame_final_image(), |t| &t.output),
+                .map_or_else(|| frame_final(self.ssbc, self.bounded), |t| &t.output),
             Layer::Direct => &self.direct.radiance,
             Layer::IndirectBounded => &self.bounded.indirect,
             Layer::Residual(k) => self.ssbc.residuals.get((k as usize).checked_sub(1)?)?,
