@@ -1,7 +1,11 @@
 //! CPU milliseconds per frame on the host thread, for a resident scene:
-//! nothing changed, the camera moved, a light moved; on `cornell`, `tori`
-//! and a generated scene of about 100k triangles (a rippled terrain of
-//! 320x160 quads inside a room). Also GPU resources created per frame.
+//! nothing changed, the camera moved, a light moved, an object moved (a
+//! tenth of the vertices by 1 mm through `ResidentScene::edit`: objects
+//! are not yet separate, so this redoes the scene), and a still frame with
+//! temporal history (which traces a new VPL set); on `cornell`, `tori` and
+//! a generated scene of about 100k triangles (a rippled terrain of 320x160
+//! quads inside a room). Also GPU resources created per frame. The other
+//! columns have history off (they measure what a change costs).
 //!
 //! `cargo bench --bench frame_cpu` (`-- --frames N`, default 20). The CPU
 //! time is the sum of the frame's CPU stages (BVH, upload, VPL tracing, ISM
@@ -69,13 +73,14 @@ fn main() {
     let args = common::BenchArgs::parse(20);
     let frames = args.frames as usize;
     let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
-    let settings = RenderSettings::new(320, 240);
+    let mut settings = RenderSettings::new(320, 240);
+    settings.history.enabled = false;
     println!(
         "# CPU ms per frame on the host thread, resident scene, median of {frames} frames ({})\n",
         renderer.device().name()
     );
-    println!("| scene | triangles | first frame | nothing changed | camera moved | light moved | immediate mode | resources created per light-moved frame |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| scene | triangles | first frame | nothing changed | camera moved | light moved | object moved | still, with history | immediate mode | resources created per light-moved frame |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let mut scenes = vec![
         ssbc::scene::load("cornell").unwrap(),
         ssbc::scene::load("tori").unwrap(),
@@ -115,13 +120,37 @@ fn main() {
                 .collect(),
         );
         let per_frame = (renderer.device().resources_created() - created) as f64 / frames as f64;
+        let count = resident.scene().vertices.len();
+        let object_moved = median(
+            (0..frames.min(5))
+                .map(|i| {
+                    let dy = 0.001 * if i % 2 == 0 { 1.0 } else { -1.0 };
+                    resident
+                        .edit(|s| {
+                            s.vertices[..count / 10]
+                                .iter_mut()
+                                .for_each(|v| v.position[1] += dy)
+                        })
+                        .unwrap();
+                    cpu_ms(&renderer.render_resident(&resident, &settings).unwrap())
+                })
+                .collect(),
+        );
+        let mut with_history = settings.clone();
+        with_history.history.enabled = true;
+        renderer.render_resident(&resident, &with_history).unwrap();
+        let still_history = median(
+            (0..frames.min(5))
+                .map(|_| cpu_ms(&renderer.render_resident(&resident, &with_history).unwrap()))
+                .collect(),
+        );
         let immediate = median(
             (0..frames.min(5))
                 .map(|_| cpu_ms(&renderer.render(resident.scene(), &settings).unwrap()))
                 .collect(),
         );
         println!(
-            "| {name} | {triangles} | {first:.1} | {same:.2} | {camera_moved:.2} | {light_moved:.2} | {immediate:.1} | {per_frame:.1} |"
+            "| {name} | {triangles} | {first:.1} | {same:.2} | {camera_moved:.2} | {light_moved:.2} | {object_moved:.1} | {still_history:.1} | {immediate:.1} | {per_frame:.1} |"
         );
     }
 }
