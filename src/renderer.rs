@@ -796,7 +796,7 @@ impl Renderer {
             }
         };
         let history = (resident && host_slot.is_none() && settings.history.enabled)
-            .then(|| self.history.plan(slot, versions, settings));
+            .then(|| self.history.plan(slot, (scene, versions), settings));
         if history.is_none() {
             self.history.reset();
         }
@@ -929,8 +929,14 @@ impl Renderer {
         )?;
         if let Some(plan) = history {
             let eye = (view.view_proj, view.camera.position);
-            self.history
-                .commit(&plan, slot, versions, host_settings, eye, light_paths);
+            self.history.commit(
+                &plan,
+                slot,
+                (scene, versions),
+                host_settings,
+                eye,
+                light_paths,
+            );
         }
         Ok(output)
     }

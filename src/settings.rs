@@ -194,6 +194,9 @@ pub struct RenderSettings {
 /// | lights changed | the same light paths from the new lights | kept where the indirect light changed little (4x4-block means), at most `light_frames`; dropped where it changed by `light_change` or more |
 /// | geometry, materials, settings | everything | dropped |
 ///
+/// Setting a camera or lights equal to the last frame's is no change (an
+/// engine may set them every frame).
+///
 /// Immediate-mode frames ([`Renderer::render`](crate::Renderer::render)) and
 /// frames recorded into a host's command buffer have none.
 #[derive(Clone, Debug, PartialEq)]

@@ -348,3 +348,28 @@ fn glossy_history_follows_the_view() {
     drop((renderer, other));
     assert_eq!(log.total(), 0, "{:?}", log.messages());
 }
+
+/// Engines set the camera and lights every frame: setting the same ones
+/// again is no change, and the view keeps converging.
+#[test]
+fn setting_the_same_camera_and_lights_keeps_accumulating() {
+    let mut scene = open_box();
+    scene.ensure_light();
+    let s = settings();
+    let mut renderer = common::validated_renderer();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    let camera = camera(&scene);
+    for k in 1..=3 {
+        resident.set_camera(camera.clone());
+        resident.set_lights(scene.lights.clone()).unwrap();
+        let frame = renderer.render_resident(&resident, &s).unwrap();
+        assert_eq!(frame.accumulated, k);
+    }
+    let mut moved = camera.clone();
+    moved.position.x += 0.01;
+    resident.set_camera(moved);
+    assert_eq!(
+        renderer.render_resident(&resident, &s).unwrap().accumulated,
+        1
+    );
+}

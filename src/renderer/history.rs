@@ -6,6 +6,7 @@ use glam::Mat4;
 
 use crate::passes::temporal::HistoryStep;
 use crate::resident::SceneVersions;
+use crate::scene::{Camera, Light, Scene};
 use crate::settings::RenderSettings;
 
 /// What changed since the last history frame.
@@ -28,6 +29,10 @@ struct LastFrame {
     versions: SceneVersions,
     /// Its settings as the host gave them (before the light-path offset).
     settings: RenderSettings,
+    /// Its camera and lights: a host that sets the same ones again (a new
+    /// version) has not moved them.
+    cameras: Vec<Camera>,
+    lights: Vec<Light>,
     view_proj: Mat4,
     /// Its eye.
     camera: glam::Vec3,
@@ -73,14 +78,19 @@ impl History {
         }
     }
 
-    /// How a frame in `slot` of a scene at `versions` with `settings` uses
+    /// How a frame in `slot` of `scene` at `versions` with `settings` uses
     /// history.
     pub fn plan(
         &self,
         slot: usize,
-        versions: SceneVersions,
+        (scene, versions): (&Scene, SceneVersions),
         settings: &RenderSettings,
     ) -> HistoryPlan {
+        // New versions of equal lights or an equal camera are no change.
+        let lights_moved =
+            |l: &LastFrame| l.versions.lights != versions.lights && l.lights != scene.lights;
+        let camera_moved =
+            |l: &LastFrame| l.versions.camera != versions.camera && l.cameras != scene.cameras;
         let motion = match &self.last {
             None => Motion::Reset,
             Some(last)
@@ -92,8 +102,8 @@ impl History {
             {
                 Motion::Reset
             }
-            Some(last) if last.versions.lights != versions.lights => Motion::Lights,
-            Some(last) if last.versions.camera != versions.camera => Motion::Camera,
+            Some(last) if lights_moved(last) => Motion::Lights,
+            Some(last) if camera_moved(last) => Motion::Camera,
             Some(_) => Motion::Still,
         };
         let last = self.last.as_ref().filter(|_| motion != Motion::Reset);
@@ -142,7 +152,7 @@ impl History {
         &mut self,
         plan: &HistoryPlan,
         slot: usize,
-        versions: SceneVersions,
+        (scene, versions): (&Scene, SceneVersions),
         settings: &RenderSettings,
         (view_proj, camera): (Mat4, glam::Vec3),
         light_paths: u64,
@@ -153,6 +163,8 @@ impl History {
             slot,
             versions,
             settings: settings.clone(),
+            cameras: scene.cameras.clone(),
+            lights: scene.lights.clone(),
             view_proj,
             camera,
             light_paths,
