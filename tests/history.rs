@@ -357,6 +357,7 @@ fn setting_the_same_camera_and_lights_keeps_accumulating() {
     scene.ensure_light();
     let s = settings();
     let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
     let camera = camera(&scene);
     for k in 1..=3 {
@@ -372,4 +373,6 @@ fn setting_the_same_camera_and_lights_keeps_accumulating() {
         renderer.render_resident(&resident, &s).unwrap().accumulated,
         1
     );
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
 }

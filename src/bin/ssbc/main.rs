@@ -501,6 +501,21 @@ fn load_scene(name: &str, time: Option<f32>) -> Result<ssbc::scene::Scene, ssbc:
     }
 }
 
+/// Gives `resident` the meshes of the file `scene` at animation time `t`
+/// (its lights and cameras stay as they are; the whole scene is redone
+/// until objects move on their own).
+fn show_pose(
+    resident: &mut ssbc::resident::ResidentScene,
+    scene: &str,
+    t: f32,
+) -> Result<(), ssbc::Error> {
+    let posed = ssbc::scene::load_at(scene, t)?;
+    resident.edit(|s| {
+        s.vertices = posed.vertices;
+        s.indices = posed.indices;
+    })
+}
+
 /// Makes `wanted` the frame's image (`--output-layer`).
 fn select_output_layer(frame: &mut ssbc::Frame, wanted: Option<Layer>) -> Result<(), ssbc::Error> {
     let Some(wanted) = wanted else {
@@ -571,12 +586,7 @@ fn render_sequence(
     for k in 0..sequence.len() {
         if let Some(t) = sequence.time(k).map(|t| t as f32) {
             if time != Some(t) {
-                // The animated pose's meshes; lights and cameras stay.
-                let posed = ssbc::scene::load_at(&args.common.scene, t)?;
-                resident.edit(|s| {
-                    s.vertices = posed.vertices;
-                    s.indices = posed.indices;
-                })?;
+                show_pose(&mut resident, &args.common.scene, t)?;
                 time = Some(t);
             }
         }

@@ -822,8 +822,7 @@ impl Viewer {
     }
 
     /// Plays the file's first animation (looping over its keyframes): the
-    /// scene's meshes are reloaded at the new time (the whole scene is
-    /// redone every frame until objects move on their own).
+    /// scene's meshes are reloaded at the new time each frame.
     fn play(&mut self, dt: f32) -> Result<()> {
         let Some(end) = self.resident.scene().animation_end.filter(|_| self.playing) else {
             return Ok(());
@@ -833,12 +832,7 @@ impl Viewer {
         } else {
             0.0
         };
-        let posed = ssbc::scene::load_at(&self.options.source.0, self.anim_time)?;
-        self.resident.edit(|s| {
-            s.vertices = posed.vertices;
-            s.indices = posed.indices;
-        })?;
-        Ok(())
+        crate::show_pose(&mut self.resident, &self.options.source.0, self.anim_time)
     }
 
     fn move_light(&mut self, delta: Vec3) {
