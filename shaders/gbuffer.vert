@@ -1,5 +1,7 @@
 #version 460
-// G-buffer: transform world-space vertices by the camera.
+// G-buffer: an object's mesh vertices to world space (its transform), then
+// by the camera.
+#include "objects.glsl"
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -19,10 +21,18 @@ layout(location = 3) flat out uint v_material;
 layout(location = 4) out vec4 v_tangent;
 
 void main() {
-    v_position = in_position;
-    v_normal = in_normal;
+    GpuObject object = objects[gl_InstanceIndex];
+    vec4 world = object.model * vec4(in_position, 1.0);
+    v_position = world.xyz;
+    vec3 n = mat3(object.normal_matrix) * in_normal;
+    v_normal = dot(n, n) > 0.0 ? normalize(n) : n;
     v_uv = in_uv;
-    v_material = in_material;
-    v_tangent = in_tangent;
-    gl_Position = pc.view_proj * vec4(in_position, 1.0);
+    v_material = object_material(object, in_material);
+    // A mirroring transform flips the bitangent's handedness.
+    vec3 t = mat3(object.model) * in_tangent.xyz;
+    float handedness = uintBitsToFloat(object.params.z);
+    v_tangent = in_tangent == vec4(0.0)
+        ? vec4(0.0)
+        : vec4(dot(t, t) > 0.0 ? normalize(t) : t, in_tangent.w < 0.0 ? -handedness : handedness);
+    gl_Position = pc.view_proj * world;
 }

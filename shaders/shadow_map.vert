@@ -1,5 +1,7 @@
 #version 460
 // Shadow map: depth, one layer per draw; uv and material for alpha masks.
+// Vertices reach world space by their object's transform.
+#include "objects.glsl"
 
 layout(location = 0) in vec3 in_position;
 layout(location = 2) in vec2 in_uv;
@@ -13,7 +15,8 @@ layout(location = 0) out vec2 v_uv;
 layout(location = 1) flat out uint v_material;
 
 void main() {
+    GpuObject object = objects[gl_InstanceIndex];
     v_uv = in_uv;
-    v_material = in_material;
-    gl_Position = pc.view_proj * vec4(in_position, 1.0);
+    v_material = object_material(object, in_material);
+    gl_Position = pc.view_proj * (object.model * vec4(in_position, 1.0));
 }

@@ -1,5 +1,7 @@
-//! A scene uploaded to the GPU: vertex and index buffers, materials, and the
-//! two texture arrays (colour textures in sRGB, normal maps linear).
+//! A scene uploaded to the GPU: every mesh once (object-space vertex and
+//! index buffers), the objects' transforms (one buffer per frame slot,
+//! rewritten when objects move), materials, and the two texture arrays
+//! (colour textures in sRGB, normal maps linear).
 
 use std::sync::Arc;
 
@@ -7,24 +9,65 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use crate::error::Result;
-use crate::gpu_types::GpuMaterial;
-use crate::scene::{Bounds, Scene};
+use crate::gpu_types::{GpuMaterial, GpuObject};
+use crate::scene::{AlphaMode, Scene};
 use crate::vk::{Buffer, Device, Image, ImageDesc, Recorder, Sampler};
 
 /// Largest side of the texture array; bigger textures are downsampled.
 const MAX_TEXTURE_SIDE: u32 = 2048;
 
-/// GPU copies of a [`Scene`]'s geometry and materials.
+/// Where a mesh lies in the scene's vertex and index buffers: its opaque
+/// triangles' indices first, then its alpha-masked ones'.
+#[derive(Clone, Copy, Debug)]
+pub struct GpuMesh {
+    /// Its first vertex (added to its indices).
+    pub vertex_offset: i32,
+    /// Its first index.
+    pub first_index: u32,
+    /// Indices of opaque triangles (from `first_index`).
+    pub opaque_count: u32,
+    /// Indices of alpha-masked triangles (after the opaque ones).
+    pub masked_count: u32,
+}
+
+/// One indexed draw of a range of a mesh for one object (its index is the
+/// instance index, which the vertex shaders read the object with).
+#[derive(Clone, Copy, Debug)]
+pub struct Draw {
+    /// First index.
+    pub first_index: u32,
+    /// Index count.
+    pub count: u32,
+    /// Added to the indices.
+    pub vertex_offset: i32,
+    /// The object (`gl_InstanceIndex`).
+    pub object: u32,
+}
+
+/// A scene as one frame slot draws it: its GPU copy and the slot's copy of
+/// the objects' transforms.
+#[derive(Clone, Copy)]
+pub struct SlotScene<'a> {
+    /// Meshes, materials, textures.
+    pub scene: &'a GpuScene,
+    /// `GpuObject` per scene object.
+    pub objects: &'a Buffer,
+}
+
+/// GPU copies of a [`Scene`]'s meshes, objects and materials.
 pub struct GpuScene {
-    /// World-space vertices (`scene::Vertex`).
+    /// Object-space vertices of every mesh (`scene::Vertex`).
     pub vertices: Buffer,
-    /// Triangle-list indices (u32).
+    /// Triangle-list indices (u32) of every mesh, local to it.
     pub indices: Buffer,
-    /// Number of indices.
-    pub index_count: u32,
-    /// Indices before this one are triangles of opaque materials (drawn
-    /// without an alpha test); alpha-masked ones follow.
-    pub masked_index_start: u32,
+    /// Each mesh's place in `vertices` and `indices`.
+    pub meshes: Vec<GpuMesh>,
+    /// Per frame slot, `GpuObject` per scene object, and the version of
+    /// the objects it holds.
+    objects: Vec<(Buffer, u64)>,
+    /// The visible objects' draws of opaque triangles, and of alpha-masked
+    /// ones (for the objects of [`GpuScene::set_objects`]).
+    draws: [Vec<Draw>; 2],
     /// `GpuMaterial` per material.
     pub materials: Buffer,
     /// Base-colour and emissive textures, resized to one size, one layer each (sRGB).
@@ -33,8 +76,6 @@ pub struct GpuScene {
     pub linear_textures: Image,
     /// Nearest, clamped sampler (material.glsl filters and wraps by hand).
     pub texture_sampler: Sampler,
-    /// Scene bounds.
-    pub bounds: Bounds,
     /// Texture data not yet copied into `color_textures` (0) and
     /// `linear_textures` (1): (staging buffer, array, extent, layers).
     pending: Vec<(Buffer, usize, (u32, u32), u32)>,
@@ -44,42 +85,66 @@ pub struct GpuScene {
 }
 
 impl GpuScene {
-    /// Uploads `scene`: geometry and materials at once (host-visible
+    /// Uploads `scene`: meshes and materials at once (host-visible
     /// buffers), textures into staging buffers whose copies the next frame
-    /// records ([`GpuScene::record_uploads`]), so nothing waits.
-    pub fn upload(device: &Arc<Device>, scene: &Scene) -> Result<Self> {
+    /// records ([`GpuScene::record_uploads`]), so nothing waits; objects
+    /// per frame slot ([`GpuScene::write_objects`]).
+    pub fn upload(device: &Arc<Device>, scene: &Scene, slots: usize) -> Result<Self> {
+        // Per mesh, opaque triangles first: the shadow pass draws them
+        // depth-only (an alpha test in the fragment shader costs
+        // rasterizers their fast depth-only path: llvmpipe's shadow pass
+        // was 14x slower with it).
+        let masked_material = |m: u32| {
+            scene
+                .materials
+                .get(m as usize)
+                .is_some_and(|m| m.alpha != AlphaMode::Opaque)
+        };
+        let (mut vertices, mut indices, mut meshes) = (Vec::new(), Vec::new(), Vec::new());
+        for mesh in scene.meshes() {
+            let (mut opaque, mut masked) = (Vec::new(), Vec::new());
+            for tri in mesh.indices.chunks_exact(3) {
+                if masked_material(mesh.vertices[tri[0] as usize].material) {
+                    masked.extend_from_slice(tri);
+                } else {
+                    opaque.extend_from_slice(tri);
+                }
+            }
+            meshes.push(GpuMesh {
+                vertex_offset: vertices.len() as i32,
+                first_index: indices.len() as u32,
+                opaque_count: opaque.len() as u32,
+                masked_count: masked.len() as u32,
+            });
+            vertices.extend_from_slice(&mesh.vertices);
+            indices.extend(opaque);
+            indices.extend(masked);
+        }
         let vertices = Buffer::with_data(
             device,
             "scene.vertices",
-            &scene.vertices,
+            &vertices,
             vk::BufferUsageFlags::VERTEX_BUFFER,
         )?;
-        // Opaque triangles first: the shadow pass draws them depth-only (an
-        // alpha test in the fragment shader costs rasterizers their fast
-        // depth-only path: llvmpipe's shadow pass was 14x slower with it).
-        let masked = |tri: &[u32]| {
-            let material = scene.vertices[tri[0] as usize].material as usize;
-            scene
-                .materials
-                .get(material)
-                .is_some_and(|m| m.alpha != crate::scene::AlphaMode::Opaque)
-        };
-        let (mut ordered, mut masked_tris) = (Vec::new(), Vec::new());
-        for tri in scene.indices.chunks_exact(3) {
-            if masked(tri) {
-                masked_tris.extend_from_slice(tri);
-            } else {
-                ordered.extend_from_slice(tri);
-            }
-        }
-        let masked_index_start = ordered.len() as u32;
-        ordered.extend(masked_tris);
         let indices = Buffer::with_data(
             device,
             "scene.indices",
-            &ordered,
+            &indices,
             vk::BufferUsageFlags::INDEX_BUFFER,
         )?;
+        let objects = (0..slots)
+            .map(|slot| {
+                let size = (scene.objects().len().max(1) * std::mem::size_of::<GpuObject>()) as u64;
+                let buffer = Buffer::new(
+                    device,
+                    &format!("frame slot {slot} scene.objects"),
+                    size,
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                    MemoryLocation::CpuToGpu,
+                )?;
+                Ok((buffer, 0))
+            })
+            .collect::<Result<Vec<_>>>()?;
         // Which textures go to which array.
         let mut as_color = vec![false; scene.textures.len()];
         let mut as_linear = vec![false; scene.textures.len()];
@@ -150,23 +215,118 @@ impl GpuScene {
             vk::SamplerAddressMode::CLAMP_TO_EDGE,
         )?
         .named("scene.texture_sampler");
-        Ok(Self {
+        let mut gpu = Self {
             vertices,
             indices,
-            index_count: scene.indices.len() as u32,
-            masked_index_start,
+            meshes,
+            objects,
+            draws: Default::default(),
             materials,
             color_textures,
             linear_textures,
             texture_sampler,
-            bounds: scene.bounds(),
             pending: [color_staging, linear_staging]
                 .into_iter()
                 .enumerate()
                 .map(|(i, (b, extent, layers))| (b, i, extent, layers))
                 .collect(),
             recorded: Vec::new(),
-        })
+        };
+        gpu.set_objects(scene);
+        Ok(gpu)
+    }
+
+    /// Makes the draws of `scene`'s visible objects (after objects moved,
+    /// were shown or hidden; the meshes and materials are those uploaded).
+    /// An object whose material override is alpha-masked (or opaque) draws
+    /// its whole mesh as such.
+    pub fn set_objects(&mut self, scene: &Scene) {
+        let masked_material = |m: u32| {
+            scene
+                .materials
+                .get(m as usize)
+                .is_some_and(|m| m.alpha != AlphaMode::Opaque)
+        };
+        let mut draws: [Vec<Draw>; 2] = Default::default();
+        for (i, o) in scene.objects().iter().enumerate() {
+            let Some(mesh) = self.meshes.get(o.mesh).filter(|_| o.visible) else {
+                continue;
+            };
+            let draw = |first_index: u32, count: u32| Draw {
+                first_index,
+                count,
+                vertex_offset: mesh.vertex_offset,
+                object: i as u32,
+            };
+            let total = mesh.opaque_count + mesh.masked_count;
+            match o.material {
+                Some(m) => draws[masked_material(m) as usize].push(draw(mesh.first_index, total)),
+                None => {
+                    draws[0].push(draw(mesh.first_index, mesh.opaque_count));
+                    draws[1].push(draw(
+                        mesh.first_index + mesh.opaque_count,
+                        mesh.masked_count,
+                    ));
+                }
+            }
+        }
+        for list in &mut draws {
+            list.retain(|d| d.count > 0);
+        }
+        self.draws = draws;
+    }
+
+    /// The visible objects' draws of their opaque triangles (`masked`
+    /// false) or alpha-masked ones.
+    pub fn draws(&self, masked: bool) -> &[Draw] {
+        &self.draws[masked as usize]
+    }
+
+    /// Writes `scene`'s objects into frame slot `slot`'s buffer unless it
+    /// already holds `version` of them (the slot's previous frame is done).
+    pub fn write_objects(&mut self, slot: usize, scene: &Scene, version: u64) -> Result<()> {
+        let (buffer, held) = &mut self.objects[slot];
+        if *held != version {
+            let objects: Vec<GpuObject> = scene.objects().iter().map(GpuObject::new).collect();
+            buffer.write(0, bytemuck::cast_slice(&objects))?;
+            *held = version;
+        }
+        Ok(())
+    }
+
+    /// The scene as frame slot `slot` draws it.
+    pub fn for_slot(&self, slot: usize) -> SlotScene<'_> {
+        SlotScene {
+            scene: self,
+            objects: &self.objects[slot].0,
+        }
+    }
+
+    /// Records `draws` (the pipeline, vertex and index buffers bound).
+    pub fn record_draws(&self, device: &Device, cmd: vk::CommandBuffer, draws: &[Draw]) {
+        for d in draws {
+            // SAFETY: recording inside a rendering scope with a pipeline
+            // bound; the range lies inside the index buffer, the object
+            // inside the bound objects buffer.
+            unsafe {
+                device
+                    .raw
+                    .cmd_draw_indexed(cmd, d.count, 1, d.first_index, d.vertex_offset, d.object)
+            };
+        }
+    }
+
+    /// Binds the vertex and index buffers.
+    pub fn bind_geometry(&self, device: &Device, cmd: vk::CommandBuffer) {
+        // SAFETY: recording; both buffers live as long as the scene.
+        unsafe {
+            device
+                .raw
+                .cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw], &[0]);
+            device
+                .raw
+                .cmd_bind_index_buffer(cmd, self.indices.raw, 0, vk::IndexType::UINT32);
+        }
     }
 
     /// Records the texture copies still pending (the first frame after an

@@ -184,6 +184,11 @@ mod tests {
             std::mem::size_of::<super::ShadowView>(),
         );
         check(
+            "GpuObject",
+            &["model", "normal_matrix", "params"],
+            std::mem::size_of::<super::GpuObject>(),
+        );
+        check(
             "GpuMaterial",
             &[
                 "base_color",
@@ -194,6 +199,38 @@ mod tests {
             ],
             std::mem::size_of::<super::GpuMaterial>(),
         );
+    }
+}
+
+/// `GpuObject` in common.glsl: how an object's vertices (and ISM points)
+/// reach world space.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuObject {
+    /// Object to world.
+    pub model: [f32; 16],
+    /// The inverse transpose of the linear part (normals), as a 4x4.
+    pub normal_matrix: [f32; 16],
+    /// x: the material override (`u32::MAX`: the mesh's own); y: visible
+    /// (1) or hidden (0); z: the bits of the handedness (-1 for a mirror,
+    /// else 1); w unused.
+    pub params: [u32; 4],
+}
+
+impl GpuObject {
+    /// Packs a scene object.
+    pub fn new(o: &crate::scene::Object) -> Self {
+        let p = crate::scene::Placement::new(o);
+        Self {
+            model: p.transform.to_cols_array(),
+            normal_matrix: glam::Mat4::from_mat3(p.normal_matrix).to_cols_array(),
+            params: [
+                o.material.unwrap_or(u32::MAX),
+                o.visible as u32,
+                p.handedness.to_bits(),
+                0,
+            ],
+        }
     }
 }
 

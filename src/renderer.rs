@@ -23,7 +23,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::gpu_scene::GpuScene;
+use crate::gpu_scene::SlotScene;
 use crate::passes::direct_lighting::{DirectLight, DirectLightingPass};
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass};
@@ -92,7 +92,7 @@ impl LayerStages {
         &mut self,
         cx: &mut Recording<'_, '_>,
         setup: &SlotSetup<'_>,
-        (scene, front): (&GpuScene, Option<&GBuffer>),
+        (scene, front): (SlotScene<'_>, Option<&GBuffer>),
         (shadows, ism): (&ShadowMaps, &Ism),
     ) -> Result<(&GBuffer, &BoundedLighting)> {
         let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
@@ -158,12 +158,12 @@ impl Passes {
         &mut self,
         cx: &mut Recording<'_, '_>,
         setup: &SlotSetup<'_>,
-        scene: &GpuScene,
+        scene: SlotScene<'_>,
         history: Option<HistoryFrame>,
     ) -> Result<()> {
         self.temporal_ran[setup.slot] = false;
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
-        let ism = self.ism.run(cx, setup, ())?;
+        let ism = self.ism.run(cx, setup, scene.objects)?;
         let [layer0, layer1] = &mut self.layers;
         let (front, bounded) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
         let visible = bounded.ssbc_layer(front);
@@ -859,6 +859,11 @@ impl Renderer {
             settings,
             &mut spans,
         )?;
+        // The slot's previous frame is done: its copy of the objects'
+        // transforms can be rewritten.
+        cache
+            .gpu_scene
+            .write_objects(slot, scene, versions.objects)?;
         // With a guard band every pass renders the wider frame (`settings`).
         let (band, wide) = GuardBand::widen_frame(&device, scene, settings, cache)?;
         let (inner, settings) = (settings, wide.as_ref().unwrap_or(settings));
@@ -898,8 +903,12 @@ impl Renderer {
                 .step(&plan, settings, (view.view_proj, view.camera.position)),
             previous_slot: plan.previous_slot,
         });
-        self.passes
-            .record(&mut cx, &setup, &cache.gpu_scene, history_frame)?;
+        self.passes.record(
+            &mut cx,
+            &setup,
+            cache.gpu_scene.for_slot(slot),
+            history_frame,
+        )?;
         self.profiler.end_frame(rec.cmd);
         let light_paths = cache.vpls().set.paths;
 

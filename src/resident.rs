@@ -7,7 +7,8 @@
 //! | camera | the screen-space passes (nothing on the CPU) |
 //! | lights | VPL tracing, shadow-map and ISM data, the passes |
 //! | materials | GPU scene copy, BVH (alpha masks), VPLs, ISM points |
-//! | geometry ([`ResidentScene::edit`]) | everything |
+//! | objects moved, shown, hidden ([`ResidentScene::set_transform`], [`ResidentScene::set_visible`]) | the BVH's top level, the objects' transforms on the GPU, VPL tracing, the passes (ISM points move with their objects; meshes stay uploaded) |
+//! | geometry ([`ResidentScene::edit`], [`ResidentScene::add_object`], [`ResidentScene::remove_object`]) | everything |
 //!
 //! Frames also keep a temporal history of the indirect light (a running
 //! mean that converges while nothing moves, reprojected when the camera
@@ -38,7 +39,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
-use crate::scene::{Camera, Light, Material, Scene};
+use crate::scene::{Camera, Light, Material, Object, Scene};
 
 static NEXT_VERSION: AtomicU64 = AtomicU64::new(1);
 
@@ -51,8 +52,10 @@ pub(crate) fn next_version() -> u64 {
 /// Versions of a scene's parts: a part's version changes whenever it does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SceneVersions {
-    /// Vertices, indices, textures.
+    /// Meshes, textures, the list of objects.
     pub geometry: u64,
+    /// Objects' transforms and visibility.
+    pub objects: u64,
     /// Materials.
     pub materials: u64,
     /// Lights.
@@ -69,6 +72,7 @@ impl SceneVersions {
     pub fn fresh() -> Self {
         Self {
             geometry: next_version(),
+            objects: next_version(),
             materials: next_version(),
             lights: next_version(),
             camera: next_version(),
@@ -171,8 +175,49 @@ impl ResidentScene {
         Ok(())
     }
 
-    /// Any other change (vertices, indices, textures, object transforms
-    /// baked into vertices): everything is redone on the next frame. The
+    /// Moves object `index` to `transform` (object to world; finite and
+    /// invertible). The next frame rebuilds the BVH's top level, writes the
+    /// objects' transforms and traces VPLs again; nothing is uploaded but
+    /// the transforms and VPLs, no resource is created.
+    /// Setting the transform an object has is no change (engines set
+    /// every transform every frame).
+    pub fn set_transform(&mut self, index: usize, transform: glam::Mat4) -> Result<()> {
+        if self.scene.object(index)?.transform != transform {
+            self.scene.set_transform(index, transform)?;
+            self.versions.objects = next_version();
+        }
+        Ok(())
+    }
+
+    /// Shows or hides object `index` (as cheap as a move; a hidden object's
+    /// ISM points are skipped, not redistributed).
+    pub fn set_visible(&mut self, index: usize, visible: bool) -> Result<()> {
+        if self.scene.object(index)?.visible != visible {
+            self.scene.set_visible(index, visible)?;
+            self.versions.objects = next_version();
+        }
+        Ok(())
+    }
+
+    /// Adds an object drawing one of the scene's meshes (the scene's
+    /// geometry changes: the next frame redoes everything).
+    pub fn add_object(&mut self, object: Object) -> Result<usize> {
+        let index = self.scene.add_object(object)?;
+        self.versions = SceneVersions::fresh();
+        Ok(index)
+    }
+
+    /// Removes object `index` (later objects move down by one; the next
+    /// frame redoes everything). A scene needs a visible triangle left.
+    pub fn remove_object(&mut self, index: usize) -> Result<Object> {
+        let removed = self.scene.remove_object(index)?;
+        self.versions = SceneVersions::fresh();
+        self.scene.validate()?;
+        Ok(removed)
+    }
+
+    /// Any other change (meshes, textures, objects' materials): everything
+    /// is redone on the next frame. The
     /// scene is validated after `f`; on an error it is left as `f` made it
     /// but every part is marked changed, and frames refuse it until fixed.
     pub fn edit<T>(&mut self, f: impl FnOnce(&mut Scene) -> T) -> Result<T> {

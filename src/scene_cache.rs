@@ -14,6 +14,7 @@ use crate::gpu_scene::GpuScene;
 use crate::gpu_types::GpuVpl;
 use crate::resident::{next_version, SceneVersions};
 use crate::scene::{Bounds, Scene};
+use glam::Vec3;
 use crate::settings::RenderSettings;
 use crate::timings::CpuSpan;
 use crate::vk::Device;
@@ -21,7 +22,7 @@ use crate::vk::Device;
 /// VPLs traced for one version of the lights and one set of settings, in
 /// the order of their interleaving subsets.
 pub struct VplCache {
-    key: (u64, VplSettings, u32),
+    key: (u64, u64, VplSettings, u32),
     /// The VPLs and the light paths that made them.
     pub set: VplSet,
     /// The same, as the GPU reads them.
@@ -32,6 +33,12 @@ pub struct VplCache {
     /// Each VPL's coarse ray-cast ISM layer, in the same order
     /// ([`ism_rays::coarse_depths`]).
     pub ism_base: Vec<f32>,
+    /// The distances along each VPL's corner rays that `ism_base` was
+    /// made of ([`ism_rays::corner_depths`]).
+    ism_corners: Vec<f32>,
+    /// The scene's bounds and which objects were visible (a hash) when
+    /// traced.
+    traced_in: (Bounds, u64),
     /// Changes whenever the VPLs do (passes compare it with what they hold).
     pub version: u64,
 }
@@ -43,14 +50,25 @@ pub struct VplCache {
 /// points were 84 MiB and 248 ms on the CPU per immediate-mode frame).
 pub const MAX_POINT_BLOCKS: usize = 256;
 
+/// A hash of which objects are visible.
+fn visibility_hash(scene: &Scene) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for o in scene.objects() {
+        o.visible.hash(&mut h);
+    }
+    h.finish()
+}
+
 /// Blocks of ISM points for `vpls` VPLs: one each, up to [`MAX_POINT_BLOCKS`].
 pub fn point_blocks(vpls: usize) -> usize {
     vpls.clamp(1, MAX_POINT_BLOCKS)
 }
 
-/// ISM points for one number of blocks, points per block and seed.
+/// ISM points for one number of blocks, points per block and seed, and
+/// one set of visible objects.
 pub struct PointsCache {
-    key: (usize, u32, u64),
+    key: (usize, u32, u64, u64),
     /// The points.
     pub points: IsmPoints,
     /// Changes whenever the points do.
@@ -59,16 +77,23 @@ pub struct PointsCache {
 
 /// The scene's CPU products and GPU copy.
 pub struct SceneCache {
-    /// The versions the cache was built from (geometry and materials) and
-    /// last used with (lights, camera).
+    /// The versions the cache was built from (geometry, objects and
+    /// materials) and last used with (lights, camera).
     pub versions: SceneVersions,
-    /// Bounds of the scene's geometry.
+    /// Bounds of the visible objects.
     pub bounds: Bounds,
+    /// Per object, the (transform, visibility) its bounds are for, and its
+    /// exact world bounds (None while hidden).
+    object_bounds: Vec<(glam::Mat4, bool, Option<Bounds>)>,
     /// Ray casting, for light tracing.
     pub bvh: SceneBvh,
     /// Geometry, materials and textures on the GPU.
     pub gpu_scene: GpuScene,
     vpls: Option<VplCache>,
+    /// World boxes where objects were and are, for every move since the
+    /// VPLs were traced (what their light paths and corner rays must not
+    /// cross to be kept).
+    moved_since_vpls: Vec<Bounds>,
     points: Option<PointsCache>,
 }
 
@@ -96,25 +121,60 @@ impl SceneCache {
             scene.validate()?;
             *cache = None;
             let bvh = CpuSpan::time(spans, "bvh_build", || SceneBvh::new(scene));
-            let gpu_scene =
-                CpuSpan::time(spans, "scene_upload", || GpuScene::upload(device, scene))?;
-            *cache = Some(SceneCache {
+            let gpu_scene = CpuSpan::time(spans, "scene_upload", || {
+                GpuScene::upload(device, scene, crate::renderer::FRAME_SLOTS)
+            })?;
+            let mut built = SceneCache {
                 versions,
-                bounds: scene.bounds(),
+                bounds: Bounds {
+                    min: Vec3::ZERO,
+                    max: Vec3::ZERO,
+                },
+                object_bounds: Vec::new(),
                 bvh,
                 gpu_scene,
                 vpls: None,
+                moved_since_vpls: Vec::new(),
                 points: None,
-            });
+            };
+            built.update_bounds(scene);
+            *cache = Some(built);
         }
         let cache = cache.as_mut().expect("built above");
+        if cache.versions.objects != versions.objects {
+            // Objects moved, appeared or vanished: the meshes' BVHs and GPU
+            // copies stay; the top level, bounds and draws follow them.
+            CpuSpan::time(spans, "objects_moved", || {
+                cache.bvh = cache.bvh.moved(scene);
+                let moved = cache.update_bounds(scene);
+                cache.moved_since_vpls.extend(moved);
+                cache.gpu_scene.set_objects(scene);
+            });
+            cache.versions.objects = versions.objects;
+        }
         cache.versions.lights = versions.lights;
         cache.versions.camera = versions.camera;
         let side = settings.pattern_side();
-        let vpl_key = (versions.lights, settings.vpl.clone(), side);
+        let vpl_key = (versions.lights, versions.objects, settings.vpl.clone(), side);
         if !cache.vpls.as_ref().is_some_and(|v| v.key == vpl_key) {
+            let shown = visibility_hash(scene);
+            let directional = scene
+                .lights
+                .iter()
+                .any(|l| matches!(l.kind, crate::scene::LightKind::Directional));
+            // The paths and corner rays of VPLs traced for the same lights
+            // and settings, before objects moved, are kept where they
+            // cross none of the moved boxes (a directional light's paths
+            // start on a disk the size of the scene's bounds).
+            let earlier = cache.vpls.as_ref().filter(|v| {
+                (v.key.0, &v.key.2, v.key.3) == (vpl_key.0, &vpl_key.2, vpl_key.3)
+                    && v.traced_in.1 == shown
+                    && (!directional || v.traced_in.0 == cache.bounds)
+            });
+            let moved = &cache.moved_since_vpls;
             let mut set = CpuSpan::time(spans, "vpl_generation", || {
-                vpl::generate(scene, &cache.bvh, &settings.vpl)
+                let reuse = earlier.map(|v| vpl::Reuse { set: &v.set, moved });
+                vpl::generate_with(scene, &cache.bvh, &settings.vpl, &cache.bounds, reuse)
             })?;
             let subsets = vpl::interleave(&mut set.vpls, side * side);
             // Each VPL splats the block of points its identity picks (so
@@ -124,11 +184,20 @@ impl SceneCache {
             let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
             let gpu = set.vpls.iter().zip(0..);
             let miss = 4.0 * cache.bounds.radius().max(1e-3);
-            let ism_base = CpuSpan::time(spans, "ism_rays", || {
-                ism_rays::coarse_depths(&cache.bvh, &set.vpls, miss)
+            let ism_corners = CpuSpan::time(spans, "ism_rays", || {
+                let known = earlier
+                    .filter(|v| 4.0 * v.traced_in.0.radius().max(1e-3) == miss)
+                    .map(|v| ism_rays::KnownCorners {
+                        vpls: &v.set.vpls,
+                        depths: &v.ism_corners,
+                        moved,
+                    });
+                ism_rays::corner_depths(&cache.bvh, &set.vpls, miss, known)
             });
             cache.vpls = Some(VplCache {
-                ism_base,
+                ism_base: ism_rays::blocks(&ism_corners),
+                ism_corners,
+                traced_in: (cache.bounds, shown),
                 gpu: gpu
                     .map(|(v, i)| GpuVpl::new(v, i, count, block(v)))
                     .collect(),
@@ -137,9 +206,12 @@ impl SceneCache {
                 key: vpl_key,
                 version: next_version(),
             });
+            cache.moved_since_vpls.clear();
         }
         let blocks = point_blocks(cache.vpls().set.vpls.len());
-        let points_key = (blocks, settings.points_per_vpl, settings.vpl.seed);
+        // Points move with their objects; an object shown again needs its own.
+        let shown = visibility_hash(scene);
+        let points_key = (blocks, settings.points_per_vpl, settings.vpl.seed, shown);
         if cache.points.as_ref().is_none_or(|p| p.key != points_key) {
             let points = CpuSpan::time(spans, "point_sampling", || {
                 sample_points(
@@ -156,6 +228,53 @@ impl SceneCache {
             });
         }
         Ok(cache)
+    }
+
+    /// Brings each object's world bounds up to its transform (only moved,
+    /// shown or hidden objects are measured again) and their union.
+    /// Returns the boxes where those objects were and are, grown by a
+    /// margin (rays start a little off surfaces and behind their origins).
+    fn update_bounds(&mut self, scene: &Scene) -> Vec<Bounds> {
+        let objects = scene.objects();
+        let mut moved = Vec::new();
+        self.object_bounds.truncate(objects.len());
+        for (i, o) in objects.iter().enumerate() {
+            let held = self.object_bounds.get(i);
+            if held.is_some_and(|h| h.0 == o.transform && h.1 == o.visible) {
+                continue;
+            }
+            let placement = crate::scene::Placement::new(o);
+            let bounds = scene.meshes()[o.mesh]
+                .vertices
+                .iter()
+                .map(|v| placement.transform.transform_point3(v.position.into()))
+                .map(|p| Bounds { min: p, max: p })
+                .reduce(Bounds::union)
+                .filter(|_| o.visible);
+            moved.extend(held.and_then(|h| h.2));
+            moved.extend(bounds);
+            let entry = (o.transform, o.visible, bounds);
+            match self.object_bounds.get_mut(i) {
+                Some(h) => *h = entry,
+                None => self.object_bounds.push(entry),
+            }
+        }
+        self.bounds = self
+            .object_bounds
+            .iter()
+            .filter_map(|b| b.2)
+            .reduce(Bounds::union)
+            .unwrap_or_else(|| scene.bounds());
+        moved
+            .into_iter()
+            .map(|b| {
+                let margin = Vec3::splat(1e-3 * (1.0 + b.min.abs().max(b.max.abs()).max_element()));
+                Bounds {
+                    min: b.min - margin,
+                    max: b.max + margin,
+                }
+            })
+            .collect()
     }
 
     /// The VPLs (traced by [`SceneCache::update`]).

@@ -191,8 +191,8 @@ pub struct RenderSettings {
 /// |---|---|---|
 /// | nothing changed | traces the next light paths (new VPLs, ISMs) | running mean, up to `max_frames` |
 /// | the camera moved | keeps the VPLs (and ISMs; new ones with `new_vpls_while_moving`) | reprojected; pixels whose surface was not seen (depth, normal) start anew; at most `moving_frames` |
-/// | lights changed | the same light paths from the new lights | kept where the indirect light changed little (4x4-block means), at most `light_frames`; dropped where it changed by `light_change` or more |
-/// | geometry, materials, settings | everything | dropped |
+/// | lights changed, objects moved | the same light paths in the changed scene | kept where the surface is the same and the indirect light changed little (4x4-block means), at most `light_frames`; dropped where it changed by `light_change` or more |
+/// | meshes, materials, settings, objects added or removed | everything | dropped |
 ///
 /// Setting a camera or lights equal to the last frame's is no change (an
 /// engine may set them every frame).

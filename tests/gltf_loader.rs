@@ -25,9 +25,9 @@ fn expected_corners() -> Vec<Vec3> {
 fn check_quad(scene: &ssbc::Scene) {
     assert_eq!(scene.triangle_count(), 2);
     let positions: Vec<Vec3> = scene
-        .indices
-        .iter()
-        .map(|&i| Vec3::from(scene.vertices[i as usize].position))
+        .world_triangles()
+        .flatten()
+        .map(|v| Vec3::from(v.position))
         .collect();
     let expected = expected_corners();
     for (k, &i) in [0usize, 1, 2, 0, 2, 3].iter().enumerate() {
@@ -38,7 +38,7 @@ fn check_quad(scene: &ssbc::Scene) {
             expected[i]
         );
     }
-    for v in &scene.vertices {
+    for v in scene.world_triangles().flatten() {
         assert!(
             (Vec3::from(v.normal) - Vec3::Y).length() < 1e-5,
             "normal stays +Y under rotation about Y"
@@ -318,7 +318,7 @@ fn emission_alpha_normal_maps_and_samplers_are_read() {
     // One image decoded once, used three times.
     assert_eq!(scene.textures.len(), 1);
     // Tangents were generated for the normal map, along +u.
-    let t = scene.vertices[0].tangent;
+    let t = scene.world_triangles().next().unwrap()[0].tangent;
     assert!((Vec3::new(t[0], t[1], t[2]).length() - 1.0).abs() < 1e-5 && t[3].abs() == 1.0);
     // BLEND reads as a mask at 0.5; the glTF default is one-sided.
     let json = quad_with_material(r#"{"alphaMode":"BLEND"}"#);
@@ -361,12 +361,12 @@ fn bad_material_values_are_clear_errors() {
 }
 
 fn centre(scene: &ssbc::Scene) -> Vec3 {
-    scene
-        .vertices
-        .iter()
+    let corners: Vec<Vec3> = scene
+        .world_triangles()
+        .flatten()
         .map(|v| Vec3::from(v.position))
-        .sum::<Vec3>()
-        / scene.vertices.len() as f32
+        .collect();
+    corners.iter().sum::<Vec3>() / corners.len() as f32
 }
 
 #[test]

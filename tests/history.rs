@@ -207,7 +207,7 @@ fn turning_round_carries_nothing_over() {
 }
 
 fn scene_size(scene: &Scene) -> f32 {
-    let (lo, hi) = scene.vertices.iter().fold(
+    let (lo, hi) = scene.world_triangles().flatten().fold(
         (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
         |(lo, hi), v| {
             let p = Vec3::from(v.position);

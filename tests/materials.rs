@@ -479,16 +479,11 @@ fn generated_tangents_read_green_as_image_up() {
             c + Vec3::new(2.0, 0.0, 2.0),
             c + Vec3::Z * 2.0,
         ];
-        s.add_mesh_with_tangents(
-            &p,
-            &[Vec3::Y; 4],
-            &uv,
-            &tangents,
-            &[0, 2, 1, 0, 3, 2],
-            Mat4::IDENTITY,
-            m,
-        )
-        .unwrap();
+        let mesh = s
+            .new_mesh(&p, &[Vec3::Y; 4], &uv, &tangents, &[0, 2, 1, 0, 3, 2], m)
+            .unwrap();
+        s.add_object(ssbc::scene::Object::new(mesh, Mat4::IDENTITY))
+            .unwrap();
     }
     // Light grazing in from -z, 20 degrees above the floor: normals tilted
     // towards -z face it, normals tilted towards +z face away.
@@ -523,7 +518,7 @@ fn generated_tangents_read_green_as_image_up() {
             at(x)
         );
     }
-    for v in &s.vertices {
+    for v in s.world_triangles().flatten() {
         let t = Vec4::from(v.tangent);
         assert!(
             (t - Vec4::new(1.0, 0.0, 0.0, 1.0)).length() < 1e-5,

@@ -182,8 +182,10 @@ fn material_and_geometry_edits_are_picked_up() {
     assert!(resident.set_light(99, light).is_err());
     resident
         .edit(|scene| {
-            for v in &mut scene.vertices {
-                v.position[1] += 0.5;
+            for m in 0..scene.meshes().len() {
+                for v in &mut scene.mesh_mut(m).unwrap().vertices {
+                    v.position[1] += 0.5;
+                }
             }
         })
         .unwrap();

@@ -26,6 +26,14 @@ struct ShadowView {
 
 // Lambertian material, possibly emissive, alpha-masked, normal-mapped
 // (material.glsl evaluates it).
+// An object: how its mesh's vertices and ISM points reach world space.
+struct GpuObject {
+    mat4 model;               // object to world
+    mat4 normal_matrix;       // inverse transpose of model's linear part (normals)
+    uvec4 params;             // x material override (0xFFFFFFFF: the mesh's own), y visible,
+                              // z handedness bits (-1.0 for a mirror, else 1.0)
+};
+
 struct GpuMaterial {
     vec4 base_color;          // rgb linear albedo factor, a alpha factor
     vec4 emission_cutoff;     // rgb emitted radiance W/(m^2 sr), w alpha cutoff (< 0: opaque)

@@ -5,8 +5,11 @@
 
 use std::time::Duration;
 
-use glam::{Vec2, Vec3, Vec3A, Vec4};
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec2, Vec3, Vec3A, Vec4};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::builder::{build_cwbvh, build_cwbvh_from_tris};
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
@@ -14,14 +17,16 @@ use obvhs::BvhBuildParams;
 
 use super::brdf::Brdf;
 use super::shading;
-use crate::scene::{AlphaMode, Scene, Texture, TextureSampler};
+use rayon::prelude::*;
+
+use crate::scene::{AlphaMode, Bounds, Mesh, Scene, Texture, TextureSampler};
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug)]
 pub struct Hit {
     /// Distance along the (unit) ray.
     pub t: f32,
-    /// Triangle index into the scene's index list / 3.
+    /// World triangle index ([`Scene::instances`] numbers them).
     pub triangle: u32,
     /// Barycentric coordinates (of vertices 1 and 2).
     pub barycentric: Vec2,
@@ -67,14 +72,151 @@ struct Mask {
     texture: Option<(usize, TextureSampler)>,
 }
 
-/// A BVH over every triangle of a scene.
-pub struct SceneBvh {
-    bvh: CwBvh,
-    triangles: Vec<Triangle>,
-    /// Per triangle: its mask (index into `masks`) and its vertices' UVs.
-    masked: Vec<Option<(u32, [Vec2; 3])>>,
+/// The alpha masks of a scene's materials.
+struct Masks {
+    /// Per material, its mask (index into `masks`).
+    of_material: Vec<Option<u32>>,
     masks: Vec<Mask>,
     alpha_textures: Vec<AlphaTexture>,
+}
+
+impl Masks {
+    /// The masks of `scene`'s materials and the alpha of their textures.
+    fn new(scene: &Scene) -> Self {
+        let mut alpha_textures = Vec::new();
+        let mut texture_slot = std::collections::HashMap::new();
+        let mut of_material = vec![None; scene.materials.len()];
+        let mut masks = Vec::new();
+        for (i, m) in scene.materials.iter().enumerate() {
+            if let AlphaMode::Mask(cutoff) = m.alpha {
+                let texture = m.texture.map(|t| {
+                    let slot = *texture_slot.entry(t).or_insert_with(|| {
+                        let tex: &Texture = &scene.textures[t];
+                        alpha_textures.push(AlphaTexture {
+                            width: tex.width,
+                            height: tex.height,
+                            rgba8: tex
+                                .rgba8
+                                .chunks_exact(4)
+                                .flat_map(|c| [0, 0, 0, c[3]])
+                                .collect(),
+                        });
+                        alpha_textures.len() - 1
+                    });
+                    (slot, m.sampler)
+                });
+                of_material[i] = Some(masks.len() as u32);
+                masks.push(Mask {
+                    cutoff,
+                    alpha_factor: m.base_color.w,
+                    texture,
+                });
+            }
+        }
+        Self {
+            of_material,
+            masks,
+            alpha_textures,
+        }
+    }
+
+    /// Whether the point with texture coordinate `uv` of a triangle of
+    /// `material` exists.
+    fn exists(&self, material: u32, uv: impl FnOnce() -> Vec2) -> bool {
+        let Some(Some(mask)) = self.of_material.get(material as usize) else {
+            return true;
+        };
+        let mask = &self.masks[*mask as usize];
+        let alpha = match mask.texture {
+            None => mask.alpha_factor,
+            Some((slot, sampler)) => {
+                let tex = &self.alpha_textures[slot];
+                mask.alpha_factor
+                    * shading::sample_rgba8(tex.width, tex.height, &tex.rgba8, sampler, uv(), false)
+                        .w
+            }
+        };
+        alpha >= mask.cutoff
+    }
+
+    fn any(&self) -> bool {
+        !self.masks.is_empty()
+    }
+}
+
+/// A BVH over one mesh's triangles in object space (built once per mesh).
+struct MeshBvh {
+    bvh: CwBvh,
+    triangles: Vec<Triangle>,
+    /// Per triangle: its material and its vertices' UVs (alpha masks).
+    material: Vec<u32>,
+    uvs: Vec<[Vec2; 3]>,
+    bounds: Bounds,
+}
+
+impl MeshBvh {
+    fn new(mesh: &Mesh) -> Self {
+        let corner = |t: &[u32], k: usize| &mesh.vertices[t[k] as usize];
+        let triangles: Vec<Triangle> = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let p = |k: usize| Vec3A::from(corner(t, k).position);
+                Triangle {
+                    v0: p(0),
+                    v1: p(1),
+                    v2: p(2),
+                }
+            })
+            .collect();
+        let bvh = build_cwbvh_from_tris(
+            &triangles,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let material = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|t| corner(t, 0).material)
+            .collect();
+        let uvs = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|t| [0, 1, 2].map(|k| Vec2::from(corner(t, k).uv)))
+            .collect();
+        Self {
+            bvh,
+            triangles,
+            material,
+            uvs,
+            bounds: mesh.bounds().unwrap_or(Bounds {
+                min: Vec3::ZERO,
+                max: Vec3::ZERO,
+            }),
+        }
+    }
+}
+
+/// One visible object in the top level: its mesh and transforms.
+#[derive(Clone, Copy)]
+struct TopInstance {
+    mesh: u32,
+    first_triangle: u32,
+    to_world: Mat4,
+    to_object: Mat4,
+    material: Option<u32>,
+}
+
+/// Ray casting against a scene's visible objects: a BVH per mesh in
+/// object space (built once, shared by every object drawing it and kept
+/// while only transforms change) under a top-level BVH over the objects'
+/// world bounds (rebuilt when an object moves: [`SceneBvh::moved`]).
+/// Triangles are numbered as [`Scene::instances`] numbers them.
+pub struct SceneBvh {
+    meshes: Arc<Vec<MeshBvh>>,
+    masks: Arc<Masks>,
+    top: CwBvh,
+    instances: Vec<TopInstance>,
     /// Per triangle, its connected surface ([`SceneBvh::connected_surfaces`]).
     surfaces: std::sync::OnceLock<Vec<u32>>,
 }
@@ -114,93 +256,102 @@ pub fn lift(p: Vec3) -> f32 {
 }
 
 impl SceneBvh {
-    /// Builds the BVH (medium-quality PLOC build).
+    /// Builds a BVH per mesh (medium-quality PLOC builds, in parallel) and
+    /// the top level.
     pub fn new(scene: &Scene) -> Self {
-        let triangles: Vec<Triangle> = scene
-            .indices
-            .chunks_exact(3)
-            .map(|t| {
-                let p = |i: u32| Vec3A::from(scene.vertices[i as usize].position);
-                Triangle {
-                    v0: p(t[0]),
-                    v1: p(t[1]),
-                    v2: p(t[2]),
-                }
+        let meshes: Vec<MeshBvh> = scene.meshes().par_iter().map(MeshBvh::new).collect();
+        Self::with(Arc::new(meshes), Arc::new(Masks::new(scene)), scene)
+    }
+
+    /// This BVH with the objects of `scene` where they are now: only the
+    /// top level is rebuilt (the scene's meshes and materials must be those
+    /// this BVH was built for).
+    pub fn moved(&self, scene: &Scene) -> Self {
+        Self::with(self.meshes.clone(), self.masks.clone(), scene)
+    }
+
+    fn with(meshes: Arc<Vec<MeshBvh>>, masks: Arc<Masks>, scene: &Scene) -> Self {
+        let instances: Vec<TopInstance> = scene
+            .instances()
+            .list
+            .iter()
+            .map(|i| TopInstance {
+                mesh: i.mesh,
+                first_triangle: i.first_triangle,
+                to_world: i.placement.transform,
+                to_object: i.placement.transform.inverse(),
+                material: i.placement.material,
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(
-            &triangles,
+        let boxes: Vec<Aabb> = instances
+            .iter()
+            .map(|i| {
+                let b = meshes[i.mesh as usize].bounds.transformed(i.to_world);
+                Aabb::new(b.min.into(), b.max.into())
+            })
+            .collect();
+        let top = build_cwbvh(
+            &boxes,
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
-        // Alpha masks: the materials that have one, and the alpha of their textures.
-        let mut alpha_textures = Vec::new();
-        let mut texture_slot = std::collections::HashMap::new();
-        let mut mask_of_material = vec![None; scene.materials.len()];
-        let mut masks = Vec::new();
-        for (i, m) in scene.materials.iter().enumerate() {
-            if let AlphaMode::Mask(cutoff) = m.alpha {
-                let texture = m.texture.map(|t| {
-                    let slot = *texture_slot.entry(t).or_insert_with(|| {
-                        let tex: &Texture = &scene.textures[t];
-                        alpha_textures.push(AlphaTexture {
-                            width: tex.width,
-                            height: tex.height,
-                            rgba8: tex
-                                .rgba8
-                                .chunks_exact(4)
-                                .flat_map(|c| [0, 0, 0, c[3]])
-                                .collect(),
-                        });
-                        alpha_textures.len() - 1
-                    });
-                    (slot, m.sampler)
-                });
-                mask_of_material[i] = Some(masks.len() as u32);
-                masks.push(Mask {
-                    cutoff,
-                    alpha_factor: m.base_color.w,
-                    texture,
-                });
-            }
-        }
-        let masked = scene
-            .indices
-            .chunks_exact(3)
-            .map(|t| {
-                let v = |k: usize| &scene.vertices[t[k] as usize];
-                mask_of_material[v(0).material as usize]
-                    .map(|mask| (mask, [0, 1, 2].map(|k| Vec2::from(v(k).uv))))
-            })
-            .collect();
         Self {
-            bvh,
-            triangles,
-            masked,
+            meshes,
             masks,
-            alpha_textures,
+            top,
+            instances,
             surfaces: std::sync::OnceLock::new(),
         }
     }
 
+    /// The world bounds of the visible objects (their meshes' bounds
+    /// moved), None without any.
+    pub fn bounds(&self) -> Option<Bounds> {
+        self.instances
+            .iter()
+            .map(|i| self.meshes[i.mesh as usize].bounds.transformed(i.to_world))
+            .reduce(Bounds::union)
+    }
+
+    /// The instance holding world triangle `t`, and its index in the mesh.
+    fn locate(&self, t: u32) -> (&TopInstance, usize) {
+        let i = self.instances.partition_point(|x| x.first_triangle <= t) - 1;
+        (
+            &self.instances[i],
+            (t - self.instances[i].first_triangle) as usize,
+        )
+    }
+
+    /// World triangle `t`'s corners in world space.
+    fn world_triangle(&self, t: u32) -> [Vec3; 3] {
+        let (instance, local) = self.locate(t);
+        let tri = &self.meshes[instance.mesh as usize].triangles[local];
+        [tri.v0, tri.v1, tri.v2].map(|v| instance.to_world.transform_point3(v.into()))
+    }
+
+    /// Number of world triangles.
+    fn triangle_count(&self) -> u32 {
+        self.instances.last().map_or(0, |i| {
+            i.first_triangle + self.meshes[i.mesh as usize].triangles.len() as u32
+        })
+    }
+
     /// Per triangle, the connected surface it belongs to: triangles joined
-    /// by vertex positions they share exactly (a closed box of 24 vertices
-    /// is one surface). Worked out on first use.
+    /// by world vertex positions they share exactly (a closed box of 24
+    /// vertices is one surface). Worked out on first use.
     pub fn connected_surfaces(&self) -> &[u32] {
         self.surfaces.get_or_init(|| {
             let mut ids = std::collections::HashMap::new();
             let mut parent: Vec<u32> = Vec::new();
-            let mut id = |p: Vec3A| {
+            let mut id = |p: Vec3| {
                 *ids.entry(p.to_array().map(f32::to_bits))
                     .or_insert_with(|| {
                         parent.push(parent.len() as u32);
                         parent.len() as u32 - 1
                     })
             };
-            let corners: Vec<[u32; 3]> = self
-                .triangles
-                .iter()
-                .map(|t| [id(t.v0), id(t.v1), id(t.v2)])
+            let corners: Vec<[u32; 3]> = (0..self.triangle_count())
+                .map(|t| self.world_triangle(t).map(&mut id))
                 .collect();
             fn root(parent: &mut [u32], mut i: u32) -> u32 {
                 while parent[i as usize] != i {
@@ -219,41 +370,47 @@ impl SceneBvh {
         })
     }
 
-    /// Whether triangle `t` exists at the point `p` of it (alpha mask).
-    fn exists(&self, t: usize, p: Vec3) -> bool {
-        let Some((mask, uvs)) = &self.masked[t] else {
-            return true;
-        };
-        let mask = &self.masks[*mask as usize];
-        let alpha = match mask.texture {
-            None => mask.alpha_factor,
-            Some((slot, sampler)) => {
-                let b = barycentric(&self.triangles[t], p);
-                let uv = uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y;
-                let tex = &self.alpha_textures[slot];
-                mask.alpha_factor
-                    * shading::sample_rgba8(tex.width, tex.height, &tex.rgba8, sampler, uv, false).w
-            }
-        };
-        alpha >= mask.cutoff
+    /// The world ray `r` in the space of the object that is top-level
+    /// primitive `id`, with that object and its mesh: the same parameter t
+    /// as in the world (the direction is not renormalised).
+    fn object_ray(&self, r: &Ray, id: usize) -> (Ray, &TopInstance, &MeshBvh) {
+        let instance = &self.instances[self.top.primitive_indices[id] as usize];
+        let to_object = instance.to_object;
+        let origin = to_object.transform_point3(Vec3::from(r.origin));
+        let direction = to_object.transform_vector3(Vec3::from(r.direction));
+        let local = Ray::new(origin.into(), robust_direction(direction), r.tmin, r.tmax);
+        (local, instance, &self.meshes[instance.mesh as usize])
     }
 
-    /// Distance to a candidate hit of triangle `id` that exists there and is
-    /// not `skip` (the triangle a ray leaves).
-    fn candidate(&self, r: &Ray, id: usize, skip: Option<u32>) -> f32 {
-        let t = self.bvh.primitive_indices[id];
-        if skip == Some(t) {
-            return f32::INFINITY;
+    /// Distance to a candidate hit of the mesh's triangle `id` (a BVH
+    /// primitive index) that exists there and is not `skip` (the world
+    /// triangle a ray leaves), and that triangle's local index.
+    fn candidate(
+        &self,
+        r: &Ray,
+        instance: &TopInstance,
+        mesh: &MeshBvh,
+        id: usize,
+        skip: Option<u32>,
+    ) -> (f32, usize) {
+        let local = mesh.bvh.primitive_indices[id] as usize;
+        if skip == Some(instance.first_triangle + local as u32) {
+            return (f32::INFINITY, local);
         }
-        let t = t as usize;
-        let d = self.triangles[t].intersect(r);
-        if d.is_finite() && self.masked[t].is_some() {
-            let p = Vec3::from(r.origin + r.direction * d);
-            if !self.exists(t, p) {
-                return f32::INFINITY;
+        let tri = &mesh.triangles[local];
+        let d = tri.intersect(r);
+        if d.is_finite() && self.masks.any() {
+            let material = instance.material.unwrap_or(mesh.material[local]);
+            let uv = || {
+                let b = barycentric(tri, Vec3::from(r.origin + r.direction * d));
+                let uvs = &mesh.uvs[local];
+                uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y
+            };
+            if !self.masks.exists(material, uv) {
+                return (f32::INFINITY, local);
             }
         }
-        d
+        (d, local)
     }
 
     /// The closest hit along `dir` (unit) from `origin` within (tmin, tmax).
@@ -279,18 +436,35 @@ impl SceneBvh {
     ) -> Option<Hit> {
         let ray = backed_up_ray(origin, dir, tmin, tmax);
         let mut hit = RayHit::none();
-        let found = self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.candidate(r, id, skip));
-        if !found {
-            return None;
-        }
-        let triangle = self.bvh.primitive_indices[hit.primitive_id as usize];
-        let tri = &self.triangles[triangle as usize];
-        let p = Vec3::from(ray.origin + ray.direction * hit.t);
+        // The nearest triangle so far: (instance index, local triangle, t).
+        let mut nearest: Option<(usize, usize)> = None;
+        let found = self.top.ray_traverse(ray, &mut hit, |r, id| {
+            let (local_ray, instance, mesh) = self.object_ray(r, id);
+            let mut local_hit = RayHit::none();
+            let mut triangle = 0;
+            let found = mesh.bvh.ray_traverse(local_ray, &mut local_hit, |lr, lid| {
+                let (d, local) = self.candidate(lr, instance, mesh, lid, skip);
+                if d < lr.tmax {
+                    triangle = local;
+                }
+                d
+            });
+            if found {
+                nearest = Some((self.top.primitive_indices[id] as usize, triangle));
+                local_hit.t
+            } else {
+                f32::INFINITY
+            }
+        });
+        let (instance, local) = nearest.filter(|_| found)?;
+        let top = &self.instances[instance];
+        let tri = &self.meshes[top.mesh as usize].triangles[local];
+        let p = top
+            .to_object
+            .transform_point3(Vec3::from(ray.origin + ray.direction * hit.t));
         Some(Hit {
             t: hit.t - BACKUP,
-            triangle,
+            triangle: top.first_triangle + local as u32,
             barycentric: barycentric(tri, p),
         })
     }
@@ -335,9 +509,17 @@ impl SceneBvh {
             return false;
         }
         let ray = backed_up_ray(a, d / len, tmin, tmax);
-        !self
-            .bvh
-            .ray_traverse_miss(ray, |r, id| self.candidate(r, id, skip))
+        !self.top.ray_traverse_miss(ray, |r, id| {
+            let (local_ray, instance, mesh) = self.object_ray(r, id);
+            let blocked = !mesh.bvh.ray_traverse_miss(local_ray, |lr, lid| {
+                self.candidate(lr, instance, mesh, lid, skip).0
+            });
+            if blocked {
+                r.tmin
+            } else {
+                f32::INFINITY
+            }
+        })
     }
 
     /// Whether a ray along `dir` that meets triangle `t` meets its back (the
@@ -366,11 +548,14 @@ impl SceneBvh {
     /// `p` along `dir` (unit) crosses beyond `tmin`, in no particular order.
     pub fn crossings(&self, p: Vec3, dir: Vec3, tmin: f32, mut crossing: impl FnMut(u32, f32)) {
         let ray = backed_up_ray(p, dir, tmin, f32::INFINITY);
-        self.bvh.ray_traverse_anyhit(ray, |r, id| {
-            let t = self.candidate(r, id, None);
-            if t.is_finite() {
-                crossing(self.bvh.primitive_indices[id], t - BACKUP);
-            }
+        self.top.ray_traverse_anyhit(ray, |r, id| {
+            let (local_ray, instance, mesh) = self.object_ray(r, id);
+            mesh.bvh.ray_traverse_anyhit(local_ray, |lr, lid| {
+                let (t, local) = self.candidate(lr, instance, mesh, lid, None);
+                if t.is_finite() {
+                    crossing(instance.first_triangle + local as u32, t - BACKUP);
+                }
+            });
         });
     }
 
@@ -379,8 +564,7 @@ impl SceneBvh {
     /// point on an edge of a thin box lies in the plane of the next face,
     /// where no offset along its own normal separates it from that face.
     pub fn inset(&self, hit: &Hit, d: f32) -> Vec3 {
-        let t = &self.triangles[hit.triangle as usize];
-        let v = [Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2)];
+        let v = self.world_triangle(hit.triangle);
         let area2 = (v[1] - v[0]).cross(v[2] - v[0]).length();
         // Edge i is opposite vertex i; b_i = (distance to it) |edge i| / (2A).
         let edge = [
@@ -407,8 +591,8 @@ impl SceneBvh {
     /// The surface at `hit`, seen from direction `toward` (unit, pointing
     /// away from the surface).
     pub fn surface(&self, scene: &Scene, hit: &Hit, toward: Vec3) -> Surface {
-        let t = &scene.indices[hit.triangle as usize * 3..hit.triangle as usize * 3 + 3];
-        let v = |k: usize| &scene.vertices[t[k] as usize];
+        let corners = scene.triangle(hit.triangle);
+        let v = |k: usize| &corners[k];
         let (u, w) = (hit.barycentric.x, hit.barycentric.y);
         let b0 = 1.0 - u - w;
         let p = |k: usize| Vec3::from(v(k).position);

@@ -40,9 +40,8 @@ impl EmissionReach {
     pub fn measure(scene: &Scene, bvh: &SceneBvh, emitters: &Emitters) -> Self {
         let area: f32 = (0..scene.triangle_count())
             .map(|t| {
-                let i = &scene.indices[t * 3..t * 3 + 3];
-                let p = |k: usize| Vec3::from(scene.vertices[i[k] as usize].position);
-                0.5 * (p(1) - p(0)).cross(p(2) - p(0)).length()
+                let p = scene.triangle_positions(t as u32);
+                0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length()
             })
             .filter(|a| a.is_finite())
             .sum();
@@ -94,7 +93,7 @@ impl Scene {
     /// object), with an intensity giving 1 W/m² irradiance at the centre of
     /// the scene's bounds. Logged, with the reason.
     pub fn ensure_light(&mut self) {
-        if !self.lights.is_empty() || self.indices.is_empty() {
+        if !self.lights.is_empty() || self.triangle_count() == 0 {
             return;
         }
         let bvh = SceneBvh::new(self);

@@ -55,13 +55,16 @@ impl Emitters {
     pub fn new(scene: &Scene) -> Self {
         let mut e = Self::default();
         let mut total = 0.0f32;
+        let emissive: Vec<bool> = scene.materials.iter().map(|m| m.is_emissive()).collect();
         for t in 0..scene.triangle_count() {
-            let idx = &scene.indices[t * 3..t * 3 + 3];
-            let v = |k: usize| &scene.vertices[idx[k] as usize];
-            let material = &scene.materials[v(0).material as usize];
-            if !material.is_emissive() {
+            // Most triangles are not emissive: their material is looked up
+            // before the corners are moved to world space.
+            if !emissive[scene.triangle_material(t as u32) as usize] {
                 continue;
             }
+            let corners = scene.triangle(t as u32);
+            let v = |k: usize| &corners[k];
+            let material = &scene.materials[v(0).material as usize];
             let p = |k: usize| Vec3::from(v(k).position);
             let area = 0.5 * (p(1) - p(0)).cross(p(2) - p(0)).length();
             if area.is_nan() || area <= 0.0 {
@@ -129,8 +132,8 @@ impl Emitters {
             .min(self.cdf.len() - 1);
         let p_triangle = (self.cdf[i] - if i > 0 { self.cdf[i - 1] } else { 0.0 }) / total;
         let (t, area, sides) = self.triangles[i];
-        let idx = &scene.indices[t as usize * 3..t as usize * 3 + 3];
-        let v = |k: usize| &scene.vertices[idx[k] as usize];
+        let corners = scene.triangle(t);
+        let v = |k: usize| &corners[k];
         let (b1, b2) = uniform_triangle(Vec2::new(u.y, u.z));
         let b0 = 1.0 - b1 - b2;
         let p = |k: usize| Vec3::from(v(k).position);

@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use super::bvh::{SceneBvh, RAY_EPSILON};
 use super::sampling::basis;
 use super::vpl::Vpl;
+use crate::scene::Bounds;
 
 /// Blocks per side of a tile's ray-cast layer.
 pub const BASE_GRID: u32 = 8;
@@ -45,31 +46,91 @@ pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {
 /// VPL, row by row along the paraboloid's v then u; `miss` where every
 /// corner ray of a block leaves the scene.
 pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<f32> {
+    blocks(&corner_depths(bvh, vpls, miss, None))
+}
+
+/// Corner rays of earlier VPLs: their VPLs and [`corner_depths`], and the
+/// world boxes where objects moved from and to since.
+pub struct KnownCorners<'a> {
+    /// The earlier VPLs.
+    pub vpls: &'a [Vpl],
+    /// Their corner distances.
+    pub depths: &'a [f32],
+    /// Where moved objects were and are.
+    pub moved: &'a [Bounds],
+}
+
+/// The distances along every VPL's [`RAYS_PER_VPL`] corner rays (capped at
+/// `miss`). A VPL that `known` already had (same path and bounce, same
+/// place and normal) casts again only the rays that meet a moved box
+/// before their earlier hit: the others hit what they hit before.
+pub fn corner_depths(
+    bvh: &SceneBvh,
+    vpls: &[Vpl],
+    miss: f32,
+    known: Option<KnownCorners<'_>>,
+) -> Vec<f32> {
+    let n = RAYS_PER_VPL as usize;
     let g = BASE_GRID as usize;
-    let mut out = vec![0.0f32; vpls.len() * g * g];
-    out.par_chunks_mut(g * g)
+    let earlier: std::collections::HashMap<(u64, u32), usize> = known
+        .as_ref()
+        .map(|k| {
+            k.vpls
+                .iter()
+                .enumerate()
+                .map(|(i, v)| ((v.path, v.bounce), i))
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut out = vec![0.0f32; vpls.len() * n];
+    out.par_chunks_mut(n)
         .zip(vpls.par_iter())
-        .for_each(|(blocks, v)| {
+        .for_each(|(corners, v)| {
             let origin =
                 v.position + v.normal * RAY_EPSILON * (1.0 + v.position.abs().max_element());
-            let mut corners = [0.0f32; (BASE_GRID as usize + 1) * (BASE_GRID as usize + 1)];
+            let before = known.as_ref().and_then(|k| {
+                let &i = earlier.get(&(v.path, v.bounce))?;
+                let old = &k.vpls[i];
+                (old.position == v.position && old.normal == v.normal)
+                    .then(|| (&k.depths[i * n..(i + 1) * n], k.moved))
+            });
             for (k, c) in corners.iter_mut().enumerate() {
                 let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
                 let dir = paraboloid_direction(v.normal, uv);
+                if let Some((old, moved)) = before {
+                    if !moved
+                        .iter()
+                        .any(|b| super::vpl::ray_meets_box(origin, dir, old[k], b))
+                    {
+                        *c = old[k];
+                        continue;
+                    }
+                }
                 *c = bvh
                     .intersect(origin, dir, 0.0, f32::INFINITY)
                     .map_or(miss, |hit| hit.t.min(miss));
             }
-            for (k, block) in blocks.iter_mut().enumerate() {
-                let (x, y) = (k % g, k / g);
-                let corner = |dx: usize, dy: usize| corners[(y + dy) * (g + 1) + x + dx];
-                *block = corner(0, 0)
-                    .max(corner(1, 0))
-                    .max(corner(0, 1))
-                    .max(corner(1, 1));
-            }
         });
     out
+}
+
+/// Each VPL's [`BASE_GRID`]² blocks from its corner distances: a block
+/// holds the farthest of its four corners.
+pub fn blocks(corners: &[f32]) -> Vec<f32> {
+    let g = BASE_GRID as usize;
+    corners
+        .chunks_exact(RAYS_PER_VPL as usize)
+        .flat_map(|c| {
+            (0..g * g).map(move |k| {
+                let (x, y) = (k % g, k / g);
+                let corner = |dx: usize, dy: usize| c[(y + dy) * (g + 1) + x + dx];
+                corner(0, 0)
+                    .max(corner(1, 0))
+                    .max(corner(0, 1))
+                    .max(corner(1, 1))
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -11,10 +11,14 @@ use super::shading;
 use crate::scene::{AlphaMode, Scene};
 
 /// Blocks of points, `points_per_block` each, stored consecutively; each VPL
-/// splats one block.
+/// splats one block. Points lie on objects and move with them: each is
+/// stored in its object's space with the object's index, and the GPU
+/// places it with the object's current transform (so moving an object
+/// samples nothing again).
 #[derive(Clone, Debug)]
 pub struct IsmPoints {
-    /// `blocks * points_per_block` positions (xyz, w = 1).
+    /// `blocks * points_per_block` points: xyz in object space, w the
+    /// object's index (`f32::from_bits`).
     pub positions: Vec<[f32; 4]>,
     /// Points in a block.
     pub points_per_block: usize,
@@ -24,17 +28,22 @@ pub struct IsmPoints {
     pub total_area: f32,
 }
 
-/// Samples `blocks` blocks of `points_per_vpl` area-uniform points.
+/// Samples `blocks` blocks of `points_per_vpl` points, uniform over the
+/// visible objects' world area (as placed when sampled).
 pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: u64) -> IsmPoints {
+    let instances = scene.instances();
+    // World triangle t in its object's space: the object and the corners.
     let tri = |t: usize| {
-        let i = &scene.indices[t * 3..t * 3 + 3];
-        let p = |k: usize| Vec3::from(scene.vertices[i[k] as usize].position);
-        (p(0), p(1), p(2))
+        let (instance, local) = instances.locate(t as u32);
+        let mesh = &scene.meshes()[instance.mesh as usize];
+        let i = &mesh.indices[local as usize * 3..local as usize * 3 + 3];
+        let v = [0, 1, 2].map(|k| &mesh.vertices[i[k] as usize]);
+        (instance, v)
     };
     let mut cdf = Vec::with_capacity(scene.triangle_count());
     let mut total = 0.0f64;
     for t in 0..scene.triangle_count() {
-        let (a, b, c) = tri(t);
+        let [a, b, c] = scene.triangle_positions(t as u32);
         total += 0.5 * (b - a).cross(c - a).length() as f64;
         cdf.push(total);
     }
@@ -45,21 +54,21 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
     let point = |k: u64| {
         let target = halton.sample(k, 0) as f64 * total;
         let t = cdf.partition_point(|&c| c < target).min(cdf.len() - 1);
-        let (a, b, c) = tri(t);
+        let (instance, v) = tri(t);
         let u = Vec2::new(halton.sample(k, 1), halton.sample(k, 2));
         let su = u.x.sqrt();
         let (w1, w2) = (su * (1.0 - u.y), su * u.y);
-        let i = &scene.indices[t * 3..t * 3 + 3];
-        let v = |n: usize| &scene.vertices[i[n] as usize];
-        let material = &scene.materials[v(0).material as usize];
+        let material =
+            &scene.materials[instance.placement.material.unwrap_or(v[0].material) as usize];
         let kept = !matches!(material.alpha, AlphaMode::Mask(_)) || {
-            let uv = Vec2::from(v(0).uv) * (1.0 - w1 - w2)
-                + Vec2::from(v(1).uv) * w1
-                + Vec2::from(v(2).uv) * w2;
+            let uv = Vec2::from(v[0].uv) * (1.0 - w1 - w2)
+                + Vec2::from(v[1].uv) * w1
+                + Vec2::from(v[2].uv) * w2;
             shading::opaque(scene, material, uv)
         };
-        let p = a * (1.0 - w1 - w2) + b * w1 + c * w2;
-        kept.then_some([p.x, p.y, p.z, 1.0])
+        let p = |k: usize| Vec3::from(v[k].position);
+        let p = p(0) * (1.0 - w1 - w2) + p(1) * w1 + p(2) * w2;
+        kept.then_some([p.x, p.y, p.z, f32::from_bits(instance.object)])
     };
     let masked = scene
         .materials
@@ -86,8 +95,9 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
         let p = if found > 0 {
             positions[i % found]
         } else {
-            let (a, _, _) = tri(0);
-            [a.x, a.y, a.z, 1.0]
+            let (instance, v) = tri(0);
+            let a = v[0].position;
+            [a[0], a[1], a[2], f32::from_bits(instance.object)]
         };
         positions.push(p);
     }

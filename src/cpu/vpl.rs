@@ -19,7 +19,7 @@ use super::sampling::{
     cosine_hemisphere, hash64, uniform_cone, uniform_disk, uniform_sphere, Halton,
 };
 use crate::error::{Error, Result};
-use crate::scene::{Light, LightKind, Scene};
+use crate::scene::{Bounds, Light, LightKind, Scene};
 
 /// A virtual point light: a diffuse surface point lit by a light path.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,6 +102,65 @@ pub struct VplSet {
     /// `emitted_power` times the share of the flux of the paths started on
     /// emitters that started enclosed, so never more than `emitted_power`.
     pub enclosed_power: Vec3,
+    /// What each path did, for tracing the same paths again after objects
+    /// moved ([`generate_with`]).
+    trail: Trail,
+}
+
+/// A ray a light path cast: origin, unit direction, and how far it went
+/// (infinite for a miss).
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    origin: Vec3,
+    dir: Vec3,
+    t: f32,
+}
+
+/// One light path's record: its VPLs (before normalisation) and rays.
+#[derive(Clone, Debug)]
+struct PathLog {
+    vpls: std::ops::Range<usize>,
+    segments: std::ops::Range<usize>,
+}
+
+/// Every path of a set, from its first.
+#[derive(Clone, Debug, Default)]
+struct Trail {
+    first: u64,
+    raw: Vec<Vpl>,
+    segments: Vec<Segment>,
+    paths: Vec<PathLog>,
+}
+
+impl Trail {
+    /// Logs a path that deposited nothing and cast nothing.
+    fn skip(&mut self, vpls: usize, segments: usize) {
+        self.paths.push(PathLog {
+            vpls: vpls..vpls,
+            segments: segments..segments,
+        });
+    }
+}
+
+/// What lets [`generate_with`] keep light paths of an earlier set: the set
+/// (for the same lights, settings and visible objects, without emissive
+/// triangles) and the world boxes where objects were and are now. A path
+/// none of whose rays crosses a box is the path a new trace would make.
+pub struct Reuse<'a> {
+    /// The earlier set.
+    pub set: &'a VplSet,
+    /// Where the moved objects were and are (world bounds).
+    pub moved: &'a [Bounds],
+}
+
+/// Whether the ray from `origin` along `dir` meets box `b` before `t`.
+pub fn ray_meets_box(origin: Vec3, dir: Vec3, t: f32, b: &Bounds) -> bool {
+    let inv = dir.recip();
+    let (t0, t1) = ((b.min - origin) * inv, (b.max - origin) * inv);
+    let near = t0.min(t1).max_element();
+    let far = t0.max(t1).min_element();
+    // NaN (a ray in a box's face plane) counts as meeting it.
+    !(near > far || far < 0.0 || near > t)
 }
 
 /// Power (W) emitted by a light (per channel); `scene_radius` sizes the disk
@@ -128,6 +187,19 @@ pub fn light_power(light: &Light, scene_radius: f32) -> Vec3 {
 /// Distributes about `settings.count` VPLs over `scene`. Stops early (with
 /// fewer VPLs) if 64 x `count` paths produce too few (e.g. lights facing away).
 pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result<VplSet> {
+    generate_with(scene, bvh, settings, &scene.bounds(), None)
+}
+
+/// [`generate`] for a scene with bounds `bounds`, keeping the paths of
+/// `reuse` that the moved objects cannot have changed (the result is the
+/// set `generate` makes, path for path).
+pub fn generate_with(
+    scene: &Scene,
+    bvh: &SceneBvh,
+    settings: &VplSettings,
+    bounds: &Bounds,
+    reuse: Option<Reuse<'_>>,
+) -> Result<VplSet> {
     if settings.count > 0 && settings.bounces == 0 {
         return Err(Error::InvalidParameter(
             "vpl.bounces 0 leaves no VPLs; set vpl.count to 0 to switch indirect light off"
@@ -139,7 +211,6 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     if settings.count == 0 || (scene.lights.is_empty() && emitters.is_empty()) {
         return Ok(set);
     }
-    let bounds = scene.bounds();
     let radius = bounds.radius().max(1e-3);
     // Sources: every punctual light, then the emitters as one.
     let mut powers: Vec<f32> = scene
@@ -161,8 +232,37 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
     // Flux of the paths started on emitters, and of those left out.
     let (mut emitter_flux, mut enclosed) = (Vec3::ZERO, Vec3::ZERO);
     let enclosure = (!emitters.is_empty()).then(|| super::enclosure::Enclosure::new(scene, bvh));
+    // Emitters' paths start from sampled triangles and an enclosure test:
+    // they are never kept.
+    let reuse = reuse.filter(|r| emitters.is_empty() && r.set.trail.first == first);
+    let mut trail = Trail {
+        first,
+        ..Trail::default()
+    };
     while raw.len() < settings.count && path - first < max_paths && path < u64::MAX {
         let before = raw.len();
+        let segments_before = trail.segments.len();
+        let kept = reuse.as_ref().and_then(|r| {
+            let log = r.set.trail.paths.get((path - first) as usize)?;
+            let segments = &r.set.trail.segments[log.segments.clone()];
+            let crossed = segments
+                .iter()
+                .any(|s| r.moved.iter().any(|b| ray_meets_box(s.origin, s.dir, s.t, b)));
+            (!crossed).then_some((log, r.set))
+        });
+        if let Some((log, old)) = kept {
+            raw.extend_from_slice(&old.trail.raw[log.vpls.clone()]);
+            trail
+                .segments
+                .extend_from_slice(&old.trail.segments[log.segments.clone()]);
+            trail.paths.push(PathLog {
+                vpls: before..raw.len(),
+                segments: segments_before..trail.segments.len(),
+            });
+            set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
+            path += 1;
+            continue;
+        }
         let s = |d: usize| halton.sample(path, d);
         // Choose a source in proportion to its power.
         let mut pick = s(0) * total;
@@ -182,6 +282,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             // it, then a cosine-distributed direction (pdf cos/pi, so the
             // path's flux is pi Le / pdf_area / p_light).
             let Some(e) = emitters.sample(scene, glam::Vec4::new(s(1), s(2), s(3), s(4))) else {
+                trail.skip(before, segments_before);
                 path += 1;
                 continue;
             };
@@ -191,6 +292,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             // counts (the estimate stays unbiased) but deposits nothing.
             if enclosure.as_ref().is_some_and(|c| c.emits_into_solid(&e)) {
                 enclosed += flux;
+                trail.skip(before, segments_before);
                 path += 1;
                 continue;
             }
@@ -207,7 +309,7 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
             (e.position, dir, flux, Some(e.triangle))
         } else {
-            let (origin, dir, flux) = punctual_start(&scene.lights[li], radius, &bounds, u1, u2);
+            let (origin, dir, flux) = punctual_start(&scene.lights[li], radius, bounds, u1, u2);
             (origin, dir, flux, None)
         };
         flux /= p_light;
@@ -223,10 +325,17 @@ pub fn generate(scene: &Scene, bvh: &SceneBvh, settings: &VplSettings) -> Result
             dir,
             flux,
             &mut raw,
+            &mut trail.segments,
         );
+        trail.paths.push(PathLog {
+            vpls: before..raw.len(),
+            segments: segments_before..trail.segments.len(),
+        });
         set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
     }
     set.paths = path - first;
+    trail.raw = raw.clone();
+    set.trail = trail;
     // The last path ran to its end (cutting it short would lose the light
     // of its later bounces: a bias of about 1/paths). To keep exactly
     // `count` VPLs (GPU resources are sized by it), the surplus is thinned
@@ -352,6 +461,7 @@ fn trace_path(
     mut dir: Vec3,
     mut flux: Vec3,
     out: &mut Vec<Vpl>,
+    segments: &mut Vec<Segment>,
 ) {
     // A path runs to its end even past `settings.count` VPLs (`generate`
     // thins the surplus without bias).
@@ -360,6 +470,11 @@ fn trace_path(
             Some(t) => bvh.intersect_leaving(origin, dir, t),
             None => bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY),
         };
+        segments.push(Segment {
+            origin,
+            dir,
+            t: hit.map_or(f32::INFINITY, |h| h.t),
+        });
         let Some(hit) = hit else {
             return;
         };
@@ -472,6 +587,66 @@ pub fn bounded_radiance(
 mod tests {
     use super::*;
     use crate::scene::Scene;
+
+    /// Moving one object: the paths that kept away from where it was and
+    /// is are copied, the rest traced again, and the set (and every VPL's
+    /// corner rays) is the one a full trace makes, bit for bit.
+    #[test]
+    fn paths_kept_after_an_object_moved_give_the_full_trace() {
+        let mut scene = crate::scene::builtin::cornell();
+        scene.ensure_light();
+        let settings = VplSettings {
+            count: 512,
+            ..VplSettings::default()
+        };
+        let bvh = SceneBvh::new(&scene);
+        let before = generate(&scene, &bvh, &settings).unwrap();
+        let miss = 10.0;
+        let corners = super::super::ism_rays::corner_depths(&bvh, &before.vpls, miss, None);
+        // The last object (a block) moves up by 5 cm and turns.
+        let object = scene.objects().len() - 1;
+        let old = scene.objects()[object].transform;
+        let box_of = |scene: &Scene| {
+            let o = &scene.objects()[object];
+            scene.meshes()[o.mesh].bounds().unwrap().transformed(o.transform)
+        };
+        let was = box_of(&scene);
+        let new = glam::Mat4::from_translation(Vec3::new(0.0, 0.05, 0.0))
+            * old
+            * glam::Mat4::from_rotation_y(0.2);
+        scene.set_transform(object, new).unwrap();
+        let moved = [was, box_of(&scene)];
+        let bvh = bvh.moved(&scene);
+        let reuse = Reuse {
+            set: &before,
+            moved: &moved,
+        };
+        let kept = generate_with(&scene, &bvh, &settings, &scene.bounds(), Some(reuse)).unwrap();
+        let fresh = generate(&scene, &bvh, &settings).unwrap();
+        assert_eq!(kept.paths, fresh.paths);
+        assert_eq!(kept.vpls, fresh.vpls);
+        assert!(kept.vpls != before.vpls, "the block's move changes some paths");
+        let shared = before
+            .trail
+            .paths
+            .iter()
+            .zip(&fresh.trail.paths)
+            .filter(|(a, b)| before.trail.raw[a.vpls.clone()] == fresh.trail.raw[b.vpls.clone()])
+            .count();
+        assert!(
+            shared * 2 > fresh.trail.paths.len(),
+            "most paths keep away from the block ({shared} of {})",
+            fresh.trail.paths.len()
+        );
+        let known = super::super::ism_rays::KnownCorners {
+            vpls: &before.vpls,
+            depths: &corners,
+            moved: &moved,
+        };
+        let reused = super::super::ism_rays::corner_depths(&bvh, &kept.vpls, miss, Some(known));
+        let full = super::super::ism_rays::corner_depths(&bvh, &kept.vpls, miss, None);
+        assert_eq!(reused, full);
+    }
 
     /// A VPL seen in a near-mirror floor: without a radius its reflection is
     /// a spike as high as the lobe is narrow; with one it is bounded by the

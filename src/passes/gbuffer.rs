@@ -17,7 +17,7 @@ use ash::vk;
 
 use super::{Pass, Recording, SlotSetup};
 use crate::error::{Error, Result};
-use crate::gpu_scene::GpuScene;
+use crate::gpu_scene::{GpuScene, SlotScene};
 use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
 use crate::vk::{
     push_size, Access, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc,
@@ -88,12 +88,13 @@ impl GBuffer {
         (self.position.desc.width, self.position.desc.height)
     }
 
-    /// Rasterizes `scene` into the G-buffer with `pipeline` (bound with
-    /// `set` and `push`): declares the accesses, begins and ends rendering.
+    /// Rasterizes `scene`'s visible objects into the G-buffer with
+    /// `pipeline` (bound with `set` and `push`): declares the accesses,
+    /// begins and ends rendering.
     pub(crate) fn draw(
         &self,
         rec: &mut Recorder<'_>,
-        scene: &GpuScene,
+        SlotScene { scene, objects }: SlotScene<'_>,
         pipeline: &Pipeline,
         set: vk::DescriptorSet,
         push: &[u8],
@@ -106,6 +107,7 @@ impl GBuffer {
         rec.use_image(&scene.color_textures, Access::FragmentSampled);
         rec.use_image(&scene.linear_textures, Access::FragmentSampled);
         rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
+        rec.use_buffer(objects, Access::GraphicsStorageRead);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
         rec.use_buffer(&scene.indices, Access::VertexInput);
         rec.flush_barriers();
@@ -123,14 +125,12 @@ impl GBuffer {
             0.0,
         );
         pipeline.bind(rec.cmd, set, push);
-        // SAFETY: recording inside the rendering scope with the pipeline bound.
-        unsafe {
-            let d = &rec.device.raw;
-            d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
-            d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
-            d.cmd_draw_indexed(rec.cmd, scene.index_count, 1, 0, 0, 0);
-            d.cmd_end_rendering(rec.cmd);
+        scene.bind_geometry(rec.device, rec.cmd);
+        for masked in [false, true] {
+            scene.record_draws(rec.device, rec.cmd, scene.draws(masked));
         }
+        // SAFETY: closes the rendering scope begun above.
+        unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };
     }
 }
 
@@ -181,6 +181,16 @@ fn material_bindings(scene: &GpuScene) -> gbuffer_frag::Bindings<'_> {
     }
 }
 
+/// The vertex shader's bindings and the fragment shader's `fragment`.
+pub(crate) fn with_objects<'a>(
+    objects: &'a crate::vk::Buffer,
+    fragment: &impl ShaderBindings<'a>,
+) -> Vec<(u32, crate::vk::Binding<'a>)> {
+    let mut all = gbuffer_vert::Bindings { objects }.bindings();
+    all.extend(fragment.bindings());
+    all
+}
+
 /// Push constants of the G-buffer shaders.
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -225,7 +235,7 @@ impl Pass for GBufferPass {
     type Key = (u32, u32);
     type Resources = GBuffer;
     /// The scene and, on layer 1, layer 0 (the surfaces to peel behind).
-    type Reads<'a> = (&'a GpuScene, Option<&'a GBuffer>);
+    type Reads<'a> = (SlotScene<'a>, Option<&'a GBuffer>);
 
     fn key(&self, setup: &SlotSetup<'_>) -> (u32, u32) {
         setup.layer_extent(self.layer)
@@ -246,7 +256,7 @@ impl Pass for GBufferPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (scene, front): (&GpuScene, Option<&GBuffer>),
+        (scene, front): (SlotScene<'_>, Option<&GBuffer>),
         gbuffer: &GBuffer,
     ) -> Result<()> {
         let Recording {
@@ -256,10 +266,10 @@ impl Pass for GBufferPass {
             settings,
             ..
         } = cx;
-        let materials = material_bindings(scene);
+        let materials = material_bindings(scene.scene);
         let (set, push) = match (self.layer, front) {
             (0, _) => {
-                let set = pool.allocate(&self.layout, &materials.bindings())?;
+                let set = pool.allocate(&self.layout, &with_objects(scene.objects, &materials))?;
                 (set, view.camera.position.extend(1.0))
             }
             (_, Some(front)) => {
@@ -270,7 +280,7 @@ impl Pass for GBufferPass {
                     layer0_position: &front.position,
                 };
                 rec.use_image(&front.position, Access::GraphicsStorageRead);
-                let set = pool.allocate(&self.layout, &bindings.bindings())?;
+                let set = pool.allocate(&self.layout, &with_objects(scene.objects, &bindings))?;
                 let separation = settings.ssbc.layer_separation * view.diagonal;
                 (set, view.camera.position.extend(separation))
             }

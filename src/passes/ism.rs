@@ -117,7 +117,8 @@ impl Pass for IsmPass {
     type Key = (u64, u64, u32, u32);
     /// The atlas and the VPLs and points it is splatted from.
     type Resources = Ism;
-    type Reads<'a> = ();
+    /// The frame slot's objects (points move with them).
+    type Reads<'a> = &'a Buffer;
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let cache = setup.cache;
@@ -253,7 +254,7 @@ impl Pass for IsmPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (): (),
+        objects: &Buffer,
         ism: &Ism,
     ) -> Result<()> {
         if ism.vpl_count == 0 {
@@ -283,6 +284,7 @@ impl Pass for IsmPass {
         rec.use_image(&ism.atlas, Access::ComputeWrite);
         rec.use_buffer(&ism.vpls, Access::ComputeRead);
         rec.use_buffer(&ism.points, Access::ComputeRead);
+        rec.use_buffer(objects, Access::ComputeRead);
         rec.flush_barriers();
         let push = SplatPush {
             vpl_count: ism.vpl_count,
@@ -296,6 +298,7 @@ impl Pass for IsmPass {
             ism_depth: &ism.atlas,
             vpls: &ism.vpls,
             points: &ism.points,
+            objects,
         };
         // One invocation per (point, VPL).
         let groups = [ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1];

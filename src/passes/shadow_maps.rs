@@ -9,7 +9,7 @@ use ash::vk;
 use glam::{Mat4, Vec3, Vec4};
 
 use crate::error::Result;
-use crate::gpu_scene::GpuScene;
+use crate::gpu_scene::SlotScene;
 use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
 use crate::shaders::{shadow_map_frag, shadow_map_vert};
@@ -160,17 +160,23 @@ impl Pass for ShadowMapPass {
     const NAME: &'static str = "shadow_maps";
     /// The depth layers depend on the lights, the surfaces and the resolution.
     const VIEW_INDEPENDENT: bool = true;
-    /// The (lights, geometry, materials: alpha masks cut them) versions the
-    /// views were made for, and the resolution.
-    type Key = (u64, u64, u64, u32);
+    /// The (lights, geometry, objects, materials: alpha masks cut them)
+    /// versions the views were made for, and the resolution.
+    type Key = (u64, u64, u64, u64, u32);
     /// Depth layers and the light table.
     type Resources = ShadowMaps;
-    type Reads<'a> = &'a GpuScene;
+    type Reads<'a> = SlotScene<'a>;
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let versions = &setup.cache.versions;
         let resolution = setup.settings.shadow_map_size;
-        (versions.lights, versions.geometry, versions.materials, resolution)
+        (
+            versions.lights,
+            versions.geometry,
+            versions.objects,
+            versions.materials,
+            resolution,
+        )
     }
 
     /// Allocates the shadow maps of the lights at the resolution asked for.
@@ -252,7 +258,7 @@ impl Pass for ShadowMapPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        scene: &GpuScene,
+        SlotScene { scene, objects }: SlotScene<'_>,
         maps: &ShadowMaps,
     ) -> Result<()> {
         let Recording { rec, profiler, .. } = cx;
@@ -260,11 +266,14 @@ impl Pass for ShadowMapPass {
             materials: &scene.materials,
             color_textures: (&scene.color_textures, &scene.texture_sampler),
         };
-        let set = pool.allocate(&self.layout, &bindings.bindings())?;
+        let mut all = shadow_map_vert::Bindings { objects }.bindings();
+        all.extend(bindings.bindings());
+        let set = pool.allocate(&self.layout, &all)?;
         let scope = profiler.begin(rec.cmd, "shadow_maps");
         rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
         rec.use_image(&scene.color_textures, Access::FragmentSampled);
         rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
+        rec.use_buffer(objects, Access::GraphicsStorageRead);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
         rec.use_buffer(&scene.indices, Access::VertexInput);
         rec.flush_barriers();
@@ -279,24 +288,16 @@ impl Pass for ShadowMapPass {
                 1.0,
             );
             let push = view_proj.to_cols_array();
-            let ranges = [
-                (&self.depth_only, 0, scene.masked_index_start),
-                (
-                    &self.pipeline,
-                    scene.masked_index_start,
-                    scene.index_count - scene.masked_index_start,
-                ),
-            ];
-            for (pipeline, first, count) in ranges.into_iter().filter(|r| r.2 > 0) {
-                pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
-                // SAFETY: recording inside the rendering scope begun above;
-                // the range lies inside the index buffer.
-                unsafe {
-                    let d = &rec.device.raw;
-                    d.cmd_bind_vertex_buffers(rec.cmd, 0, &[scene.vertices.raw], &[0]);
-                    d.cmd_bind_index_buffer(rec.cmd, scene.indices.raw, 0, vk::IndexType::UINT32);
-                    d.cmd_draw_indexed(rec.cmd, count, 1, first, 0, 0);
+            // Opaque triangles depth-only, alpha-masked ones with the test.
+            let parts = [(&self.depth_only, false), (&self.pipeline, true)];
+            for (pipeline, masked) in parts {
+                let draws = scene.draws(masked);
+                if draws.is_empty() {
+                    continue;
                 }
+                pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
+                scene.bind_geometry(rec.device, rec.cmd);
+                scene.record_draws(rec.device, rec.cmd, draws);
             }
             // SAFETY: closes the rendering scope begun above.
             unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };

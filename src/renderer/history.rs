@@ -15,7 +15,10 @@ pub(super) enum Motion {
     /// No usable history: the first frame, a cut, other surfaces,
     /// materials or settings.
     Reset,
-    /// Lights changed (perhaps the camera too).
+    /// Lights changed or objects moved (perhaps the camera too): the same
+    /// light paths in the changed scene; pixels whose surface moved start
+    /// anew (the reprojection's surface test), the others keep a few
+    /// frames where the indirect light changed little.
     Lights,
     /// Only the camera.
     Camera,
@@ -102,7 +105,9 @@ impl History {
             {
                 Motion::Reset
             }
-            Some(last) if lights_moved(last) => Motion::Lights,
+            Some(last) if lights_moved(last) || last.versions.objects != versions.objects => {
+                Motion::Lights
+            }
             Some(last) if camera_moved(last) => Motion::Camera,
             Some(_) => Motion::Still,
         };

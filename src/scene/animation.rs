@@ -3,7 +3,9 @@
 //! nodes they target (glTF 2.0, section 3.11). Pure math; the loader reads
 //! the keyframes from the file.
 
-use glam::{Quat, Vec3, Vec4};
+use std::collections::HashMap;
+
+use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
 
 /// How a sampler interpolates between keyframes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -139,6 +141,81 @@ impl PoseOverride {
             Path::Scale => self.scale = Some(value.truncate()),
         }
     }
+}
+
+/// A node's local transform: its rest pose (`rest`, decomposed if a
+/// matrix) with the animated parts of `pose` replacing its own.
+pub(crate) fn local_transform(rest: Mat4, pose: Option<&PoseOverride>) -> Mat4 {
+    match pose {
+        Some(pose) => {
+            let (scale, rotation, translation) = rest.to_scale_rotation_translation();
+            Mat4::from_scale_rotation_translation(
+                pose.scale.unwrap_or(scale),
+                pose.rotation.unwrap_or(rotation),
+                pose.translation.unwrap_or(translation),
+            )
+        }
+        None => rest,
+    }
+}
+
+/// One animated property of a node.
+#[derive(Clone, Debug)]
+pub(crate) struct Channel {
+    pub node: usize,
+    pub path: Path,
+    pub sampler: Sampler,
+}
+
+/// A node of the scene's tree as posing needs it.
+#[derive(Clone, Debug)]
+pub(crate) struct PoseNode {
+    /// Its glTF index.
+    pub node: usize,
+    /// Its parent's position in [`NodeAnimation::nodes`] (parents come first).
+    pub parent: Option<usize>,
+    /// Its local rest transform.
+    pub rest: Mat4,
+}
+
+/// A glTF file's first animation with the node tree it moves, kept with
+/// the scene: objects are posed at any time without reading the file again
+/// ([`super::Scene::pose`]).
+#[derive(Clone, Debug, Default)]
+pub struct NodeAnimation {
+    pub(crate) nodes: Vec<PoseNode>,
+    pub(crate) channels: Vec<Channel>,
+}
+
+/// The animated parts of every node a channel targets, at time `t`.
+pub(crate) fn poses_at(channels: &[Channel], t: f32) -> HashMap<usize, PoseOverride> {
+    let mut poses: HashMap<usize, PoseOverride> = HashMap::new();
+    for c in channels {
+        poses
+            .entry(c.node)
+            .or_default()
+            .set(c.path, c.sampler.sample(t, c.path));
+    }
+    poses
+}
+
+impl NodeAnimation {
+    /// Each node's world transform at time `t` (seconds, clamped to the
+    /// keyframes), by glTF node index.
+    pub fn node_transforms(&self, t: f32) -> HashMap<usize, Mat4> {
+        let poses = poses_at(&self.channels, t);
+        let mut world: Vec<Mat4> = Vec::with_capacity(self.nodes.len());
+        for n in &self.nodes {
+            let parent = n.parent.map_or(Mat4::IDENTITY, |p| world[p]);
+            world.push(parent * local_transform(n.rest, poses.get(&n.node)));
+        }
+        self.nodes.iter().map(|n| n.node).zip(world).collect()
+    }
+}
+
+/// Whether `m` collapses space (a zero scale: glTF's way to hide a node).
+pub(crate) fn collapses(m: &Mat4) -> bool {
+    Mat3::from_mat4(*m).determinant().abs() < 1e-18 || !m.is_finite()
 }
 
 #[cfg(test)]

@@ -52,13 +52,17 @@ fn block(scene: &mut Scene, base: Vec3, size: Vec3, angle: f32, material: u32) {
         (c(-1.0, 1.0, 1.0), Vec3::X * size.x, -Vec3::Z * size.z), // +y
         (c(-1.0, 0.0, -1.0), Vec3::X * size.x, Vec3::Z * size.z), // -y
     ];
+    // One object: a mesh of six faces, four vertices each.
+    let (mut positions, mut normals, mut indices) = (Vec::new(), Vec::new(), Vec::new());
     for (corner, u, v) in faces {
-        let n = u.cross(v).normalize();
-        let p = [corner, corner + u, corner + u + v, corner + v];
-        scene
-            .add_mesh(&p, &[n; 4], &[], &[0, 1, 2, 0, 2, 3], t, material)
-            .expect("built-in block is valid");
+        let base = positions.len() as u32;
+        positions.extend([corner, corner + u, corner + u + v, corner + v]);
+        normals.extend([u.cross(v).normalize(); 4]);
+        indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
     }
+    scene
+        .add_mesh(&positions, &normals, &[], &indices, t, material)
+        .expect("built-in block is valid");
 }
 
 /// The Cornell box: 2 m cube open towards the camera (+Z), red left wall,
@@ -340,12 +344,14 @@ pub fn axis_box(scene: &mut Scene, lo: Vec3, hi: Vec3, material: u32) -> crate::
             indices.extend([base, base + 1, base + 2, base, base + 2, base + 3]);
         }
     }
-    scene.add_mesh(
-        &positions,
-        &normals,
-        &[],
-        &indices,
-        Mat4::IDENTITY,
-        material,
-    )
+    scene
+        .add_mesh(
+            &positions,
+            &normals,
+            &[],
+            &indices,
+            Mat4::IDENTITY,
+            material,
+        )
+        .map(|_| ())
 }

@@ -21,7 +21,10 @@ use base64::Engine as _;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use gltf::json::{self, accessor::ComponentType, accessor::Type, validation::Checked};
 
-use super::animation::{Interpolation, Path as AnimPath, PoseOverride, Sampler};
+use super::animation::{
+    poses_at, Channel, Interpolation, NodeAnimation, Path as AnimPath, PoseNode, PoseOverride,
+    Sampler,
+};
 use super::{Camera, Light, LightKind, Scene, Texture, MAX_TRIANGLES};
 use crate::error::{Error, Result};
 
@@ -104,6 +107,9 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> R
         input_bytes: std::cell::Cell::new(bytes.len() as u64),
         time,
         poses: HashMap::new(),
+        channels: Vec::new(),
+        pose_nodes: Vec::new(),
+        meshes: HashMap::new(),
     }
     .load()
 }
@@ -149,6 +155,14 @@ struct Loader<'a> {
     time: Option<f32>,
     /// Animated nodes' transforms at that time.
     poses: HashMap<usize, PoseOverride>,
+    /// The first animation's channels (read whether or not a time is
+    /// given: the scene keeps them for posing later).
+    channels: Vec<Channel>,
+    /// The nodes visited, parents first (for posing later).
+    pose_nodes: Vec<PoseNode>,
+    /// Per glTF mesh, the scene meshes made of its triangle primitives
+    /// (made once, however many nodes draw it).
+    meshes: HashMap<usize, Vec<usize>>,
 }
 
 fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
@@ -209,7 +223,18 @@ impl Loader<'_> {
         let default_material = (scene.materials.len() - 1) as u32;
         self.warn_unsupported_extensions();
         self.warn_not_played();
-        self.poses = self.animation_poses()?;
+        self.channels = match (self.animation_channels(), self.time) {
+            (Ok(c), _) => c,
+            (Err(e), Some(_)) => return Err(e),
+            // At rest a broken animation is not needed: the file loads.
+            (Err(e), None) => {
+                log::warn!("{e}; the animation cannot be played");
+                Vec::new()
+            }
+        };
+        if let Some(t) = self.time {
+            self.poses = poses_at(&self.channels, t);
+        }
         scene.animation_end = self.animation_end();
 
         let roots: Vec<usize> = match (self.root.scene, self.root.scenes.first()) {
@@ -240,7 +265,7 @@ impl Loader<'_> {
         for r in roots {
             self.node(
                 r,
-                Mat4::IDENTITY,
+                (Mat4::IDENTITY, None),
                 0,
                 &mut visited,
                 &mut scene,
@@ -248,7 +273,13 @@ impl Loader<'_> {
                 default_material,
             )?;
         }
-        if scene.indices.is_empty() {
+        if !self.channels.is_empty() {
+            scene.set_animation(NodeAnimation {
+                nodes: std::mem::take(&mut self.pose_nodes),
+                channels: std::mem::take(&mut self.channels),
+            });
+        }
+        if scene.triangle_count() == 0 {
             return Err(self.err("the scene has no triangles"));
         }
         Ok(scene)
@@ -332,19 +363,18 @@ impl Loader<'_> {
             .reduce(f32::max)
     }
 
-    /// The nodes the first animation moves, at `self.time` (none without a
-    /// time). Morph-target weights are not played (warned about with skins).
-    fn animation_poses(&mut self) -> Result<HashMap<usize, PoseOverride>> {
-        let mut poses = HashMap::new();
-        let Some(t) = self.time else {
-            return Ok(poses);
-        };
+    /// The first animation's channels (none without one). Morph-target
+    /// weights are not played (warned about with skins).
+    fn animation_channels(&mut self) -> Result<Vec<Channel>> {
+        let mut channels = Vec::new();
         let root = self.root;
         let Some(animation) = root.animations.first() else {
-            log::warn!("{}: a time was given but the file has no animation", self.name);
-            return Ok(poses);
+            if self.time.is_some() {
+                log::warn!("{}: a time was given but the file has no animation", self.name);
+            }
+            return Ok(channels);
         };
-        if root.animations.len() > 1 {
+        if root.animations.len() > 1 && self.time.is_some() {
             log::warn!(
                 "{}: playing animation 0 ('{}') of {}",
                 self.name,
@@ -386,12 +416,13 @@ impl Loader<'_> {
             sampler
                 .check(path.components())
                 .map_err(|m| self.err(what(format!("sampler {k}: {m}"))))?;
-            poses
-                .entry(node)
-                .or_insert_with(PoseOverride::default)
-                .set(path, sampler.sample(t, path));
+            channels.push(Channel {
+                node,
+                path,
+                sampler,
+            });
         }
-        Ok(poses)
+        Ok(channels)
     }
 
     /// Material `index`: base colour, emission (factor x strength, and
@@ -540,10 +571,11 @@ impl Loader<'_> {
     }
 
     #[allow(clippy::too_many_arguments)]
+    #[allow(clippy::too_many_arguments)]
     fn node(
         &mut self,
         index: usize,
-        parent: Mat4,
+        (parent, parent_slot): (Mat4, Option<usize>),
         depth: usize,
         visited: &mut HashSet<usize>,
         scene: &mut Scene,
@@ -575,25 +607,41 @@ impl Loader<'_> {
                 node.translation.map(Vec3::from).unwrap_or(Vec3::ZERO),
             ),
         };
-        let local = match self.poses.get(&index) {
-            // Animated parts replace the rest pose's (animated nodes have
-            // no matrix in valid files; one is decomposed).
-            Some(pose) => {
-                let (scale, rotation, translation) = rest.to_scale_rotation_translation();
-                Mat4::from_scale_rotation_translation(
-                    pose.scale.unwrap_or(scale),
-                    pose.rotation.unwrap_or(rotation),
-                    pose.translation.unwrap_or(translation),
-                )
-            }
-            None => rest,
-        };
+        // Animated parts replace the rest pose's (animated nodes have no
+        // matrix in valid files; one is decomposed).
+        let local = super::animation::local_transform(rest, self.poses.get(&index));
         let world = parent * local;
+        let slot = self.pose_nodes.len();
+        self.pose_nodes.push(PoseNode {
+            node: index,
+            parent: parent_slot,
+            rest,
+        });
         if !world.is_finite() {
             return Err(self.err(format!("node {index} has a non-finite transform")));
         }
         if let Some(mesh) = node.mesh {
-            self.mesh(mesh.value(), world, scene, materials, default_material)?;
+            let meshes = match self.meshes.get(&mesh.value()) {
+                Some(m) => m.clone(),
+                None => {
+                    let m = self.mesh(mesh.value(), scene, materials, default_material)?;
+                    self.meshes.insert(mesh.value(), m.clone());
+                    m
+                }
+            };
+            for mesh in meshes {
+                let added = scene.meshes()[mesh].triangle_count();
+                if scene.triangle_count() + added > MAX_TRIANGLES {
+                    return Err(self.err(format!(
+                        "more than {MAX_TRIANGLES} triangles in the world (node {index} draws \
+                         mesh {} again)",
+                        mesh
+                    )));
+                }
+                scene
+                    .add_object(super::Object::at_node(mesh, world, index))
+                    .map_err(|e| self.err(format!("node {index}: {e}")))?;
+            }
         }
         if let Some(cam) = node.camera {
             let c = root
@@ -627,7 +675,7 @@ impl Loader<'_> {
         for child in node.children.iter().flatten() {
             self.node(
                 child.value(),
-                world,
+                (world, Some(slot)),
                 depth + 1,
                 visited,
                 scene,
@@ -690,14 +738,16 @@ impl Loader<'_> {
         })
     }
 
+    /// Adds glTF mesh `index`'s triangle primitives as scene meshes (object
+    /// space) and returns their indices.
     fn mesh(
         &mut self,
         index: usize,
-        world: Mat4,
         scene: &mut Scene,
         materials: &[u32],
         default_material: u32,
-    ) -> Result<()> {
+    ) -> Result<Vec<usize>> {
+        let mut made = Vec::new();
         use json::mesh::{Mode, Semantic};
         let root = self.root;
         let mesh = root
@@ -773,18 +823,16 @@ impl Loader<'_> {
                 })?,
                 None => default_material,
             };
-            if scene.triangle_count() + indices.len() / 3 > MAX_TRIANGLES {
+            if indices.len() / 3 > MAX_TRIANGLES {
                 return Err(self.err(format!("more than {MAX_TRIANGLES} triangles")));
             }
             self.check_budget(
                 scene,
                 (positions.len() * std::mem::size_of::<super::Vertex>() + indices.len() * 4) as u64,
             )?;
-            scene.add_mesh_with_tangents(
-                &positions, &normals, &uvs, &tangents, &indices, world, material,
-            )?;
+            made.push(scene.new_mesh(&positions, &normals, &uvs, &tangents, &indices, material)?);
         }
-        Ok(())
+        Ok(made)
     }
 
     /// The bytes of buffer `index` (GLB blob, data URI, or file in the scene folder).

@@ -7,7 +7,9 @@
 //! and the public fields.
 
 mod animation;
+pub use animation::NodeAnimation;
 pub mod builtin;
+mod objects;
 unstable_pub! {
     mod gltf_loader;
 }
@@ -15,20 +17,22 @@ unstable_pub! {
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use crate::error::{Error, Result};
+pub use objects::{Instance, Instances, Mesh, Object, Placement};
 
-/// One vertex in world space, as uploaded to the GPU (52 bytes).
+/// One vertex of a [`Mesh`] in object space, as uploaded to the GPU (52
+/// bytes); [`Scene::triangle`] gives them in world space.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Vertex {
-    /// World-space position (m).
+    /// Position (m).
     pub position: [f32; 3],
-    /// World-space unit normal.
+    /// Unit normal.
     pub normal: [f32; 3],
     /// Texture coordinate (every texture of the material uses this set).
     pub uv: [f32; 2],
     /// Index into [`Scene::materials`].
     pub material: u32,
-    /// World-space unit tangent (xyz, along +u) and the handedness of the
+    /// Unit tangent (xyz, along +u) and the handedness of the
     /// bitangent (w = ±1), for normal maps; zero without one.
     pub tangent: [f32; 4],
 }
@@ -361,18 +365,51 @@ impl Bounds {
     pub fn radius(&self) -> f32 {
         (self.max - self.min).length() * 0.5
     }
+    /// These bounds grown to hold `p`.
+    pub fn including(self, p: Vec3) -> Self {
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+    /// The union of both.
+    pub fn union(self, other: Self) -> Self {
+        self.including(other.min).including(other.max)
+    }
+    /// The bounds of these bounds' 8 corners moved by `transform`.
+    pub fn transformed(&self, transform: Mat4) -> Self {
+        let corner = |i: u32| {
+            let pick = |bit: u32, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
+            transform.transform_point3(Vec3::new(
+                pick(1, self.min.x, self.max.x),
+                pick(2, self.min.y, self.max.y),
+                pick(4, self.min.z, self.max.z),
+            ))
+        };
+        let first = corner(0);
+        (1..8).fold(
+            Self {
+                min: first,
+                max: first,
+            },
+            |b, i| b.including(corner(i)),
+        )
+    }
 }
 
-/// A scene ready to render: all geometry flattened to world space.
+/// A scene ready to render: meshes (object space, each stored once) drawn by
+/// objects (transforms, material overrides, visibility), materials,
+/// textures, lights and cameras.
+///
+/// Meshes and objects change through methods (the scene keeps an index of
+/// its visible objects' triangles, [`Scene::instances`], in step with them).
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
     /// Name for logs (file name or built-in name).
     pub name: String,
-    /// World-space vertices.
-    pub vertices: Vec<Vertex>,
-    /// Triangle list indices into `vertices`.
-    pub indices: Vec<u32>,
-    /// Materials; `Vertex::material` indexes this.
+    meshes: Vec<Mesh>,
+    objects: Vec<Object>,
+    /// Materials; `Vertex::material` and `Object::material` index this.
     pub materials: Vec<Material>,
     /// Base-colour textures.
     pub textures: Vec<Texture>,
@@ -384,9 +421,15 @@ pub struct Scene {
     /// None without one), from its accessors' declared maxima: how long
     /// [`load_at`] has poses to show.
     pub animation_end: Option<f32>,
+    /// The visible objects numbered by triangle (made on first use after a
+    /// change).
+    instances: std::sync::OnceLock<Instances>,
+    /// The glTF file's first animation, for posing objects later.
+    animation: Option<std::sync::Arc<NodeAnimation>>,
 }
 
-/// Maximum number of triangles a scene may hold (keeps hostile files bounded).
+/// Maximum number of triangles a scene may hold in the world, every
+/// object counted (keeps hostile files bounded).
 pub const MAX_TRIANGLES: usize = 1 << 24;
 
 impl Scene {
@@ -404,9 +447,55 @@ impl Scene {
         (self.materials.len() - 1) as u32
     }
 
-    /// Adds a triangle mesh given in object space, transformed by `transform`.
-    /// `normals` may be empty (flat normals are computed), `uvs` may be empty.
-    /// Tangents are generated if the material has a normal map.
+    /// Keeps `animation` for [`Scene::pose`].
+    pub(crate) fn set_animation(&mut self, animation: NodeAnimation) {
+        self.animation = Some(std::sync::Arc::new(animation));
+    }
+
+    /// Where the file's first animation puts each object that came from a
+    /// glTF node at time `t` (seconds, clamped to its keyframes), without
+    /// reading the file again: (object, transform), the transform None
+    /// where the node is scaled to nothing (hidden). Empty without an
+    /// animation. Lights and cameras are not posed.
+    pub fn pose(&self, t: f32) -> Vec<(usize, Option<Mat4>)> {
+        let Some(animation) = &self.animation else {
+            return Vec::new();
+        };
+        let world = animation.node_transforms(t);
+        self.objects
+            .iter()
+            .enumerate()
+            .filter_map(|(i, o)| {
+                let m = *world.get(&o.node?)?;
+                Some((i, (!animation::collapses(&m)).then_some(m)))
+            })
+            .collect()
+    }
+
+    /// The meshes (object space).
+    pub fn meshes(&self) -> &[Mesh] {
+        &self.meshes
+    }
+
+    /// The objects.
+    pub fn objects(&self) -> &[Object] {
+        &self.objects
+    }
+
+    /// Mesh `index` to change in place (hosts that deform a mesh; every
+    /// object drawing it changes).
+    pub fn mesh_mut(&mut self, index: usize) -> Result<&mut Mesh> {
+        self.instances = Default::default();
+        let count = self.meshes.len();
+        self.meshes
+            .get_mut(index)
+            .ok_or_else(|| out_of_range("mesh", index, count))
+    }
+
+    /// Adds a mesh drawn once: the mesh (given in object space) and an
+    /// object placing it with `transform`. `normals` may be empty (flat
+    /// normals are computed), `uvs` may be empty. Tangents are generated if
+    /// the material has a normal map. Returns the object's index.
     pub fn add_mesh(
         &mut self,
         positions: &[Vec3],
@@ -415,24 +504,25 @@ impl Scene {
         indices: &[u32],
         transform: Mat4,
         material: u32,
-    ) -> Result<()> {
-        self.add_mesh_with_tangents(positions, normals, uvs, &[], indices, transform, material)
+    ) -> Result<usize> {
+        let mesh = self.new_mesh(positions, normals, uvs, &[], indices, material)?;
+        self.add_object(Object::new(mesh, transform))
     }
 
-    /// [`Scene::add_mesh`] with per-vertex tangents (xyz along +u, w the
-    /// bitangent's handedness), as glTF's TANGENT; empty: generated when the
-    /// material has a normal map.
-    #[allow(clippy::too_many_arguments)]
-    pub fn add_mesh_with_tangents(
+    /// Adds a mesh in object space that objects can then draw
+    /// ([`Scene::add_object`]); returns its index. `normals` may be empty
+    /// (flat normals are computed), `uvs` may be empty; `tangents` (xyz
+    /// along +u, w the bitangent's handedness, as glTF's TANGENT) may be
+    /// empty: generated when the material has a normal map.
+    pub fn new_mesh(
         &mut self,
         positions: &[Vec3],
         normals: &[Vec3],
         uvs: &[[f32; 2]],
         tangents: &[Vec4],
         indices: &[u32],
-        transform: Mat4,
         material: u32,
-    ) -> Result<()> {
+    ) -> Result<usize> {
         let bad = |m: &str| Err(Error::scene(&self.name, m));
         if indices.len() % 3 != 0 {
             return bad("index count is not a multiple of 3");
@@ -452,129 +542,248 @@ impl Scene {
         let Some(mat) = self.materials.get(material as usize) else {
             return bad(&format!("material {material} does not exist"));
         };
-        if self.indices.len() / 3 + indices.len() / 3 > MAX_TRIANGLES {
+        if indices.len() / 3 > MAX_TRIANGLES {
             return bad(&format!("more than {MAX_TRIANGLES} triangles"));
         }
         let wants_tangents = mat.normal_texture.is_some();
-        let linear = Mat3::from_mat4(transform);
-        let normal_matrix = linear.inverse().transpose();
-        // A mirroring transform flips the bitangent's handedness.
-        let handedness = if linear.determinant() < 0.0 {
-            -1.0
-        } else {
-            1.0
-        };
-        let world = |p: Vec3| transform.transform_point3(p);
-        let world_tangent = |t: Vec4| {
-            let xyz = (linear * t.truncate()).normalize_or_zero();
-            xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
-        };
         let uv = |i: usize| uvs.get(i).copied().unwrap_or([0.0; 2]);
+        let mut mesh = Mesh::default();
         if normals.is_empty() {
-            // Flat normals: unshare vertices, one normal per triangle.
+            // Flat normals: unshare vertices, one normal per triangle (the
+            // front face is counter-clockwise in object space).
             for tri in indices.chunks_exact(3) {
-                let p: Vec<Vec3> = tri.iter().map(|&i| world(positions[i as usize])).collect();
-                // The front face is counter-clockwise in object space; a
-                // mirroring transform makes it clockwise in the world (glTF:
-                // the determinant decides the winding).
-                let n = handedness * (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                let p = [0, 1, 2].map(|k| positions[tri[k] as usize]);
+                let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
                 let uvt = [
                     uv(tri[0] as usize),
                     uv(tri[1] as usize),
                     uv(tri[2] as usize),
                 ];
                 let generated = if wants_tangents && tangents.is_empty() {
-                    triangle_tangent(&[p[0], p[1], p[2]], &uvt, n)
+                    triangle_tangent(&p, &uvt, n)
                 } else {
                     Vec4::ZERO
                 };
-                let base = self.vertices.len() as u32;
+                let base = mesh.vertices.len() as u32;
                 for (k, &i) in tri.iter().enumerate() {
-                    let tangent = match tangents.get(i as usize) {
-                        Some(&t) => world_tangent(t),
-                        None => generated,
-                    };
-                    self.vertices.push(Vertex {
+                    mesh.vertices.push(Vertex {
                         position: p[k].into(),
                         normal: n.into(),
                         uv: uvt[k],
                         material,
-                        tangent: tangent.into(),
+                        tangent: tangents
+                            .get(i as usize)
+                            .copied()
+                            .unwrap_or(generated)
+                            .into(),
                     });
                 }
-                self.indices.extend([base, base + 1, base + 2]);
+                mesh.indices.extend([base, base + 1, base + 2]);
             }
         } else {
-            let base = self.vertices.len() as u32;
-            let world_normals: Vec<Vec3> = normals
-                .iter()
-                .map(|&n| (normal_matrix * n).normalize_or_zero())
-                .collect();
-            let world_positions: Vec<Vec3> = positions.iter().map(|&p| world(p)).collect();
+            let normals: Vec<Vec3> = normals.iter().map(|n| n.normalize_or_zero()).collect();
             let vertex_tangents: Vec<Vec4> = if !tangents.is_empty() {
-                tangents.iter().map(|&t| world_tangent(t)).collect()
+                tangents.to_vec()
             } else if wants_tangents {
-                vertex_tangents(&world_positions, &world_normals, uvs, indices)
+                vertex_tangents(positions, &normals, uvs, indices)
             } else {
                 vec![Vec4::ZERO; positions.len()]
             };
-            for i in 0..positions.len() {
-                self.vertices.push(Vertex {
-                    position: world_positions[i].into(),
-                    normal: world_normals[i].into(),
+            mesh.vertices = (0..positions.len())
+                .map(|i| Vertex {
+                    position: positions[i].into(),
+                    normal: normals[i].into(),
                     uv: uv(i),
                     material,
                     tangent: vertex_tangents[i].into(),
-                });
-            }
-            self.indices.extend(indices.iter().map(|i| i + base));
+                })
+                .collect();
+            mesh.indices = indices.to_vec();
         }
+        self.meshes.push(mesh);
+        Ok(self.meshes.len() - 1)
+    }
+
+    /// Adds `object` and returns its index; its mesh and material must
+    /// exist, its transform be finite and invertible, and the world stay
+    /// within [`MAX_TRIANGLES`].
+    pub fn add_object(&mut self, object: Object) -> Result<usize> {
+        self.check_object(&object)?;
+        let added = self.meshes[object.mesh].triangle_count();
+        if object.visible && self.triangle_count() + added > MAX_TRIANGLES {
+            return Err(Error::scene(
+                &self.name,
+                format!("more than {MAX_TRIANGLES} triangles in the world"),
+            ));
+        }
+        self.objects.push(object);
+        self.instances = Default::default();
+        Ok(self.objects.len() - 1)
+    }
+
+    /// Moves object `index` to `transform` (object to world).
+    pub fn set_transform(&mut self, index: usize, transform: Mat4) -> Result<()> {
+        check_transform(&transform)?;
+        self.object_mut(index)?.transform = transform;
         Ok(())
     }
 
-    /// Bounds of all vertices (a unit box around the origin when empty).
-    pub fn bounds(&self) -> Bounds {
-        if self.vertices.is_empty() {
-            return Bounds {
-                min: Vec3::splat(-1.0),
-                max: Vec3::splat(1.0),
-            };
+    /// Shows or hides object `index`.
+    pub fn set_visible(&mut self, index: usize, visible: bool) -> Result<()> {
+        let mesh = self.object(index)?.mesh;
+        let added = self.meshes[mesh].triangle_count();
+        if visible && !self.objects[index].visible && self.triangle_count() + added > MAX_TRIANGLES
+        {
+            return Err(Error::scene(
+                &self.name,
+                format!("more than {MAX_TRIANGLES} triangles in the world"),
+            ));
         }
-        let mut b = Bounds {
-            min: Vec3::splat(f32::MAX),
-            max: Vec3::splat(f32::MIN),
-        };
-        for v in &self.vertices {
-            let p = Vec3::from(v.position);
-            b.min = b.min.min(p);
-            b.max = b.max.max(p);
-        }
-        b
+        self.object_mut(index)?.visible = visible;
+        Ok(())
     }
 
-    /// Bytes the scene's vertices, indices and textures take.
+    /// Draws object `index` with `material` instead of its mesh's (None:
+    /// the mesh's own).
+    pub fn set_object_material(&mut self, index: usize, material: Option<u32>) -> Result<()> {
+        if let Some(m) = material.filter(|&m| m as usize >= self.materials.len()) {
+            return Err(Error::InvalidParameter(format!(
+                "material {m} does not exist ({} materials)",
+                self.materials.len()
+            )));
+        }
+        self.object_mut(index)?.material = material;
+        Ok(())
+    }
+
+    /// Removes object `index` (later objects move down by one).
+    pub fn remove_object(&mut self, index: usize) -> Result<Object> {
+        self.object(index)?;
+        self.instances = Default::default();
+        Ok(self.objects.remove(index))
+    }
+
+    /// Object `index`, or an error naming the range.
+    pub fn object(&self, index: usize) -> Result<&Object> {
+        self.objects
+            .get(index)
+            .ok_or_else(|| out_of_range("object", index, self.objects.len()))
+    }
+
+    fn object_mut(&mut self, index: usize) -> Result<&mut Object> {
+        self.instances = Default::default();
+        let count = self.objects.len();
+        self.objects
+            .get_mut(index)
+            .ok_or_else(|| out_of_range("object", index, count))
+    }
+
+    fn check_object(&self, o: &Object) -> Result<()> {
+        if o.mesh >= self.meshes.len() {
+            return Err(out_of_range("mesh", o.mesh, self.meshes.len()));
+        }
+        if let Some(m) = o.material.filter(|&m| m as usize >= self.materials.len()) {
+            return Err(out_of_range("material", m as usize, self.materials.len()));
+        }
+        check_transform(&o.transform)
+    }
+
+    /// The visible objects numbered by triangle: how world triangles map to
+    /// meshes (kept until meshes or objects change).
+    pub fn instances(&self) -> &Instances {
+        self.instances
+            .get_or_init(|| Instances::new(&self.meshes, &self.objects))
+    }
+
+    /// World triangle `t`'s vertices in world space (`t` below
+    /// [`Scene::triangle_count`]).
+    pub fn triangle(&self, t: u32) -> [Vertex; 3] {
+        let (instance, local) = self.instances().locate(t);
+        let mesh = &self.meshes[instance.mesh as usize];
+        let i = local as usize * 3;
+        [0, 1, 2].map(|k| {
+            instance
+                .placement
+                .vertex(&mesh.vertices[mesh.indices[i + k] as usize])
+        })
+    }
+
+    /// Every world triangle's vertices in world space, in triangle order.
+    pub fn world_triangles(&self) -> impl Iterator<Item = [Vertex; 3]> + '_ {
+        self.instances().list.iter().flat_map(move |instance| {
+            let mesh = &self.meshes[instance.mesh as usize];
+            mesh.indices.chunks_exact(3).map(move |tri| {
+                [0, 1, 2].map(|k| instance.placement.vertex(&mesh.vertices[tri[k] as usize]))
+            })
+        })
+    }
+
+    /// World triangle `t`'s material (its object's override or the mesh's).
+    pub fn triangle_material(&self, t: u32) -> u32 {
+        let (instance, local) = self.instances().locate(t);
+        let mesh = &self.meshes[instance.mesh as usize];
+        instance
+            .placement
+            .material
+            .unwrap_or_else(|| mesh.vertices[mesh.indices[local as usize * 3] as usize].material)
+    }
+
+    /// World triangle `t`'s corner positions in world space.
+    pub fn triangle_positions(&self, t: u32) -> [Vec3; 3] {
+        let (instance, local) = self.instances().locate(t);
+        let mesh = &self.meshes[instance.mesh as usize];
+        let i = local as usize * 3;
+        [0, 1, 2].map(|k| {
+            let p = mesh.vertices[mesh.indices[i + k] as usize].position;
+            instance.placement.transform.transform_point3(Vec3::from(p))
+        })
+    }
+
+    /// Bounds of every visible object (a unit box around the origin when
+    /// there is none).
+    pub fn bounds(&self) -> Bounds {
+        let mut b: Option<Bounds> = None;
+        for i in &self.instances().list {
+            for v in &self.meshes[i.mesh as usize].vertices {
+                let p = i
+                    .placement
+                    .transform
+                    .transform_point3(Vec3::from(v.position));
+                b = Some(b.map_or(Bounds { min: p, max: p }, |b| b.including(p)));
+            }
+        }
+        b.unwrap_or(Bounds {
+            min: Vec3::splat(-1.0),
+            max: Vec3::splat(1.0),
+        })
+    }
+
+    /// Bytes the scene's meshes and textures take (each mesh once).
     pub fn memory_bytes(&self) -> u64 {
-        (self.vertices.len() * std::mem::size_of::<Vertex>()
-            + self.indices.len() * 4
+        (self
+            .meshes
+            .iter()
+            .map(|m| m.vertices.len() * std::mem::size_of::<Vertex>() + m.indices.len() * 4)
+            .sum::<usize>()
+            + self.objects.len() * std::mem::size_of::<Object>()
             + self.textures.iter().map(|t| t.rgba8.len()).sum::<usize>()) as u64
     }
 
-    /// Number of triangles.
+    /// Number of triangles in the world (every visible object's).
     pub fn triangle_count(&self) -> usize {
-        self.indices.len() / 3
+        self.instances().triangle_count as usize
     }
 
-    /// Unit geometric normal of triangle `t` on its front, the side its
-    /// vertex normals point to (summed, so that smooth normals averaged over
-    /// a box's corners still pick the face's side); zero if degenerate.
+    /// Unit geometric normal of world triangle `t` on its front, the side
+    /// its vertex normals point to (summed, so that smooth normals averaged
+    /// over a box's corners still pick the face's side); zero if degenerate.
     /// A per-triangle answer: an interpolated normal may tilt past the face
     /// near an edge, the plane may not.
     pub fn front_normal(&self, t: usize) -> Vec3 {
-        let idx = &self.indices[t * 3..t * 3 + 3];
-        let v = |k: usize| &self.vertices[idx[k] as usize];
-        let p = |k: usize| Vec3::from(v(k).position);
+        let v = self.triangle(t as u32);
+        let p = |k: usize| Vec3::from(v[k].position);
         let normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
-        let interpolated: Vec3 = (0..3).map(|k| Vec3::from(v(k).normal)).sum();
+        let interpolated: Vec3 = (0..3).map(|k| Vec3::from(v[k].normal)).sum();
         if normal.dot(interpolated) < 0.0 {
             -normal
         } else {
@@ -602,13 +811,51 @@ impl Scene {
 
     /// Checks the scene is renderable.
     pub fn validate(&self) -> Result<()> {
-        if self.indices.is_empty() {
-            return Err(Error::scene(&self.name, "the scene has no triangles"));
-        }
-        for v in &self.vertices {
-            if !Vec3::from(v.position).is_finite() {
-                return Err(Error::scene(&self.name, "a vertex position is not finite"));
+        for (i, mesh) in self.meshes.iter().enumerate() {
+            let bad = |what: &str| Err(Error::scene(&self.name, format!("mesh {i}: {what}")));
+            if mesh.indices.len() % 3 != 0 {
+                return bad("index count is not a multiple of 3");
             }
+            if mesh
+                .indices
+                .iter()
+                .any(|&k| k as usize >= mesh.vertices.len())
+            {
+                return bad("an index is out of range");
+            }
+            if mesh
+                .vertices
+                .iter()
+                .any(|v| !Vec3::from(v.position).is_finite())
+            {
+                return bad("a vertex position is not finite");
+            }
+            if mesh
+                .vertices
+                .iter()
+                .any(|v| v.material as usize >= self.materials.len())
+            {
+                return bad("a vertex names a material that does not exist");
+            }
+        }
+        for (i, o) in self.objects.iter().enumerate() {
+            self.check_object(o)
+                .map_err(|e| Error::scene(&self.name, format!("object {i}: {e}")))?;
+        }
+        let world: usize = self
+            .objects
+            .iter()
+            .filter(|o| o.visible)
+            .map(|o| self.meshes[o.mesh].triangle_count())
+            .sum();
+        if world > MAX_TRIANGLES {
+            return Err(Error::scene(
+                &self.name,
+                format!("{world} triangles in the world, more than {MAX_TRIANGLES}"),
+            ));
+        }
+        if world == 0 {
+            return Err(Error::scene(&self.name, "the scene has no triangles"));
         }
         for l in &self.lights {
             if !l.intensity.is_finite() || l.intensity.min_element() < 0.0 {
@@ -664,6 +911,29 @@ impl Scene {
         }
         Ok(())
     }
+}
+
+/// An error for `index` outside `0..count` of the `what`s.
+fn out_of_range(what: &str, index: usize, count: usize) -> Error {
+    Error::InvalidParameter(format!(
+        "{what} {index} does not exist (the scene has {count})"
+    ))
+}
+
+/// Fails unless `transform` is finite and invertible.
+fn check_transform(transform: &Mat4) -> Result<()> {
+    let det = Mat3::from_mat4(*transform).determinant();
+    if !transform.is_finite() {
+        return Err(Error::InvalidParameter(format!(
+            "an object transform is not finite: {transform}"
+        )));
+    }
+    if det.abs() < 1e-18 || !det.is_finite() {
+        return Err(Error::InvalidParameter(format!(
+            "an object transform is not invertible (determinant {det:e})"
+        )));
+    }
+    Ok(())
 }
 
 /// The tangent (along +u) of a triangle, orthogonal to `n`, with the
@@ -824,8 +1094,10 @@ mod tests {
             let m = s.add_material(Vec3::ONE, None);
             s.add_mesh(&quad, &[], &[], &[0, 1, 2, 0, 2, 3], transform, m)
                 .unwrap();
-            for v in &s.vertices {
-                assert_eq!(v.normal, [0.0, 1.0, 0.0], "{transform}");
+            for t in 0..2 {
+                for v in s.triangle(t) {
+                    assert_eq!(v.normal, [0.0, 1.0, 0.0], "{transform}");
+                }
             }
         }
     }

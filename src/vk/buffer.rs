@@ -112,6 +112,7 @@ impl Buffer {
         assert!(offset + bytes.len() <= len, "buffer write out of range");
         // SAFETY: range checked above; the mapping is valid while `self` lives.
         unsafe { std::ptr::copy_nonoverlapping(bytes.as_ptr(), ptr.add(offset), bytes.len()) };
+        self.device.count_upload(bytes.len());
         Ok(())
     }
 

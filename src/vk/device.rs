@@ -124,6 +124,8 @@ pub struct Device {
     resources_created: AtomicU64,
     /// ...and destroyed so far.
     resources_destroyed: AtomicU64,
+    /// Bytes written by the host into buffers the GPU reads.
+    bytes_uploaded: AtomicU64,
     /// GPU/CPU clock pairs (VK_EXT_calibrated_timestamps with the device and
     /// CLOCK_MONOTONIC domains).
     calibration: Option<ash::ext::calibrated_timestamps::Device>,
@@ -433,6 +435,7 @@ impl Device {
             calibration,
             resources_created: AtomicU64::new(0),
             resources_destroyed: AtomicU64::new(0),
+            bytes_uploaded: AtomicU64::new(0),
         });
         device.set_name(device.timeline, "ssbc.timeline");
         Ok(device)
@@ -491,6 +494,18 @@ impl Device {
     /// Objects waiting in the deferred-destruction queue.
     pub fn pending_destruction(&self) -> usize {
         self.garbage.lock().unwrap_or_else(|p| p.into_inner()).len()
+    }
+
+    /// Bytes ssbc has written from the host into GPU-visible buffers on
+    /// this device so far (meshes, textures, VPLs, points, transforms).
+    pub fn bytes_uploaded(&self) -> u64 {
+        self.bytes_uploaded.load(Ordering::Relaxed)
+    }
+
+    /// Counts `bytes` written for the GPU (see [`Device::bytes_uploaded`]).
+    pub(crate) fn count_upload(&self, bytes: usize) {
+        self.bytes_uploaded
+            .fetch_add(bytes as u64, Ordering::Relaxed);
     }
 
     /// Counts one created resource (see [`Device::resources_created`]).

@@ -501,19 +501,18 @@ fn load_scene(name: &str, time: Option<f32>) -> Result<ssbc::scene::Scene, ssbc:
     }
 }
 
-/// Gives `resident` the meshes of the file `scene` at animation time `t`
-/// (its lights and cameras stay as they are; the whole scene is redone
-/// until objects move on their own).
-fn show_pose(
-    resident: &mut ssbc::resident::ResidentScene,
-    scene: &str,
-    t: f32,
-) -> Result<(), ssbc::Error> {
-    let posed = ssbc::scene::load_at(scene, t)?;
-    resident.edit(|s| {
-        s.vertices = posed.vertices;
-        s.indices = posed.indices;
-    })
+/// Moves `resident`'s objects to where its glTF animation has them at time
+/// `t` (its lights and cameras stay as they are): only the objects that
+/// moved change, as cheaply as any object move; nodes scaled to nothing
+/// are hidden.
+fn show_pose(resident: &mut ssbc::resident::ResidentScene, t: f32) -> Result<(), ssbc::Error> {
+    for (object, transform) in resident.scene().pose(t) {
+        if let Some(m) = transform {
+            resident.set_transform(object, m)?;
+        }
+        resident.set_visible(object, transform.is_some())?;
+    }
+    Ok(())
 }
 
 /// Makes `wanted` the frame's image (`--output-layer`).
@@ -586,7 +585,7 @@ fn render_sequence(
     for k in 0..sequence.len() {
         if let Some(t) = sequence.time(k).map(|t| t as f32) {
             if time != Some(t) {
-                show_pose(&mut resident, &args.common.scene, t)?;
+                show_pose(&mut resident, t)?;
                 time = Some(t);
             }
         }

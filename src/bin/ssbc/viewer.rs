@@ -832,7 +832,7 @@ impl Viewer {
         } else {
             0.0
         };
-        crate::show_pose(&mut self.resident, &self.options.source.0, self.anim_time)
+        crate::show_pose(&mut self.resident, self.anim_time)
     }
 
     fn move_light(&mut self, delta: Vec3) {
