@@ -132,6 +132,24 @@ fn cpu_ms(frame: &Frame) -> f64 {
         .sum()
 }
 
+/// (CPU, GPU) ms medians of `count` resident frames, each after `change`.
+fn measure(
+    renderer: &mut Renderer,
+    settings: &RenderSettings,
+    resident: &mut ResidentScene,
+    count: usize,
+    change: &mut dyn FnMut(&mut ResidentScene, usize),
+) -> (f64, f64) {
+    let (cpu, gpu): (Vec<f64>, Vec<f64>) = (0..count)
+        .map(|i| {
+            change(resident, i);
+            let f = renderer.render_resident(resident, settings).unwrap();
+            (cpu_ms(&f), f.timings.frame_gpu_ms.unwrap_or(f64::NAN))
+        })
+        .unzip();
+    (median(cpu), median(gpu))
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
@@ -152,8 +170,9 @@ fn main() {
         "# CPU ms per frame on the host thread, resident scene, median of {frames} frames ({})\n",
         renderer.device().name()
     );
-    println!("| scene | triangles | first frame | nothing changed | camera moved | light moved | object moved | still, with history | immediate mode | resources created per light-moved / object-moved frame |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | triangles | first frame | nothing changed | camera moved | light moved | object moved | object moved through `edit` (everything redone, as before objects) | still, with history | immediate mode | resources created per light-moved / object-moved frame |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut gpu_rows = Vec::new();
     let mut scenes = vec![
         ssbc::scene::load("cornell").unwrap(),
         ssbc::scene::load("tori").unwrap(),
@@ -166,52 +185,43 @@ fn main() {
         let triangles = scene.triangle_count();
         let name = scene.name.clone();
         let mut resident = ResidentScene::new(scene.clone()).expect("valid scene");
+        let device = renderer.device().clone();
         let first = cpu_ms(&renderer.render_resident(&resident, &settings).unwrap());
         renderer.render_resident(&resident, &settings).unwrap(); // the other slot
-        let same = median(
-            (0..frames)
-                .map(|_| cpu_ms(&renderer.render_resident(&resident, &settings).unwrap()))
-                .collect(),
-        );
+        let mut run = |resident: &mut ResidentScene,
+                       count: usize,
+                       change: &mut dyn FnMut(&mut ResidentScene, usize)| {
+            measure(&mut renderer, &settings, resident, count, change)
+        };
+        let sign = |i: usize| if i % 2 == 0 { 1.0 } else { -1.0 };
+        let same = run(&mut resident, frames, &mut |_, _| {});
         let mut camera = resident.scene().camera(None).unwrap();
-        let camera_moved = median(
-            (0..frames)
-                .map(|i| {
-                    camera.position.x += 0.002 * if i % 2 == 0 { 1.0 } else { -1.0 };
-                    resident.set_camera(camera.clone());
-                    cpu_ms(&renderer.render_resident(&resident, &settings).unwrap())
-                })
-                .collect(),
-        );
-        let created = renderer.device().resources_created();
+        let camera_moved = run(&mut resident, frames, &mut |r, i| {
+            camera.position.x += 0.002 * sign(i);
+            r.set_camera(camera.clone());
+        });
+        let created = device.resources_created();
         let mut light = resident.scene().lights[0].clone();
-        let light_moved = median(
-            (0..frames)
-                .map(|i| {
-                    light.position.x += 0.002 * if i % 2 == 0 { 1.0 } else { -1.0 };
-                    resident.set_light(0, light.clone()).unwrap();
-                    cpu_ms(&renderer.render_resident(&resident, &settings).unwrap())
-                })
-                .collect(),
-        );
-        let per_frame = (renderer.device().resources_created() - created) as f64 / frames as f64;
+        let light_moved = run(&mut resident, frames, &mut |r, i| {
+            light.position.x += 0.002 * sign(i);
+            r.set_light(0, light.clone()).unwrap();
+        });
+        let per_frame = (device.resources_created() - created) as f64 / frames as f64;
         // The last object: the tall block, the second torus, the terrain
-        // (every path crosses it), a sphere.
+        // (every path crosses it), a sphere; by 1 mm up and down.
         let moved = resident.scene().objects().len() - 1;
         let rest = resident.scene().objects()[moved].transform;
-        let created = renderer.device().resources_created();
-        let object_moved = median(
-            (0..frames)
-                .map(|i| {
-                    let dy = 0.001 * if i % 2 == 0 { 1.0 } else { -1.0 };
-                    let lift = Mat4::from_translation(Vec3::new(0.0, dy, 0.0));
-                    resident.set_transform(moved, lift * rest).unwrap();
-                    cpu_ms(&renderer.render_resident(&resident, &settings).unwrap())
-                })
-                .collect(),
-        );
-        let per_object_frame =
-            (renderer.device().resources_created() - created) as f64 / frames as f64;
+        let lift = |i: usize| Mat4::from_translation(Vec3::new(0.0, 0.001 * sign(i), 0.0)) * rest;
+        let created = device.resources_created();
+        let object_moved = run(&mut resident, frames, &mut |r, i| {
+            r.set_transform(moved, lift(i)).unwrap();
+        });
+        let per_object_frame = (device.resources_created() - created) as f64 / frames as f64;
+        let edited = run(&mut resident, frames.min(5), &mut |r, i| {
+            r.edit(|s| s.set_transform(moved, lift(i)))
+                .unwrap()
+                .unwrap();
+        });
         let mut with_history = settings.clone();
         with_history.history.enabled = true;
         renderer.render_resident(&resident, &with_history).unwrap();
@@ -226,7 +236,18 @@ fn main() {
                 .collect(),
         );
         println!(
-            "| {name} | {triangles} | {first:.1} | {same:.2} | {camera_moved:.2} | {light_moved:.2} | {object_moved:.2} | {still_history:.1} | {immediate:.1} | {per_frame:.1} / {per_object_frame:.1} |"
+            "| {name} | {triangles} | {first:.1} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {still_history:.1} | {immediate:.1} | {per_frame:.1} / {per_object_frame:.1} |",
+            same.0, camera_moved.0, light_moved.0, object_moved.0, edited.0
         );
+        gpu_rows.push(format!(
+            "| {name} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} |",
+            same.1, camera_moved.1, light_moved.1, object_moved.1, edited.1
+        ));
+    }
+    println!("\n# GPU ms per frame (timestamps), the same frames\n");
+    println!("| scene | nothing changed | camera moved | light moved | object moved | object moved through `edit` |");
+    println!("|---|---|---|---|---|---|");
+    for row in gpu_rows {
+        println!("{row}");
     }
 }

@@ -12,6 +12,8 @@ layout(location = 4) in vec4 in_tangent;
 layout(push_constant) uniform Push {
     mat4 view_proj;
     vec4 camera_position;
+    uint layer1_shift;     // (the fragment shaders')
+    uint object;           // the object drawn
 } pc;
 
 layout(location = 0) out vec3 v_position;
@@ -21,7 +23,7 @@ layout(location = 3) flat out uint v_material;
 layout(location = 4) out vec4 v_tangent;
 
 void main() {
-    GpuObject object = objects[gl_InstanceIndex];
+    GpuObject object = objects[pc.object];
     vec4 world = object.model * vec4(in_position, 1.0);
     v_position = world.xyz;
     vec3 n = mat3(object.normal_matrix) * in_normal;

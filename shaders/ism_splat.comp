@@ -1,17 +1,15 @@
 #version 460
 // ISM point splatting: every VPL splats its own block of scene points (the
 // one its identity picks, position.w) into its paraboloid tile with atomicMin
-// on the (positive float) distance bits. Points are stored in their
-// objects' space (w: the object) and placed by the object's transform.
+// on the (positive float) distance bits. Points come placed in world space
+// (ism_points.comp; w = 0: a hidden object's).
 #include "ism.glsl"
-#include "common.glsl"
 
 layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0, r32ui) uniform uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
-layout(set = 0, binding = 2) readonly buffer Points { vec4 points[]; }; // xyz object space, w object bits
-layout(set = 0, binding = 3) readonly buffer Objects { GpuObject objects[]; };
+layout(set = 0, binding = 2) readonly buffer Points { vec4 points[]; }; // xyz world, w 1 (0: hidden)
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -29,9 +27,8 @@ void main() {
     GpuVpl vpl = vpls[v];
     uint block = floatBitsToUint(vpl.position.w);
     vec4 point = points[block * pc.points_per_vpl + i];
-    GpuObject object = objects[floatBitsToUint(point.w)];
-    if (object.params.y == 0u) return; // hidden
-    vec3 p = (object.model * vec4(point.xyz, 1.0)).xyz;
+    if (point.w == 0.0) return; // a hidden object's
+    vec3 p = point.xyz;
     vec3 d = p - vpl.position.xyz;
     float dist = length(d);
     if (dist < 1e-5) return;

@@ -9,13 +9,14 @@ layout(location = 3) in uint in_material;
 
 layout(push_constant) uniform Push {
     mat4 view_proj;
+    uint object;           // the object drawn
 } pc;
 
 layout(location = 0) out vec2 v_uv;
 layout(location = 1) flat out uint v_material;
 
 void main() {
-    GpuObject object = objects[gl_InstanceIndex];
+    GpuObject object = objects[pc.object];
     v_uv = in_uv;
     v_material = object_material(object, in_material);
     gl_Position = pc.view_proj * (object.model * vec4(in_position, 1.0));

@@ -11,7 +11,7 @@ use gpu_allocator::MemoryLocation;
 use crate::error::Result;
 use crate::gpu_types::{GpuMaterial, GpuObject};
 use crate::scene::{AlphaMode, Scene};
-use crate::vk::{Buffer, Device, Image, ImageDesc, Recorder, Sampler};
+use crate::vk::{Buffer, Device, Image, ImageDesc, Pipeline, Recorder, Sampler};
 
 /// Largest side of the texture array; bigger textures are downsampled.
 const MAX_TEXTURE_SIDE: u32 = 2048;
@@ -30,8 +30,10 @@ pub struct GpuMesh {
     pub masked_count: u32,
 }
 
-/// One indexed draw of a range of a mesh for one object (its index is the
-/// instance index, which the vertex shaders read the object with).
+/// One indexed draw of a range of a mesh for one object (its index goes in
+/// the push block, where the vertex shaders read it: indexing the objects
+/// with `gl_InstanceIndex` made llvmpipe corrupt its heap in 9 of 10
+/// 4-wide runs).
 #[derive(Clone, Copy, Debug)]
 pub struct Draw {
     /// First index.
@@ -40,7 +42,7 @@ pub struct Draw {
     pub count: u32,
     /// Added to the indices.
     pub vertex_offset: i32,
-    /// The object (`gl_InstanceIndex`).
+    /// The object.
     pub object: u32,
 }
 
@@ -133,17 +135,7 @@ impl GpuScene {
             vk::BufferUsageFlags::INDEX_BUFFER,
         )?;
         let objects = (0..slots)
-            .map(|slot| {
-                let size = (scene.objects().len().max(1) * std::mem::size_of::<GpuObject>()) as u64;
-                let buffer = Buffer::new(
-                    device,
-                    &format!("frame slot {slot} scene.objects"),
-                    size,
-                    vk::BufferUsageFlags::STORAGE_BUFFER,
-                    MemoryLocation::CpuToGpu,
-                )?;
-                Ok((buffer, 0))
-            })
+            .map(|slot| Ok((objects_buffer(device, slot, scene.objects().len())?, 0)))
             .collect::<Result<Vec<_>>>()?;
         // Which textures go to which array.
         let mut as_color = vec![false; scene.textures.len()];
@@ -283,12 +275,17 @@ impl GpuScene {
     }
 
     /// Writes `scene`'s objects into frame slot `slot`'s buffer unless it
-    /// already holds `version` of them (the slot's previous frame is done).
+    /// already holds `version` of them (the slot's previous frame is done);
+    /// a buffer too small for objects added since is made anew.
     pub fn write_objects(&mut self, slot: usize, scene: &Scene, version: u64) -> Result<()> {
         let (buffer, held) = &mut self.objects[slot];
         if *held != version {
             let objects: Vec<GpuObject> = scene.objects().iter().map(GpuObject::new).collect();
-            buffer.write(0, bytemuck::cast_slice(&objects))?;
+            let bytes: &[u8] = bytemuck::cast_slice(&objects);
+            if bytes.len() as u64 > buffer.size {
+                *buffer = objects_buffer(buffer.device(), slot, objects.len())?;
+            }
+            buffer.write(0, bytes)?;
             *held = version;
         }
         Ok(())
@@ -302,16 +299,25 @@ impl GpuScene {
         }
     }
 
-    /// Records `draws` (the pipeline, vertex and index buffers bound).
-    pub fn record_draws(&self, device: &Device, cmd: vk::CommandBuffer, draws: &[Draw]) {
+    /// Records `draws` with `pipeline` (bound, with the vertex and index
+    /// buffers), pushing each draw's object at `object_offset` in its push
+    /// block.
+    pub fn record_draws(
+        &self,
+        device: &Device,
+        cmd: vk::CommandBuffer,
+        (pipeline, object_offset): (&Pipeline, u32),
+        draws: &[Draw],
+    ) {
         for d in draws {
-            // SAFETY: recording inside a rendering scope with a pipeline
+            pipeline.push_at(cmd, object_offset, &d.object.to_ne_bytes());
+            // SAFETY: recording inside a rendering scope with the pipeline
             // bound; the range lies inside the index buffer, the object
             // inside the bound objects buffer.
             unsafe {
                 device
                     .raw
-                    .cmd_draw_indexed(cmd, d.count, 1, d.first_index, d.vertex_offset, d.object)
+                    .cmd_draw_indexed(cmd, d.count, 1, d.first_index, d.vertex_offset, 0)
             };
         }
     }
@@ -353,6 +359,17 @@ impl GpuScene {
     pub fn release_staging(&mut self) {
         self.recorded.clear();
     }
+}
+
+/// Frame slot `slot`'s host-visible buffer for `count` `GpuObject`s.
+fn objects_buffer(device: &Arc<Device>, slot: usize, count: usize) -> Result<Buffer> {
+    Buffer::new(
+        device,
+        &format!("frame slot {slot} scene.objects"),
+        (count.max(1) * std::mem::size_of::<GpuObject>()) as u64,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::CpuToGpu,
+    )
 }
 
 /// Uploads `textures` as the layers of one array (all resized to the

@@ -163,7 +163,8 @@ impl Passes {
     ) -> Result<()> {
         self.temporal_ran[setup.slot] = false;
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
-        let ism = self.ism.run(cx, setup, scene.objects)?;
+        let objects = (scene.objects, setup.cache.versions.objects);
+        let ism = self.ism.run(cx, setup, objects)?;
         let [layer0, layer1] = &mut self.layers;
         let (front, bounded) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
         let visible = bounded.ssbc_layer(front);

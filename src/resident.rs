@@ -7,8 +7,9 @@
 //! | camera | the screen-space passes (nothing on the CPU) |
 //! | lights | VPL tracing, shadow-map and ISM data, the passes |
 //! | materials | GPU scene copy, BVH (alpha masks), VPLs, ISM points |
-//! | objects moved, shown, hidden ([`ResidentScene::set_transform`], [`ResidentScene::set_visible`]) | the BVH's top level, the objects' transforms on the GPU, VPL tracing, the passes (ISM points move with their objects; meshes stay uploaded) |
-//! | geometry ([`ResidentScene::edit`], [`ResidentScene::add_object`], [`ResidentScene::remove_object`]) | everything |
+//! | objects moved, shown, hidden ([`ResidentScene::set_transform`], [`ResidentScene::set_visible`]) | the BVH's top level, the objects' transforms on the GPU, VPL tracing (keeping the light paths and ISM rays that pass nowhere near the objects), the passes; ISM points move with their objects; meshes stay uploaded |
+//! | objects added or removed ([`ResidentScene::add_object`], [`ResidentScene::remove_object`]) | as a move, and the ISM points are sampled again |
+//! | meshes, textures ([`ResidentScene::edit`]) | everything |
 //!
 //! Frames also keep a temporal history of the indirect light (a running
 //! mean that converges while nothing moves, reprojected when the camera
@@ -199,20 +200,29 @@ impl ResidentScene {
         Ok(())
     }
 
-    /// Adds an object drawing one of the scene's meshes (the scene's
-    /// geometry changes: the next frame redoes everything).
+    /// Adds an object drawing one of the scene's meshes. The meshes stay
+    /// as they are (their BVHs and GPU copies are kept): the next frame
+    /// rebuilds the BVH's top level, samples the ISM points again and
+    /// traces VPLs again.
     pub fn add_object(&mut self, object: Object) -> Result<usize> {
         let index = self.scene.add_object(object)?;
-        self.versions = SceneVersions::fresh();
+        self.versions.objects = next_version();
         Ok(index)
     }
 
-    /// Removes object `index` (later objects move down by one; the next
-    /// frame redoes everything). A scene needs a visible triangle left.
+    /// Removes object `index` (later objects move down by one); as cheap as
+    /// adding one. A scene needs a visible triangle left.
     pub fn remove_object(&mut self, index: usize) -> Result<Object> {
+        let visible_left = self.scene.objects().iter().enumerate().any(|(i, o)| {
+            i != index && o.visible && !self.scene.meshes()[o.mesh].indices.is_empty()
+        });
+        if index < self.scene.objects().len() && !visible_left {
+            return Err(Error::InvalidParameter(format!(
+                "removing object {index} would leave the scene without triangles"
+            )));
+        }
         let removed = self.scene.remove_object(index)?;
-        self.versions = SceneVersions::fresh();
-        self.scene.validate()?;
+        self.versions.objects = next_version();
         Ok(removed)
     }
 

@@ -50,10 +50,11 @@ pub struct VplCache {
 /// points were 84 MiB and 248 ms on the CPU per immediate-mode frame).
 pub const MAX_POINT_BLOCKS: usize = 256;
 
-/// A hash of which objects are visible.
+/// A hash of how many objects there are and which are visible.
 fn visibility_hash(scene: &Scene) -> u64 {
     use std::hash::{Hash, Hasher};
     let mut h = std::collections::hash_map::DefaultHasher::new();
+    scene.objects().len().hash(&mut h);
     for o in scene.objects() {
         o.visible.hash(&mut h);
     }

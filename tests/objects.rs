@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::{max_relative_difference, stages};
+
 use glam::{Mat4, Vec3};
 use ssbc::renderer::{Frame, RenderSettings};
 use ssbc::resident::ResidentScene;
@@ -24,25 +26,6 @@ fn scene_with_cube() -> (Scene, usize) {
     ssbc::scene::builtin::axis_box(&mut scene, Vec3::splat(-0.15), Vec3::splat(0.15), m).unwrap();
     let cube = scene.objects().len() - 1;
     (scene, cube)
-}
-
-fn max_relative_difference(a: &Frame, b: &Frame) -> f32 {
-    let peak = b.image.rgba.iter().fold(0f32, |m, &v| m.max(v.abs()));
-    a.image
-        .rgba
-        .iter()
-        .zip(&b.image.rgba)
-        .fold(0f32, |m, (x, y)| m.max((x - y).abs()))
-        / peak.max(1e-12)
-}
-
-fn stages(frame: &Frame) -> Vec<&str> {
-    frame
-        .timings
-        .cpu_spans
-        .iter()
-        .map(|s| s.name.as_str())
-        .collect()
 }
 
 #[test]
@@ -295,4 +278,65 @@ fn history_follows_a_moving_object_without_ghosts() {
         (m / t - 1.0).abs() < 0.1,
         "a ghost: {m} vs {t} (the cube: {b})"
     );
+}
+
+/// Adding an instance of a mesh the scene has, and removing it: no BVH
+/// build, no upload of meshes; each frame is the static scene's.
+#[test]
+fn objects_added_and_removed_keep_the_meshes() {
+    let (scene, cube) = scene_with_cube();
+    let s = settings();
+    let mut renderer = common::validated_renderer();
+    let mut reference = common::validated_renderer();
+    let mut resident = ResidentScene::new(scene.clone()).unwrap();
+    renderer.render_resident(&resident, &s).unwrap();
+    let mesh = scene.objects()[cube].mesh;
+    let second = Object::new(mesh, Mat4::from_translation(Vec3::new(0.4, 1.2, 0.3)));
+    let added = resident.add_object(second.clone()).unwrap();
+    let frame = renderer.render_resident(&resident, &s).unwrap();
+    for redone in ["bvh_build", "scene_upload"] {
+        assert!(!stages(&frame).contains(&redone), "{:?}", stages(&frame));
+    }
+    let mut fixed = scene.clone();
+    fixed.add_object(second).unwrap();
+    let still = reference.render(&fixed, &s).unwrap();
+    let d = max_relative_difference(&frame, &still);
+    assert!(d < 1e-5, "with the object added: {d}");
+    resident.remove_object(added).unwrap();
+    let frame = renderer.render_resident(&resident, &s).unwrap();
+    assert!(!stages(&frame).contains(&"bvh_build"));
+    let still = reference.render(&scene, &s).unwrap();
+    let d = max_relative_difference(&frame, &still);
+    assert!(d < 1e-5, "with the object removed again: {d}");
+    // The last visible objects cannot all go.
+    let mut lone = ResidentScene::new({
+        let mut s = Scene::new("lone");
+        let m = s.add_material(Vec3::ONE, None);
+        ssbc::scene::builtin::axis_box(&mut s, Vec3::ZERO, Vec3::ONE, m).unwrap();
+        s
+    })
+    .unwrap();
+    assert!(lone.remove_object(0).is_err());
+}
+
+/// A scene keeps its glTF animation: posing it at a time moves its
+/// objects where loading the file at that time puts them.
+#[test]
+fn a_scene_poses_its_objects_as_loading_at_that_time_does() {
+    let dir = tempfile::tempdir().unwrap();
+    for interpolation in ["STEP", "LINEAR", "CUBICSPLINE"] {
+        let bytes = common::animated_quad(interpolation, common::CHANNEL);
+        let rest = ssbc::scene::load_gltf_bytes("a.gltf", &bytes, dir.path()).unwrap();
+        for t in [0.0, 0.4, 1.0, 1.7, 5.0] {
+            let at = ssbc::scene::load_gltf_bytes_at("a.gltf", &bytes, dir.path(), t).unwrap();
+            let pose = rest.pose(t);
+            assert_eq!(pose.len(), 1, "{interpolation}");
+            assert_eq!(
+                pose[0],
+                (0, Some(at.objects()[0].transform)),
+                "{interpolation} at {t}"
+            );
+        }
+    }
+    assert!(ssbc::scene::builtin::cornell().pose(1.0).is_empty());
 }

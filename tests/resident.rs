@@ -4,8 +4,10 @@
 
 mod common;
 
+use common::{max_relative_difference, stages};
+
 use glam::{Vec3, Vec4};
-use ssbc::renderer::{Frame, RenderSettings, Renderer};
+use ssbc::renderer::{RenderSettings, Renderer};
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Scene};
 
@@ -25,28 +27,6 @@ fn cornell() -> Scene {
     let mut scene = ssbc::scene::builtin::cornell();
     scene.ensure_light();
     scene
-}
-
-/// CPU stages the frame ran.
-fn stages(frame: &Frame) -> Vec<&str> {
-    frame
-        .timings
-        .cpu_spans
-        .iter()
-        .map(|s| s.name.as_str())
-        .collect()
-}
-
-/// Largest difference between two frames' final images, relative to the
-/// brightest value.
-fn max_relative_difference(a: &Frame, b: &Frame) -> f32 {
-    let peak = b.image.rgba.iter().fold(0f32, |m, &v| m.max(v.abs()));
-    a.image
-        .rgba
-        .iter()
-        .zip(&b.image.rgba)
-        .fold(0f32, |m, (x, y)| m.max((x - y).abs()))
-        / peak.max(1e-12)
 }
 
 fn moved_camera(scene: &Scene) -> Camera {

@@ -1,5 +1,6 @@
 // The scene's objects (GpuObject in common.glsl): vertex shaders read the
-// drawn object as gl_InstanceIndex (each draw's first instance).
+// drawn object's index from their push block (set per draw; indexing by
+// gl_InstanceIndex made llvmpipe corrupt its heap at 4-wide subgroups).
 #ifndef SSBC_OBJECTS_GLSL
 #define SSBC_OBJECTS_GLSL
 #include "common.glsl"

@@ -56,13 +56,30 @@ impl Emitters {
         let mut e = Self::default();
         let mut total = 0.0f32;
         let emissive: Vec<bool> = scene.materials.iter().map(|m| m.is_emissive()).collect();
-        for t in 0..scene.triangle_count() {
-            // Most triangles are not emissive: their material is looked up
-            // before the corners are moved to world space.
-            if !emissive[scene.triangle_material(t as u32) as usize] {
-                continue;
-            }
-            let corners = scene.triangle(t as u32);
+        if !emissive.contains(&true) {
+            return e;
+        }
+        // Object by object: a triangle's material is looked up in its mesh
+        // before its corners are moved to world space.
+        let triangles = scene.instances().list.iter().flat_map(|instance| {
+            let mesh = &scene.meshes()[instance.mesh as usize];
+            let emissive = &emissive;
+            mesh.indices
+                .chunks_exact(3)
+                .enumerate()
+                .filter_map(move |(local, tri)| {
+                    let material = instance
+                        .placement
+                        .material
+                        .unwrap_or(mesh.vertices[tri[0] as usize].material);
+                    emissive[material as usize].then(|| {
+                        let corners = [0, 1, 2]
+                            .map(|k| instance.placement.vertex(&mesh.vertices[tri[k] as usize]));
+                        (instance.first_triangle as usize + local, corners)
+                    })
+                })
+        });
+        for (t, corners) in triangles {
             let v = |k: usize| &corners[k];
             let material = &scene.materials[v(0).material as usize];
             let p = |k: usize| Vec3::from(v(k).position);

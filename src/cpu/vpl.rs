@@ -385,7 +385,8 @@ pub fn assign_radii(vpls: &mut [Vpl]) {
         vpls.iter_mut().for_each(|v| v.radius = 0.0);
         return;
     }
-    let mut tree = kdtree::KdTree::with_capacity(3, vpls.len().max(1));
+    // (The second number is the points a leaf holds, not the tree's size.)
+    let mut tree = kdtree::KdTree::with_capacity(3, 16);
     for (i, v) in vpls.iter().enumerate() {
         // Positions are finite (they lie on the scene's validated geometry).
         let _ = tree.add(v.position.to_array(), i);

@@ -126,8 +126,10 @@ impl GBuffer {
         );
         pipeline.bind(rec.cmd, set, push);
         scene.bind_geometry(rec.device, rec.cmd);
+        let object_offset = std::mem::offset_of!(Push, object) as u32;
         for masked in [false, true] {
-            scene.record_draws(rec.device, rec.cmd, scene.draws(masked));
+            let draws = scene.draws(masked);
+            scene.record_draws(rec.device, rec.cmd, (pipeline, object_offset), draws);
         }
         // SAFETY: closes the rendering scope begun above.
         unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };
@@ -200,6 +202,8 @@ pub(crate) struct Push {
     pub camera_position: [f32; 4],
     /// log2 of a layer-1 pixel's side in layer-0 pixels (layer 1 only).
     pub layer1_shift: u32,
+    /// The object drawn (set per draw).
+    pub object: u32,
 }
 
 /// The G-buffer pipeline of one layer and its descriptor layout.
@@ -299,6 +303,7 @@ impl Pass for GBufferPass {
                 0 => 0,
                 _ => settings.ssbc.layer1_resolution.shift(),
             },
+            object: 0,
         };
         gbuffer.draw(rec, scene, &self.pipeline, set, bytemuck::bytes_of(&push));
         profiler.end(rec.cmd, scope);

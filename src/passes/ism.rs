@@ -13,7 +13,7 @@ use super::{Pass, Recording, SlotSetup};
 use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
-use crate::shaders::{ism_base_comp, ism_splat_comp};
+use crate::shaders::{ism_base_comp, ism_points_comp, ism_splat_comp};
 use crate::vk::{
     Access, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
     ImageDesc,
@@ -21,6 +21,7 @@ use crate::vk::{
 
 /// The ISM pipelines.
 pub struct IsmPass {
+    place: ComputeKernel<ism_points_comp::Interface, PlacePush>,
     base: ComputeKernel<ism_base_comp::Interface, BasePush>,
     splat: ComputeKernel<ism_splat_comp::Interface, SplatPush>,
 }
@@ -40,8 +41,14 @@ pub struct Ism {
     pub subsets: Buffer,
     /// Number of interleaving subsets.
     pub subset_count: u32,
-    /// Blocks of scene points, `points_per_vpl` each (VPLs share blocks).
+    /// Blocks of scene points, `points_per_vpl` each (VPLs share blocks),
+    /// in their objects' space.
     pub points: Buffer,
+    /// The same points placed in world space for this frame's objects.
+    pub world_points: Buffer,
+    /// The (points, objects) versions `world_points` holds, once a frame
+    /// ssbc submits placed them (placing is skipped while they hold).
+    placed: std::cell::Cell<Option<(u64, u64)>>,
     /// Each VPL's coarse ray-cast layer (m, `BASE_GRID`² per VPL).
     pub base_depths: Buffer,
     /// The (VPL, points) versions the buffers hold.
@@ -69,6 +76,12 @@ struct SplatPush {
     tiles_per_row: u32,
     depth_scale: f32,
     point_radius: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct PlacePush {
+    count: u32,
 }
 
 #[repr(C)]
@@ -103,6 +116,7 @@ impl IsmPass {
     /// Creates the kernels.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         Ok(Self {
+            place: ComputeKernel::new(device)?.named("ism_points"),
             base: ComputeKernel::new(device)?.named("ism_base"),
             splat: ComputeKernel::new(device)?.named("ism_splat"),
         })
@@ -117,8 +131,8 @@ impl Pass for IsmPass {
     type Key = (u64, u64, u32, u32);
     /// The atlas and the VPLs and points it is splatted from.
     type Resources = Ism;
-    /// The frame slot's objects (points move with them).
-    type Reads<'a> = &'a Buffer;
+    /// The frame slot's objects (points move with them) and their version.
+    type Reads<'a> = (&'a Buffer, u64);
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let cache = setup.cache;
@@ -197,6 +211,14 @@ impl Pass for IsmPass {
                 &point_data,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
+            placed: std::cell::Cell::new(None),
+            world_points: Buffer::new(
+                device,
+                "ism.world_points",
+                (point_data.len() * 16) as u64,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                gpu_allocator::MemoryLocation::GpuOnly,
+            )?,
             base_depths: Buffer::with_data(
                 device,
                 "ism.base_depths",
@@ -244,9 +266,13 @@ impl Pass for IsmPass {
         Ok(true)
     }
 
-    /// A base and a splat set.
+    /// A placing, a base and a splat set.
     fn set_layouts(&self, _: &Ism) -> Vec<&DescriptorSetLayout> {
-        vec![self.base.set_layout(), self.splat.set_layout()]
+        vec![
+            self.place.set_layout(),
+            self.base.set_layout(),
+            self.splat.set_layout(),
+        ]
     }
 
     /// Writes every VPL's tile (nothing without VPLs).
@@ -254,13 +280,40 @@ impl Pass for IsmPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        objects: &Buffer,
+        (objects, objects_version): (&Buffer, u64),
         ism: &Ism,
     ) -> Result<()> {
         if ism.vpl_count == 0 {
             return Ok(());
         }
-        let Recording { rec, profiler, .. } = cx;
+        let Recording {
+            rec,
+            profiler,
+            reuse,
+            ..
+        } = cx;
+        // The points where their objects are now (unless the slot's frame
+        // before, which ran, placed these points for these objects).
+        let placing = (ism.versions.1, objects_version);
+        if !(*reuse && ism.placed.get() == Some(placing)) {
+            let scope = profiler.begin(rec.cmd, "ism_points");
+            rec.use_buffer(&ism.points, Access::ComputeRead);
+            rec.use_buffer(objects, Access::ComputeRead);
+            rec.use_buffer(&ism.world_points, Access::ComputeWrite);
+            rec.flush_barriers();
+            let count = (ism.points.size / 16) as u32;
+            let bindings = ism_points_comp::Bindings {
+                points: &ism.points,
+                objects,
+                world_points: &ism.world_points,
+            };
+            let push = PlacePush { count };
+            self.place
+                .dispatch(rec.cmd, pool, &bindings, &push, [count.div_ceil(64), 1, 1])?;
+            profiler.end(rec.cmd, scope);
+            // A host's command buffer may never run: nothing it places is kept.
+            ism.placed.set(reuse.then_some(placing));
+        }
         // Splat: start every VPL's tile from its ray-cast layer (tiles past
         // the last VPL are never read) and atomicMin every point's distance.
         let scope = profiler.begin(rec.cmd, "ism_splat");
@@ -283,8 +336,7 @@ impl Pass for IsmPass {
         self.base.dispatch(rec.cmd, pool, &bindings, &push, groups)?;
         rec.use_image(&ism.atlas, Access::ComputeWrite);
         rec.use_buffer(&ism.vpls, Access::ComputeRead);
-        rec.use_buffer(&ism.points, Access::ComputeRead);
-        rec.use_buffer(objects, Access::ComputeRead);
+        rec.use_buffer(&ism.world_points, Access::ComputeRead);
         rec.flush_barriers();
         let push = SplatPush {
             vpl_count: ism.vpl_count,
@@ -297,8 +349,7 @@ impl Pass for IsmPass {
         let bindings = ism_splat_comp::Bindings {
             ism_depth: &ism.atlas,
             vpls: &ism.vpls,
-            points: &ism.points,
-            objects,
+            points: &ism.world_points,
         };
         // One invocation per (point, VPL).
         let groups = [ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1];

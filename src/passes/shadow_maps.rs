@@ -115,12 +115,22 @@ pub fn light_views(light: &Light, bounds: &Bounds, resolution: u32) -> Vec<(Mat4
     }
 }
 
+/// Push constants of the shadow-map shaders.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct ShadowPush {
+    /// World to the layer's clip space.
+    view_proj: [f32; 16],
+    /// The object drawn (set per draw).
+    object: u32,
+}
+
 impl ShadowMapPass {
     /// Creates the depth pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         let stages = [&shadow_map_vert::SHADER, &shadow_map_frag::SHADER];
         let layout = DescriptorSetLayout::for_shaders(device, &stages)?;
-        let push = push_size::<[f32; 16]>(&stages)?;
+        let push = push_size::<ShadowPush>(&stages)?;
         // The same depth pipeline with and without the alpha test.
         let depth = |fragment, name| -> Result<Pipeline> {
             let pipeline = Pipeline::graphics(
@@ -287,7 +297,11 @@ impl Pass for ShadowMapPass {
                 maps.depth.layer_views[layer],
                 1.0,
             );
-            let push = view_proj.to_cols_array();
+            let push = ShadowPush {
+                view_proj: view_proj.to_cols_array(),
+                object: 0,
+            };
+            let object_offset = std::mem::offset_of!(ShadowPush, object) as u32;
             // Opaque triangles depth-only, alpha-masked ones with the test.
             let parts = [(&self.depth_only, false), (&self.pipeline, true)];
             for (pipeline, masked) in parts {
@@ -297,7 +311,7 @@ impl Pass for ShadowMapPass {
                 }
                 pipeline.bind(rec.cmd, set, bytemuck::bytes_of(&push));
                 scene.bind_geometry(rec.device, rec.cmd);
-                scene.record_draws(rec.device, rec.cmd, draws);
+                scene.record_draws(rec.device, rec.cmd, (pipeline, object_offset), draws);
             }
             // SAFETY: closes the rendering scope begun above.
             unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };

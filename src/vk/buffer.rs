@@ -105,6 +105,11 @@ impl Buffer {
         Ok((ptr.as_ptr() as *mut u8, allocation.size() as usize))
     }
 
+    /// The device the buffer lives on.
+    pub fn device(&self) -> &Arc<Device> {
+        &self.device
+    }
+
     /// Copies `bytes` into a host-visible buffer at `offset`. The caller makes
     /// sure the GPU is not using the range (submission orders host writes).
     pub fn write(&self, offset: usize, bytes: &[u8]) -> Result<()> {

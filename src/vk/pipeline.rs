@@ -361,14 +361,21 @@ impl Pipeline {
 
     /// Pushes constants (no-op for an empty slice).
     pub fn push(&self, cmd: vk::CommandBuffer, push: &[u8]) {
-        if push.is_empty() {
+        self.push_at(cmd, 0, push);
+    }
+
+    /// Pushes `bytes` at `offset` into the push block (one field between
+    /// draws; no-op for an empty slice).
+    pub fn push_at(&self, cmd: vk::CommandBuffer, offset: u32, bytes: &[u8]) {
+        if bytes.is_empty() {
             return;
         }
-        // SAFETY: recording; the range was declared at layout creation.
+        // SAFETY: recording; the range lies in the one declared at layout
+        // creation (the caller's offset is a field of its push block).
         unsafe {
             self.device
                 .raw
-                .cmd_push_constants(cmd, self.layout, self.push_stages, 0, push)
+                .cmd_push_constants(cmd, self.layout, self.push_stages, offset, bytes)
         };
     }
 }

@@ -294,3 +294,27 @@ pub fn animated_quad(interpolation: &str, channel: &str) -> Vec<u8> {
 }
 
 pub const CHANNEL: &str = r#"{"sampler":0,"target":{"node":0,"path":"translation"}}"#;
+
+/// Largest difference between two frames' final images, relative to the
+/// brightest value of `b`.
+#[allow(dead_code)]
+pub fn max_relative_difference(a: &Frame, b: &Frame) -> f32 {
+    let peak = b.image.rgba.iter().fold(0f32, |m, &v| m.max(v.abs()));
+    a.image
+        .rgba
+        .iter()
+        .zip(&b.image.rgba)
+        .fold(0f32, |m, (x, y)| m.max((x - y).abs()))
+        / peak.max(1e-12)
+}
+
+/// The CPU stages a frame ran.
+#[allow(dead_code)]
+pub fn stages(frame: &Frame) -> Vec<&str> {
+    frame
+        .timings
+        .cpu_spans
+        .iter()
+        .map(|s| s.name.as_str())
+        .collect()
+}

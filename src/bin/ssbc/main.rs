@@ -495,10 +495,18 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
 
 /// The scene, at animation time `time` if given (`--time`).
 fn load_scene(name: &str, time: Option<f32>) -> Result<ssbc::scene::Scene, ssbc::Error> {
-    match time {
+    let scene = match time {
         Some(t) => ssbc::scene::load_at(name, t),
         None => ssbc::scene::load(name),
-    }
+    }?;
+    log::info!(
+        "{}: {} triangles in {} objects drawing {} meshes",
+        scene.name,
+        scene.triangle_count(),
+        scene.objects().len(),
+        scene.meshes().len()
+    );
+    Ok(scene)
 }
 
 /// Moves `resident`'s objects to where its glTF animation has them at time
