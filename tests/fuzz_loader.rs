@@ -851,3 +851,29 @@ fn many_instances_of_a_mesh_hit_the_world_triangle_limit() {
     let e = load_doc(&doc, folder.path()).unwrap_err().to_string();
     assert!(e.contains("triangles in the world"), "{e}");
 }
+
+#[test]
+fn a_hundred_thousand_nodes_sharing_a_mesh_load_without_quadratic_work() {
+    let png = tiny_png();
+    let folder = tempfile::tempdir().unwrap();
+    // The base document's quad mesh drawn by 100,000 nodes: 200,000
+    // triangles, one mesh. Numbering objects again at every node (or
+    // summing the meshes for the budget) would take minutes.
+    let mut doc = base_doc(&png);
+    let instances = 100_000;
+    let mut nodes: Vec<Value> = vec![json!({"children": (1..=instances).collect::<Vec<_>>()})];
+    nodes.extend((0..instances).map(|i| json!({"mesh": 0, "translation": [i as f32, 0.0, 0.0]})));
+    doc["nodes"] = json!(nodes);
+    doc["scenes"] = json!([{"nodes": [0]}]);
+    doc.as_object_mut().unwrap().remove("animations");
+    let start = Instant::now();
+    let scene = load_doc(&doc, folder.path()).unwrap();
+    assert_eq!(scene.meshes().len(), 1);
+    assert_eq!(scene.objects().len(), instances);
+    assert_eq!(scene.triangle_count(), 2 * instances);
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
+}

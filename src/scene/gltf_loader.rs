@@ -105,6 +105,7 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> R
         blob,
         buffers: Vec::new(),
         input_bytes: std::cell::Cell::new(bytes.len() as u64),
+        stored: std::cell::Cell::new(0),
         time,
         poses: HashMap::new(),
         channels: Vec::new(),
@@ -151,6 +152,8 @@ struct Loader<'a> {
     buffers: Vec<Option<Vec<u8>>>,
     /// Bytes read so far: the file and every external buffer and image.
     input_bytes: std::cell::Cell<u64>,
+    /// Bytes the scene takes so far (meshes, textures, objects).
+    stored: std::cell::Cell<u64>,
     /// The time the first animation is played at (None: rest pose).
     time: Option<f32>,
     /// Animated nodes' transforms at that time.
@@ -182,9 +185,12 @@ impl Loader<'_> {
         BUDGET_BASE.saturating_add(BUDGET_FACTOR.saturating_mul(self.input_bytes.get()))
     }
 
-    /// Fails if `scene` plus `more` bytes would exceed the budget.
-    fn check_budget(&self, scene: &Scene, more: u64) -> Result<()> {
-        let used = scene.memory_bytes().saturating_add(more);
+    /// Counts `more` bytes the scene is about to take; fails if that
+    /// exceeds the budget. (A running total: summing the scene's meshes at
+    /// every primitive would be quadratic in a file of many small ones.)
+    fn check_budget(&self, more: u64) -> Result<()> {
+        let used = self.stored.get().saturating_add(more);
+        self.stored.set(used);
         if used > self.budget() {
             return Err(self.err(format!(
                 "the scene would take {} MiB, more than {} MiB for {} bytes of input \
@@ -638,6 +644,7 @@ impl Loader<'_> {
                         mesh
                     )));
                 }
+                self.check_budget(std::mem::size_of::<super::Object>() as u64)?;
                 scene
                     .add_object(super::Object::at_node(mesh, world, index))
                     .map_err(|e| self.err(format!("node {index}: {e}")))?;
@@ -826,9 +833,14 @@ impl Loader<'_> {
             if indices.len() / 3 > MAX_TRIANGLES {
                 return Err(self.err(format!("more than {MAX_TRIANGLES} triangles")));
             }
+            // Flat normals unshare vertices: three a triangle.
+            let vertices = if normals.is_empty() {
+                indices.len()
+            } else {
+                positions.len()
+            };
             self.check_budget(
-                scene,
-                (positions.len() * std::mem::size_of::<super::Vertex>() + indices.len() * 4) as u64,
+                (vertices * std::mem::size_of::<super::Vertex>() + indices.len() * 4) as u64,
             )?;
             made.push(scene.new_mesh(&positions, &normals, &uvs, &tangents, &indices, material)?);
         }
@@ -1127,7 +1139,7 @@ impl Loader<'_> {
             )));
         }
         let rgba_bytes = width as u64 * height as u64 * 4;
-        self.check_budget(scene, rgba_bytes)?;
+        self.check_budget(rgba_bytes)?;
         let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]))
             .with_guessed_format()
             .map_err(|e| self.err(format!("image {image_index}: {e}")))?;

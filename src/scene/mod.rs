@@ -616,9 +616,14 @@ impl Scene {
                 format!("more than {MAX_TRIANGLES} triangles in the world"),
             ));
         }
+        let index = self.objects.len();
+        // The numbering grows by the new object (no renumbering: a file of
+        // a million nodes loads in linear time).
+        if let Some(instances) = self.instances.get_mut() {
+            instances.push(index, &object, &self.meshes[object.mesh]);
+        }
         self.objects.push(object);
-        self.instances = Default::default();
-        Ok(self.objects.len() - 1)
+        Ok(index)
     }
 
     /// Moves object `index` to `transform` (object to world).

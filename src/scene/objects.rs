@@ -170,28 +170,31 @@ pub struct Instances {
 impl Instances {
     /// Numbers the visible objects of `objects` (their meshes must exist).
     pub fn new(meshes: &[Mesh], objects: &[Object]) -> Self {
-        let mut list = Vec::new();
-        let mut next = 0u64;
+        let mut instances = Self::default();
         for (i, o) in objects.iter().enumerate() {
-            let Some(mesh) = meshes.get(o.mesh) else {
-                continue;
-            };
-            if !o.visible || mesh.indices.len() < 3 {
-                continue;
+            if let Some(mesh) = meshes.get(o.mesh) {
+                instances.push(i, o, mesh);
             }
-            list.push(Instance {
-                object: i as u32,
-                mesh: o.mesh as u32,
-                first_triangle: next as u32,
-                placement: Placement::new(o),
-            });
-            next += mesh.triangle_count() as u64;
         }
-        Self {
-            list,
-            // Scenes are validated to at most MAX_TRIANGLES world triangles.
-            triangle_count: next.min(u32::MAX as u64) as u32,
+        instances
+    }
+
+    /// Numbers object `index` (drawing `mesh`) after the others, if it is
+    /// visible and has triangles.
+    pub(crate) fn push(&mut self, index: usize, object: &Object, mesh: &Mesh) {
+        if !object.visible || mesh.indices.len() < 3 {
+            return;
         }
+        self.list.push(Instance {
+            object: index as u32,
+            mesh: object.mesh as u32,
+            first_triangle: self.triangle_count,
+            placement: Placement::new(object),
+        });
+        // Scenes hold at most MAX_TRIANGLES world triangles (add_object).
+        self.triangle_count = self
+            .triangle_count
+            .saturating_add(mesh.triangle_count().min(u32::MAX as usize) as u32);
     }
 
     /// The instance holding world triangle `t`, and its index in the mesh.
