@@ -33,6 +33,10 @@
 //! scene.ensure_light(); // a documented default point light
 //! assert_eq!(scene.triangle_count(), 2);
 //! assert_eq!(scene.lights.len(), 1);
+//! // The same mesh drawn again, 2 m to the right: stored once.
+//! let mesh = scene.objects()[0].mesh;
+//! scene.add_object(ssbc::scene::Object::new(mesh, Mat4::from_translation(Vec3::X * 2.0))).unwrap();
+//! assert_eq!((scene.meshes().len(), scene.triangle_count()), (1, 4));
 //! ```
 //!
 //! ## What is public

@@ -130,7 +130,13 @@ fn bad_transforms_and_indices_are_errors() {
     let versions = resident.versions();
     let nan = Mat4::from_translation(Vec3::new(f32::NAN, 0.0, 0.0));
     let flat = Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0));
-    for (m, expected) in [(nan, "not finite"), (flat, "not invertible")] {
+    let mut projective = Mat4::IDENTITY;
+    projective.x_axis.w = 0.5;
+    for (m, expected) in [
+        (nan, "not finite"),
+        (flat, "not invertible"),
+        (projective, "not affine"),
+    ] {
         let e = resident.set_transform(cube, m).unwrap_err().to_string();
         assert!(e.contains(expected), "{e}");
     }

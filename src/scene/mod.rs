@@ -938,6 +938,14 @@ fn check_transform(transform: &Mat4) -> Result<()> {
             "an object transform is not invertible (determinant {det:e})"
         )));
     }
+    // Rays, normals and bounds assume an affine map (glTF's node
+    // transforms are): a projective bottom row is refused.
+    if transform.row(3) != Vec4::W {
+        return Err(Error::InvalidParameter(format!(
+            "an object transform is not affine (bottom row {})",
+            transform.row(3)
+        )));
+    }
     Ok(())
 }
 
