@@ -149,14 +149,20 @@ impl Emitters {
             .min(self.cdf.len() - 1);
         let p_triangle = (self.cdf[i] - if i > 0 { self.cdf[i - 1] } else { 0.0 }) / total;
         let (t, area, sides) = self.triangles[i];
-        let corners = scene.triangle(t);
-        let v = |k: usize| &corners[k];
+        // Interpolated in object space, the point then moved to the world.
+        let (instance, local) = scene.instances().locate(t);
+        let mesh = &scene.meshes()[instance.mesh as usize];
+        let v = |k: usize| &mesh.vertices[mesh.indices[local as usize * 3 + k] as usize];
         let (b1, b2) = uniform_triangle(Vec2::new(u.y, u.z));
         let b0 = 1.0 - b1 - b2;
         let p = |k: usize| Vec3::from(v(k).position);
-        let position = p(0) * b0 + p(1) * b1 + p(2) * b2;
+        let position = instance
+            .placement
+            .transform
+            .transform_point3(p(0) * b0 + p(1) * b1 + p(2) * b2);
         let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * b1 + Vec2::from(v(2).uv) * b2;
-        let material = &scene.materials[v(0).material as usize];
+        let material =
+            &scene.materials[instance.placement.material.unwrap_or(v(0).material) as usize];
         let front = scene.front_normal(t as usize);
         let normal = if sides == 2 && u.w >= 0.5 {
             -front

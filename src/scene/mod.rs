@@ -785,10 +785,14 @@ impl Scene {
     /// A per-triangle answer: an interpolated normal may tilt past the face
     /// near an edge, the plane may not.
     pub fn front_normal(&self, t: usize) -> Vec3 {
-        let v = self.triangle(t as u32);
-        let p = |k: usize| Vec3::from(v[k].position);
+        let (instance, local) = self.instances().locate(t as u32);
+        let mesh = &self.meshes[instance.mesh as usize];
+        let v = |k: usize| &mesh.vertices[mesh.indices[local as usize * 3 + k] as usize];
+        let place = &instance.placement;
+        let p = |k: usize| place.transform.transform_point3(Vec3::from(v(k).position));
         let normal = (p(1) - p(0)).cross(p(2) - p(0)).normalize_or_zero();
-        let interpolated: Vec3 = (0..3).map(|k| Vec3::from(v[k].normal)).sum();
+        let interpolated =
+            place.normal_matrix * (0..3).map(|k| Vec3::from(v(k).normal)).sum::<Vec3>();
         if normal.dot(interpolated) < 0.0 {
             -normal
         } else {
