@@ -88,17 +88,34 @@ pub fn corner_depths(
         .for_each(|(corners, v)| {
             let origin =
                 v.position + v.normal * RAY_EPSILON * (1.0 + v.position.abs().max_element());
+            // Only the moved boxes in front of the VPL can meet its rays.
+            let in_front = |b: &&Bounds| {
+                (0..8).any(|i| {
+                    let pick = |bit: u32, lo: f32, hi: f32| if i & bit == 0 { lo } else { hi };
+                    let corner = Vec3::new(
+                        pick(1, b.min.x, b.max.x),
+                        pick(2, b.min.y, b.max.y),
+                        pick(4, b.min.z, b.max.z),
+                    );
+                    (corner - origin).dot(v.normal) > 0.0
+                })
+            };
             let before = known.as_ref().and_then(|k| {
                 let &i = earlier.get(&(v.path, v.bounce))?;
                 let old = &k.vpls[i];
+                let seen: Vec<&Bounds> = k.moved.iter().filter(in_front).collect();
                 (old.position == v.position && old.normal == v.normal)
-                    .then(|| (&k.depths[i * n..(i + 1) * n], k.moved))
+                    .then(|| (&k.depths[i * n..(i + 1) * n], seen))
             });
+            if let Some((old, _)) = before.as_ref().filter(|(_, seen)| seen.is_empty()) {
+                corners.copy_from_slice(old);
+                return;
+            }
             for (k, c) in corners.iter_mut().enumerate() {
                 let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
                 let dir = paraboloid_direction(v.normal, uv);
-                if let Some((old, moved)) = before {
-                    if !moved
+                if let Some((old, seen)) = &before {
+                    if !seen
                         .iter()
                         .any(|b| super::vpl::ray_meets_box(origin, dir, old[k], b))
                     {
