@@ -96,17 +96,11 @@ impl GpuScene {
         // depth-only (an alpha test in the fragment shader costs
         // rasterizers their fast depth-only path: llvmpipe's shadow pass
         // was 14x slower with it).
-        let masked_material = |m: u32| {
-            scene
-                .materials
-                .get(m as usize)
-                .is_some_and(|m| m.alpha != AlphaMode::Opaque)
-        };
         let (mut vertices, mut indices, mut meshes) = (Vec::new(), Vec::new(), Vec::new());
         for mesh in scene.meshes() {
             let (mut opaque, mut masked) = (Vec::new(), Vec::new());
             for tri in mesh.indices.chunks_exact(3) {
-                if masked_material(mesh.vertices[tri[0] as usize].material) {
+                if masked_material(scene, mesh.vertices[tri[0] as usize].material) {
                     masked.extend_from_slice(tri);
                 } else {
                     opaque.extend_from_slice(tri);
@@ -233,12 +227,6 @@ impl GpuScene {
     /// An object whose material override is alpha-masked (or opaque) draws
     /// its whole mesh as such.
     pub fn set_objects(&mut self, scene: &Scene) {
-        let masked_material = |m: u32| {
-            scene
-                .materials
-                .get(m as usize)
-                .is_some_and(|m| m.alpha != AlphaMode::Opaque)
-        };
         let mut draws: [Vec<Draw>; 2] = Default::default();
         for (i, o) in scene.objects().iter().enumerate() {
             let Some(mesh) = self.meshes.get(o.mesh).filter(|_| o.visible) else {
@@ -252,7 +240,9 @@ impl GpuScene {
             };
             let total = mesh.opaque_count + mesh.masked_count;
             match o.material {
-                Some(m) => draws[masked_material(m) as usize].push(draw(mesh.first_index, total)),
+                Some(m) => {
+                    draws[masked_material(scene, m) as usize].push(draw(mesh.first_index, total))
+                }
                 None => {
                     draws[0].push(draw(mesh.first_index, mesh.opaque_count));
                     draws[1].push(draw(
@@ -359,6 +349,15 @@ impl GpuScene {
     pub fn release_staging(&mut self) {
         self.recorded.clear();
     }
+}
+
+/// Whether `scene`'s material `m` is alpha-masked (its triangles are drawn
+/// with the alpha test).
+fn masked_material(scene: &Scene, m: u32) -> bool {
+    scene
+        .materials
+        .get(m as usize)
+        .is_some_and(|m| m.alpha != AlphaMode::Opaque)
 }
 
 /// Frame slot `slot`'s host-visible buffer for `count` `GpuObject`s.

@@ -8,9 +8,50 @@ mod common;
 use common::{max_relative_difference, stages};
 
 use glam::{Mat4, Vec3};
-use ssbc::renderer::{Frame, RenderSettings};
+use std::sync::Arc;
+
+use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Object, Scene};
+use ssbc::vk::ValidationLog;
+
+/// A renderer with validation and synchronization validation whose log
+/// must be empty once it is dropped (leaks and late messages included).
+struct Validated {
+    renderer: Option<Renderer>,
+    log: Arc<ValidationLog>,
+}
+
+fn validated() -> Validated {
+    let renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    Validated {
+        renderer: Some(renderer),
+        log,
+    }
+}
+
+impl std::ops::Deref for Validated {
+    type Target = Renderer;
+    fn deref(&self) -> &Renderer {
+        self.renderer.as_ref().expect("dropped only at the end")
+    }
+}
+
+impl std::ops::DerefMut for Validated {
+    fn deref_mut(&mut self) -> &mut Renderer {
+        self.renderer.as_mut().expect("dropped only at the end")
+    }
+}
+
+impl Drop for Validated {
+    fn drop(&mut self) {
+        self.renderer = None;
+        if !std::thread::panicking() {
+            assert_eq!(self.log.total(), 0, "{:?}", self.log.messages());
+        }
+    }
+}
 
 fn settings() -> RenderSettings {
     let mut s = common::tiny_settings();
@@ -32,8 +73,8 @@ fn scene_with_cube() -> (Scene, usize) {
 fn a_moving_object_renders_as_the_static_scene_at_each_pose() {
     let (scene, cube) = scene_with_cube();
     let s = settings();
-    let mut renderer = common::validated_renderer();
-    let mut reference = common::validated_renderer();
+    let mut renderer = validated();
+    let mut reference = validated();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
     for _ in 0..2 {
         renderer.render_resident(&resident, &s).unwrap();
@@ -97,7 +138,7 @@ fn a_moving_object_renders_as_the_static_scene_at_each_pose() {
 fn hiding_an_object_removes_it_from_every_pass() {
     let (scene, cube) = scene_with_cube();
     let s = settings();
-    let mut renderer = common::validated_renderer();
+    let mut renderer = validated();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
     resident
         .set_transform(cube, Mat4::from_translation(Vec3::new(-0.5, 1.4, 0.5)))
@@ -108,7 +149,7 @@ fn hiding_an_object_removes_it_from_every_pass() {
     assert!(!stages(&hidden).contains(&"bvh_build"));
     let mut without = ssbc::scene::builtin::cornell();
     without.ensure_light();
-    let empty = common::validated_renderer().render(&without, &s).unwrap();
+    let empty = validated().render(&without, &s).unwrap();
     let mean = |f: &Frame| f.image.rgba.iter().map(|&v| v as f64).sum::<f64>();
     let (h, e, sh) = (mean(&hidden), mean(&empty), mean(&shown));
     // Hidden, its ISM points are skipped rather than drawn again elsewhere:
@@ -205,7 +246,7 @@ fn nodes_sharing_a_mesh_upload_it_once() {
         assert_eq!(scene.meshes().len(), if shared { 1 } else { 16 });
         assert_eq!(scene.triangle_count(), 32);
         scene.ensure_light();
-        let mut renderer = common::validated_renderer();
+        let mut renderer = validated();
         let before = renderer.device().bytes_uploaded();
         let frame = renderer
             .render_resident(&ResidentScene::new(scene).unwrap(), &s)
@@ -231,8 +272,8 @@ fn history_follows_a_moving_object_without_ghosts() {
     let mut s = common::small(128, 96);
     s.vpl.count = 512;
     s.history.enabled = true;
-    let mut renderer = common::validated_renderer();
-    let mut fresh = common::validated_renderer();
+    let mut renderer = validated();
+    let mut fresh = validated();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
     let at = |x: f32| Mat4::from_translation(Vec3::new(x, 1.4, 0.5));
     resident.set_transform(cube, at(-0.5)).unwrap();
@@ -292,8 +333,8 @@ fn history_follows_a_moving_object_without_ghosts() {
 fn objects_added_and_removed_keep_the_meshes() {
     let (scene, cube) = scene_with_cube();
     let s = settings();
-    let mut renderer = common::validated_renderer();
-    let mut reference = common::validated_renderer();
+    let mut renderer = validated();
+    let mut reference = validated();
     let mut resident = ResidentScene::new(scene.clone()).unwrap();
     renderer.render_resident(&resident, &s).unwrap();
     let mesh = scene.objects()[cube].mesh;

@@ -723,16 +723,6 @@ impl Scene {
         })
     }
 
-    /// World triangle `t`'s material (its object's override or the mesh's).
-    pub fn triangle_material(&self, t: u32) -> u32 {
-        let (instance, local) = self.instances().locate(t);
-        let mesh = &self.meshes[instance.mesh as usize];
-        instance
-            .placement
-            .material
-            .unwrap_or_else(|| mesh.vertices[mesh.indices[local as usize * 3] as usize].material)
-    }
-
     /// World triangle `t`'s corner positions in world space.
     pub fn triangle_positions(&self, t: u32) -> [Vec3; 3] {
         let (instance, local) = self.instances().locate(t);
