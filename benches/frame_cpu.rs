@@ -18,7 +18,7 @@
 mod common;
 
 use glam::{Mat4, Vec3};
-use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::resident::ResidentScene;
 use ssbc::scene::Scene;
 
@@ -163,7 +163,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let args = common::BenchArgs::parse(20);
     let frames = args.frames as usize;
-    let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
+    let mut renderer = common::timing_renderer();
     let mut settings = RenderSettings::new(320, 240);
     settings.history.enabled = false;
     println!(

@@ -31,7 +31,7 @@
 mod common;
 
 use ssbc::profile::{render_frames, FrameStats};
-use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::settings::Gather;
 use ssbc::settings::{Integration, SsbcSettings};
 use ssbc::Scene;
@@ -83,7 +83,7 @@ fn main() {
     let args = common::BenchArgs::parse(3);
     let reps = args.frames;
     let sizes = args.sizes();
-    let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
+    let mut renderer = common::timing_renderer();
     let device = renderer.device().name().to_string();
     println!("# ssbc benchmark on {device}, defaults, median of {reps} warm frames\n");
     if args.only.as_deref() == Some("glossy") {

@@ -18,7 +18,7 @@
 mod common;
 
 use ssbc::profile::render_frames;
-use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
+use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::settings::Integration;
 use ssbc::settings::LayerResolution;
 
@@ -58,7 +58,7 @@ fn main() {
     let frames = args.frames;
     let sizes = args.sizes();
     let scenes = ["cornell", "tori", "assets/open-front-box.gltf"];
-    let mut renderer = Renderer::new(&RendererConfig::default()).expect("renderer");
+    let mut renderer = common::timing_renderer();
     println!(
         "# SSBC layers on {}, defaults, median of {frames} warm frames\n",
         renderer.device().name()

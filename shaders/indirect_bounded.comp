@@ -44,7 +44,7 @@ void main() {
         vec4 n = imageLoad(g_normal, pixel);
         Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
         vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
-        VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, 0u, pc.vpl_count);
+        VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, 0u, pc.vpl_count, 1u);
         diffuse = brdf_diffuse_color(b) / PI * light.irradiance;
         radiance = diffuse + light.glossy;
     }

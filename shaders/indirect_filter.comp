@@ -111,7 +111,9 @@ void main() {
     if (other <= pc.crease_footprints * footprint || narrow_lobe) {
         uint slot = atomicAdd(creases.header.w, 1u);
         creases.pixels[slot] = uint(pixel.x) | uint(pixel.y) << 16;
-        atomicMax(creases.header.x, slot / 64u + 1u);
+        // A workgroup per 8 listed pixels (indirect_creases.comp), at most
+        // the 65535 every device dispatches; groups loop over the rest.
+        atomicMax(creases.header.x, min(slot / 8u + 1u, 65535u));
         return;
     }
     // Every pixel of the window on the surface: tent weights, centred (the

@@ -52,7 +52,7 @@ void main() {
     vec4 n = imageLoad(g_normal, pixel);
     Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
-    VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, subset_start[subset], subset_start[subset + 1u]);
+    VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
     float subsets = float(pc.side * pc.side);
     imageStore(interleaved, pixel, vec4(light.irradiance * (subsets / PI), 1.0));
     imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, 1.0));

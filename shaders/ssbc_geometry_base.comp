@@ -150,6 +150,20 @@ bool any_crease_normal(ivec2 p, vec3 np) {
     return any_found;
 }
 
+// Whether the crease line (fp at p's centre, fq at the neighbour's) runs
+// between the centres; `offset` to take from the line (p's centre snapped
+// onto it) and the `side` sign that makes p's side positive. p's centre
+// sees p's plane, so it is never truly beyond the line: within 1e-4 of the
+// change between the centres it is on it (rounding put it either side:
+// NVIDIA fuses multiply-adds, lavapipe and the CPU do not), and the line
+// halves p's square. crease_side in src/cpu/ssbc.rs is the same.
+bool crease_side(float fp, float fq, out float offset, out float side) {
+    offset = abs(fp) <= 1e-4 * abs(fp - fq) ? fp : 0.0;
+    fp -= offset;
+    side = fp != 0.0 ? sign(fp) : -sign(fq);
+    return fq != 0.0 && (fp == 0.0 || (fp > 0.0) != (fq > 0.0));
+}
+
 // Pixel p's footprint (see the top): its own area, and the largest part
 // beyond a crease (back cluster, its area, neighbour code k + 1; 0: none).
 // A side and a diagonal neighbour on one plane cut the same part: the first
@@ -190,11 +204,14 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
         vec2 centre_q = vec2(q) + 0.5;
         float fp = line.x + dot(line.yz, centre_p);
         float fq = line.x + dot(line.yz, centre_q);
-        if (fp == 0.0 || (fp > 0.0) == (fq > 0.0)) continue;
+        float offset, side;
+        if (!crease_side(fp, fq, offset, side)) continue;
+        fp -= offset;
+        line.x -= offset;
         bool hit;
         vec3 crease = on_plane(centre_p + (centre_q - centre_p) * (fp / (fp - fq)), cp, np, hit);
         if (!hit || length(crease - cp) > 2.0 * length(cq - cp)) continue;
-        line *= sign(fp);
+        line *= side;
         own = clip(own, line);
         cut = true;
         float area, extent;

@@ -21,7 +21,7 @@ use ssbc::vk::{Access, Buffer, CommandPool, ComputeKernel, DescriptorPool, Devic
 
 /// `ProbeInput` in brdf_probe.comp.
 #[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct ProbeInput {
     base_metallic: [f32; 4],
     n_roughness: [f32; 4],
@@ -120,13 +120,20 @@ fn glsl_brdf_matches_the_cpu_brdf() {
         device.wait(done).unwrap();
         output.read().unwrap()
     };
-    let mut worst = 0.0f32;
-    for (g, c) in gpu.iter().zip(&cpu) {
+    let mut worst = (0.0f32, 0);
+    for (i, (g, c)) in gpu.iter().zip(&cpu).enumerate() {
         let g = Vec3::new(g[0], g[1], g[2]);
         // Relative to the value, absolute below 1 (f reaches 1e4 in narrow peaks).
         let err = ((g - *c).abs() / c.abs().max(Vec3::ONE)).max_element();
-        worst = worst.max(err);
+        if err > worst.0 {
+            worst = (err, i);
+        }
     }
+    let (worst, at) = worst;
+    eprintln!(
+        "worst at {:?}: GPU {:?}, CPU {}",
+        inputs[at], gpu[at], cpu[at]
+    );
     drop(renderer);
     eprintln!(
         "GLSL vs CPU BRDF on {} inputs: worst relative error {worst:.2e}",

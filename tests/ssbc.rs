@@ -115,11 +115,19 @@ fn a_residual_cut_short_by_the_loop_limit_is_an_error() {
         .expect("256x192 fits the budget");
     assert!(layer(&small, "residual_1").iter().all(|v| v.is_finite()));
     (s.width, s.height) = (2048, 600);
-    let message = match renderer.render(&scene, &s) {
-        Ok(_) => panic!("a 2048x600 brute-force window was not reported"),
-        Err(e) => e.to_string(),
-    };
-    assert!(message.contains("cut short"), "{message}");
+    match renderer.render(&scene, &s) {
+        Err(e) => assert!(e.to_string().contains("cut short"), "{e}"),
+        // A device without lavapipe's loop budget sums the whole window.
+        Ok(wide) => {
+            let device = renderer.device().name().to_owned();
+            assert!(
+                !device.contains("llvmpipe"),
+                "a 2048x600 brute-force window was not reported"
+            );
+            assert!(layer(&wide, "residual_1").iter().all(|v| v.is_finite()));
+            eprintln!("{device} has no loop budget: the 2048x600 window was summed");
+        }
+    }
     drop(renderer);
     assert_eq!(log.total(), 0, "validation messages");
 }

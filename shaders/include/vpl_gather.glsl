@@ -19,8 +19,8 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
     return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, pc.ism_bias) ? 1.0 : 0.0;
 }
 
-// What VPLs [first, last) send to a receiver at x (normal n, BRDF bx, seen
-// from wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
+// What VPLs first, first + stride, ... (below last) send to a receiver at x
+// (normal n, BRDF bx, seen from wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
 // irradiance = sum f_z(incident, z->x) Phi min(G, b) V_ISM (its diffuse,
 // view-independent part), glossy = what the rest of f_x adds (0 on a
 // Lambertian receiver, which never evaluates its BRDF).
@@ -29,11 +29,11 @@ struct VplLight {
     vec3 glossy;
 };
 
-VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last) {
+VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint stride) {
     bool lambertian = brdf_is_lambertian(bx);
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
     VplLight light = VplLight(vec3(0.0), vec3(0.0));
-    for (uint i = first; i < last; i++) {
+    for (uint i = first; i < last; i += stride) {
         int at = int(VPL_TEXELS * i);
         vec3 z = texelFetch(vpl_texels, at).xyz;
         vec3 d = x - z;

@@ -137,7 +137,7 @@ impl Brdf {
         let fd = 0.04 + 0.96 * schlick;
         let fm = self.base + (Vec3::ONE - self.base) * schlick;
         let a = self.alpha();
-        let specular = ggx_d(n.dot(h), a) * smith_v(nv, nl, a);
+        let specular = ggx_d(n, h, a) * smith_v(nv, nl, a);
         let m = self.metallic;
         diffuse * (1.0 - self.specular * fd)
             + ((1.0 - m) * self.specular * fd + m * fm) * specular
@@ -173,7 +173,7 @@ impl Brdf {
             let h = (wo + wi).normalize_or_zero();
             if h != Vec3::ZERO && wo.dot(h) > 0.0 {
                 let a = self.alpha();
-                pdf += ps * smith_g1(nv, a) * ggx_d(n.dot(h), a) / (4.0 * nv);
+                pdf += ps * smith_g1(nv, a) * ggx_d(n, h, a) / (4.0 * nv);
             }
         }
         pdf
@@ -216,13 +216,16 @@ fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
-/// The GGX (Trowbridge-Reitz) normal distribution.
-fn ggx_d(nh: f32, a: f32) -> f32 {
+/// The GGX (Trowbridge-Reitz) normal distribution for unit `n` and `h`,
+/// with 1 - (n.h)^2 as |n x h|^2 (accurate near a narrow lobe's peak, where
+/// the difference cancels; brdf.glsl does the same).
+fn ggx_d(n: Vec3, h: Vec3, a: f32) -> f32 {
+    let nh = n.dot(h);
     if nh <= 0.0 {
         return 0.0;
     }
     let a2 = a * a;
-    let d = nh * nh * (a2 - 1.0) + 1.0;
+    let d = n.cross(h).length_squared() + nh * nh * a2;
     a2 / (PI * d * d)
 }
 
