@@ -304,6 +304,7 @@ impl Device {
         // SAFETY: the physical device supports every feature requested (checked).
         let raw = unsafe { instance.raw.create_device(physical, &create_info, None) }
             .vk("vkCreateDevice")?;
+        instance.pin_driver_libraries();
         let name = device_name(&properties);
         log::info!("using Vulkan device '{name}'");
         Self::from_parts(

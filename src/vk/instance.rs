@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::driver_libraries::LoadedLibraries;
 use crate::error::{Error, Result, VkResultExt};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -117,6 +118,9 @@ pub struct Instance {
     debug_utils: bool,
     /// False for a host engine's instance: never destroyed here.
     owned: bool,
+    /// What was mapped before this instance loaded Vulkan (None for a
+    /// host's instance): what appeared since stays loaded.
+    libraries_before: Option<LoadedLibraries>,
 }
 
 impl Instance {
@@ -135,6 +139,7 @@ impl Instance {
     /// Like [`Instance::new`], choosing what the validation layer checks.
     pub fn with_validation(mode: Validation, extra_extensions: &[&CStr]) -> Result<Arc<Self>> {
         let validation = mode != Validation::Off;
+        let libraries_before = LoadedLibraries::now();
         // SAFETY: loading the system Vulkan loader runs its initialisers; we
         // trust the installed loader like any Vulkan application must.
         let entry = unsafe { ash::Entry::load() }
@@ -222,6 +227,7 @@ impl Instance {
             ),
             result => Error::Vulkan { call: "vkCreateInstance", result },
         })?;
+        libraries_before.pin_new();
 
         let debug = if validation {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &raw);
@@ -250,6 +256,7 @@ impl Instance {
             validation: mode,
             debug_utils,
             owned: true,
+            libraries_before: Some(libraries_before),
         }))
     }
 
@@ -264,6 +271,7 @@ impl Instance {
             validation: Validation::Off,
             debug_utils: false,
             owned: false,
+            libraries_before: None,
         })
     }
 
@@ -287,6 +295,15 @@ impl Instance {
     /// gone, so leaks reported at destruction are visible too.
     pub fn validation_log(&self) -> Arc<ValidationLog> {
         self.validation_log.clone()
+    }
+
+    /// Keeps what Vulkan loaded since this instance began (the driver's
+    /// libraries, some loaded only with a device) mapped for good: see
+    /// driver_libraries.rs. Nothing for a host's instance.
+    pub(crate) fn pin_driver_libraries(&self) {
+        if let Some(before) = &self.libraries_before {
+            before.pin_new();
+        }
     }
 }
 

@@ -26,6 +26,7 @@
 //! ```
 
 mod device;
+mod driver_libraries;
 mod instance;
 unstable_pub! {
     mod barrier;
