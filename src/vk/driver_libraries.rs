@@ -39,31 +39,39 @@ impl LoadedLibraries {
     /// Marks every shared object mapped now but not in `self` as never to
     /// be unloaded. Returns how many it marked.
     pub(crate) fn pin_new(&self) -> usize {
-        if cfg!(not(target_os = "linux")) {
-            return 0;
-        }
-        let mut pinned = 0;
-        for path in Self::now().0.difference(&self.0) {
-            let Ok(name) = std::ffi::CString::new(path.as_str()) else {
-                continue;
-            };
-            // SAFETY: with RTLD_NOLOAD dlopen loads nothing and runs no
-            // initialiser: it returns the library already mapped from that
-            // file (or null) and, with RTLD_NODELETE, marks it never to be
-            // unloaded. The extra reference it returns is never closed.
-            let handle = unsafe {
-                libc::dlopen(
-                    name.as_ptr(),
-                    libc::RTLD_NOW | libc::RTLD_NOLOAD | libc::RTLD_NODELETE,
-                )
-            };
-            if !handle.is_null() {
-                pinned += 1;
-            }
-        }
+        let pinned = Self::now()
+            .0
+            .difference(&self.0)
+            .filter(|path| pin(path))
+            .count();
         if pinned > 0 {
             log::debug!("{pinned} shared libraries Vulkan loaded are kept loaded");
         }
         pinned
     }
+}
+
+/// Marks the library mapped from `path` never to be unloaded; false if it
+/// is not loaded (or this is not Linux).
+#[cfg(target_os = "linux")]
+fn pin(path: &str) -> bool {
+    let Ok(name) = std::ffi::CString::new(path) else {
+        return false;
+    };
+    // SAFETY: with RTLD_NOLOAD dlopen loads nothing and runs no initialiser:
+    // it returns the library already mapped from that file (or null) and,
+    // with RTLD_NODELETE, marks it never to be unloaded. The extra reference
+    // it returns is never closed.
+    let handle = unsafe {
+        libc::dlopen(
+            name.as_ptr(),
+            libc::RTLD_NOW | libc::RTLD_NOLOAD | libc::RTLD_NODELETE,
+        )
+    };
+    !handle.is_null()
+}
+
+#[cfg(not(target_os = "linux"))]
+fn pin(_path: &str) -> bool {
+    false
 }
