@@ -13,8 +13,9 @@
 //! (`RTLD_NODELETE`); a host's own instance is the host's business.
 //!
 //! Only libraries new since the instance began loading are pinned, so a
-//! host's plugins stay unloadable (unless another thread of the host loads
-//! one during those milliseconds). Linux only; elsewhere nothing is done.
+//! host's plugins stay unloadable, unless the host loads one between
+//! creating ssbc's instance and its device (`Renderer::new` does both at
+//! once). Linux only; elsewhere nothing is done.
 
 use std::collections::HashSet;
 
