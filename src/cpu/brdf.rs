@@ -275,6 +275,29 @@ mod tests {
         (hash64(i.wrapping_mul(0x9E37_79B9) ^ k) >> 40) as f32 / (1u64 << 24) as f32
     }
 
+    /// GGX D near the peak of the narrowest lobe, in f32, against f64:
+    /// with 1 - (n.h)^2 computed as such, h 0.3-3 milliradians off n gave
+    /// D 0.7-1.2% off (and a GPU's normalize moved it again); as
+    /// |n x h|^2 it is within 1e-5.
+    #[test]
+    fn ggx_d_is_accurate_near_a_narrow_peak() {
+        let a = MIN_ROUGHNESS * MIN_ROUGHNESS;
+        let n = Vec3::Z;
+        for angle in [1e-4f64, 3e-4, 1e-3, 3e-3, 1e-2] {
+            let h = Vec3::new(angle.sin() as f32, 0.0, angle.cos() as f32);
+            let exact = {
+                let (a2, s2) = ((a as f64).powi(2), angle.sin().powi(2));
+                let d = s2 + angle.cos().powi(2) * a2;
+                a2 / (std::f64::consts::PI * d * d)
+            };
+            let d = ggx_d(n, h, a) as f64;
+            assert!(
+                ((d - exact) / exact).abs() < 1e-5,
+                "{angle} rad: {d} vs {exact}"
+            );
+        }
+    }
+
     fn dir(theta: f32) -> Vec3 {
         Vec3::new(theta.sin(), 0.0, theta.cos())
     }
