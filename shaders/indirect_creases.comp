@@ -61,7 +61,7 @@ void main() {
         uint item = base + px;
         ivec2 pixel = ivec2(0);
         Brdf b;
-        VplLight light = VplLight(vec3(0.0), vec3(0.0));
+        VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);
         if (item < count) {
             uint packed = creases.pixels[item];
             pixel = ivec2(packed & 0xFFFFu, packed >> 16);

@@ -16,11 +16,12 @@
 // receiver's diffuse colour, the glossy rest, S0 and its diffuse part.
 //
 // A pixel beside a crease or contact (a neighbour of another surface
-// within crease_footprints x its footprint in space), or on a surface
-// smoother than glossy_roughness, is listed for indirect_creases.comp,
-// which evaluates every VPL there.
+// within crease_footprints x its footprint in space), or whose glossy lobe
+// turns across the window by more than lobe_turn x its width, is listed
+// for indirect_creases.comp, which evaluates every VPL there.
 #include "common.glsl"
 #include "guide.glsl"
+#include "brdf.glsl"
 
 const int MAX_SIDE = 4;
 const int MAX_WINDOW = 2 * MAX_SIDE - 1;
@@ -57,8 +58,14 @@ layout(push_constant) uniform Push {
     float min_normal_cos;
     float max_plane_slope;
     float crease_footprints;
-    float glossy_roughness;  // glossier receivers evaluate every VPL
+    float lobe_turn;        // a lobe turning more (/ alpha) evaluates every VPL
+    vec4 camera_position;   // xyz: the eye
 } pc;
+
+// The mirror direction of the view at x (normal n).
+vec3 mirror(vec3 x, vec3 n) {
+    return reflect(normalize(x - pc.camera_position.xyz), n);
+}
 
 void main() {
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -81,6 +88,12 @@ void main() {
     uint rows[MAX_WINDOW];
     float footprint = 1e30;
     float other = 1e30;
+    // How far the glossy lobe's axis turns across the surface's pixels
+    // (chord of the mirror directions, ~ the angle).
+    float roughness = imageLoad(g_normal, pixel).w;
+    bool glossy_receiver = roughness >= 0.0;
+    vec3 own_mirror = glossy_receiver ? mirror(x, n) : vec3(0.0);
+    float turn = 0.0;
     for (int dy = 0; dy <= 2 * reach; dy++) {
         uint row = 0u;
         for (int dx = 0; dx <= 2 * reach; dx++) {
@@ -99,15 +112,21 @@ void main() {
                 continue;
             }
             if (adjacent) footprint = min(footprint, per_pixel);
+            if (glossy_receiver) turn = max(turn, length(mirror(guide_position(g), guide_normal(g)) - own_mirror));
             row |= 1u << uint(dx);
         }
         rows[dy] = row;
     }
-    // A glossy lobe narrower than the box (curved surfaces turn it across
-    // a few pixels) cannot be averaged over neighbours: such a receiver
-    // evaluates every VPL too.
-    float roughness = imageLoad(g_normal, pixel).w;
-    bool narrow_lobe = roughness >= 0.0 && roughness < pc.glossy_roughness;
+    // A glossy lobe that turns across the window by a good part of its
+    // width (GGX alpha: its half-vector's spread; curved surfaces, normal
+    // maps) cannot be averaged over neighbours, whose lobes point
+    // elsewhere: such a receiver evaluates every VPL too. A flat or finely
+    // sampled surface keeps its neighbours however smooth it is.
+    // Its width: GGX alpha as the gather widened it by the VPLs' radii
+    // (the mean spread of the glossy light of the pixel's own subset).
+    float alpha = max(roughness, BRDF_MIN_ROUGHNESS);
+    float widened = sqrt(alpha * alpha * alpha * alpha + max(imageLoad(interleaved_glossy, pixel).w, 0.0));
+    bool narrow_lobe = glossy_receiver && turn > pc.lobe_turn * min(widened, 1.0);
     if (other <= pc.crease_footprints * footprint || narrow_lobe) {
         uint slot = atomicAdd(creases.header.w, 1u);
         creases.pixels[slot] = uint(pixel.x) | uint(pixel.y) << 16;

@@ -5,7 +5,8 @@
 // block. The dispatch is de-interleaved: work group z = subset, so a
 // group's invocations share one subset and loop over the same VPLs. It
 // writes N^2 x its subset's sum: the diffuse part without the receiver's
-// diffuse colour (`interleaved`), the glossy rest (`interleaved_glossy`),
+// diffuse colour (`interleaved`), the glossy rest (`interleaved_glossy`,
+// with w the mean widening of its lobe by the VPLs' radii, vpl_gather.glsl),
 // and the pixel's position and normal for the filter (indirect_filter.comp).
 #include "common.glsl"
 #include "ism.glsl"
@@ -55,6 +56,6 @@ void main() {
     VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
     float subsets = float(pc.side * pc.side);
     imageStore(interleaved, pixel, vec4(light.irradiance * (subsets / PI), 1.0));
-    imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, 1.0));
+    imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, light.spread2));
     imageStore(guide, pixel, pack_guide(position.xyz, n.xyz));
 }

@@ -25,6 +25,9 @@ fn interleaved_gather_matches_the_full_gather() {
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),
         common::ssbc_accuracy::open_box(),
+        // Glossy receivers: the filter lists those whose lobe turns
+        // across its window by more than GLOSSY_FILTER_TURN x its width.
+        ssbc::scene::builtin::spheres(),
     ];
     for scene in &scenes {
         let c = gather_accuracy::compare_gathers(&mut renderer, scene, &settings());
@@ -47,16 +50,24 @@ fn interleaved_gather_matches_the_full_gather() {
             "{}: mean",
             scene.name
         );
+        // Tori's small, curved, ISM-noisy surfaces: the full gather's own
+        // pixel noise (it differs from its 3x3 blur by 10%; the two blurred
+        // images agree to 2.5%) is what remains at this size. Spheres'
+        // smooth metals mirror single VPLs: a pixel's highlight from a
+        // neighbour's subset lands a pixel off (measured 12.7% over all,
+        // 3.6% off creases; 57% with no glossy pixel listed, 3.1% with
+        // every one).
+        let (continuous, all) = match scene.name.as_str() {
+            "tori" => (0.025, 0.05),
+            "spheres" => (0.05, 0.15),
+            _ => (0.025, 0.03),
+        };
         assert!(
-            c.continuous.relative_rmse < 0.025,
+            c.continuous.relative_rmse < continuous,
             "{}: continuous",
             scene.name
         );
-        // Tori's small, curved, ISM-noisy surfaces: the full gather's own
-        // pixel noise (it differs from its 3x3 blur by 10%; the two blurred
-        // images agree to 2.5%) is what remains at this size.
-        let bound = if scene.name == "tori" { 0.05 } else { 0.03 };
-        assert!(c.all.relative_rmse < bound, "{}: relative RMSE", scene.name);
+        assert!(c.all.relative_rmse < all, "{}: relative RMSE", scene.name);
     }
     drop(renderer);
     assert_eq!(log.total(), 0, "validation messages");

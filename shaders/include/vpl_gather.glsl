@@ -24,15 +24,19 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
 // irradiance = sum f_z(incident, z->x) Phi min(G, b) V_ISM (its diffuse,
 // view-independent part), glossy = what the rest of f_x adds (0 on a
 // Lambertian receiver, which never evaluates its BRDF).
+// spread2 = the mean widening spread2 of the glossy lobe, weighted by the
+// glossy light (brightness) each VPL sends (0 without any).
 struct VplLight {
     vec3 irradiance;
     vec3 glossy;
+    float spread2;
 };
 
 VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint stride) {
     bool lambertian = brdf_is_lambertian(bx);
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
-    VplLight light = VplLight(vec3(0.0), vec3(0.0));
+    VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);
+    float spread_weight = 0.0;
     for (uint i = first; i < last; i += stride) {
         int at = int(VPL_TEXELS * i);
         vec3 z = texelFetch(vpl_texels, at).xyz;
@@ -76,8 +80,12 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint s
             vec3 specular;
             brdf_parts(brdf_widened(bx, spread2), n, wo, -w, diffuse_weight, specular);
             light.glossy += (diffuse * (diffuse_weight - 1.0) + specular) * sent;
+            float weight = dot(specular * sent, vec3(1.0));
+            light.spread2 += weight * spread2;
+            spread_weight += weight;
         }
     }
+    light.spread2 = spread_weight > 0.0 ? light.spread2 / spread_weight : 0.0;
     return light;
 }
 

@@ -59,18 +59,19 @@ pub const FILTER_NORMAL_COS: f32 = 0.9;
 /// count: there the filter's box turns to the pixel's own side.
 pub const CREASE_FOOTPRINTS: f32 = 4.0;
 
-/// Receivers smoother than this evaluate every VPL in the interleaved
-/// gather (the crease kernel), as pixels beside creases do: their glossy
-/// lobe turns across a few pixels of a curved surface, and averaging it over
-/// the filter's box smeared VPL highlights over the box.
-pub const GLOSSY_FILTER_ROUGHNESS: f32 = 0.4;
+/// A glossy receiver whose lobe's axis (the view's mirror direction) turns
+/// across the filter's window by more than this many times its GGX alpha
+/// evaluates every VPL in the interleaved gather (the crease kernel), as
+/// pixels beside creases do: averaging neighbours whose lobes point
+/// elsewhere smeared VPL highlights over the box.
+pub const GLOSSY_FILTER_TURN: f32 = 4.0;
 
-/// [`GLOSSY_FILTER_ROUGHNESS`], or `SSBC_GLOSSY_FILTER_ROUGHNESS` (tuning).
-fn glossy_filter_roughness() -> f32 {
-    std::env::var("SSBC_GLOSSY_FILTER_ROUGHNESS")
+/// [`GLOSSY_FILTER_TURN`], or `SSBC_GLOSSY_FILTER_TURN` (tuning).
+fn glossy_filter_turn() -> f32 {
+    std::env::var("SSBC_GLOSSY_FILTER_TURN")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(GLOSSY_FILTER_ROUGHNESS)
+        .unwrap_or(GLOSSY_FILTER_TURN)
 }
 
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
@@ -168,7 +169,9 @@ struct FilterPush {
     min_normal_cos: f32,
     max_plane_slope: f32,
     crease_footprints: f32,
-    glossy_roughness: f32,
+    lobe_turn: f32,
+    pad: u32,
+    camera_position: [f32; 4],
 }
 
 impl IndirectBoundedPass {
@@ -291,7 +294,9 @@ impl IndirectBoundedPass {
             min_normal_cos: FILTER_NORMAL_COS,
             max_plane_slope: FILTER_PLANE_SLOPE,
             crease_footprints: CREASE_FOOTPRINTS,
-            glossy_roughness: glossy_filter_roughness(),
+            lobe_turn: glossy_filter_turn(),
+            pad: 0,
+            camera_position: cx.view.camera.position.extend(1.0).into(),
         };
         let bindings = indirect_filter_comp::Bindings {
             guide: &interleaved.guide,
