@@ -10,7 +10,8 @@
 //! overrides an `SsbcSettings` field (see `tests/common/ssbc_accuracy.rs`),
 //! `SSBC_REPEAT=n` keeps the fastest of n frames, `SSBC_PARTS=1` prints the
 //! parts of the step, `SSBC_HEATMAP=dir` writes the texels read per pixel as
-//! a PNG (log scale, blue few, red most).
+//! a PNG (log scale, blue few, red most), `SSBC_SCENES=spheres,tori` measures
+//! only those scenes.
 
 #[path = "../tests/common/ssbc_accuracy.rs"]
 mod ssbc_accuracy;
@@ -37,6 +38,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // glTF materials: rough dielectrics, nearly Lambertian receivers.
         ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
     ];
+    let only = std::env::var("SSBC_SCENES").ok();
+    let scenes: Vec<_> = scenes
+        .into_iter()
+        .filter(|s| {
+            only.as_ref()
+                .is_none_or(|o| o.split(',').any(|n| n == s.name))
+        })
+        .collect();
     println!("| scene | size | bound | rel. RMSE | mean ratio | texels/px avg | max | alone | eval level | step ms |");
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for scene in &scenes {

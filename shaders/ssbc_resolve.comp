@@ -28,6 +28,9 @@ layout(push_constant) uniform ResolvePush {
 // Per evaluation point, the generation of the step that last asked for it
 // (each point is requested once per step).
 layout(set = 0, binding = 3) buffer Claims { uint claims[]; };
+// Per evaluation point, at glossy receivers, the glossy rest (xyz) and w = 1
+// (see EvalPoint).
+layout(set = 0, binding = 16) uniform samplerBuffer point_glossy;
 
 layout(local_size_x = 64) in;
 
@@ -36,6 +39,27 @@ layout(local_size_x = 64) in;
 // distance of the pixel's tangent plane.
 const float MIN_NORMAL_COS = 0.8;
 const float MAX_PLANE = 0.25;
+
+// How far (chord of the mirror directions, / GGX alpha) a glossy pixel's
+// lobe may point from an evaluation point's for the point's glossy rest to
+// stand for the pixel's. See docs/ssbc-implementation.md.
+const float GLOSSY_POINT_TURN = 0.35;
+// How much the material may differ (base colour, metallic, roughness).
+const float GLOSSY_POINT_MATERIAL = 0.02;
+
+// Whether an evaluation point with a glossy rest (at pixel q, position y,
+// normal n) computed it for the material of a glossy pixel (base colour
+// and roughness `material`, BRDF b) with a lobe that points within
+// GLOSSY_POINT_TURN x alpha of the pixel's mirror direction.
+bool same_lobe(ivec2 q, vec3 y, vec3 n, vec4 material, vec3 mirror, Brdf b) {
+    vec4 albedo = imageLoad(g_albedo, q);
+    vec4 other = vec4(albedo.rgb, imageLoad(g_normal, q).w);
+    vec4 diff = abs(other - material);
+    float metal = abs(albedo.w - b.metallic);
+    bool same = max(max(diff.x, diff.y), max(max(diff.z, diff.w), metal)) <= GLOSSY_POINT_MATERIAL;
+    vec3 other_mirror = reflect(normalize(y - pc.frame.camera_position.xyz), n);
+    return same && length(other_mirror - mirror) <= GLOSSY_POINT_TURN * brdf_alpha(b);
+}
 
 // Bilinear footprint of pixel p among the evaluation points of level l.
 void footprint(ivec2 p, int l, out ivec2 t0, out vec2 fraction) {
@@ -77,14 +101,17 @@ void main() {
     vec3 nx = imageLoad(g_normal, p).xyz;
     Brdf b = pixel_brdf(p);
     // A glossy receiver's BRDF depends on each source's direction, which an
-    // evaluation point does not keep: it is evaluated alone, unless its BRDF
-    // hardly depends on it (nearly_lambertian).
+    // evaluation point's linear form does not keep. If its BRDF hardly
+    // depends on it (nearly_lambertian) it takes the linear form; otherwise
+    // it takes the glossy rest the points computed for their own pixels'
+    // BRDFs, where those are its material and their lobes point nearly
+    // where its own does (same_lobe).
     vec3 wo = normalize(pc.frame.camera_position.xyz - x);
     bool lambertian = brdf_is_lambertian(b);
-    if (!lambertian && !nearly_lambertian(b, nx, wo)) {
-        append(p);
-        return;
-    }
+    bool glossy = !lambertian && !nearly_lambertian(b, nx, wo);
+    vec3 mirror = reflect(-wo, nx);
+    vec4 material = vec4(imageLoad(g_albedo, p).rgb, b.roughness);
+    vec3 rest_blend = vec3(0.0);
     int l = int(pc.level);
     float t_cam = length(x - pc.frame.camera_position.xyz);
     float r_world = inversesqrt(pc.frame.bound);
@@ -109,6 +136,11 @@ void main() {
                 ok = point.generation == pc.generation && point.reads >= 0.0
                     && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
                     && dist <= min(max_spacing, pc.scale_fraction * point.variation);
+                if (glossy && ok) {
+                    vec4 point_rest = texelFetch(point_glossy, int(texel_index(0u, t, l)));
+                    ok = point_rest.w == 1.0 && same_lobe(eval_pixel(t, l), g.position_extent.xyz, n, material, mirror, b);
+                    rest_blend += w * point_rest.xyz;
+                }
                 blend.r += w * point.residual.r;
                 blend.g += w * point.residual.g;
                 blend.b += w * point.residual.b;
@@ -117,7 +149,8 @@ void main() {
     }
     if (ok) {
         vec3 integral = residual_at(blend, nx);
-        vec3 rest = lambertian ? vec3(0.0) : nearly_lambertian_rest(b, nx, wo, blend, integral);
+        vec3 rest = lambertian ? vec3(0.0)
+            : glossy ? rest_blend : nearly_lambertian_rest(b, nx, wo, blend, integral);
         write_residual(p, b, integral, rest, 0.0);
         return;
     }

@@ -493,6 +493,10 @@ fn frame_view(
         centre_depth: (bounds.center() - camera.position).dot(camera.forward),
         bound: settings.bound.resolve(cache.diagonal()),
         diagonal: cache.diagonal(),
+        glossy: scene
+            .materials
+            .iter()
+            .any(|m| m.reflectance != crate::scene::Reflectance::Lambertian),
     })
 }
 

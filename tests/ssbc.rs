@@ -215,7 +215,14 @@ fn hierarchical_matches_brute_force() {
                 );
                 eprintln!("{line}");
                 if !(c.relative_rmse <= 0.02 && (c.mean_ratio - 1.0).abs() <= 0.01) {
-                    failures.push(line);
+                    failures.push(line.clone());
+                }
+                // Glossy pixels interpolate the glossy rest of evaluation
+                // points of their material whose lobes point their way:
+                // 12.7% alone (before, every glossy pixel that was not
+                // nearly Lambertian: 34%).
+                if scene.name == "spheres" && size == (640, 480) && step.fallback_fraction > 0.2 {
+                    failures.push(format!("{line}: glossy pixels alone"));
                 }
             }
         }

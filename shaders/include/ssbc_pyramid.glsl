@@ -102,6 +102,36 @@ Brdf receiver_brdf(vec4 albedo, vec4 normal) {
     return brdf_lambertian(albedo.rgb);
 }
 
+// How much a nearly Lambertian receiver's BRDF may vary (times the cosine,
+// relative to its value along the normal) over the directions light arrives
+// from for it to take the residual's linear form from evaluation points
+// like a Lambertian one.
+const float NEARLY_LAMBERTIAN = 0.05;
+
+// Whether f(wo, .) of a glossy receiver differs from its value for light
+// along the normal by at most NEARLY_LAMBERTIAN of that, weighted by the
+// cosine a source's light arrives with (grazing light brings little),
+// checked where a dielectric's lobe is highest (the mirror direction, 80
+// degrees from the normal on the mirror's side, back along wo): rough
+// dielectrics (glTF materials with metallic 0 and a high roughness) are;
+// metals never are. Over the channels together: a dark channel's spread
+// matters as much as its share of the pixel's light.
+bool nearly_lambertian(Brdf b, vec3 n, vec3 wo) {
+    if (b.metallic > 0.0) return false;
+    vec3 mirror = reflect(-wo, n);
+    vec3 t = mirror - n * dot(n, mirror);
+    t = dot(t, t) > 1e-8 ? normalize(t) : normalize(cross(n, abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
+    vec3 f_n = brdf_eval(b, n, wo, n);
+    float along_normal = f_n.r + f_n.g + f_n.b;
+    float spread = 0.0;
+    vec3 directions[3] = vec3[3](mirror, 0.985 * t + 0.174 * n, wo);
+    for (int i = 0; i < 3; i++) {
+        vec3 d = abs(brdf_eval(b, n, wo, directions[i]) - f_n);
+        spread = max(spread, (d.r + d.g + d.b) * max(dot(n, directions[i]), 0.0));
+    }
+    return along_normal > 0.0 && spread <= NEARLY_LAMBERTIAN * along_normal;
+}
+
 // I(x) for the normal n from the linear form.
 vec3 residual_at(Residual acc, vec3 n) {
     return max(vec3(dot(n, acc.r.xyz) - pc.frame.bound * acc.r.w,

@@ -173,8 +173,11 @@ struct Residual {
 
 // An evaluation point (ssbc_eval.comp), one per texel of every level, in the
 // pyramid's layout: the residual's linear form, texels read (< 0: unusable),
-// its variation scale (see residual_integral), and the generation of
-// the step that asked for it (points of other steps are stale).
+// its variation scale (see residual_integral), and the generation of the
+// step that asked for it (points of other steps are stale). With glossy
+// receivers a second buffer (one RGBA32F texel per point) holds, at a glossy
+// receiver, the glossy rest of its own BRDF seen from the eye (xyz) and
+// w = 1 (w = 0 elsewhere).
 struct EvalPoint {
     Residual residual;
     float reads;

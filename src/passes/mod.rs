@@ -75,6 +75,9 @@ pub struct FrameView {
     pub bound: f32,
     /// Length of the scene bounds' diagonal (m).
     pub diagonal: f32,
+    /// Whether any material is glossy (not Lambertian): SSBC then gives
+    /// glossy receivers their BRDF.
+    pub glossy: bool,
 }
 
 /// What a pass records with besides its own resources and what it reads.

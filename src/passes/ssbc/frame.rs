@@ -27,6 +27,8 @@ pub struct SsbcFrame {
     pub(super) radiance_view: BufferView,
     /// `points` as `R32G32B32A32_UINT` texels (four per `EvalPoint`).
     pub(super) point_view: BufferView,
+    /// `point_glossy` as `R32G32B32A32_SFLOAT` texels (one per point).
+    pub(super) point_glossy_view: BufferView,
     /// Geometry pyramid, every level in one buffer (`GeoTexel` in ssbc_types.glsl).
     pub geo: Buffer,
     /// Summed area, pixel count and continuity per texel (`GeoAux`).
@@ -35,6 +37,9 @@ pub struct SsbcFrame {
     pub radiance: Buffer,
     /// Evaluation points, one per texel of every level (`EvalPoint`).
     pub points: Buffer,
+    /// Per evaluation point at a glossy receiver, the glossy rest of its
+    /// BRDF (ssbc_eval.comp).
+    pub point_glossy: Buffer,
     /// Per evaluation point, the generation of the step that last asked for
     /// it (the resolve claims each point once per step).
     pub claims: Buffer,
@@ -104,6 +109,8 @@ pub(super) const GEO_TEXEL_BYTES: u64 = 64;
 pub(super) const AUX_BYTES: u64 = 16;
 pub(super) const RADIANCE_BYTES: u64 = 32;
 pub(super) const EVAL_POINT_BYTES: u64 = 64;
+/// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
+pub(super) const POINT_GLOSSY_BYTES: u64 = 16;
 
 impl SsbcPass {
     /// Allocates one frame's resources for `steps` steps, with descriptor
@@ -178,6 +185,11 @@ impl SsbcPass {
             texels * EVAL_POINT_BYTES,
             vk::BufferUsageFlags::TRANSFER_DST,
         )?;
+        let point_glossy = texel_buffer(
+            "ssbc.eval_points.glossy",
+            texels * POINT_GLOSSY_BYTES,
+            vk::BufferUsageFlags::empty(),
+        )?;
         let claims = Buffer::new(
             device,
             "ssbc.eval_points.claims",
@@ -206,10 +218,12 @@ impl SsbcPass {
             aux_view: view(&aux, uint4, 16, "ssbc.pyramid.aux texels")?,
             radiance_view: view(&radiance, float4, 16, "ssbc.pyramid.radiance texels")?,
             point_view: view(&points, uint4, 16, "ssbc.eval_points texels")?,
+            point_glossy_view: view(&point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
             geo,
             aux,
             radiance,
             points,
+            point_glossy,
             claims,
             pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
             requests: list("ssbc.requests")?,

@@ -21,7 +21,7 @@ use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 pub use crate::settings::{Integration, LayerResolution, SsbcSettings};
 use crate::shaders::{
-    ssbc_eval_comp, ssbc_fallback_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
+    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
     ssbc_layer_residual_comp, ssbc_radiance_mips_comp, ssbc_resolve_comp, ssbc_samples_comp,
 };
 use crate::vk::{
@@ -56,6 +56,8 @@ pub struct SsbcPass {
     geometry: ComputeKernel<ssbc_geometry_mips_comp::Interface, GeometryMipsPush>,
     radiance: ComputeKernel<ssbc_radiance_mips_comp::Interface, RadiancePush>,
     eval: ComputeKernel<ssbc_eval_comp::Interface, EvalPush>,
+    /// The evaluation points of frames with glossy receivers.
+    eval_glossy: ComputeKernel<ssbc_eval_glossy_comp::Interface, EvalPush>,
     resolve: ComputeKernel<ssbc_resolve_comp::Interface, ResolvePush>,
     fallback: ComputeKernel<ssbc_fallback_comp::Interface, IntegralPush>,
     samples: ComputeKernel<ssbc_samples_comp::Interface, SamplesPush>,
@@ -93,6 +95,7 @@ impl SsbcPass {
             geometry: ComputeKernel::new(device)?.named("ssbc_geometry_mips"),
             radiance: ComputeKernel::new(device)?.named("ssbc_radiance_mips"),
             eval: ComputeKernel::new(device)?.named("ssbc_residual_eval"),
+            eval_glossy: ComputeKernel::new(device)?.named("ssbc_residual_eval_glossy"),
             resolve: ComputeKernel::new(device)?.named("ssbc_residual_resolve"),
             fallback: ComputeKernel::new(device)?.named("ssbc_residual_fallback"),
             samples: ComputeKernel::new(device)?.named("ssbc_samples"),
@@ -122,7 +125,8 @@ impl SsbcPass {
                 v.push(self.layer_residual.set_layout());
             }
             for _ in 0..=frame.max_eval_level {
-                v.push(self.eval.set_layout());
+                // Either kernel's: the glossy one binds a superset.
+                v.push(self.eval_glossy.set_layout());
                 v.push(self.resolve.set_layout());
             }
             v.push(self.fallback.set_layout());
@@ -263,7 +267,7 @@ impl Pass for SsbcPass {
         let inputs = SsbcInputs {
             camera: &view.camera,
             bound: view.bound,
-            glossy_receivers: true,
+            glossy_receivers: view.glossy,
             eval_level: Self::eval_level(
                 &view.camera,
                 view.centre_depth,

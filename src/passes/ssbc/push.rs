@@ -69,6 +69,11 @@ impl FrameBlock {
             min_cos_view: inputs.settings.min_cos_view,
         }
     }
+
+    /// Whether receivers may be glossy ([`GLOSSY_RECEIVERS`]).
+    pub fn glossy_receivers(&self) -> bool {
+        self.layers & GLOSSY_RECEIVERS != 0
+    }
 }
 
 /// How the residual integral refines and integrates (`ResidualParams`).

@@ -5,7 +5,9 @@
 
 use super::push::{FrameBlock, GeometryBasePush, GeometryMipsPush, RadiancePush};
 use super::{SsbcFrame, SsbcGBuffer, SsbcPass};
-use super::frame::{AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, RADIANCE_BYTES};
+use super::frame::{
+    AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, POINT_GLOSSY_BYTES, RADIANCE_BYTES,
+};
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
 use crate::shaders::{ssbc_geometry_base_comp, ssbc_geometry_mips_comp, ssbc_radiance_mips_comp};
@@ -84,7 +86,7 @@ pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerReso
         16 * w as u64 * h as u64 * steps.saturating_sub(1) as u64
     });
     all * (GEO_TEXEL_BYTES + AUX_BYTES + RADIANCE_BYTES)
-        + points * (EVAL_POINT_BYTES + 4)
+        + points * (EVAL_POINT_BYTES + POINT_GLOSSY_BYTES + 4)
         + lists
         + images
         + layer1_images

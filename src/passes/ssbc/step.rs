@@ -4,16 +4,18 @@
 //! residual for the next step.
 
 use super::push::{
-    EvalPush, FrameBlock, GeometryMipsPush, IntegralPush, ResidualParams, ResolvePush,
-    SamplesPush,
+    EvalPush, FrameBlock, GeometryMipsPush, IntegralPush, ResidualParams,
+    ResolvePush, SamplesPush,
 };
 use super::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass};
 use crate::error::Result;
 use crate::shaders::{
-    ssbc_eval_comp, ssbc_fallback_comp, ssbc_layer_residual_comp, ssbc_resolve_comp,
+    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_layer_residual_comp, ssbc_resolve_comp,
     ssbc_samples_comp,
 };
-use crate::vk::{Access, Buffer, DescriptorPool, GpuProfiler, Image, Recorder};
+use crate::vk::{
+    Access, Buffer, ComputeKernel, DescriptorPool, GpuProfiler, Image, Recorder, ShaderInterface,
+};
 
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
 const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
@@ -229,7 +231,7 @@ impl SsbcPass {
         // tries to interpolate.
         let (w, h) = Self::level_extent(frame, 0, top);
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{top}"));
-        self.record_eval(rec, pool, &push.eval(top, false), frame, [w.div_ceil(64), h, 1])?;
+        self.record_eval(rec, pool, &push.eval(top, false), (frame, &out.gbuffer), [w.div_ceil(64), h, 1])?;
         profiler.end(rec.cmd, sub);
         let mut pending_in = &frame.fallback; // unused while not from a list
         let mut pending_out = if top >= 2 {
@@ -251,7 +253,7 @@ impl SsbcPass {
         // Finer levels: the points asked for, the pixels still pending.
         for level in (1..top).rev() {
             let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{level}"));
-            self.record_eval(rec, pool, &push.eval(level, true), frame, [0; 3])?;
+            self.record_eval(rec, pool, &push.eval(level, true), (frame, &out.gbuffer), [0; 3])?;
             profiler.end(rec.cmd, sub);
             pending_in = pending_out;
             pending_out = if level == 1 {
@@ -318,35 +320,51 @@ impl SsbcPass {
     }
 
     /// Evaluation points of `push.level`: every texel (not from the list,
-    /// `groups` work groups) or the requested ones (indirect).
+    /// `groups` work groups) or the requested ones (indirect). With glossy
+    /// receivers the G-buffer gives points their BRDF.
     fn record_eval(
         &self,
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
         push: &EvalPush,
-        frame: &SsbcFrame,
+        (frame, gbuffer): (&SsbcFrame, &SsbcGBuffer<'_>),
         groups: [u32; 3],
     ) -> Result<()> {
+        let glossy = push.frame.glossy_receivers();
         Self::read_pyramids(rec, frame);
         rec.use_buffer(&frame.points, Access::ComputeWrite);
+        if glossy {
+            gbuffer.read_in_compute(rec);
+            rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
+        }
         let from_list = push.from_list == 1;
         if from_list {
             rec.use_buffer(&frame.requests, Access::IndirectRead);
         }
         rec.use_buffer(&frame.requests, Access::ComputeRead);
         rec.flush_barriers();
-        let bindings = ssbc_eval_comp::Bindings {
-            geo_texels: &frame.geo_view,
-            aux_texels: &frame.aux_view,
-            radiance_texels: &frame.radiance_view,
-            eval_points: &frame.point_view,
-            requests: &frame.requests,
-        };
-        if from_list {
-            self.eval
-                .dispatch_indirect(rec.cmd, pool, &bindings, push, &frame.requests, 0)
+        let groups = (!from_list).then_some(groups);
+        if glossy {
+            let bindings = ssbc_eval_glossy_comp::Bindings {
+                geo_texels: &frame.geo_view,
+                aux_texels: &frame.aux_view,
+                radiance_texels: &frame.radiance_view,
+                eval_points: &frame.point_view,
+                requests: &frame.requests,
+                g_normal: gbuffer.normal,
+                g_albedo: gbuffer.albedo,
+                point_glossy: &frame.point_glossy_view,
+            };
+            dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, groups, &frame.requests)
         } else {
-            self.eval.dispatch(rec.cmd, pool, &bindings, push, groups)
+            let bindings = ssbc_eval_comp::Bindings {
+                geo_texels: &frame.geo_view,
+                aux_texels: &frame.aux_view,
+                radiance_texels: &frame.radiance_view,
+                eval_points: &frame.point_view,
+                requests: &frame.requests,
+            };
+            dispatch_or_indirect(&self.eval, rec, pool, &bindings, push, groups, &frame.requests)
         }
     }
 
@@ -371,6 +389,7 @@ impl SsbcPass {
         // Points of this level are read as texels; the next finer level's
         // are claimed.
         rec.use_buffer(&frame.points, Access::ComputeSampled);
+        rec.use_buffer(&frame.point_glossy, Access::ComputeSampled);
         rec.use_buffer(&frame.claims, Access::ComputeWrite);
         if groups.is_none() {
             rec.use_buffer(pending_in, Access::IndirectRead);
@@ -395,12 +414,25 @@ impl SsbcPass {
             residual_sources: out.residual_sources,
             samples: out.samples,
             point_texels: &frame.point_view,
+            point_glossy: &frame.point_glossy_view,
         };
-        match groups {
-            Some(groups) => self.resolve.dispatch(rec.cmd, pool, &bindings, push, groups),
-            None => self
-                .resolve
-                .dispatch_indirect(rec.cmd, pool, &bindings, push, pending_in, 0),
-        }
+        dispatch_or_indirect(&self.resolve, rec, pool, &bindings, push, groups, pending_in)
+    }
+}
+
+/// Dispatches `groups`, or (None) the work groups a list's header in `args`
+/// holds.
+fn dispatch_or_indirect<I: ShaderInterface, P: bytemuck::Pod>(
+    kernel: &ComputeKernel<I, P>,
+    rec: &mut Recorder<'_>,
+    pool: &DescriptorPool,
+    bindings: &I::Bindings<'_>,
+    push: &P,
+    groups: Option<[u32; 3]>,
+    args: &Buffer,
+) -> Result<()> {
+    match groups {
+        Some(groups) => kernel.dispatch(rec.cmd, pool, bindings, push, groups),
+        None => kernel.dispatch_indirect(rec.cmd, pool, bindings, push, args, 0),
     }
 }

@@ -1,0 +1,114 @@
+#ifndef SSBC_EVAL_GLSL
+#define SSBC_EVAL_GLSL
+// SSBC evaluation points of level pc.level: the residual integral I(x) (see
+// ssbc_residual.glsl) at the evaluation pixel of each texel, for every texel of the
+// level (pc.from_list = 0: the coarsest level) or for the texels the resolve
+// kernel asked for (pc.from_list = 1: finer levels, near what made
+// interpolation fail). A texel that is not one smooth surface (above level
+// 1), or where the bounding radius spans fewer than pc.texels_per_radius of
+// its texels on screen, is unusable.
+//
+// Included by ssbc_eval.comp and, with SSBC_GLOSSY_POINTS defined (frames
+// with glossy receivers), ssbc_eval_glossy.comp: points at glossy
+// receivers then also sum their glossy rest. Apart, a Lambertian frame's
+// points run none of that (lavapipe runs both sides of a branch: with the
+// glossy code behind a uniform test its evaluation levels took 10-20%
+// longer, behind a per-point one 50%).
+#include "ssbc_types.glsl"
+
+layout(push_constant) uniform EvalPush {
+    SsbcFrame frame;
+    ResidualParams residual;
+    uint level;               // the level whose points are evaluated
+    uint from_list;           // 1: the texels of `requests`; 0: every texel of `level`
+    uint generation;          // the step's stamp on its points
+    float texels_per_radius;  // evaluation texels wanted across the bounding radius 1/sqrt(b)
+} pc;
+
+#include "ssbc_pyramid.glsl"
+#include "ssbc_pyramid_read.glsl"
+#include "ssbc_residual.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
+layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
+#ifdef SSBC_GLOSSY_POINTS
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 7, rgba32f) uniform writeonly imageBuffer point_glossy;  // one per point
+#endif
+
+void store_point(uint index, EvalPoint p) {
+    int at = int(4u * index);
+    imageStore(eval_points, at, floatBitsToUint(p.residual.r));
+    imageStore(eval_points, at + 1, floatBitsToUint(p.residual.g));
+    imageStore(eval_points, at + 2, floatBitsToUint(p.residual.b));
+    imageStore(eval_points, at + 3, uvec4(floatBitsToUint(p.reads), floatBitsToUint(p.variation), p.generation, p.pad));
+}
+
+void main() {
+    int l = int(pc.level);
+    uint i = gl_GlobalInvocationID.x;
+    ivec2 size_l = level_size(0u, l);
+    ivec2 t;
+    if (pc.from_list == 1u) {
+        if (i >= requests.header.count) return;
+        t = unpack_item(requests.items[i]);
+    } else {
+        // One row of work groups per row of the level (no integer division).
+        t = ivec2(gl_GlobalInvocationID.xy);
+        if (t.x >= size_l.x) return;
+    }
+    uint index = texel_index(0u, t, l);
+    ivec2 q = eval_pixel(t, l);
+    GeoCluster g = geo_cluster(texel_index(0u, q, 0), 0u);
+    vec3 x = g.position_extent.xyz;
+    float r_world = inversesqrt(pc.frame.bound);
+    // A point stands for its block only on one smooth surface, except at
+    // level 1: there a pixel is at most a pixel from the points it
+    // interpolates, and the resolve's own tests (normal, tangent plane) keep
+    // it on the point's surface, so a block across a silhouette or crease
+    // still serves the pixels on its point's side (tori 1024x768: 4.1 ->
+    // 3.7% of pixels alone, traversal -12%). Coarser, that let pixels
+    // interpolate across edges (cornell 640x480: 1.2 -> 4.2% RMSE). Either
+    // way the point's own pixel must be geometry.
+    bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (geo_aux(index).flags & 1u) == 1u)
+        && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
+    if (!usable) {
+        store_point(index, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
+        return;
+    }
+    vec3 nx = g.normal_cone.xyz;
+    uint count = 0u;
+    float variation;
+#ifndef SSBC_GLOSSY_POINTS
+    Residual residual = residual_integral(x, nx, vec2(q), count, variation);
+    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
+#else
+    // At a glossy receiver (not nearly Lambertian) the point also sums the
+    // glossy rest of its pixel's BRDF seen from the eye, as the fallback
+    // would: pixels of the same material whose lobe points nearly the same
+    // way interpolate it (ssbc_resolve.comp).
+    Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
+    vec3 wo = normalize(pc.frame.camera_position.xyz - x);
+    bool glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, nx, wo);
+    Residual residual;
+    // Two calls: in the first glossy_active is constant false, and the walk
+    // compiles without the glossy terms.
+    if (!glossy) {
+        residual = residual_integral(x, nx, vec2(q), count, variation);
+    } else {
+        glossy_active = true;
+        glossy_brdf = b;
+        glossy_wo = wo;
+        glossy_mirror = reflect(-wo, nx);
+        glossy_alpha = brdf_alpha(b);
+        residual = residual_integral(x, nx, vec2(q), count, variation);
+    }
+    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
+    imageStore(point_glossy, int(index), vec4(glossy_rest, glossy ? 1.0 : 0.0));
+#endif
+}
+
+#endif
