@@ -219,7 +219,7 @@ fn hierarchical_matches_brute_force() {
                 }
                 // Glossy pixels interpolate the glossy rest of evaluation
                 // points of their material whose lobes point their way:
-                // 12.7% alone (before, every glossy pixel that was not
+                // 11.6% alone (before, every glossy pixel that was not
                 // nearly Lambertian: 34%).
                 if scene.name == "spheres" && size == (640, 480) && step.fallback_fraction > 0.2 {
                     failures.push(format!("{line}: glossy pixels alone"));

@@ -104,6 +104,7 @@ void main() {
         glossy_wo = wo;
         glossy_mirror = reflect(-wo, nx);
         glossy_alpha = brdf_alpha(b);
+        glossy_refine = 0.5;  // see ssbc_walk.glsl
         residual = residual_integral(x, nx, vec2(q), count, variation);
     }
     store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
