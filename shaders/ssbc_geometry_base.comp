@@ -31,6 +31,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 5, rgba32f) uniform readonly image2D g_albedo;
 
 // A convex polygon in image coordinates: the square clipped by at most
 // eight lines, one vertex more per line.
@@ -263,6 +264,14 @@ void main() {
             if (lift_square(vec2(p), position.xyz, n, own_area, extent) && extent <= 20.0 * sqrt(area)) area = own_area;
         }
     }
+    // Layer 0's glossy receivers, for the evaluation points (ssbc_eval.glsl).
+    bool glossy = false;
+    if (geometry && pc.layer == 0u && (pc.frame.layers & GLOSSY_RECEIVERS) != 0u) {
+        Brdf b = receiver_brdf(imageLoad(g_albedo, p), imageLoad(g_normal, p));
+        vec3 wo = normalize(pc.frame.camera_position.xyz - position.xyz);
+        glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, n, wo);
+    }
+    uint flags = (geometry ? 1u : 0u) | (code << 1) | (glossy ? GLOSSY_RECEIVER : 0u);
     store_geo(dst, GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), back));
-    store_aux(dst, GeoAux(geometry ? area : 0.0, back_area, geometry ? 1u : 0u, (geometry ? 1u : 0u) | (code << 1)));
+    store_aux(dst, GeoAux(geometry ? area : 0.0, back_area, geometry ? 1u : 0u, flags));
 }

@@ -28,8 +28,8 @@ layout(push_constant) uniform ResolvePush {
 // Per evaluation point, the generation of the step that last asked for it
 // (each point is requested once per step).
 layout(set = 0, binding = 3) buffer Claims { uint claims[]; };
-// Per evaluation point, at glossy receivers, the glossy rest (xyz) and w = 1
-// (see EvalPoint).
+// Per evaluation point, at glossy receivers, the glossy rest (xyz) and the
+// bits of the generation of the step that computed it (w; see EvalPoint).
 layout(set = 0, binding = 16) uniform samplerBuffer point_glossy;
 
 layout(local_size_x = 64) in;
@@ -138,7 +138,7 @@ void main() {
                     && dist <= min(max_spacing, pc.scale_fraction * point.variation);
                 if (glossy && ok) {
                     vec4 point_rest = texelFetch(point_glossy, int(texel_index(0u, t, l)));
-                    ok = point_rest.w == 1.0 && same_lobe(eval_pixel(t, l), g.position_extent.xyz, n, material, mirror, b);
+                    ok = floatBitsToUint(point_rest.w) == pc.generation && same_lobe(eval_pixel(t, l), g.position_extent.xyz, n, material, mirror, b);
                     rest_blend += w * point_rest.xyz;
                 }
                 blend.r += w * point.residual.r;

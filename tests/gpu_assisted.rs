@@ -30,7 +30,8 @@ fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
     let log = renderer.validation_log();
     let mut open_box = common::ssbc_accuracy::open_box();
     open_box.ensure_light();
-    // (spheres: glossy VPLs, receivers, and SSBC receivers evaluated alone.)
+    // (spheres: glossy VPLs, receivers, glossy evaluation points (their
+    // list and kernel), and SSBC receivers evaluated alone.)
     let scenes = [
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),

@@ -8,12 +8,14 @@
 // 1), or where the bounding radius spans fewer than pc.texels_per_radius of
 // its texels on screen, is unusable.
 //
-// Included by ssbc_eval.comp and, with SSBC_GLOSSY_POINTS defined (frames
-// with glossy receivers), ssbc_eval_glossy.comp: points at glossy
-// receivers then also sum their glossy rest. Apart, a Lambertian frame's
-// points run none of that (lavapipe runs both sides of a branch: with the
-// glossy code behind a uniform test its evaluation levels took 10-20%
-// longer, behind a per-point one 50%).
+// Included by ssbc_eval.comp (every point but those at glossy receivers,
+// which it lists) and, with SSBC_GLOSSY_POINTS defined,
+// ssbc_eval_glossy.comp (the listed ones, which also sum their glossy
+// rest). Apart, a Lambertian point runs none of the glossy code (lavapipe
+// runs both sides of a branch: with the glossy code behind a uniform test
+// cornell's evaluation levels took 10-20% longer, behind a per-point one
+// 50%), and a SIMD group never runs both walks (the open-front box's
+// levels took 1.5-1.7x its Lambertian twin's when it did).
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform EvalPush {
@@ -33,10 +35,13 @@ layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
+// Points at glossy receivers, which ssbc_eval.comp leaves to
+// ssbc_eval_glossy.comp.
+layout(set = 0, binding = 5) buffer GlossyPoints { ListHeader header; uint items[]; } glossy_points;
 #ifdef SSBC_GLOSSY_POINTS
-layout(set = 0, binding = 5, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_albedo;
-layout(set = 0, binding = 7, rgba32f) uniform writeonly imageBuffer point_glossy;  // one per point
+layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 8, rgba32f) uniform writeonly imageBuffer point_glossy;  // one per point
 #endif
 
 void store_point(uint index, EvalPoint p) {
@@ -47,6 +52,7 @@ void store_point(uint index, EvalPoint p) {
     imageStore(eval_points, at + 3, uvec4(floatBitsToUint(p.reads), floatBitsToUint(p.variation), p.generation, p.pad));
 }
 
+#ifndef SSBC_GLOSSY_POINTS
 void main() {
     int l = int(pc.level);
     uint i = gl_GlobalInvocationID.x;
@@ -62,7 +68,8 @@ void main() {
     }
     uint index = texel_index(0u, t, l);
     ivec2 q = eval_pixel(t, l);
-    GeoCluster g = geo_cluster(texel_index(0u, q, 0), 0u);
+    uint q_index = texel_index(0u, q, 0);
+    GeoCluster g = geo_cluster(q_index, 0u);
     vec3 x = g.position_extent.xyz;
     float r_world = inversesqrt(pc.frame.bound);
     // A point stands for its block only on one smooth surface, except at
@@ -79,37 +86,50 @@ void main() {
         store_point(index, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
         return;
     }
-    vec3 nx = g.normal_cone.xyz;
+    // A point at a glossy receiver (ssbc_geometry_base.comp marks them) is
+    // listed for ssbc_eval_glossy.comp: in one SIMD group with points here
+    // it would run both walks.
+    if ((geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u) {
+        uint slot = atomicAdd(glossy_points.header.count, 1u);
+        glossy_points.items[slot] = pack_item(t);
+        atomicMax(glossy_points.header.dispatch_x, slot / 64u + 1u);
+        return;
+    }
     uint count = 0u;
     float variation;
-#ifndef SSBC_GLOSSY_POINTS
+    Residual residual = residual_integral(x, g.normal_cone.xyz, vec2(q), count, variation);
+    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
+}
+#else
+// The listed points at glossy receivers: the residual's linear form and
+// the glossy rest of the point's own pixel's BRDF seen from the eye, as
+// its fallback would sum them (ssbc_fallback.comp; the lobe refined at
+// half its fineness, see ssbc_walk.glsl). Pixels of the same material
+// whose lobe points nearly the same way interpolate it
+// (ssbc_resolve.comp). point_glossy's w: the step's generation.
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= glossy_points.header.count) return;
+    ivec2 t = unpack_item(glossy_points.items[i]);
+    int l = int(pc.level);
+    uint index = texel_index(0u, t, l);
+    ivec2 q = eval_pixel(t, l);
+    GeoCluster g = geo_cluster(texel_index(0u, q, 0), 0u);
+    vec3 x = g.position_extent.xyz;
+    vec3 nx = g.normal_cone.xyz;
+    Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
+    glossy_active = true;
+    glossy_brdf = b;
+    glossy_wo = normalize(pc.frame.camera_position.xyz - x);
+    glossy_mirror = reflect(-glossy_wo, nx);
+    glossy_alpha = brdf_alpha(b);
+    glossy_refine = 0.5;
+    uint count = 0u;
+    float variation;
     Residual residual = residual_integral(x, nx, vec2(q), count, variation);
     store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
-#else
-    // At a glossy receiver (not nearly Lambertian) the point also sums the
-    // glossy rest of its pixel's BRDF seen from the eye, as the fallback
-    // would: pixels of the same material whose lobe points nearly the same
-    // way interpolate it (ssbc_resolve.comp).
-    Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
-    vec3 wo = normalize(pc.frame.camera_position.xyz - x);
-    bool glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, nx, wo);
-    Residual residual;
-    // Two calls: in the first glossy_active is constant false, and the walk
-    // compiles without the glossy terms.
-    if (!glossy) {
-        residual = residual_integral(x, nx, vec2(q), count, variation);
-    } else {
-        glossy_active = true;
-        glossy_brdf = b;
-        glossy_wo = wo;
-        glossy_mirror = reflect(-wo, nx);
-        glossy_alpha = brdf_alpha(b);
-        glossy_refine = 0.5;  // see ssbc_walk.glsl
-        residual = residual_integral(x, nx, vec2(q), count, variation);
-    }
-    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
-    imageStore(point_glossy, int(index), vec4(glossy_rest, glossy ? 1.0 : 0.0));
-#endif
+    imageStore(point_glossy, int(index), vec4(glossy_rest, uintBitsToFloat(pc.generation)));
 }
+#endif
 
 #endif

@@ -99,13 +99,18 @@ GeoCluster empty_cluster() {
     return make_cluster(vec3(0.0), 0.0, -1.0, vec3(0.0), 1.0);
 }
 
+// GeoAux.flags at level 0 of layer 0: the pixel is a glossy receiver that
+// is not nearly Lambertian (its evaluation points need its BRDF).
+const uint GLOSSY_RECEIVER = 32u;
+
 struct GeoAux {
     float front_area;         // summed world-space area A_y of each cluster's pixels
     float back_area;
     uint pixels;              // pixels with geometry under the texel
     uint flags;               // bit 0: one smooth surface (may stand for its pixels);
                               // level 0, bits 1..4: k + 1 if the back cluster is the
-                              // part of the pixel on neighbour CREASE_NEIGHBOURS[k]'s surface;
+                              // part of the pixel on neighbour CREASE_NEIGHBOURS[k]'s surface,
+                              // bit 5 (GLOSSY_RECEIVER): a glossy receiver in layer 0;
                               // levels >= 1, bit 8 + 2k + c: cluster c of child k went
                               // to the back cluster
 };
@@ -176,8 +181,8 @@ struct Residual {
 // its variation scale (see residual_integral), and the generation of the
 // step that asked for it (points of other steps are stale). With glossy
 // receivers a second buffer (one RGBA32F texel per point) holds, at a glossy
-// receiver, the glossy rest of its own BRDF seen from the eye (xyz) and
-// w = 1 (w = 0 elsewhere).
+// receiver, the glossy rest of its own BRDF seen from the eye (xyz) and the
+// bits of the step's generation (w; 0 elsewhere).
 struct EvalPoint {
     Residual residual;
     float reads;

@@ -45,6 +45,8 @@ pub struct SsbcFrame {
     pub claims: Buffer,
     /// Pixels still to resolve at the next finer level (two, used in turn).
     pub pending: [Buffer; 2],
+    /// Evaluation points at glossy receivers, left to the glossy kernel.
+    pub glossy_points: Buffer,
     /// Texels whose evaluation points the next level needs.
     pub requests: Buffer,
     /// Pixels evaluated alone.
@@ -188,7 +190,7 @@ impl SsbcPass {
         let point_glossy = texel_buffer(
             "ssbc.eval_points.glossy",
             texels * POINT_GLOSSY_BYTES,
-            vk::BufferUsageFlags::empty(),
+            vk::BufferUsageFlags::TRANSFER_DST,
         )?;
         let claims = Buffer::new(
             device,
@@ -227,6 +229,7 @@ impl SsbcPass {
             claims,
             pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
             requests: list("ssbc.requests")?,
+            glossy_points: list("ssbc.glossy_points")?,
             fallback: list("ssbc.fallback")?,
             stats: Buffer::new(
                 device,

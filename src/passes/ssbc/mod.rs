@@ -125,7 +125,7 @@ impl SsbcPass {
                 v.push(self.layer_residual.set_layout());
             }
             for _ in 0..=frame.max_eval_level {
-                // Either kernel's: the glossy one binds a superset.
+                v.push(self.eval.set_layout());
                 v.push(self.eval_glossy.set_layout());
                 v.push(self.resolve.set_layout());
             }

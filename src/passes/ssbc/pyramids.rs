@@ -76,7 +76,7 @@ pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerReso
     let layer1 = effective_layer1(layer1, levels);
     let all = all_layers_texels(size, levels, layer1);
     let points = pyramid_texels(size, levels);
-    let lists = 4 * (16 + 4 * size.0 as u64 * size.1 as u64);
+    let lists = 5 * (16 + 4 * size.0 as u64 * size.1 as u64);
     let pixels = width as u64 * height as u64;
     // Final image, and per step its residual and its diffuse part (16
     // bytes each) and samples (4).
@@ -136,8 +136,7 @@ impl SsbcPass {
     ) -> Result<()> {
         for level in 0..frame.levels - Self::layer_shift(frame, layer) {
             if level == 0 {
-                rec.use_image(gbuffer.position, Access::ComputeRead);
-                rec.use_image(gbuffer.normal, Access::ComputeRead);
+                gbuffer.read_in_compute(rec);
             }
             // Written, and the level below read (as storage texels).
             rec.use_buffer(&frame.geo, Access::ComputeWrite);
@@ -150,6 +149,7 @@ impl SsbcPass {
                     aux_words: &frame.aux_view,
                     g_position: gbuffer.position,
                     g_normal: gbuffer.normal,
+                    g_albedo: gbuffer.albedo,
                 };
                 let push = GeometryBasePush {
                     frame: mips.frame,

@@ -122,6 +122,7 @@ impl SsbcPass {
         }
         // Evaluation points are stamped with the step's generation (1, 2, ...).
         rec.fill_buffer(&frame.points, 0);
+        rec.fill_buffer(&frame.point_glossy, 0);
         rec.fill_buffer(&frame.claims, 0);
         profiler.end(rec.cmd, scope);
 
@@ -320,8 +321,9 @@ impl SsbcPass {
     }
 
     /// Evaluation points of `push.level`: every texel (not from the list,
-    /// `groups` work groups) or the requested ones (indirect). With glossy
-    /// receivers the G-buffer gives points their BRDF.
+    /// `groups` work groups) or the requested ones (indirect). Points at
+    /// glossy receivers are listed and evaluated after the others by their
+    /// own kernel, with their pixel's BRDF from the G-buffer.
     fn record_eval(
         &self,
         rec: &mut Recorder<'_>,
@@ -330,42 +332,46 @@ impl SsbcPass {
         (frame, gbuffer): (&SsbcFrame, &SsbcGBuffer<'_>),
         groups: [u32; 3],
     ) -> Result<()> {
-        let glossy = push.frame.glossy_receivers();
+        rec.update_buffer(&frame.glossy_points, 0, bytemuck::bytes_of(&LIST_HEADER));
         Self::read_pyramids(rec, frame);
         rec.use_buffer(&frame.points, Access::ComputeWrite);
-        if glossy {
-            gbuffer.read_in_compute(rec);
-            rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
-        }
+        rec.use_buffer(&frame.glossy_points, Access::ComputeWrite);
         let from_list = push.from_list == 1;
         if from_list {
             rec.use_buffer(&frame.requests, Access::IndirectRead);
         }
         rec.use_buffer(&frame.requests, Access::ComputeRead);
         rec.flush_barriers();
+        let bindings = ssbc_eval_comp::Bindings {
+            geo_texels: &frame.geo_view,
+            aux_texels: &frame.aux_view,
+            radiance_texels: &frame.radiance_view,
+            eval_points: &frame.point_view,
+            requests: &frame.requests,
+            glossy_points: &frame.glossy_points,
+        };
         let groups = (!from_list).then_some(groups);
-        if glossy {
-            let bindings = ssbc_eval_glossy_comp::Bindings {
-                geo_texels: &frame.geo_view,
-                aux_texels: &frame.aux_view,
-                radiance_texels: &frame.radiance_view,
-                eval_points: &frame.point_view,
-                requests: &frame.requests,
-                g_normal: gbuffer.normal,
-                g_albedo: gbuffer.albedo,
-                point_glossy: &frame.point_glossy_view,
-            };
-            dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, groups, &frame.requests)
-        } else {
-            let bindings = ssbc_eval_comp::Bindings {
-                geo_texels: &frame.geo_view,
-                aux_texels: &frame.aux_view,
-                radiance_texels: &frame.radiance_view,
-                eval_points: &frame.point_view,
-                requests: &frame.requests,
-            };
-            dispatch_or_indirect(&self.eval, rec, pool, &bindings, push, groups, &frame.requests)
+        dispatch_or_indirect(&self.eval, rec, pool, &bindings, push, groups, &frame.requests)?;
+        if !push.frame.glossy_receivers() {
+            return Ok(());
         }
+        Self::read_pyramids(rec, frame);
+        gbuffer.read_in_compute(rec);
+        rec.use_buffer(&frame.points, Access::ComputeWrite);
+        rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
+        rec.use_buffer(&frame.glossy_points, Access::IndirectRead);
+        rec.use_buffer(&frame.glossy_points, Access::ComputeRead);
+        rec.flush_barriers();
+        let bindings = ssbc_eval_glossy_comp::Bindings {
+            geo_texels: &frame.geo_view,
+            radiance_texels: &frame.radiance_view,
+            eval_points: &frame.point_view,
+            glossy_points: &frame.glossy_points,
+            g_normal: gbuffer.normal,
+            g_albedo: gbuffer.albedo,
+            point_glossy: &frame.point_glossy_view,
+        };
+        dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, None, &frame.glossy_points)
     }
 
     /// Resolve at `push.level`: pixels of `lists.0` (or every pixel, with
