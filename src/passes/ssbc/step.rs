@@ -273,8 +273,7 @@ impl SsbcPass {
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
         Self::read_pyramids(rec, frame);
         out.declare(rec);
-        rec.use_buffer(&frame.fallback, Access::IndirectRead);
-        rec.use_buffer(&frame.fallback, Access::ComputeRead);
+        read_list(rec, &frame.fallback);
         rec.flush_barriers();
         let bindings = ssbc_fallback_comp::Bindings {
             geo_texels: &frame.geo_view,
@@ -359,8 +358,7 @@ impl SsbcPass {
         gbuffer.read_in_compute(rec);
         rec.use_buffer(&frame.points, Access::ComputeWrite);
         rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
-        rec.use_buffer(&frame.glossy_points, Access::IndirectRead);
-        rec.use_buffer(&frame.glossy_points, Access::ComputeRead);
+        read_list(rec, &frame.glossy_points);
         rec.flush_barriers();
         let bindings = ssbc_eval_glossy_comp::Bindings {
             geo_texels: &frame.geo_view,
@@ -441,4 +439,11 @@ fn dispatch_or_indirect<I: ShaderInterface, P: bytemuck::Pod>(
         Some(groups) => kernel.dispatch(rec.cmd, pool, bindings, push, groups),
         None => kernel.dispatch_indirect(rec.cmd, pool, bindings, push, args, 0),
     }
+}
+
+/// Declares a work list read by an indirect dispatch over it: its header as
+/// the dispatch's arguments, its items by the kernel.
+fn read_list(rec: &mut Recorder<'_>, list: &Buffer) {
+    rec.use_buffer(list, Access::IndirectRead);
+    rec.use_buffer(list, Access::ComputeRead);
 }
