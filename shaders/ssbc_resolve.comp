@@ -108,7 +108,8 @@ void main() {
     // where its own does (same_lobe).
     vec3 wo = normalize(pc.frame.camera_position.xyz - x);
     bool lambertian = brdf_is_lambertian(b);
-    bool glossy = !lambertian && !nearly_lambertian(b, nx, wo);
+    // (The geometry pass marked the pixel if it is not nearly Lambertian.)
+    bool glossy = (geo_aux(texel_index(0u, p, 0)).flags & GLOSSY_RECEIVER) != 0u;
     vec3 mirror = reflect(-wo, nx);
     vec4 material = vec4(imageLoad(g_albedo, p).rgb, b.roughness);
     vec3 rest_blend = vec3(0.0);

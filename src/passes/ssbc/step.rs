@@ -405,6 +405,7 @@ impl SsbcPass {
         rec.flush_barriers();
         let bindings = ssbc_resolve_comp::Bindings {
             geo_texels: &frame.geo_view,
+            aux_texels: &frame.aux_view,
             claims: &frame.claims,
             pending_in,
             pending_out,
