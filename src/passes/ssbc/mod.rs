@@ -21,7 +21,7 @@ use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 pub use crate::settings::{Integration, LayerResolution, SsbcSettings};
 use crate::shaders::{
-    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
+    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
     ssbc_layer_residual_comp, ssbc_radiance_mips_comp, ssbc_resolve_comp, ssbc_samples_comp,
 };
 use crate::vk::{
@@ -60,6 +60,8 @@ pub struct SsbcPass {
     eval_glossy: ComputeKernel<ssbc_eval_glossy_comp::Interface, EvalPush>,
     resolve: ComputeKernel<ssbc_resolve_comp::Interface, ResolvePush>,
     fallback: ComputeKernel<ssbc_fallback_comp::Interface, IntegralPush>,
+    /// The glossy receivers the fallback lists.
+    fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface, IntegralPush>,
     samples: ComputeKernel<ssbc_samples_comp::Interface, SamplesPush>,
     layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface, IntegralPush>,
 }
@@ -98,6 +100,7 @@ impl SsbcPass {
             eval_glossy: ComputeKernel::new(device)?.named("ssbc_residual_eval_glossy"),
             resolve: ComputeKernel::new(device)?.named("ssbc_residual_resolve"),
             fallback: ComputeKernel::new(device)?.named("ssbc_residual_fallback"),
+            fallback_glossy: ComputeKernel::new(device)?.named("ssbc_residual_fallback_glossy"),
             samples: ComputeKernel::new(device)?.named("ssbc_samples"),
             layer_residual: ComputeKernel::new(device)?.named("ssbc_layer1_residual"),
         })
@@ -130,6 +133,7 @@ impl SsbcPass {
                 v.push(self.resolve.set_layout());
             }
             v.push(self.fallback.set_layout());
+            v.push(self.fallback_glossy.set_layout());
             v.push(self.samples.set_layout());
         }
         v

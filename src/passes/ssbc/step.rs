@@ -10,7 +10,7 @@ use super::push::{
 use super::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass};
 use crate::error::Result;
 use crate::shaders::{
-    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_layer_residual_comp, ssbc_resolve_comp,
+    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_layer_residual_comp, ssbc_resolve_comp,
     ssbc_samples_comp,
 };
 use crate::vk::{
@@ -269,16 +269,22 @@ impl SsbcPass {
             self.record_resolve(rec, pool, &push.resolve(level, true), frame, out, lists, None)?;
             profiler.end(rec.cmd, sub);
         }
-        // The pixels no point could stand for.
+        // The pixels no point could stand for; the fallback lists glossy
+        // receivers for their own kernel (the glossy points' list is free
+        // again).
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
+        rec.update_buffer(&frame.glossy_points, 0, bytemuck::bytes_of(&LIST_HEADER));
         Self::read_pyramids(rec, frame);
         out.declare(rec);
         read_list(rec, &frame.fallback);
+        rec.use_buffer(&frame.glossy_points, Access::ComputeWrite);
         rec.flush_barriers();
         let bindings = ssbc_fallback_comp::Bindings {
             geo_texels: &frame.geo_view,
+            aux_texels: &frame.aux_view,
             radiance_texels: &frame.radiance_view,
             pending_in: &frame.fallback,
+            pending_out: &frame.glossy_points,
             g_position: out.gbuffer.position,
             g_normal: out.gbuffer.normal,
             g_albedo: out.gbuffer.albedo,
@@ -297,6 +303,35 @@ impl SsbcPass {
             0,
         )?;
         profiler.end(rec.cmd, sub);
+        if push.frame.glossy_receivers() {
+            let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback_glossy"));
+            Self::read_pyramids(rec, frame);
+            out.declare(rec);
+            read_list(rec, &frame.glossy_points);
+            rec.flush_barriers();
+            let bindings = ssbc_fallback_glossy_comp::Bindings {
+                geo_texels: &frame.geo_view,
+                radiance_texels: &frame.radiance_view,
+                pending_in: &frame.glossy_points,
+                g_position: out.gbuffer.position,
+                g_normal: out.gbuffer.normal,
+                g_albedo: out.gbuffer.albedo,
+                previous: out.previous,
+                final_image: out.final_image,
+                residual: out.residual,
+                residual_sources: out.residual_sources,
+                samples: out.samples,
+            };
+            self.fallback_glossy.dispatch_indirect(
+                rec.cmd,
+                pool,
+                &bindings,
+                &push.integral(),
+                &frame.glossy_points,
+                0,
+            )?;
+            profiler.end(rec.cmd, sub);
+        }
         // Texels read per pixel.
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
         Self::read_pyramids(rec, frame);
