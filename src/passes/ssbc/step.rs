@@ -20,6 +20,25 @@ use crate::vk::{
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
 const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
 
+/// The `Bindings` of shader module `$shader`, a kernel that writes a step's
+/// output (ssbc_output.glsl's images, from the `StepOutput` `$out`), with
+/// the kernel's other bindings.
+macro_rules! with_output_images {
+    ($shader:ident, $out:expr, { $($field:ident $(: $value:expr)?),* $(,)? }) => {
+        $shader::Bindings {
+            g_position: $out.gbuffer.position,
+            g_normal: $out.gbuffer.normal,
+            g_albedo: $out.gbuffer.albedo,
+            previous: $out.previous,
+            final_image: $out.final_image,
+            residual: $out.residual,
+            residual_sources: $out.residual_sources,
+            samples: $out.samples,
+            $($field $(: $value)?),*
+        }
+    };
+}
+
 /// What a step writes, and what it reads from the frame besides the pyramids.
 struct StepOutput<'a> {
     gbuffer: SsbcGBuffer<'a>,
@@ -279,21 +298,13 @@ impl SsbcPass {
         read_list(rec, &frame.fallback);
         rec.use_buffer(&frame.glossy_points, Access::ComputeWrite);
         rec.flush_barriers();
-        let bindings = ssbc_fallback_comp::Bindings {
+        let bindings = with_output_images!(ssbc_fallback_comp, out, {
             geo_texels: &frame.geo_view,
             aux_texels: &frame.aux_view,
             radiance_texels: &frame.radiance_view,
             pending_in: &frame.fallback,
             pending_out: &frame.glossy_points,
-            g_position: out.gbuffer.position,
-            g_normal: out.gbuffer.normal,
-            g_albedo: out.gbuffer.albedo,
-            previous: out.previous,
-            final_image: out.final_image,
-            residual: out.residual,
-            residual_sources: out.residual_sources,
-            samples: out.samples,
-        };
+        });
         self.fallback.dispatch_indirect(
             rec.cmd,
             pool,
@@ -309,19 +320,11 @@ impl SsbcPass {
             out.declare(rec);
             read_list(rec, &frame.glossy_points);
             rec.flush_barriers();
-            let bindings = ssbc_fallback_glossy_comp::Bindings {
+            let bindings = with_output_images!(ssbc_fallback_glossy_comp, out, {
                 geo_texels: &frame.geo_view,
                 radiance_texels: &frame.radiance_view,
                 pending_in: &frame.glossy_points,
-                g_position: out.gbuffer.position,
-                g_normal: out.gbuffer.normal,
-                g_albedo: out.gbuffer.albedo,
-                previous: out.previous,
-                final_image: out.final_image,
-                residual: out.residual,
-                residual_sources: out.residual_sources,
-                samples: out.samples,
-            };
+            });
             self.fallback_glossy.dispatch_indirect(
                 rec.cmd,
                 pool,
@@ -438,24 +441,16 @@ impl SsbcPass {
         rec.use_buffer(pending_out, Access::ComputeWrite);
         rec.use_buffer(&frame.requests, Access::ComputeWrite);
         rec.flush_barriers();
-        let bindings = ssbc_resolve_comp::Bindings {
+        let bindings = with_output_images!(ssbc_resolve_comp, out, {
             geo_texels: &frame.geo_view,
             aux_texels: &frame.aux_view,
             claims: &frame.claims,
             pending_in,
             pending_out,
             requests: &frame.requests,
-            g_position: out.gbuffer.position,
-            g_normal: out.gbuffer.normal,
-            g_albedo: out.gbuffer.albedo,
-            previous: out.previous,
-            final_image: out.final_image,
-            residual: out.residual,
-            residual_sources: out.residual_sources,
-            samples: out.samples,
             point_texels: &frame.point_view,
             point_glossy: &frame.point_glossy_view,
-        };
+        });
         dispatch_or_indirect(&self.resolve, rec, pool, &bindings, push, groups, pending_in)
     }
 }
