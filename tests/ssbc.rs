@@ -218,10 +218,11 @@ fn hierarchical_matches_brute_force() {
                     failures.push(line.clone());
                 }
                 // Glossy pixels interpolate the glossy rest of evaluation
-                // points of their material whose lobes point their way:
-                // 11.6% alone (before, every glossy pixel that was not
+                // points of their material whose lobes point their way or
+                // whose glossy rests agree: 8.5% / 8.2% alone (lobes
+                // alone: 11.6%; before, every glossy pixel that was not
                 // nearly Lambertian: 34%).
-                if scene.name == "spheres" && size == (640, 480) && step.fallback_fraction > 0.2 {
+                if scene.name == "spheres" && size == (640, 480) && step.fallback_fraction > 0.1 {
                     failures.push(format!("{line}: glossy pixels alone"));
                 }
             }
