@@ -85,12 +85,6 @@ float corner_weight(vec2 fraction, int k) {
     return ((k & 1) == 1 ? fraction.x : 1.0 - fraction.x) * ((k >> 1) == 1 ? fraction.y : 1.0 - fraction.y);
 }
 
-void append(ivec2 p) {
-    uint slot = atomicAdd(pending_out.header.count, 1u);
-    pending_out.items[slot] = pack_item(p);
-    atomicMax(pending_out.header.dispatch_x, slot / 64u + 1u);
-}
-
 void main() {
     uint i = gl_GlobalInvocationID.x;
     ivec2 p;
@@ -196,12 +190,10 @@ void main() {
                 && all(lessThan(t, level_size(0u, l - 1)))) {
                 uint index = texel_index(0u, t, l - 1);
                 if (atomicExchange(claims[index], pc.generation) != pc.generation) {
-                    uint slot = atomicAdd(requests.header.count, 1u);
-                    requests.items[slot] = pack_item(t);
-                    atomicMax(requests.header.dispatch_x, slot / 64u + 1u);
+                    APPEND_ITEM(requests, pack_item(t));
                 }
             }
         }
     }
-    append(p);
+    APPEND_ITEM(pending_out, pack_item(p));
 }

@@ -90,9 +90,7 @@ void main() {
     // listed for ssbc_eval_glossy.comp: in one SIMD group with points here
     // it would run both walks.
     if ((geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u) {
-        uint slot = atomicAdd(glossy_points.header.count, 1u);
-        glossy_points.items[slot] = pack_item(t);
-        atomicMax(glossy_points.header.dispatch_x, slot / 64u + 1u);
+        APPEND_ITEM(glossy_points, pack_item(t));
         return;
     }
     uint count = 0u;
@@ -118,11 +116,7 @@ void main() {
     vec3 x = g.position_extent.xyz;
     vec3 nx = g.normal_cone.xyz;
     Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
-    glossy_active = true;
-    glossy_brdf = b;
-    glossy_wo = normalize(pc.frame.camera_position.xyz - x);
-    glossy_mirror = reflect(-glossy_wo, nx);
-    glossy_alpha = brdf_alpha(b);
+    begin_glossy(b, x, nx);
     glossy_refine = 0.5;
     uint count = 0u;
     float variation;

@@ -31,9 +31,7 @@ void main() {
     if (i >= pending_in.header.count) return;
     ivec2 p = unpack_item(pending_in.items[i]);
     if ((geo_aux(texel_index(0u, p, 0)).flags & GLOSSY_RECEIVER) != 0u) {
-        uint slot = atomicAdd(pending_out.header.count, 1u);
-        pending_out.items[slot] = pack_item(p);
-        atomicMax(pending_out.header.dispatch_x, slot / 64u + 1u);
+        APPEND_ITEM(pending_out, pack_item(p));
         return;
     }
     vec3 x = imageLoad(g_position, p).xyz;
@@ -59,11 +57,7 @@ void main() {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     Brdf b = pixel_brdf(p);
-    glossy_active = true;
-    glossy_brdf = b;
-    glossy_wo = normalize(pc.frame.camera_position.xyz - x);
-    glossy_mirror = reflect(-glossy_wo, nx);
-    glossy_alpha = brdf_alpha(b);
+    begin_glossy(b, x, nx);
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(p), count, variation);

@@ -15,12 +15,13 @@
 // normal differs a little from an evaluation point's gets n . V - b C, right
 // to first order (the set where G > b moves only where G - b is near 0).
 
-// A glossy receiver (a pixel evaluated alone whose BRDF is not
-// Lambertian) also sums what the rest of its BRDF adds, per cluster at
+// A glossy receiver (a glossy evaluation point, or a glossy pixel evaluated
+// alone) also sums what the rest of its BRDF adds, per cluster at
 // direction w with excess max(G - b, 0):
 //   glossy_rest = sum (f_x(wo, w) - diffuse / pi) max(G - b, 0) A_y S(y),
-// so that its S_k = diffuse / pi I(x) + glossy_rest. Set by the fallback
-// before residual_integral; inactive elsewhere.
+// so that its S_k = diffuse / pi I(x) + glossy_rest. Set by begin_glossy
+// (glossy points and the glossy fallback) before residual_integral;
+// inactive elsewhere.
 bool glossy_active = false;
 Brdf glossy_brdf;
 vec3 glossy_wo;
@@ -29,6 +30,16 @@ vec3 glossy_rest = vec3(0.0);
 // where the BRDF changes across it, not only where G does (see visit()).
 vec3 glossy_mirror = vec3(0.0);
 float glossy_alpha = 1.0;
+
+// Makes the walks that follow sum the glossy rest of a receiver at x (unit
+// normal nx, BRDF b) seen from the eye.
+void begin_glossy(Brdf b, vec3 x, vec3 nx) {
+    glossy_active = true;
+    glossy_brdf = b;
+    glossy_wo = normalize(pc.frame.camera_position.xyz - x);
+    glossy_mirror = reflect(-glossy_wo, nx);
+    glossy_alpha = brdf_alpha(b);
+}
 
 void add_glossy(vec3 nx, vec3 w, float excess, vec3 as) {
     if (!glossy_active || !(excess > 0.0)) return;

@@ -160,6 +160,14 @@ struct ListHeader {
     uint count;
 };
 
+// Appends `item` to a work list (a buffer block with a ListHeader `header`
+// and `items`), growing its indirect dispatch (64 items per work group).
+#define APPEND_ITEM(list, item) {                           \
+        uint slot_ = atomicAdd(list.header.count, 1u);      \
+        list.items[slot_] = (item);                         \
+        atomicMax(list.header.dispatch_x, slot_ / 64u + 1u); \
+    }
+
 uint pack_item(ivec2 p) {
     return uint(p.x) | (uint(p.y) << 16);
 }
