@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::builder::{build_cwbvh, build_cwbvh_from_tris};
+use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
@@ -169,11 +169,8 @@ impl MeshBvh {
                 }
             })
             .collect();
-        let bvh = build_cwbvh_from_tris(
-            &triangles,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let boxes: Vec<Aabb> = triangles.iter().map(|t| padded(t.aabb())).collect();
+        let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut Duration::default());
         let material = mesh
             .indices
             .chunks_exact(3)
@@ -290,7 +287,7 @@ impl SceneBvh {
             .iter()
             .map(|i| {
                 let b = meshes[i.mesh as usize].bounds.transformed(i.to_world);
-                Aabb::new(b.min.into(), b.max.into())
+                padded(Aabb::new(b.min.into(), b.max.into()))
             })
             .collect();
         let top = build_cwbvh(
@@ -405,7 +402,7 @@ impl SceneBvh {
             return (f32::INFINITY, local);
         }
         let tri = &mesh.triangles[local];
-        let d = tri.intersect(r);
+        let d = watertight_intersect(tri, r);
         if d.is_finite() && self.masks.any() {
             let material = instance.material.unwrap_or(mesh.material[local]);
             let uv = || {
@@ -681,6 +678,67 @@ fn robust_direction(d: Vec3) -> Vec3A {
     Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
+/// `b` widened by a few ulps of its coordinates: a flat triangle's or
+/// object's box (a wall's) has no thickness, and a ray through its edge or
+/// corner failed the slab test by a rounding error (rays slipped through
+/// a room's corners).
+fn padded(b: Aabb) -> Aabb {
+    let pad = 1e-5 * b.min.abs().max(b.max.abs()).max_element() + 1e-12;
+    Aabb::new(b.min - pad, b.max + pad)
+}
+
+/// The distance along `r` to `tri` within the ray's (tmin, tmax), or
+/// infinity: Woop, Benthin and Wald's watertight test (JCGT 2013). Edge
+/// functions in a frame sheared so the ray runs along +z have the same
+/// sign for a point on an edge shared by two triangles whichever of them is
+/// tested, so no ray slips between them; obvhs's Möller–Trumbore test let
+/// rays through seams (a Cornell room's corners, a quad's diagonal).
+fn watertight_intersect(tri: &Triangle, r: &Ray) -> f32 {
+    let d = r.direction;
+    let a = d.abs();
+    let kz = if a.x > a.y {
+        if a.x > a.z { 0 } else { 2 }
+    } else if a.y > a.z {
+        1
+    } else {
+        2
+    };
+    let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    // Keeps the sheared frame right-handed (the winding of the edge
+    // functions) whichever way the ray runs along z.
+    if d[kz] < 0.0 {
+        std::mem::swap(&mut kx, &mut ky);
+    }
+    let sz = 1.0 / d[kz];
+    let (sx, sy) = (d[kx] * sz, d[ky] * sz);
+    let (va, vb, vc) = (tri.v0 - r.origin, tri.v1 - r.origin, tri.v2 - r.origin);
+    let shear = |v: Vec3A| (v[kx] - sx * v[kz], v[ky] - sy * v[kz]);
+    let ((ax, ay), (bx, by), (cx, cy)) = (shear(va), shear(vb), shear(vc));
+    let mut u = cx * by - cy * bx;
+    let mut v = ax * cy - ay * cx;
+    let mut w = bx * ay - by * ax;
+    // On an edge in f32: decide it in f64, as the paper does.
+    if u == 0.0 || v == 0.0 || w == 0.0 {
+        let e = |px: f32, py: f32, qx: f32, qy: f32| (px as f64 * qy as f64 - py as f64 * qx as f64) as f32;
+        u = e(cx, cy, bx, by);
+        v = e(ax, ay, cx, cy);
+        w = e(bx, by, ax, ay);
+    }
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return f32::INFINITY;
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return f32::INFINITY;
+    }
+    let t = (u * sz * va[kz] + v * sz * vb[kz] + w * sz * vc[kz]) / det;
+    if t >= r.tmin && t <= r.tmax {
+        t
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// Barycentric coordinates (of v1, v2) of point `p` in the triangle's plane.
 fn barycentric(t: &Triangle, p: Vec3) -> Vec2 {
     let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
@@ -720,5 +778,73 @@ mod tests {
         assert!(bvh.occluded(Vec3::new(-0.6, 0.001, -0.7), Vec3::new(0.0, 1.9, 0.0)));
         assert!(!bvh.occluded(Vec3::new(0.9, 0.01, 0.9), Vec3::new(0.0, 1.9, 0.0)));
         assert!(bvh.occluded(Vec3::new(-0.35, -0.5, -0.3), Vec3::new(-0.35, 1.9, -0.3)));
+    }
+
+    /// Rays aimed exactly at the seams of an empty Cornell room (its
+    /// corners, the edges where walls meet, each wall's diagonal, shared by
+    /// its two triangles) hit it: a test that let such a ray through both
+    /// triangles at an edge left holes in the path tracer's images.
+    #[test]
+    fn rays_through_shared_edges_and_corners_hit() {
+        let mut scene = Scene::new("room");
+        let white = scene.add_material(Vec3::splat(0.7), None);
+        // Floor, ceiling, back, left and right walls: corner, u, v (u x v
+        // into the room), as the built-in rooms.
+        let walls = [
+            (Vec3::new(-1.0, 0.0, 1.0), Vec3::X * 2.0, -Vec3::Z * 2.0),
+            (Vec3::new(-1.0, 2.0, -1.0), Vec3::X * 2.0, Vec3::Z * 2.0),
+            (Vec3::new(-1.0, 0.0, -1.0), Vec3::X * 2.0, Vec3::Y * 2.0),
+            (Vec3::new(-1.0, 0.0, 1.0), -Vec3::Z * 2.0, Vec3::Y * 2.0),
+            (Vec3::new(1.0, 0.0, -1.0), Vec3::Z * 2.0, Vec3::Y * 2.0),
+        ];
+        for (c, u, v) in walls {
+            let n = u.cross(v).normalize();
+            scene
+                .add_mesh(&[c, c + u, c + u + v, c + v], &[n; 4], &[], &[0, 1, 2, 0, 2, 3], Mat4::IDENTITY, white)
+                .unwrap();
+        }
+        let bvh = SceneBvh::new(&scene);
+        let origins = [
+            Vec3::new(0.0, 1.0, 0.9),
+            Vec3::new(0.3, 0.7, 0.5),
+            Vec3::new(-0.45, 1.3, 0.2),
+            Vec3::new(0.0, 1.0, 3.5),
+        ];
+        let mut targets = Vec::new();
+        for k in 0..=16 {
+            let f = k as f32 / 16.0;
+            let (a, b) = (2.0 * f - 1.0, 2.0 * f);
+            // The back wall's edges and its diagonals.
+            targets.extend([
+                Vec3::new(-1.0, b, -1.0),
+                Vec3::new(1.0, b, -1.0),
+                Vec3::new(a, 0.0, -1.0),
+                Vec3::new(a, 2.0, -1.0),
+                Vec3::new(a, b, -1.0),
+                Vec3::new(a, 2.0 - b, -1.0),
+            ]);
+            // The side walls' edges with the floor and the ceiling (short
+            // of the open front, where a ray at the rim may pass outside).
+            if k == 16 {
+                continue;
+            }
+            targets.extend([
+                Vec3::new(-1.0, 0.0, a),
+                Vec3::new(1.0, 0.0, a),
+                Vec3::new(-1.0, 2.0, a),
+                Vec3::new(1.0, 2.0, a),
+            ]);
+        }
+        let mut missed = Vec::new();
+        for o in origins {
+            for &t in &targets {
+                let d = t - o;
+                let hit = bvh.intersect(o, d.normalize(), 0.0, 100.0);
+                if hit.is_none_or(|h| (h.t - d.length()).abs() > 1e-3) {
+                    missed.push((o, t, hit.map(|h| h.t)));
+                }
+            }
+        }
+        assert!(missed.is_empty(), "{} of {} rays: {missed:?}", missed.len(), origins.len() * targets.len());
     }
 }
