@@ -123,14 +123,35 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
 
 // Adds a visited cluster from its means: the mean of max(G - b, 0) over it
 // times sum(A_y S(y)), kept linear in the receiver's normal nx.
-void add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) {
+// Returns max(G - b, 0) A_y S(y) summed over it (zero if not added): what a
+// glossy receiver weights by its BRDF towards v.w (add_glossy_visits).
+vec3 add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) {
+    vec3 weighted = vec3(0.0);
     if (v.action == ADD && v.weight > 0.0) {
         acc.r += vec4(v.wk * as.r, v.weight * as.r);
         acc.g += vec4(v.wk * as.g, v.weight * as.g);
         acc.b += vec4(v.wk * as.b, v.weight * as.b);
         float excess = max(dot(nx, v.wk) - pc.frame.bound * v.weight, 0.0);
-        add_glossy(nx, v.w, excess, as);
+        weighted = excess * as;
         add_to_scale(scale, excess * (as.r + as.g + as.b), v.inv_dist);
+    }
+    return weighted;
+}
+
+// A glossy receiver's rest for the clusters of a texel that were added
+// (`*_weighted` from add_visit): the BRDF in a loop over those, so that a
+// SIMD group whose lanes add one cluster evaluates it once and a group that
+// adds none skips it; lavapipe runs both sides of an if for the whole
+// group, so called once per cluster it cost two evaluations per texel
+// (spheres 1024x768: step 760 -> 716 ms, images the same bit for bit).
+void add_glossy_visits(vec3 nx, Visit front, vec3 front_weighted, Visit back, vec3 back_weighted) {
+    if (!glossy_active) return;
+    bool f = any(greaterThan(front_weighted, vec3(0.0)));
+    bool b = any(greaterThan(back_weighted, vec3(0.0)));
+    int n = int(f) + int(b);
+    for (int c = 0; c < n; c++) {
+        bool take_front = f && c == 0;
+        add_glossy(nx, take_front ? front.w : back.w, 1.0, take_front ? front_weighted : back_weighted);
     }
 }
 
@@ -232,8 +253,9 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
         uint visit_children = (front.action != SKIP ? bits & 15u : 0u) | (back.action != SKIP ? bits >> 4 : 0u);
         bool refine = (front.action == REFINE || back.action == REFINE) && visit_children != 0u;
         if (!refine) {
-            add_visit(acc, front, cluster_radiance(i, 0u), nx, scale);
-            add_visit(acc, back, cluster_radiance(i, 1u), nx, scale);
+            vec3 front_weighted = add_visit(acc, front, cluster_radiance(i, 0u), nx, scale);
+            vec3 back_weighted = add_visit(acc, back, cluster_radiance(i, 1u), nx, scale);
+            add_glossy_visits(nx, front, front_weighted, back, back_weighted);
         }
         int z = t.z - 1;
         int k = lowest_of_4(visit_children);
