@@ -21,6 +21,19 @@ fn render(scene: &ssbc::Scene, settings: ReferenceSettings) -> Vec<f32> {
         .0
 }
 
+/// The path tracer's direct light at `w` x `h`, one ray per pixel centre
+/// (what the rasterised G-buffer sees).
+fn direct_light(scene: &ssbc::Scene, w: u32, h: u32) -> Vec<f32> {
+    let settings = ReferenceSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        bounces: 0,
+        ..Default::default()
+    };
+    render(scene, settings)
+}
+
 #[test]
 fn path_tracer_matches_the_analytic_point_light() {
     let (albedo, intensity) = (0.5, 3.0);
@@ -251,16 +264,7 @@ fn gpu_agrees_with_the_cpu_reference_on_cornell() {
     s.vpl.count = 0;
     s.ssbc.steps = 0;
     let gpu = common::render_validated(&scene, &s);
-    let cpu = render(
-        &scene,
-        ReferenceSettings {
-            width: w,
-            height: h,
-            spp: 1,
-            bounces: 0,
-            ..Default::default()
-        },
-    );
+    let cpu = direct_light(&scene, w, h);
     let c = compare(&gpu.image.rgba, &cpu).unwrap();
     eprintln!(
         "direct: GPU/CPU mean {:.4}, relMSE {:.5}",
@@ -382,16 +386,7 @@ fn the_path_tracers_camera_rays_leave_no_holes_at_seams() {
     for name in ssbc::scene::builtin::NAMES {
         let scene = ssbc::scene::builtin::by_name(name).unwrap();
         for (w, h) in [(128, 96), (320, 240), (333, 250)] {
-            let rgba = render(
-                &scene,
-                ReferenceSettings {
-                    width: w,
-                    height: h,
-                    spp: 1,
-                    bounces: 0,
-                    ..Default::default()
-                },
-            );
+            let rgba = direct_light(&scene, w, h);
             let geometry = |x: u32, y: u32| rgba[((y * w + x) * 4 + 3) as usize] > 0.0;
             for y in 1..h - 1 {
                 for x in 1..w - 1 {
