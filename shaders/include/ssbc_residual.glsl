@@ -41,13 +41,15 @@ void begin_glossy(Brdf b, vec3 x, vec3 nx) {
     glossy_alpha = brdf_alpha(b);
 }
 
-void add_glossy(vec3 nx, vec3 w, float excess, vec3 as) {
-    if (!glossy_active || !(excess > 0.0)) return;
+// Adds to glossy_rest what a cluster towards w sends with
+// weighted = max(G - b, 0) A_y S(y).
+void add_glossy(vec3 nx, vec3 w, vec3 weighted) {
+    if (!glossy_active) return;
     float diffuse_weight;
     vec3 specular;
     brdf_parts(glossy_brdf, nx, glossy_wo, w, diffuse_weight, specular);
     vec3 diffuse = brdf_diffuse_color(glossy_brdf) / PI;
-    glossy_rest += (diffuse * (diffuse_weight - 1.0) + specular) * (excess * as);
+    glossy_rest += (diffuse * (diffuse_weight - 1.0) + specular) * weighted;
 }
 
 // Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`) if G > b there.
@@ -63,8 +65,9 @@ float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 
     acc.r += vec4(wk * as.r, as.r);
     acc.g += vec4(wk * as.g, as.g);
     acc.b += vec4(wk * as.b, as.b);
-    add_glossy(nx, w, cos_x * k - pc.frame.bound, as);
-    return cos_x * k - pc.frame.bound;
+    float excess = cos_x * k - pc.frame.bound;
+    add_glossy(nx, w, excess * as);
+    return excess;
 }
 
 // What a contribution c at distance 1 / inv_d adds to the sums (sum c,

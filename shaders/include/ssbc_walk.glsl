@@ -143,7 +143,7 @@ vec3 add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
 // SIMD group whose lanes add one cluster evaluates it once and a group that
 // adds none skips it; lavapipe runs both sides of an if for the whole
 // group, so called once per cluster it cost two evaluations per texel
-// (spheres 1024x768: step 760 -> 716 ms, images the same bit for bit).
+// (spheres 1024x768: step 760 -> 716-731 ms, images the same bit for bit).
 void add_glossy_visits(vec3 nx, Visit front, vec3 front_weighted, Visit back, vec3 back_weighted) {
     if (!glossy_active) return;
     bool f = any(greaterThan(front_weighted, vec3(0.0)));
@@ -151,7 +151,7 @@ void add_glossy_visits(vec3 nx, Visit front, vec3 front_weighted, Visit back, ve
     int n = int(f) + int(b);
     for (int c = 0; c < n; c++) {
         bool take_front = f && c == 0;
-        add_glossy(nx, take_front ? front.w : back.w, 1.0, take_front ? front_weighted : back_weighted);
+        add_glossy(nx, take_front ? front.w : back.w, take_front ? front_weighted : back_weighted);
     }
 }
 
