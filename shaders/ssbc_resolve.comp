@@ -190,10 +190,14 @@ void main() {
                 && all(lessThan(t, level_size(0u, l - 1)))) {
                 uint index = texel_index(0u, t, l - 1);
                 if (atomicExchange(claims[index], pc.generation) != pc.generation) {
-                    APPEND_ITEM(requests, pack_item(t));
+                    // Points at glossy receivers at the back (ssbc_eval.glsl).
+                    uint q_index = texel_index(0u, eval_pixel(t, l - 1), 0);
+                    bool glossy_point = (geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u;
+                    APPEND_ITEM_TO(requests, pack_item(t), glossy_point);
                 }
             }
         }
     }
-    APPEND_ITEM(pending_out, pack_item(p));
+    // Glossy receivers at the back of the fallback list (ssbc_fallback.glsl).
+    APPEND_ITEM_TO(pending_out, pack_item(p), l == 1 && glossy);
 }

@@ -209,7 +209,9 @@ impl SsbcPostProcess {
         Ok(Self {
             slots: (0..slots).map(|_| None).collect(),
             pass: SsbcPass::new(device)?,
-            profiler: GpuProfiler::new(device, 256, 1, false, false)?,
+            // Room for 16 steps of up to 31 scopes each (8 evaluation levels
+            // of eval, eval/glossy and resolve; the step's own scopes).
+            profiler: GpuProfiler::new(device, 1024, 1, false, false)?,
             device: device.clone(),
         })
     }

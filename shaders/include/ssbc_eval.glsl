@@ -8,14 +8,20 @@
 // 1), or where the bounding radius spans fewer than pc.texels_per_radius of
 // its texels on screen, is unusable.
 //
-// Included by ssbc_eval.comp (every point but those at glossy receivers,
-// which it lists) and, with SSBC_GLOSSY_POINTS defined,
-// ssbc_eval_glossy.comp (the listed ones, which also sum their glossy
-// rest). Apart, a Lambertian point runs none of the glossy code (lavapipe
-// runs both sides of a branch: with the glossy code behind a uniform test
-// cornell's evaluation levels took 10-20% longer, behind a per-point one
-// 50%), and a SIMD group never runs both walks (the open-front box's
-// levels took 1.5-1.7x its Lambertian twin's when it did).
+// Included by ssbc_eval.comp (the points at receivers that are not glossy)
+// and, with SSBC_GLOSSY_POINTS defined, ssbc_eval_glossy.comp (the points
+// at glossy receivers, which also sum their glossy rest; with ONE_DISPATCH
+// every point). In frames with glossy receivers the points come from a
+// two-ended list (ssbc_types.glsl), glossy ones at the back, so a SIMD
+// group runs one walk. On a CPU device (lavapipe) the two kernels run one
+// after the other and a Lambertian point runs none of the glossy code:
+// lavapipe runs both sides of a branch (with the glossy code behind a
+// uniform test cornell's evaluation levels took 10-20% longer, behind a
+// per-point one 50%; the open-front box's levels took 1.5-1.7x its
+// Lambertian twin's when a SIMD group ran both walks). On a GPU, where a
+// level takes as long as its slowest walk whatever the number of points,
+// one dispatch runs both (ONE_DISPATCH; H100, spheres 1024x768: the two
+// kernels of a level took 0.42 + 0.67 ms one after the other).
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform EvalPush {
@@ -35,9 +41,6 @@ layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
-// Points at glossy receivers, which ssbc_eval.comp leaves to
-// ssbc_eval_glossy.comp.
-layout(set = 0, binding = 5) buffer GlossyPoints { ListHeader header; uint items[]; } glossy_points;
 #ifdef SSBC_GLOSSY_POINTS
 layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
@@ -52,25 +55,19 @@ void store_point(uint index, EvalPoint p) {
     imageStore(eval_points, at + 3, uvec4(floatBitsToUint(p.reads), floatBitsToUint(p.variation), p.generation, p.pad));
 }
 
-#ifndef SSBC_GLOSSY_POINTS
-void main() {
+// The point of texel t of level pc.level; `glossy`: at a glossy receiver,
+// whose glossy rest is summed too (the lobe refined at half its fineness,
+// see ssbc_walk.glsl) and written to point_glossy (w: the step's
+// generation). Pixels of the same material whose lobe points nearly the
+// same way interpolate it (ssbc_resolve.comp).
+void evaluate(ivec2 t, bool glossy) {
     int l = int(pc.level);
-    uint i = gl_GlobalInvocationID.x;
-    ivec2 size_l = level_size(0u, l);
-    ivec2 t;
-    if (pc.from_list == 1u) {
-        if (i >= requests.header.count) return;
-        t = unpack_item(requests.items[i]);
-    } else {
-        // One row of work groups per row of the level (no integer division).
-        t = ivec2(gl_GlobalInvocationID.xy);
-        if (t.x >= size_l.x) return;
-    }
     uint index = texel_index(0u, t, l);
     ivec2 q = eval_pixel(t, l);
     uint q_index = texel_index(0u, q, 0);
     GeoCluster g = geo_cluster(q_index, 0u);
     vec3 x = g.position_extent.xyz;
+    vec3 nx = g.normal_cone.xyz;
     float r_world = inversesqrt(pc.frame.bound);
     // A point stands for its block only on one smooth surface, except at
     // level 1: there a pixel is at most a pixel from the points it
@@ -86,44 +83,42 @@ void main() {
         store_point(index, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
         return;
     }
-    // A point at a glossy receiver (ssbc_geometry_base.comp marks them) is
-    // listed for ssbc_eval_glossy.comp: in one SIMD group with points here
-    // it would run both walks.
-    if ((geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u) {
-        APPEND_ITEM(glossy_points, pack_item(t));
-        return;
+#ifdef SSBC_GLOSSY_POINTS
+    if (glossy) {
+        begin_glossy(receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q)), x, nx);
+        glossy_refine = 0.5;
     }
-    uint count = 0u;
-    float variation;
-    Residual residual = residual_integral(x, g.normal_cone.xyz, vec2(q), count, variation);
-    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
-}
-#else
-// The listed points at glossy receivers: the residual's linear form and
-// the glossy rest of the point's own pixel's BRDF seen from the eye, as
-// its fallback would sum them (ssbc_fallback.comp; the lobe refined at
-// half its fineness, see ssbc_walk.glsl). Pixels of the same material
-// whose lobe points nearly the same way interpolate it
-// (ssbc_resolve.comp). point_glossy's w: the step's generation.
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= glossy_points.header.count) return;
-    ivec2 t = unpack_item(glossy_points.items[i]);
-    int l = int(pc.level);
-    uint index = texel_index(0u, t, l);
-    ivec2 q = eval_pixel(t, l);
-    GeoCluster g = geo_cluster(texel_index(0u, q, 0), 0u);
-    vec3 x = g.position_extent.xyz;
-    vec3 nx = g.normal_cone.xyz;
-    Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
-    begin_glossy(b, x, nx);
-    glossy_refine = 0.5;
+#endif
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(q), count, variation);
     store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
-    imageStore(point_glossy, int(index), vec4(glossy_rest, uintBitsToFloat(pc.generation)));
-}
+#ifdef SSBC_GLOSSY_POINTS
+    if (glossy) imageStore(point_glossy, int(index), vec4(glossy_rest, uintBitsToFloat(pc.generation)));
 #endif
+}
+
+void main() {
+    ivec2 t;
+#ifdef SSBC_GLOSSY_POINTS
+    bool glossy = true;
+    bool both = (pc.frame.layers & ONE_DISPATCH) != 0u;
+#else
+    bool glossy = false;
+    bool both = false;
+#endif
+    if (pc.from_list == 1u) {
+        uint slot;
+        LIST_SLOT(requests, slot, glossy, both);
+        if (slot == ~0u) return;
+        t = unpack_item(requests.items[slot]);
+    } else {
+        // Every texel of a frame without glossy receivers; one row of work
+        // groups per row of the level (no integer division).
+        t = ivec2(gl_GlobalInvocationID.xy);
+        if (t.x >= level_size(0u, int(pc.level)).x) return;
+    }
+    evaluate(t, glossy);
+}
 
 #endif

@@ -6,11 +6,12 @@
 // BRDF. Dispatched indirectly over the fallback list (bound as pending_in).
 //
 // Like the evaluation points (ssbc_eval.glsl), glossy receivers (marked by
-// the geometry pass) are listed (pending_out) for ssbc_fallback_glossy.comp,
-// which defines SSBC_GLOSSY_FALLBACK: here a pixel never runs the glossy
-// walk, and a SIMD group never runs both. Lambertian frames gain the most:
-// the Lambertian twin of spheres at 1024x768 took 152 -> 97 ms here with
-// the glossy code behind a per-pixel test removed.
+// the geometry pass) are at the back of the fallback list, for
+// ssbc_fallback_glossy.comp, which defines SSBC_GLOSSY_FALLBACK (and with
+// ONE_DISPATCH takes the front too): on a CPU device a pixel here never
+// runs the glossy walk, and a SIMD group never runs both. Lambertian frames
+// gain the most: the Lambertian twin of spheres at 1024x768 took 152 -> 97
+// ms here with the glossy code behind a per-pixel test removed.
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform FallbackPush {
@@ -25,15 +26,8 @@ layout(push_constant) uniform FallbackPush {
 
 layout(local_size_x = 64) in;
 
-#ifndef SSBC_GLOSSY_FALLBACK
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= pending_in.header.count) return;
-    ivec2 p = unpack_item(pending_in.items[i]);
-    if ((geo_aux(texel_index(0u, p, 0)).flags & GLOSSY_RECEIVER) != 0u) {
-        APPEND_ITEM(pending_out, pack_item(p));
-        return;
-    }
+// A receiver that is not glossy.
+void fallback(ivec2 p) {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     uint count = 0u;
@@ -47,13 +41,11 @@ void main() {
     vec3 rest = brdf_is_lambertian(b) ? vec3(0.0) : nearly_lambertian_rest(b, nx, wo, residual, integral);
     write_residual(p, b, integral, rest, float(count));
 }
-#else
-// The listed glossy receivers: the walk with their BRDF, refined by their
-// lobe (ssbc_walk.glsl).
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= pending_in.header.count) return;
-    ivec2 p = unpack_item(pending_in.items[i]);
+
+#ifdef SSBC_GLOSSY_FALLBACK
+// A glossy receiver: the walk with its BRDF, refined by its lobe
+// (ssbc_walk.glsl).
+void fallback_glossy(ivec2 p) {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     Brdf b = pixel_brdf(p);
@@ -64,4 +56,27 @@ void main() {
     write_residual(p, b, residual_at(residual, nx), glossy_rest, float(count));
 }
 #endif
+
+void main() {
+    uint slot;
+#ifdef SSBC_GLOSSY_FALLBACK
+    bool glossy = true;
+    bool both = (pc.frame.layers & ONE_DISPATCH) != 0u;
+#else
+    bool glossy = false;
+    bool both = false;
+#endif
+    LIST_SLOT(pending_in, slot, glossy, both);
+    if (slot == ~0u) return;
+    ivec2 p = unpack_item(pending_in.items[slot]);
+#ifdef SSBC_GLOSSY_FALLBACK
+    if (glossy) {
+        fallback_glossy(p);
+    } else {
+        fallback(p);
+    }
+#else
+    fallback(p);
+#endif
+}
 #endif

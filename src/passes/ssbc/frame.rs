@@ -45,8 +45,10 @@ pub struct SsbcFrame {
     pub claims: Buffer,
     /// Pixels still to resolve at the next finer level (two, used in turn).
     pub pending: [Buffer; 2],
-    /// Evaluation points at glossy receivers, left to the glossy kernel.
-    pub glossy_points: Buffer,
+    /// In frames with glossy receivers, the coarsest level's evaluation
+    /// points as a two-ended list (glossy receivers at the back), made once
+    /// per frame.
+    pub top_points: Buffer,
     /// Texels whose evaluation points the next level needs.
     pub requests: Buffer,
     /// Pixels evaluated alone.
@@ -102,11 +104,14 @@ impl SsbcFrame {
     /// `stats` declared as host-read).
     pub fn fallback_counts(&self) -> Result<Vec<u32>> {
         let words: Vec<u32> = self.stats.read()?;
-        Ok(words.chunks_exact(4).map(|h| h[3]).collect())
+        // Each a copy of the fallback list's header: its front and back counts.
+        Ok(words.chunks_exact(12).map(|h| h[3] + h[7]).collect())
     }
 }
 
 /// Sizes of the GLSL structs, in bytes.
+/// `ListHeader` (ssbc_types.glsl).
+pub(super) const LIST_HEADER_BYTES: u64 = 48;
 pub(super) const GEO_TEXEL_BYTES: u64 = 64;
 pub(super) const AUX_BYTES: u64 = 16;
 pub(super) const RADIANCE_BYTES: u64 = 32;
@@ -143,7 +148,7 @@ impl SsbcPass {
                 MemoryLocation::GpuOnly,
             )
         };
-        let list_bytes = 16 + 4 * pyramid_size.0 as u64 * pyramid_size.1 as u64;
+        let list_bytes = LIST_HEADER_BYTES + 4 * pyramid_size.0 as u64 * pyramid_size.1 as u64;
         let list = |name: &str| {
             Buffer::new(
                 device,
@@ -229,12 +234,12 @@ impl SsbcPass {
             claims,
             pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
             requests: list("ssbc.requests")?,
-            glossy_points: list("ssbc.glossy_points")?,
+            top_points: list("ssbc.top_points")?,
             fallback: list("ssbc.fallback")?,
             stats: Buffer::new(
                 device,
                 "ssbc.stats",
-                16 * steps.max(1) as u64,
+                LIST_HEADER_BYTES * steps.max(1) as u64,
                 vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )?,

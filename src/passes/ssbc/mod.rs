@@ -22,7 +22,8 @@ use crate::error::Result;
 pub use crate::settings::{Integration, LayerResolution, SsbcSettings};
 use crate::shaders::{
     ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
-    ssbc_layer_residual_comp, ssbc_radiance_mips_comp, ssbc_resolve_comp, ssbc_samples_comp,
+    ssbc_layer_residual_comp, ssbc_list_points_comp, ssbc_radiance_mips_comp, ssbc_resolve_comp,
+    ssbc_samples_comp,
 };
 use crate::vk::{
     Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
@@ -32,8 +33,8 @@ pub use frame::SsbcFrame;
 pub use pyramids::{check_size, frame_bytes, pyramid_levels};
 pub use push::GLOSSY_RECEIVERS;
 use push::{
-    EvalPush, GeometryBasePush, GeometryMipsPush, IntegralPush, RadiancePush, ResolvePush,
-    SamplesPush,
+    EvalPush, GeometryBasePush, GeometryMipsPush, IntegralPush, ListPointsPush, RadiancePush,
+    ResolvePush, SamplesPush,
 };
 
 /// Camera quantities the SSBC shaders need.
@@ -55,15 +56,27 @@ pub struct SsbcPass {
     geometry_base: ComputeKernel<ssbc_geometry_base_comp::Interface, GeometryBasePush>,
     geometry: ComputeKernel<ssbc_geometry_mips_comp::Interface, GeometryMipsPush>,
     radiance: ComputeKernel<ssbc_radiance_mips_comp::Interface, RadiancePush>,
+    /// The coarsest level's points as a list, in frames with glossy receivers.
+    list_points: ComputeKernel<ssbc_list_points_comp::Interface, ListPointsPush>,
     eval: ComputeKernel<ssbc_eval_comp::Interface, EvalPush>,
-    /// The evaluation points of frames with glossy receivers.
+    /// The evaluation points at glossy receivers (with `one_dispatch`, all).
     eval_glossy: ComputeKernel<ssbc_eval_glossy_comp::Interface, EvalPush>,
     resolve: ComputeKernel<ssbc_resolve_comp::Interface, ResolvePush>,
     fallback: ComputeKernel<ssbc_fallback_comp::Interface, IntegralPush>,
-    /// The glossy receivers the fallback lists.
+    /// The fallback pixels at glossy receivers (with `one_dispatch`, all).
     fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface, IntegralPush>,
     samples: ComputeKernel<ssbc_samples_comp::Interface, SamplesPush>,
     layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface, IntegralPush>,
+    /// In frames with glossy receivers, evaluate the points and fallback
+    /// pixels at glossy receivers and at the others in one dispatch (the
+    /// glossy kernels), not one kernel after the other. A GPU's level takes
+    /// as long as its slowest walk, so the second kernel added its whole
+    /// time (H100, spheres 1024x768: 0.42 + 0.67 ms a level); a CPU device
+    /// (lavapipe) runs every side of a branch, so there the Lambertian
+    /// points keep a kernel without the glossy code. `SSBC_ONE_DISPATCH=0`
+    /// or `1` in the environment overrides the choice (for tests and
+    /// benchmarks).
+    one_dispatch: bool,
 }
 
 /// A texels-read count at least this (`CUT_SHORT` in ssbc.glsl) marks a
@@ -96,6 +109,7 @@ impl SsbcPass {
             geometry_base: ComputeKernel::new(device)?.named("ssbc_geometry_base"),
             geometry: ComputeKernel::new(device)?.named("ssbc_geometry_mips"),
             radiance: ComputeKernel::new(device)?.named("ssbc_radiance_mips"),
+            list_points: ComputeKernel::new(device)?.named("ssbc_list_points"),
             eval: ComputeKernel::new(device)?.named("ssbc_residual_eval"),
             eval_glossy: ComputeKernel::new(device)?.named("ssbc_residual_eval_glossy"),
             resolve: ComputeKernel::new(device)?.named("ssbc_residual_resolve"),
@@ -103,7 +117,18 @@ impl SsbcPass {
             fallback_glossy: ComputeKernel::new(device)?.named("ssbc_residual_fallback_glossy"),
             samples: ComputeKernel::new(device)?.named("ssbc_samples"),
             layer_residual: ComputeKernel::new(device)?.named("ssbc_layer1_residual"),
+            one_dispatch: match std::env::var("SSBC_ONE_DISPATCH").as_deref() {
+                Ok("1") => true,
+                Ok("0") => false,
+                _ => device.properties.device_type != ash::vk::PhysicalDeviceType::CPU,
+            },
         })
+    }
+
+    /// Whether frames with glossy receivers evaluate both kinds of
+    /// receiver in one dispatch (see the field).
+    pub fn one_dispatch(&self) -> bool {
+        self.one_dispatch
     }
 
     /// Layouts of every set one frame of `frame` allocates.
@@ -114,7 +139,7 @@ impl SsbcPass {
             .chain(frame.layer1.map(|r| levels - r.shift() as usize))
             .collect();
         let built: usize = per_layer.iter().sum();
-        let mut v = Vec::new();
+        let mut v = vec![self.list_points.set_layout()];
         for &layer_levels in &per_layer {
             v.push(self.geometry_base.set_layout());
             v.extend(std::iter::repeat_n(

@@ -14,6 +14,11 @@ use crate::settings::Integration;
 /// ssbc's own G-buffer writes it; without it every receiver is Lambertian.
 pub const GLOSSY_RECEIVERS: u32 = 256;
 
+/// `SsbcFrame.layers` bit: the evaluation points and fallback pixels at
+/// glossy receivers and at the others run in one dispatch (ONE_DISPATCH in
+/// shaders/include/ssbc_eval.glsl; [`super::SsbcPass`] sets it on GPUs).
+pub(crate) const ONE_DISPATCH: u32 = 512;
+
 /// What every SSBC kernel reads of the frame (`SsbcFrame`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -74,6 +79,20 @@ impl FrameBlock {
     pub fn glossy_receivers(&self) -> bool {
         self.layers & GLOSSY_RECEIVERS != 0
     }
+
+    /// Whether both kinds of receiver run in one dispatch ([`ONE_DISPATCH`]).
+    pub fn one_dispatch(&self) -> bool {
+        self.layers & ONE_DISPATCH != 0
+    }
+
+    /// The same frame, with both kinds of receiver in one dispatch if
+    /// `one` and receivers may be glossy.
+    pub fn with_one_dispatch(mut self, one: bool) -> Self {
+        if one && self.glossy_receivers() {
+            self.layers |= ONE_DISPATCH;
+        }
+        self
+    }
 }
 
 /// How the residual integral refines and integrates (`ResidualParams`).
@@ -116,6 +135,14 @@ pub(crate) struct GeometryMipsPush {
     pub level: u32,
     pub max_normal_spread: f32,
     pub max_thickness: f32,
+}
+
+/// `ssbc_list_points.comp`: the evaluation points of the coarsest level.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub(crate) struct ListPointsPush {
+    pub frame: FrameBlock,
+    pub level: u32,
 }
 
 /// `ssbc_radiance_mips.comp`: one level of `layer`'s radiance pyramid.

@@ -4,21 +4,29 @@
 //! residual for the next step.
 
 use super::push::{
-    EvalPush, FrameBlock, GeometryMipsPush, IntegralPush, ResidualParams,
+    EvalPush, FrameBlock, GeometryMipsPush, IntegralPush, ListPointsPush, ResidualParams,
     ResolvePush, SamplesPush,
 };
+use super::frame::LIST_HEADER_BYTES;
 use super::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass};
 use crate::error::Result;
 use crate::shaders::{
-    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_layer_residual_comp, ssbc_resolve_comp,
-    ssbc_samples_comp,
+    ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_layer_residual_comp,
+    ssbc_list_points_comp, ssbc_resolve_comp, ssbc_samples_comp,
 };
 use crate::vk::{
     Access, Buffer, ComputeKernel, DescriptorPool, GpuProfiler, Image, Recorder, ShaderInterface,
 };
 
-/// A list's header: `VkDispatchIndirectCommand` and the item count.
-const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
+/// A list's header (`ListHeader` in shaders/include/ssbc_types.glsl): a
+/// `VkDispatchIndirectCommand` over both ends and the front's count, one
+/// over the front and the back's count, one over the back and padding.
+const LIST_HEADER: [u32; 12] = [0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0];
+/// Where in a list's header the dispatch over both its ends, its front
+/// alone and its back alone are.
+const BOTH_ENDS: u64 = 0;
+const FRONT: u64 = 16;
+const BACK: u64 = 32;
 
 /// The `Bindings` of shader module `$shader`, a kernel that writes a step's
 /// output (ssbc_output.glsl's images, from the `StepOutput` `$out`), with
@@ -126,7 +134,8 @@ impl SsbcPass {
     ) -> Result<()> {
         let extent = visible.gbuffer.extent();
         let hidden = hidden.filter(|_| frame.layer1.is_some());
-        let frame_block = FrameBlock::new(inputs, extent, frame, hidden.is_some());
+        let frame_block = FrameBlock::new(inputs, extent, frame, hidden.is_some())
+            .with_one_dispatch(self.one_dispatch);
 
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
         let mips = GeometryMipsPush {
@@ -143,6 +152,9 @@ impl SsbcPass {
         rec.fill_buffer(&frame.points, 0);
         rec.fill_buffer(&frame.point_glossy, 0);
         rec.fill_buffer(&frame.claims, 0);
+        if frame_block.glossy_receivers() {
+            self.record_list_points(rec, pool, frame_block, inputs.eval_level, frame)?;
+        }
         profiler.end(rec.cmd, scope);
 
         let steps = inputs.settings.steps as usize;
@@ -187,7 +199,8 @@ impl SsbcPass {
                 samples: &frame.samples[step],
             };
             self.record_residual(rec, profiler, &name, pool, &step_out, &push, frame)?;
-            rec.copy_buffer(&frame.fallback, 0, &frame.stats, 16 * step as u64, 16);
+            let header = LIST_HEADER_BYTES;
+            rec.copy_buffer(&frame.fallback, 0, &frame.stats, header * step as u64, header);
             if let (Some(hidden), true) = (hidden, step + 1 < steps) {
                 let sub = profiler.begin(rec.cmd, &format!("{name}/layer1_residual"));
                 self.record_layer1_residual(rec, pool, hidden.gbuffer, step, &push, frame)?;
@@ -196,6 +209,33 @@ impl SsbcPass {
             profiler.end(rec.cmd, scope);
         }
         Ok(())
+    }
+
+    /// The coarsest level's evaluation points as a two-ended list
+    /// (`frame.top_points`), for frames with glossy receivers.
+    fn record_list_points(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        frame_block: FrameBlock,
+        level: u32,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
+        rec.update_buffer(&frame.top_points, 0, bytemuck::bytes_of(&LIST_HEADER));
+        Self::read_pyramids(rec, frame);
+        rec.use_buffer(&frame.top_points, Access::ComputeWrite);
+        rec.flush_barriers();
+        let bindings = ssbc_list_points_comp::Bindings {
+            aux_texels: &frame.aux_view,
+            points: &frame.top_points,
+        };
+        let (w, h) = Self::level_extent(frame, 0, level);
+        let push = ListPointsPush {
+            frame: frame_block,
+            level,
+        };
+        self.list_points
+            .dispatch(rec.cmd, pool, &bindings, &push, [w.div_ceil(64), h, 1])
     }
 
     /// Layer 1's residual of step `step` (its sources in the next step).
@@ -250,9 +290,10 @@ impl SsbcPass {
         // The coarsest level: every texel is an evaluation point, every pixel
         // tries to interpolate.
         let (w, h) = Self::level_extent(frame, 0, top);
-        let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{top}"));
-        self.record_eval(rec, pool, &push.eval(top, false), (frame, &out.gbuffer), [w.div_ceil(64), h, 1])?;
-        profiler.end(rec.cmd, sub);
+        let timed = (&mut *profiler, format!("{step_name}/eval_{top}"));
+        let top_list = push.frame.glossy_receivers().then_some(&frame.top_points);
+        let eval = push.eval(top, top_list.is_some());
+        self.record_eval(rec, timed, pool, &eval, (frame, &out.gbuffer), (top_list, [w.div_ceil(64), h, 1]))?;
         let mut pending_in = &frame.fallback; // unused while not from a list
         let mut pending_out = if top >= 2 {
             &frame.pending[0]
@@ -272,9 +313,9 @@ impl SsbcPass {
         profiler.end(rec.cmd, sub);
         // Finer levels: the points asked for, the pixels still pending.
         for level in (1..top).rev() {
-            let sub = profiler.begin(rec.cmd, &format!("{step_name}/eval_{level}"));
-            self.record_eval(rec, pool, &push.eval(level, true), (frame, &out.gbuffer), [0; 3])?;
-            profiler.end(rec.cmd, sub);
+            let timed = (&mut *profiler, format!("{step_name}/eval_{level}"));
+            let list = Some(&frame.requests);
+            self.record_eval(rec, timed, pool, &push.eval(level, true), (frame, &out.gbuffer), (list, [0; 3]))?;
             pending_in = pending_out;
             pending_out = if level == 1 {
                 &frame.fallback
@@ -288,53 +329,44 @@ impl SsbcPass {
             self.record_resolve(rec, pool, &push.resolve(level, true), frame, out, lists, None)?;
             profiler.end(rec.cmd, sub);
         }
-        // The pixels no point could stand for; the fallback lists glossy
-        // receivers for their own kernel (the glossy points' list is free
-        // again).
+        // The pixels no point could stand for, glossy receivers at the back
+        // of the list: the kernel without the glossy code takes the front,
+        // the glossy kernel the back (with one dispatch, both).
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
-        rec.update_buffer(&frame.glossy_points, 0, bytemuck::bytes_of(&LIST_HEADER));
-        Self::read_pyramids(rec, frame);
-        out.declare(rec);
-        read_list(rec, &frame.fallback);
-        rec.use_buffer(&frame.glossy_points, Access::ComputeWrite);
-        rec.flush_barriers();
-        let bindings = with_output_images!(ssbc_fallback_comp, out, {
-            geo_texels: &frame.geo_view,
-            aux_texels: &frame.aux_view,
-            radiance_texels: &frame.radiance_view,
-            pending_in: &frame.fallback,
-            pending_out: &frame.glossy_points,
-        });
-        self.fallback.dispatch_indirect(
-            rec.cmd,
-            pool,
-            &bindings,
-            &push.integral(),
-            &frame.fallback,
-            0,
-        )?;
-        profiler.end(rec.cmd, sub);
-        if push.frame.glossy_receivers() {
-            let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback_glossy"));
+        let glossy = push.frame.glossy_receivers();
+        if !push.frame.one_dispatch() {
             Self::read_pyramids(rec, frame);
             out.declare(rec);
-            read_list(rec, &frame.glossy_points);
+            read_list(rec, &frame.fallback);
+            rec.flush_barriers();
+            let bindings = with_output_images!(ssbc_fallback_comp, out, {
+                geo_texels: &frame.geo_view,
+                radiance_texels: &frame.radiance_view,
+                pending_in: &frame.fallback,
+            });
+            let push = push.integral();
+            self.fallback.dispatch_indirect(rec.cmd, pool, &bindings, &push, &frame.fallback, FRONT)?;
+        }
+        if glossy {
+            let split = !push.frame.one_dispatch();
+            let sub = split.then(|| profiler.begin(rec.cmd, &format!("{step_name}/fallback/glossy")));
+            Self::read_pyramids(rec, frame);
+            out.declare(rec);
+            read_list(rec, &frame.fallback);
             rec.flush_barriers();
             let bindings = with_output_images!(ssbc_fallback_glossy_comp, out, {
                 geo_texels: &frame.geo_view,
                 radiance_texels: &frame.radiance_view,
-                pending_in: &frame.glossy_points,
+                pending_in: &frame.fallback,
             });
-            self.fallback_glossy.dispatch_indirect(
-                rec.cmd,
-                pool,
-                &bindings,
-                &push.integral(),
-                &frame.glossy_points,
-                0,
-            )?;
-            profiler.end(rec.cmd, sub);
+            let ends = if push.frame.one_dispatch() { BOTH_ENDS } else { BACK };
+            let push = push.integral();
+            self.fallback_glossy.dispatch_indirect(rec.cmd, pool, &bindings, &push, &frame.fallback, ends)?;
+            if let Some(sub) = sub {
+                profiler.end(rec.cmd, sub);
+            }
         }
+        profiler.end(rec.cmd, sub);
         // Texels read per pixel.
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
         Self::read_pyramids(rec, frame);
@@ -357,57 +389,71 @@ impl SsbcPass {
         Ok(())
     }
 
-    /// Evaluation points of `push.level`: every texel (not from the list,
-    /// `groups` work groups) or the requested ones (indirect). Points at
-    /// glossy receivers are listed and evaluated after the others by their
-    /// own kernel, with their pixel's BRDF from the G-buffer.
+    /// Evaluation points of `push.level`: those of a list (a two-ended
+    /// one, glossy receivers at the back) or, without one, every texel in
+    /// `groups` work groups. The kernel without the glossy code takes the
+    /// front, the glossy kernel the back, with its pixel's BRDF from the
+    /// G-buffer (with one dispatch, both). Timed as `timed.1`, the glossy
+    /// kernel after the other also as `{timed.1}/glossy`.
     fn record_eval(
         &self,
         rec: &mut Recorder<'_>,
+        (profiler, name): (&mut GpuProfiler, String),
         pool: &DescriptorPool,
         push: &EvalPush,
         (frame, gbuffer): (&SsbcFrame, &SsbcGBuffer<'_>),
-        groups: [u32; 3],
+        (list, groups): (Option<&Buffer>, [u32; 3]),
     ) -> Result<()> {
-        rec.update_buffer(&frame.glossy_points, 0, bytemuck::bytes_of(&LIST_HEADER));
-        Self::read_pyramids(rec, frame);
-        rec.use_buffer(&frame.points, Access::ComputeWrite);
-        rec.use_buffer(&frame.glossy_points, Access::ComputeWrite);
-        let from_list = push.from_list == 1;
-        if from_list {
-            rec.use_buffer(&frame.requests, Access::IndirectRead);
+        let scope = profiler.begin(rec.cmd, &name);
+        // Bound (and so, for synchronization, read) even when unused.
+        let requests = list.unwrap_or(&frame.requests);
+        if !push.frame.one_dispatch() {
+            Self::read_pyramids(rec, frame);
+            rec.use_buffer(&frame.points, Access::ComputeWrite);
+            if list.is_some() {
+                rec.use_buffer(requests, Access::IndirectRead);
+            }
+            rec.use_buffer(requests, Access::ComputeRead);
+            rec.flush_barriers();
+            let bindings = ssbc_eval_comp::Bindings {
+                geo_texels: &frame.geo_view,
+                aux_texels: &frame.aux_view,
+                radiance_texels: &frame.radiance_view,
+                eval_points: &frame.point_view,
+                requests,
+            };
+            let groups = list.is_none().then_some(groups);
+            let ends = if push.frame.glossy_receivers() { FRONT } else { BOTH_ENDS };
+            dispatch_or_indirect(&self.eval, rec, pool, &bindings, push, groups, (requests, ends))?;
         }
-        rec.use_buffer(&frame.requests, Access::ComputeRead);
-        rec.flush_barriers();
-        let bindings = ssbc_eval_comp::Bindings {
-            geo_texels: &frame.geo_view,
-            aux_texels: &frame.aux_view,
-            radiance_texels: &frame.radiance_view,
-            eval_points: &frame.point_view,
-            requests: &frame.requests,
-            glossy_points: &frame.glossy_points,
-        };
-        let groups = (!from_list).then_some(groups);
-        dispatch_or_indirect(&self.eval, rec, pool, &bindings, push, groups, &frame.requests)?;
-        if !push.frame.glossy_receivers() {
-            return Ok(());
+        if push.frame.glossy_receivers() {
+            // Timed on its own only where it follows the other kernel.
+            let split = !push.frame.one_dispatch();
+            let sub = split.then(|| profiler.begin(rec.cmd, &format!("{name}/glossy")));
+            Self::read_pyramids(rec, frame);
+            gbuffer.read_in_compute(rec);
+            rec.use_buffer(&frame.points, Access::ComputeWrite);
+            rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
+            read_list(rec, requests);
+            rec.flush_barriers();
+            let bindings = ssbc_eval_glossy_comp::Bindings {
+                geo_texels: &frame.geo_view,
+                aux_texels: &frame.aux_view,
+                radiance_texels: &frame.radiance_view,
+                eval_points: &frame.point_view,
+                requests,
+                g_normal: gbuffer.normal,
+                g_albedo: gbuffer.albedo,
+                point_glossy: &frame.point_glossy_view,
+            };
+            let ends = if push.frame.one_dispatch() { BOTH_ENDS } else { BACK };
+            dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, None, (requests, ends))?;
+            if let Some(sub) = sub {
+                profiler.end(rec.cmd, sub);
+            }
         }
-        Self::read_pyramids(rec, frame);
-        gbuffer.read_in_compute(rec);
-        rec.use_buffer(&frame.points, Access::ComputeWrite);
-        rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
-        read_list(rec, &frame.glossy_points);
-        rec.flush_barriers();
-        let bindings = ssbc_eval_glossy_comp::Bindings {
-            geo_texels: &frame.geo_view,
-            radiance_texels: &frame.radiance_view,
-            eval_points: &frame.point_view,
-            glossy_points: &frame.glossy_points,
-            g_normal: gbuffer.normal,
-            g_albedo: gbuffer.albedo,
-            point_glossy: &frame.point_glossy_view,
-        };
-        dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, None, &frame.glossy_points)
+        profiler.end(rec.cmd, scope);
+        Ok(())
     }
 
     /// Resolve at `push.level`: pixels of `lists.0` (or every pixel, with
@@ -451,7 +497,7 @@ impl SsbcPass {
             point_texels: &frame.point_view,
             point_glossy: &frame.point_glossy_view,
         });
-        dispatch_or_indirect(&self.resolve, rec, pool, &bindings, push, groups, pending_in)
+        dispatch_or_indirect(&self.resolve, rec, pool, &bindings, push, groups, (pending_in, FRONT))
     }
 }
 
@@ -464,11 +510,11 @@ fn dispatch_or_indirect<I: ShaderInterface, P: bytemuck::Pod>(
     bindings: &I::Bindings<'_>,
     push: &P,
     groups: Option<[u32; 3]>,
-    args: &Buffer,
+    (args, offset): (&Buffer, u64),
 ) -> Result<()> {
     match groups {
         Some(groups) => kernel.dispatch(rec.cmd, pool, bindings, push, groups),
-        None => kernel.dispatch_indirect(rec.cmd, pool, bindings, push, args, 0),
+        None => kernel.dispatch_indirect(rec.cmd, pool, bindings, push, args, offset),
     }
 }
 

@@ -1,0 +1,47 @@
+//! In frames with glossy receivers, SSBC evaluates the points and fallback
+//! pixels at glossy receivers and at the others in one dispatch on a GPU
+//! and in two kernels, one after the other, on a CPU device (lavapipe);
+//! `SSBC_ONE_DISPATCH` overrides the choice. CI has only lavapipe, so the
+//! GPU's way is run here by the override: both ways give the same image,
+//! validation and synchronization validation clean. This binary's only
+//! test: it sets the variable before each renderer reads it.
+
+mod common;
+
+use ssbc::renderer::Layer;
+use ssbc::settings::Integration;
+
+#[test]
+fn one_dispatch_and_two_kernels_give_the_same_image() {
+    let scene = ssbc::scene::builtin::spheres();
+    for (layers, integration) in [(2, Integration::Hierarchical), (1, Integration::Brute)] {
+        let mut s = common::small(128, 96);
+        s.debug_readback = true;
+        s.vpl.count = 64;
+        s.ssbc.steps = 2;
+        s.ssbc.layers = layers;
+        s.ssbc.integration = integration;
+        let mut frames = Vec::new();
+        for one in ["1", "0"] {
+            std::env::set_var("SSBC_ONE_DISPATCH", one);
+            frames.push(common::render_validated(&scene, &s));
+        }
+        std::env::remove_var("SSBC_ONE_DISPATCH");
+        let (one, two) = (&frames[0], &frames[1]);
+        // The glossy kernel is timed apart only where it follows the other.
+        let has = |f: &ssbc::renderer::Frame, name: &str| {
+            f.timings.timed_passes().iter().any(|p| p.name == name)
+        };
+        for step in 1..=2 {
+            let fallback = format!("ssbc_step_{step}/fallback/glossy");
+            assert!(has(two, &fallback), "two kernels: no {fallback}");
+            assert!(!has(one, &fallback), "one dispatch: {fallback}");
+        }
+        let difference = common::max_relative_difference(one, two);
+        eprintln!("{layers} layer(s), {integration:?}: largest difference {difference:.2e}");
+        assert!(difference < 1e-5, "largest difference {difference}");
+        // Glossy receivers are there and SSBC adds light at them.
+        let residual = one.layer(Layer::Residual(1)).expect("residual layer");
+        assert!(residual.rgba.iter().any(|&v| v > 0.0));
+    }
+}
