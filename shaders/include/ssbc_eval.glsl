@@ -39,6 +39,12 @@ layout(push_constant) uniform EvalPush {
 
 layout(local_size_x = 64) in;
 
+#ifdef SSBC_GLOSSY_POINTS
+const bool GLOSSY_KERNEL = true;
+#else
+const bool GLOSSY_KERNEL = false;
+#endif
+
 layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
 #ifdef SSBC_GLOSSY_POINTS
@@ -100,13 +106,8 @@ void evaluate(ivec2 t, bool glossy) {
 
 void main() {
     ivec2 t;
-#ifdef SSBC_GLOSSY_POINTS
-    bool glossy = true;
-    bool both = (pc.frame.layers & ONE_DISPATCH) != 0u;
-#else
-    bool glossy = false;
-    bool both = false;
-#endif
+    bool glossy = GLOSSY_KERNEL;
+    bool both = takes_both_ends(GLOSSY_KERNEL, pc.frame.layers);
     if (pc.from_list == 1u) {
         uint slot;
         LIST_SLOT(requests, slot, glossy, both);

@@ -26,6 +26,12 @@ layout(push_constant) uniform FallbackPush {
 
 layout(local_size_x = 64) in;
 
+#ifdef SSBC_GLOSSY_FALLBACK
+const bool GLOSSY_KERNEL = true;
+#else
+const bool GLOSSY_KERNEL = false;
+#endif
+
 // A receiver that is not glossy.
 void fallback(ivec2 p) {
     vec3 x = imageLoad(g_position, p).xyz;
@@ -59,13 +65,8 @@ void fallback_glossy(ivec2 p) {
 
 void main() {
     uint slot;
-#ifdef SSBC_GLOSSY_FALLBACK
-    bool glossy = true;
-    bool both = (pc.frame.layers & ONE_DISPATCH) != 0u;
-#else
-    bool glossy = false;
-    bool both = false;
-#endif
+    bool glossy = GLOSSY_KERNEL;
+    bool both = takes_both_ends(GLOSSY_KERNEL, pc.frame.layers);
     LIST_SLOT(pending_in, slot, glossy, both);
     if (slot == ~0u) return;
     ivec2 p = unpack_item(pending_in.items[slot]);

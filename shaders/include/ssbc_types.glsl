@@ -206,6 +206,13 @@ struct ListHeader {
         if (at_back) APPEND_ITEM_BACK(list, item) else APPEND_ITEM(list, item) \
     }
 
+// Whether the kernel over a two-ended list takes both ends: a glossy
+// kernel with ONE_DISPATCH in `layers` (else each kernel takes one end, the
+// glossy ones the back).
+bool takes_both_ends(bool glossy_kernel, uint layers) {
+    return glossy_kernel && (layers & ONE_DISPATCH) != 0u;
+}
+
 // This invocation's item of a list dispatched indirectly, 64 invocations
 // per work group: over both ends if `both_ends` (then `at_back` is set from
 // the work group), else over the end `at_back` says. Sets `slot`, an index
