@@ -3,13 +3,14 @@
 //! and in two kernels, one after the other, on a CPU device (lavapipe);
 //! `SSBC_ONE_DISPATCH` overrides the choice. CI has only lavapipe, so the
 //! GPU's way is run here by the override: both ways give the same image,
-//! validation and synchronization validation clean. This binary's only
-//! test: it sets the variable before each renderer reads it.
+//! validation and synchronization validation clean, and the one dispatch
+//! stays in bounds under GPU-assisted validation. This binary's only test:
+//! it sets the variable before each renderer reads it.
 
 mod common;
 
-use ssbc::renderer::Layer;
-use ssbc::settings::Integration;
+use ssbc::renderer::{Layer, Renderer, RendererConfig};
+use ssbc::settings::{Integration, LayerResolution};
 
 #[test]
 fn one_dispatch_and_two_kernels_give_the_same_image() {
@@ -44,4 +45,42 @@ fn one_dispatch_and_two_kernels_give_the_same_image() {
         let residual = one.layer(Layer::Residual(1)).expect("residual layer");
         assert!(residual.rgba.iter().any(|&v| v > 0.0));
     }
+    // The one dispatch under GPU-assisted validation (an odd size with a
+    // half-resolution second layer, and a full-resolution one).
+    std::env::set_var("SSBC_ONE_DISPATCH", "1");
+    let mut renderer = Renderer::new(&RendererConfig {
+        gpu_assisted_validation: true,
+        ..Default::default()
+    })
+    .expect("renderer with GPU-assisted validation");
+    std::env::remove_var("SSBC_ONE_DISPATCH");
+    let log = renderer.validation_log();
+    for (size, layer1) in [
+        ((130, 98), LayerResolution::Half),
+        ((64, 48), LayerResolution::Full),
+    ] {
+        let mut s = common::small(size.0, size.1);
+        s.vpl.count = 16;
+        s.points_per_vpl = 256;
+        s.ism_tile = 16;
+        s.shadow_map_size = 64;
+        s.ssbc.steps = 2;
+        s.ssbc.layers = 2;
+        s.ssbc.layer1_resolution = layer1;
+        let frame = renderer.render(&scene, &s).expect("render");
+        let has_both = frame
+            .timings
+            .timed_passes()
+            .iter()
+            .any(|p| p.name == "ssbc_step_1/fallback/glossy");
+        assert!(!has_both, "the renderer did not take one dispatch");
+    }
+    drop(renderer);
+    assert_eq!(
+        log.total(),
+        0,
+        "GPU-assisted validation reported {} message(s): {:?}",
+        log.total(),
+        log.messages()
+    );
 }
