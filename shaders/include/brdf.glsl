@@ -38,32 +38,31 @@ float brdf_alpha(Brdf b) {
     return r * r;
 }
 
-// The same BRDF with its GGX lobe widened: alpha^2 grows by spread2 (an
-// angle squared, rad^2). Brdf::widened in brdf.rs.
-Brdf brdf_widened(Brdf b, float spread2) {
-    if (brdf_is_lambertian(b) || !(spread2 > 0.0)) return b;
+// GGX alpha of the same BRDF with its lobe widened: alpha^2 grows by
+// spread2 (an angle squared, rad^2). Brdf::widened in brdf.rs, whose
+// roughness is the square root of this (taken here as alpha directly:
+// the gather evaluates two widened lobes per VPL and receiver, and the
+// round trip cost a square root and a clamp each).
+float brdf_widened_alpha(Brdf b, float spread2) {
     float a = brdf_alpha(b);
-    b.roughness = sqrt(min(sqrt(a * a + spread2), 1.0));
-    return b;
+    return brdf_is_lambertian(b) || !(spread2 > 0.0) ? a : min(sqrt(a * a + spread2), 1.0);
 }
 
-// GGX D for unit n and h. 1 - (n.h)^2 is |n x h|^2: near the peak of a
-// narrow lobe the difference cancelled to a few bits in f32, and GPUs'
-// normalize (NVIDIA: 1.9e-3 against the CPU) moved D with them.
-float ggx_d(vec3 n, vec3 h, float a) {
+// GGX D times height-correlated Smith V for unit n and h (nv, nl > 0), in
+// one division. 1 - (n.h)^2 is |n x h|^2: near the peak of a narrow lobe
+// the difference cancelled to a few bits in f32, and GPUs' normalize
+// (NVIDIA: 1.9e-3 against the CPU) moved D with them.
+//   D = a^2 / (pi d^2), d = |n x h|^2 + (n.h)^2 a^2
+//   V = 0.5 / (nl sqrt(nv^2 (1 - a^2) + a^2) + nv sqrt(nl^2 (1 - a^2) + a^2))
+float ggx_dv(vec3 n, vec3 h, float a, float nv, float nl) {
     float nh = dot(n, h);
     if (nh <= 0.0) return 0.0;
     vec3 c = cross(n, h);
     float a2 = a * a;
     float d = dot(c, c) + nh * nh * a2;
-    return a2 / (PI * d * d);
-}
-
-float smith_v(float nv, float nl, float a) {
-    float a2 = a * a;
     float gv = nl * sqrt(nv * nv * (1.0 - a2) + a2);
     float gl = nv * sqrt(nl * nl * (1.0 - a2) + a2);
-    return 0.5 / (gv + gl);
+    return 0.5 * a2 / (PI * d * d * (gv + gl));
 }
 
 // The diffuse colour (1 - m) base: f's diffuse lobe is that / pi times
@@ -73,8 +72,9 @@ vec3 brdf_diffuse_color(Brdf b) {
 }
 
 // f(wo, wi) split as brdf_diffuse_color(b) / pi * diffuse_weight + specular,
-// around unit normal n; both zero unless wo and wi are above the surface.
-void brdf_parts(Brdf b, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
+// around unit normal n, with the GGX lobe's alpha `a` (brdf_alpha(b), or
+// widened); both zero unless wo and wi are above the surface.
+void brdf_parts_alpha(Brdf b, float a, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
     diffuse_weight = 0.0;
     specular = vec3(0.0);
     float nv = dot(n, wo);
@@ -90,18 +90,26 @@ void brdf_parts(Brdf b, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out 
     float schlick = s1 * s1 * s1 * s1 * s1;
     float fd = 0.04 + 0.96 * schlick;
     vec3 fm = b.base + (vec3(1.0) - b.base) * schlick;
-    float a = brdf_alpha(b);
     float m = b.metallic;
     diffuse_weight = 1.0 - b.specular * fd;
-    specular = ((1.0 - m) * b.specular * fd + m * fm) * (ggx_d(n, h, a) * smith_v(nv, nl, a));
+    specular = ((1.0 - m) * b.specular * fd + m * fm) * ggx_dv(n, h, a, nv, nl);
 }
 
-// f(wo, wi) around unit normal n (no cosine); zero unless both are above.
-vec3 brdf_eval(Brdf b, vec3 n, vec3 wo, vec3 wi) {
+void brdf_parts(Brdf b, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
+    brdf_parts_alpha(b, brdf_alpha(b), n, wo, wi, diffuse_weight, specular);
+}
+
+// f(wo, wi) around unit normal n (no cosine) with the lobe's alpha `a`;
+// zero unless both are above.
+vec3 brdf_eval_alpha(Brdf b, float a, vec3 n, vec3 wo, vec3 wi) {
     float diffuse_weight;
     vec3 specular;
-    brdf_parts(b, n, wo, wi, diffuse_weight, specular);
+    brdf_parts_alpha(b, a, n, wo, wi, diffuse_weight, specular);
     return brdf_diffuse_color(b) / PI * diffuse_weight + specular;
+}
+
+vec3 brdf_eval(Brdf b, vec3 n, vec3 wo, vec3 wi) {
+    return brdf_eval_alpha(b, brdf_alpha(b), n, wo, wi);
 }
 
 #endif

@@ -70,15 +70,15 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint s
             sent = power.rgb / PI;
         } else {
             vec4 base = texelFetch(vpl_texels, at + 3);
-            Brdf bz = brdf_widened(Brdf(base.rgb, power.w, base.w, 1.0), spread2);
-            sent = brdf_eval(bz, n_z.xyz, incident.xyz, w) * power.rgb;
+            Brdf bz = Brdf(base.rgb, power.w, base.w, 1.0);
+            sent = brdf_eval_alpha(bz, brdf_widened_alpha(bz, spread2), n_z.xyz, incident.xyz, w) * power.rgb;
         }
         sent *= g * v;
         light.irradiance += sent;
         if (!lambertian) {
             float diffuse_weight;
             vec3 specular;
-            brdf_parts(brdf_widened(bx, spread2), n, wo, -w, diffuse_weight, specular);
+            brdf_parts_alpha(bx, brdf_widened_alpha(bx, spread2), n, wo, -w, diffuse_weight, specular);
             light.glossy += (diffuse * (diffuse_weight - 1.0) + specular) * sent;
             float weight = dot(specular * sent, vec3(1.0));
             light.spread2 += weight * spread2;
