@@ -69,3 +69,41 @@ fn a_leaked_buffer_is_reported_at_device_destruction() {
         "validation should report the leaked VkBuffer"
     );
 }
+
+/// A frame with more passes than the profiler has queries for still
+/// records: the first passes are timed, the rest get labels only (a warning
+/// says so), not a panic in the host's frame.
+#[test]
+fn passes_past_the_profilers_capacity_are_untimed_not_a_panic() {
+    use ssbc::vk::{CommandPool, Device, DeviceSelector, GpuProfiler, Instance, Validation};
+
+    let instance = Instance::with_validation(Validation::Synchronization, &[]).unwrap();
+    let log = instance.validation_log();
+    let device = Device::new(instance, &DeviceSelector::default(), &[]).unwrap();
+    {
+        let mut profiler = GpuProfiler::new(&device, 2, 1, true, false).unwrap();
+        let mut pool = CommandPool::new(&device).unwrap();
+        let rec = pool.begin().unwrap();
+        profiler.begin_frame(rec.cmd, 0, true);
+        let outer = profiler.begin(rec.cmd, "outer");
+        let inner: Vec<_> = (0..3)
+            .map(|k| profiler.begin(rec.cmd, &format!("outer/{k}")))
+            .collect();
+        for scope in inner.into_iter().rev() {
+            profiler.end(rec.cmd, scope);
+        }
+        profiler.end(rec.cmd, outer);
+        profiler.end_frame(rec.cmd);
+        let value = rec.submit().unwrap();
+        profiler.submitted(0);
+        device.wait(value).unwrap();
+        let times = profiler
+            .resolve(0)
+            .unwrap()
+            .expect("timestamps on lavapipe");
+        let names: Vec<&str> = times.passes.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names, ["outer", "outer/0"]);
+    }
+    drop(device);
+    assert_eq!(log.total(), 0, "validation: {:?}", log.messages());
+}

@@ -51,6 +51,8 @@ struct SlotState {
     scopes: Vec<(String, Option<u32>)>,
     /// Pipeline-statistics queries begun.
     statistics_used: u32,
+    /// Passes past the capacity (labelled, not timed).
+    untimed: u32,
     /// The frame was submitted (its queries will be written).
     submitted: bool,
     /// (device timestamp, CLOCK_MONOTONIC ns) taken when the frame ended.
@@ -78,9 +80,14 @@ pub struct GpuProfiler {
     valid_mask: u64,
 }
 
-/// An open pass scope; close it with [`GpuProfiler::end`].
+/// An open pass scope; close it with [`GpuProfiler::end`]. `UNTIMED`: a
+/// pass past the profiler's capacity, which only gets its label.
 #[must_use]
 pub struct PassScope(u32);
+
+impl PassScope {
+    const UNTIMED: u32 = u32::MAX;
+}
 
 /// Pipeline statistics ssbc reads, in the order Vulkan writes them (by bit).
 const STATISTICS: vk::QueryPipelineStatisticFlags = vk::QueryPipelineStatisticFlags::from_raw(
@@ -216,11 +223,18 @@ impl GpuProfiler {
         self.device.begin_label(cmd, name);
         let state = &mut self.slots[self.current];
         let index = state.scopes.len() as u32;
-        assert!(
-            index < self.capacity,
-            "GpuProfiler capacity {} exceeded",
-            self.capacity
-        );
+        if index >= self.capacity {
+            // More passes than there are queries: the frame still records,
+            // its later passes untimed (said once per frame).
+            if state.untimed == 0 {
+                log::warn!(
+                    "GpuProfiler: more than {} passes in a frame; \"{name}\" and later ones are not timed",
+                    self.capacity
+                );
+            }
+            state.untimed += 1;
+            return PassScope(PassScope::UNTIMED);
+        }
         let mut statistics_query = None;
         if let Some(pool) = self
             .statistics
@@ -245,6 +259,10 @@ impl GpuProfiler {
 
     /// Closes a pass: its end timestamp, statistics query and label region.
     pub fn end(&mut self, cmd: vk::CommandBuffer, scope: PassScope) {
+        if scope.0 == PassScope::UNTIMED {
+            self.device.end_label(cmd);
+            return;
+        }
         self.timestamp(cmd, self.base(self.current) + 3 + scope.0 * 2);
         let query = self.slots[self.current].scopes[scope.0 as usize].1;
         if let (Some(pool), Some(query)) = (self.statistics, query) {
