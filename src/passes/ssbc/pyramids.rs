@@ -6,7 +6,8 @@
 use super::push::{FrameBlock, GeometryBasePush, GeometryMipsPush, RadiancePush};
 use super::{SsbcFrame, SsbcGBuffer, SsbcPass};
 use super::frame::{
-    AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, POINT_GLOSSY_BYTES, RADIANCE_BYTES,
+    AUX_BYTES, EVAL_POINT_BYTES, GEO_TEXEL_BYTES, LIST_HEADER_BYTES, POINT_GLOSSY_BYTES,
+    RADIANCE_BYTES,
 };
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
@@ -76,7 +77,8 @@ pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerReso
     let layer1 = effective_layer1(layer1, levels);
     let all = all_layers_texels(size, levels, layer1);
     let points = pyramid_texels(size, levels);
-    let lists = 5 * (16 + 4 * size.0 as u64 * size.1 as u64);
+    // Pending (two), requests, the coarsest level's points, the fallback.
+    let lists = 5 * (LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64);
     let pixels = width as u64 * height as u64;
     // Final image, and per step its residual and its diffuse part (16
     // bytes each) and samples (4).
@@ -107,7 +109,7 @@ pub fn check_size(
     let texels = 4 * all_layers_texels(size, levels, layer1);
     let limits = device.limits();
     let max_texels = limits.max_texel_buffer_elements as u64;
-    let list_bytes = 16 + 4 * size.0 as u64 * size.1 as u64;
+    let list_bytes = LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64;
     let max_range = limits.max_storage_buffer_range as u64;
     if texels <= max_texels && list_bytes <= max_range {
         return Ok(());
