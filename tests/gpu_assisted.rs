@@ -8,7 +8,7 @@
 mod common;
 
 use ash::vk;
-use ssbc::renderer::{Bound, Renderer, RendererConfig};
+use ssbc::renderer::Bound;
 use ssbc::settings::Integration;
 use ssbc::settings::{Gather, LayerResolution};
 use ssbc::vk::{
@@ -16,17 +16,9 @@ use ssbc::vk::{
     Validation,
 };
 
-fn gpu_assisted_renderer() -> Renderer {
-    Renderer::new(&RendererConfig {
-        gpu_assisted_validation: true,
-        ..Default::default()
-    })
-    .expect("renderer with GPU-assisted validation")
-}
-
 #[test]
 fn ism_and_ssbc_stay_in_bounds_under_gpu_assisted_validation() {
-    let mut renderer = gpu_assisted_renderer();
+    let mut renderer = common::gpu_assisted_renderer();
     let log = renderer.validation_log();
     let mut open_box = common::ssbc_accuracy::open_box();
     open_box.ensure_light();
@@ -163,11 +155,7 @@ fn gpu_assisted_validation_catches_an_out_of_bounds_write() {
 
 #[test]
 fn no_layer_holds_nan_or_infinity() {
-    let mut renderer = Renderer::new(&RendererConfig {
-        validation: true,
-        ..Default::default()
-    })
-    .unwrap();
+    let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
     for scene in [
         ssbc::scene::builtin::cornell(),

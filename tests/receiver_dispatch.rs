@@ -9,7 +9,7 @@
 
 mod common;
 
-use ssbc::renderer::{Layer, Renderer, RendererConfig};
+use ssbc::renderer::Layer;
 use ssbc::settings::{Integration, LayerResolution};
 
 #[test]
@@ -48,11 +48,7 @@ fn one_dispatch_and_two_kernels_give_the_same_image() {
     // The one dispatch under GPU-assisted validation (an odd size with a
     // half-resolution second layer, and a full-resolution one).
     std::env::set_var("SSBC_ONE_DISPATCH", "1");
-    let mut renderer = Renderer::new(&RendererConfig {
-        gpu_assisted_validation: true,
-        ..Default::default()
-    })
-    .expect("renderer with GPU-assisted validation");
+    let mut renderer = common::gpu_assisted_renderer();
     std::env::remove_var("SSBC_ONE_DISPATCH");
     let log = renderer.validation_log();
     for (size, layer1) in [

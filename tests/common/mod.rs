@@ -38,6 +38,16 @@ pub fn validated_renderer() -> Renderer {
     .expect("renderer (is lavapipe + the validation layer installed? run scripts/setup.sh)")
 }
 
+/// A renderer with GPU-assisted validation (every shader's buffer and
+/// image accesses checked for bounds).
+pub fn gpu_assisted_renderer() -> Renderer {
+    Renderer::new(&RendererConfig {
+        gpu_assisted_validation: true,
+        ..Default::default()
+    })
+    .expect("renderer with GPU-assisted validation")
+}
+
 /// A frame small in every way (64x48, 32 VPLs of 128 points, 16-texel ISM
 /// tiles, 128-texel shadow maps) with two SSBC steps.
 pub fn tiny_settings() -> RenderSettings {

@@ -125,12 +125,6 @@ impl SsbcPass {
         })
     }
 
-    /// Whether frames with glossy receivers evaluate both kinds of
-    /// receiver in one dispatch (see the field).
-    pub fn one_dispatch(&self) -> bool {
-        self.one_dispatch
-    }
-
     /// Layouts of every set one frame of `frame` allocates.
     pub fn frame_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
         let levels = frame.levels as usize;

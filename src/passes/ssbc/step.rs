@@ -333,8 +333,8 @@ impl SsbcPass {
         // of the list: the kernel without the glossy code takes the front,
         // the glossy kernel the back (with one dispatch, both).
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
-        let glossy = push.frame.glossy_receivers();
-        if !push.frame.one_dispatch() {
+        let one = push.frame.one_dispatch();
+        if !one {
             Self::read_pyramids(rec, frame);
             out.declare(rec);
             read_list(rec, &frame.fallback);
@@ -347,9 +347,9 @@ impl SsbcPass {
             let push = push.integral();
             self.fallback.dispatch_indirect(rec.cmd, pool, &bindings, &push, &frame.fallback, FRONT)?;
         }
-        if glossy {
-            let split = !push.frame.one_dispatch();
-            let sub = split.then(|| profiler.begin(rec.cmd, &format!("{step_name}/fallback/glossy")));
+        if push.frame.glossy_receivers() {
+            // Timed on its own only where it follows the other kernel.
+            let sub = (!one).then(|| profiler.begin(rec.cmd, &format!("{step_name}/fallback/glossy")));
             Self::read_pyramids(rec, frame);
             out.declare(rec);
             read_list(rec, &frame.fallback);
@@ -359,7 +359,7 @@ impl SsbcPass {
                 radiance_texels: &frame.radiance_view,
                 pending_in: &frame.fallback,
             });
-            let ends = if push.frame.one_dispatch() { BOTH_ENDS } else { BACK };
+            let ends = if one { BOTH_ENDS } else { BACK };
             let push = push.integral();
             self.fallback_glossy.dispatch_indirect(rec.cmd, pool, &bindings, &push, &frame.fallback, ends)?;
             if let Some(sub) = sub {
@@ -407,7 +407,8 @@ impl SsbcPass {
         let scope = profiler.begin(rec.cmd, &name);
         // Bound (and so, for synchronization, read) even when unused.
         let requests = list.unwrap_or(&frame.requests);
-        if !push.frame.one_dispatch() {
+        let one = push.frame.one_dispatch();
+        if !one {
             Self::read_pyramids(rec, frame);
             rec.use_buffer(&frame.points, Access::ComputeWrite);
             if list.is_some() {
@@ -428,8 +429,7 @@ impl SsbcPass {
         }
         if push.frame.glossy_receivers() {
             // Timed on its own only where it follows the other kernel.
-            let split = !push.frame.one_dispatch();
-            let sub = split.then(|| profiler.begin(rec.cmd, &format!("{name}/glossy")));
+            let sub = (!one).then(|| profiler.begin(rec.cmd, &format!("{name}/glossy")));
             Self::read_pyramids(rec, frame);
             gbuffer.read_in_compute(rec);
             rec.use_buffer(&frame.points, Access::ComputeWrite);
@@ -446,7 +446,7 @@ impl SsbcPass {
                 g_albedo: gbuffer.albedo,
                 point_glossy: &frame.point_glossy_view,
             };
-            let ends = if push.frame.one_dispatch() { BOTH_ENDS } else { BACK };
+            let ends = if one { BOTH_ENDS } else { BACK };
             dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, None, (requests, ends))?;
             if let Some(sub) = sub {
                 profiler.end(rec.cmd, sub);
