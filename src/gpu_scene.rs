@@ -11,6 +11,7 @@ use gpu_allocator::MemoryLocation;
 use crate::error::Result;
 use crate::gpu_types::{GpuMaterial, GpuObject};
 use crate::scene::{AlphaMode, Scene};
+use crate::texture_mips::{self, Texels};
 use crate::vk::{Buffer, Device, Image, ImageDesc, Pipeline, Recorder, Sampler};
 
 /// Largest side of the texture array; bigger textures are downsampled.
@@ -72,15 +73,17 @@ pub struct GpuScene {
     draws: [Vec<Draw>; 2],
     /// `GpuMaterial` per material.
     pub materials: Buffer,
-    /// Base-colour and emissive textures, resized to one size, one layer each (sRGB).
+    /// Base-colour and emissive textures, resized to one size, one layer
+    /// each (sRGB), with mipmaps.
     pub color_textures: Image,
-    /// Normal maps, resized to one size, one layer each (linear).
+    /// Normal maps and metallic-roughness maps, resized to one size, one
+    /// layer each (linear), with mipmaps.
     pub linear_textures: Image,
     /// Nearest, clamped sampler (material.glsl filters and wraps by hand).
     pub texture_sampler: Sampler,
     /// Texture data not yet copied into `color_textures` (0) and
-    /// `linear_textures` (1): (staging buffer, array, extent, layers).
-    pending: Vec<(Buffer, usize, (u32, u32), u32)>,
+    /// `linear_textures` (1): (staging buffer, array).
+    pending: Vec<(Buffer, usize)>,
     /// Staging buffers whose copies are recorded in a frame that may not
     /// have been submitted yet (released by the next frame).
     recorded: Vec<Buffer>,
@@ -134,6 +137,10 @@ impl GpuScene {
         // Which textures go to which array.
         let mut as_color = vec![false; scene.textures.len()];
         let mut as_linear = vec![false; scene.textures.len()];
+        // Normal maps are averaged as unit vectors, unless a texture is a
+        // metallic-roughness map too.
+        let mut as_normals = vec![false; scene.textures.len()];
+        let mut as_data = vec![false; scene.textures.len()];
         for m in &scene.materials {
             for t in [m.texture, m.emissive_texture.map(|t| t.index)]
                 .into_iter()
@@ -146,6 +153,12 @@ impl GpuScene {
                 .flatten()
             {
                 as_linear[t.index] = true;
+            }
+            if let Some(t) = m.normal_texture {
+                as_normals[t.index] = true;
+            }
+            if let Some(t) = m.reflectance_texture() {
+                as_data[t.index] = true;
             }
         }
         let layers = |used: &[bool]| -> Vec<i32> {
@@ -182,7 +195,7 @@ impl GpuScene {
                 .iter()
                 .zip(&as_color)
                 .filter(|(_, &u)| u)
-                .map(|(t, _)| t),
+                .map(|(t, _)| (t, Texels::Srgb)),
         )?;
         let (linear_textures, linear_staging) = upload_array(
             device,
@@ -191,9 +204,12 @@ impl GpuScene {
             scene
                 .textures
                 .iter()
-                .zip(&as_linear)
-                .filter(|(_, &u)| u)
-                .map(|(t, _)| t),
+                .enumerate()
+                .filter(|&(i, _)| as_linear[i])
+                .map(|(i, t)| {
+                    let normals = as_normals[i] && !as_data[i];
+                    (t, if normals { Texels::Normals } else { Texels::Linear })
+                }),
         )?;
         let texture_sampler = Sampler::new(
             device,
@@ -214,7 +230,7 @@ impl GpuScene {
             pending: [color_staging, linear_staging]
                 .into_iter()
                 .enumerate()
-                .map(|(i, (b, extent, layers))| (b, i, extent, layers))
+                .map(|(i, b)| (b, i))
                 .collect(),
             recorded: Vec::new(),
         };
@@ -328,13 +344,13 @@ impl GpuScene {
     /// Records the texture copies still pending (the first frame after an
     /// upload does this before its passes).
     pub fn record_uploads(&mut self, rec: &mut Recorder<'_>) {
-        for (staging, array, extent, layers) in self.pending.drain(..) {
+        for (staging, array) in self.pending.drain(..) {
             let image = if array == 0 {
                 &self.color_textures
             } else {
                 &self.linear_textures
             };
-            rec.copy_buffer_to_image(&staging, image, extent, layers);
+            rec.copy_buffer_to_mips(&staging, image, 4);
             self.recorded.push(staging);
         }
     }
@@ -372,38 +388,48 @@ fn objects_buffer(device: &Arc<Device>, slot: usize, count: usize) -> Result<Buf
 }
 
 /// Uploads `textures` as the layers of one array (all resized to the
-/// largest size, at most [`MAX_TEXTURE_SIDE`]; one white texel if none).
-/// The image and its staging buffer, extent and layer count.
-type StagedArray = (Image, (Buffer, (u32, u32), u32));
+/// largest size, at most [`MAX_TEXTURE_SIDE`]; one white texel if none)
+/// with their mipmaps (`texture_mips`), each texture with how its texels
+/// are averaged. The image and its staging buffer.
+type StagedArray = (Image, Buffer);
 
 fn upload_array<'a>(
     device: &Arc<Device>,
     name: &str,
     format: vk::Format,
-    textures: impl Iterator<Item = &'a crate::scene::Texture> + Clone,
+    textures: impl Iterator<Item = (&'a crate::scene::Texture, Texels)> + Clone,
 ) -> Result<StagedArray> {
     let (w, h) = textures
         .clone()
-        .fold((1, 1), |(w, h), t| (w.max(t.width), h.max(t.height)));
+        .fold((1, 1), |(w, h), (t, _)| (w.max(t.width), h.max(t.height)));
     let (w, h) = (w.min(MAX_TEXTURE_SIDE), h.min(MAX_TEXTURE_SIDE));
-    let mut texels = Vec::new();
+    let levels = texture_mips::level_count(w, h);
+    // Level by level, every layer of a level together (one copy per level).
+    let mut per_level = vec![Vec::new(); levels as usize];
     let mut layers = 0u32;
-    for t in textures {
+    for (t, texels) in textures {
         layers += 1;
-        if (t.width, t.height) == (w, h) {
-            texels.extend_from_slice(&t.rgba8);
+        let top = if (t.width, t.height) == (w, h) {
+            t.rgba8.clone()
         } else {
             let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone())
                 .expect("texture size matches its data");
-            let resized =
-                image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
-            texels.extend_from_slice(resized.as_raw());
+            image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle).into_raw()
+        };
+        for (level, texels) in texture_mips::mip_chain(w, h, &top, texels)
+            .into_iter()
+            .enumerate()
+        {
+            per_level[level + 1].extend(texels);
         }
+        per_level[0].extend(top);
     }
     if layers == 0 {
         layers = 1;
-        texels.extend([255u8; 4]);
+        per_level = vec![vec![255u8; 4]];
     }
+    let levels = per_level.len() as u32;
+    let texels = per_level.concat();
     let image = Image::new(
         device,
         name,
@@ -412,7 +438,7 @@ fn upload_array<'a>(
             width: w,
             height: h,
             layers,
-            mip_levels: 1,
+            mip_levels: levels,
             usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
             array: true,
         },
@@ -425,5 +451,5 @@ fn upload_array<'a>(
         MemoryLocation::CpuToGpu,
     )?;
     staging.write(0, &texels)?;
-    Ok((image, (staging, (w, h), layers)))
+    Ok((image, staging))
 }

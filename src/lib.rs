@@ -92,6 +92,7 @@ pub mod resident;
 pub mod scene;
 pub mod sequence;
 pub mod settings;
+mod texture_mips;
 pub mod timings;
 pub mod vk;
 

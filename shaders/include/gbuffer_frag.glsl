@@ -33,12 +33,12 @@ layout(set = 0, binding = 2) uniform sampler2DArray linear_textures;
 #include "material.glsl"
 
 // (metallic, roughness, specular layer) of m at uv: factors times the
-// metallic-roughness map's B and G channels.
-vec3 material_reflectance(GpuMaterial m, vec2 uv) {
+// metallic-roughness map's B and G channels (averaged over the footprint).
+vec3 material_reflectance(GpuMaterial m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
     vec3 r = m.normal.yzw;
     int layer = (m.textures.w >> 1) - 1;
     if (layer >= 0) {
-        vec4 t = sample_texture(linear_textures, layer, m.samplers.w, uv);
+        vec4 t = sample_texture(linear_textures, layer, m.samplers.w, uv, duv_dx, duv_dy);
         r.x *= t.b;
         r.y *= t.g;
     }
@@ -77,6 +77,10 @@ layout(location = 2) out vec4 out_albedo;
 layout(location = 3) out vec4 out_emission;
 
 void main() {
+    // The pixel's footprint on the textures (before any discard: helper
+    // lanes are needed for derivatives).
+    vec2 duv_dx = dFdx(v_uv);
+    vec2 duv_dy = dFdy(v_uv);
     GpuMaterial m = materials[v_material];
     if (!material_opaque(m, v_uv)) discard;
 #ifdef PEEL
@@ -87,10 +91,13 @@ void main() {
 #ifndef PEEL
     if (!front && !material_double_sided(m)) discard;
 #endif
-    // Normal map in the frame of the interpolated tangent.
+    // Normal map in the frame of the interpolated tangent: the direction of
+    // the footprint's mean normal. (Widening the GGX lobe by the normals'
+    // spread, Toksvig's alpha^2 + 2 (1 - r) / r, made minified bumpy metal
+    // worse: GGX's long tail is no Gaussian's, docs/accuracy.md.)
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     if (m.textures.z >= 0 && dot(t, t) > 1e-12) {
-        vec3 tex = sample_texture(linear_textures, m.textures.z, m.samplers.z, v_uv).xyz * 2.0 - 1.0;
+        vec3 tex = sample_texture(linear_textures, m.textures.z, m.samplers.z, v_uv, duv_dx, duv_dy).xyz * 2.0 - 1.0;
         vec3 local = vec3(tex.xy * m.normal.x, tex.z);
         t = normalize(t);
         vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);
@@ -103,12 +110,12 @@ void main() {
 #endif
     // The BRDF as brdf_from_gbuffer reads it: metallic in albedo.w,
     // roughness in normal.w (-1: Lambertian).
-    vec3 reflectance = material_reflectance(m, v_uv);
+    vec3 reflectance = material_reflectance(m, v_uv, duv_dx, duv_dy);
     bool lambertian = reflectance.z == 0.0 && reflectance.x == 0.0;
     out_position = vec4(v_position, 1.0);
     out_normal = vec4(n, lambertian ? -1.0 : reflectance.y);
-    out_albedo = vec4(material_base_color(m, v_uv).rgb, reflectance.x);
-    out_emission = vec4(material_emission(m, v_uv), 1.0);
+    out_albedo = vec4(material_base_color(m, v_uv, duv_dx, duv_dy).rgb, reflectance.x);
+    out_emission = vec4(material_emission(m, v_uv, duv_dx, duv_dy), 1.0);
 }
 
 #endif

@@ -66,6 +66,11 @@ pub struct ReferenceSettings {
     pub vpl: VplSettings,
     /// Clamping bound b for `Vpl` and `KolligKeller`.
     pub bound: f32,
+    /// Each sample through a uniformly random point of its pixel (a box
+    /// filter: the pixel's mean, as renderers that integrate over pixels
+    /// give) instead of its centre (what the GPU's G-buffer samples). The
+    /// `Vpl` method then takes `spp` passes too.
+    pub antialias: bool,
 }
 
 impl Default for ReferenceSettings {
@@ -80,6 +85,7 @@ impl Default for ReferenceSettings {
             method: Method::PathTrace,
             vpl: VplSettings::default(),
             bound: f32::INFINITY,
+            antialias: false,
         }
     }
 }
@@ -463,7 +469,16 @@ impl<'a> Reference<'a> {
     /// One sample of pixel (x, y).
     fn sample(&self, x: u32, y: u32, sample: u64) -> Vec3 {
         let (w, h) = (self.settings.width, self.settings.height);
-        let dir = self.camera.pixel_ray(x as f32, y as f32, w, h);
+        let pixel = (y * w + x) as u64;
+        let offset = if self.settings.antialias {
+            // Its own stream: the paths' dimensions stay as without.
+            Rng::new(self.settings.seed ^ 0xA471_A5ED, pixel, sample).next2() - 0.5
+        } else {
+            Vec2::ZERO
+        };
+        let dir = self
+            .camera
+            .pixel_ray(x as f32 + offset.x, y as f32 + offset.y, w, h);
         let Some(hit) = self
             .bvh
             .intersect_camera(self.scene, self.camera.position, dir)
@@ -471,7 +486,6 @@ impl<'a> Reference<'a> {
             return Vec3::ZERO;
         };
         let s = self.bvh.surface(self.scene, &hit, -dir);
-        let pixel = (y * w + x) as u64;
         // Emitters seen by the camera show their own radiance.
         s.emission
             + match self.settings.method {
@@ -493,7 +507,7 @@ impl<'a> Reference<'a> {
         let (w, h) = (self.settings.width, self.settings.height);
         let mut sum = vec![Vec3::ZERO; (w * h) as usize];
         // Deterministic methods need one pass.
-        let passes = if self.settings.method == Method::Vpl {
+        let passes = if self.settings.method == Method::Vpl && !self.settings.antialias {
             1
         } else {
             self.settings.spp

@@ -50,7 +50,9 @@ pub enum Wrap {
 }
 
 /// How a texture is sampled: wrap per axis, and nearest or bilinear
-/// filtering (glTF's magnification filter; there are no mipmaps).
+/// magnification (glTF's `magFilter`). Minified, the G-buffer averages a
+/// texture over each pixel's footprint from mipmaps, whatever `minFilter`
+/// says (docs/conventions.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TextureSampler {
     /// Wrap along u.

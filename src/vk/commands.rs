@@ -14,11 +14,11 @@ use super::image::Image;
 use crate::error::{Result, VkResultExt};
 
 /// A tightly packed copy region covering `layers` layers of mip 0.
-fn color_region(extent: (u32, u32), layers: u32) -> vk::BufferImageCopy {
+fn color_region(extent: (u32, u32), layers: u32, mip_level: u32) -> vk::BufferImageCopy {
     vk::BufferImageCopy::default()
         .image_subresource(vk::ImageSubresourceLayers {
             aspect_mask: vk::ImageAspectFlags::COLOR,
-            mip_level: 0,
+            mip_level,
             base_array_layer: 0,
             layer_count: layers,
         })
@@ -216,7 +216,7 @@ impl Recorder<'_> {
         self.use_image(image, Access::TransferRead);
         self.use_buffer(buffer, Access::TransferWrite);
         self.flush_barriers();
-        let region = color_region((image.desc.width, image.desc.height), 1);
+        let region = color_region((image.desc.width, image.desc.height), 1, 0);
         // SAFETY: layouts set by the barrier above; buffer sized by the caller.
         unsafe {
             self.device.raw.cmd_copy_image_to_buffer(
@@ -263,18 +263,45 @@ impl Recorder<'_> {
         extent: (u32, u32),
         layers: u32,
     ) {
+        self.copy_regions_to_image(buffer, image, &[color_region(extent, layers, 0)]);
+    }
+
+    /// Uploads every mip level and layer of `image` (a colour array of
+    /// `texel_bytes` per texel) from `buffer`, where they lie tightly
+    /// packed level after level, each level's layers together.
+    pub fn copy_buffer_to_mips(&mut self, buffer: &Buffer, image: &Image, texel_bytes: u64) {
+        let desc = &image.desc;
+        let mut offset = 0;
+        let regions: Vec<_> = (0..desc.mip_levels)
+            .map(|level| {
+                let extent = ((desc.width >> level).max(1), (desc.height >> level).max(1));
+                let region =
+                    color_region(extent, desc.layers, level).buffer_offset(offset);
+                offset += extent.0 as u64 * extent.1 as u64 * desc.layers as u64 * texel_bytes;
+                region
+            })
+            .collect();
+        self.copy_regions_to_image(buffer, image, &regions);
+    }
+
+    fn copy_regions_to_image(
+        &mut self,
+        buffer: &Buffer,
+        image: &impl TrackedImage,
+        regions: &[vk::BufferImageCopy],
+    ) {
         self.use_buffer(buffer, Access::TransferRead);
         self.use_image(image, Access::TransferWrite);
         self.flush_barriers();
-        let region = color_region(extent, layers);
-        // SAFETY: layouts set by the barrier above; the buffer holds every layer.
+        // SAFETY: layouts set by the barrier above; the caller's buffer
+        // holds every region.
         unsafe {
             self.device.raw.cmd_copy_buffer_to_image(
                 self.cmd,
                 buffer.raw,
                 image.tracked_raw(),
                 vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &[region],
+                regions,
             )
         };
     }

@@ -88,6 +88,11 @@ struct ReferenceArgs {
     /// Camera index.
     #[arg(long)]
     camera: Option<usize>,
+    /// Average each pixel over its area (random points in it) instead of
+    /// sampling its centre as the GPU renderer does: the image other path
+    /// tracers give.
+    #[arg(long)]
+    antialias: bool,
 }
 
 #[derive(clap::Args)]
@@ -643,6 +648,7 @@ fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
             first_path: 0,
         },
         bound,
+        antialias: args.antialias,
     };
     let start = std::time::Instant::now();
     let reference = Reference::new(&scene, settings)?;
