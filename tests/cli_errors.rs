@@ -369,7 +369,26 @@ fn reference_and_compare_work_and_refuse_bad_input() {
     let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
     assert!(v["rel_mse"].as_f64().unwrap() > 0.0 && v["mean_ratio"].as_f64().unwrap() > 0.5);
     assert!(std::path::Path::new(&heat).exists());
+    // PNG by its extension (it was an EXR named .png), pixel areas sampled.
+    let png = dir.path().join("r.png").display().to_string();
+    let (ok, _, err) = run_any(&[
+        "reference",
+        "--size",
+        "8x6",
+        "--spp",
+        "2",
+        "--antialias",
+        "-o",
+        &png,
+    ]);
+    assert!(ok, "{err}");
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
+    let tiff = dir.path().join("r.tiff").display().to_string();
     for (args, needle) in [
+        (
+            vec!["reference", "--size", "8x6", "-o", &tiff],
+            "must end in .exr or .png",
+        ),
         (vec!["compare", &a, &c], "sizes differ"),
         (vec!["compare", &a, "/nonexistent.exr"], "cannot read"),
         (vec!["reference", "--size", "8x8", "--spp", "0"], "--spp"),

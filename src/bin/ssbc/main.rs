@@ -62,7 +62,7 @@ struct ReferenceArgs {
     /// Image size.
     #[arg(long, default_value = "1024x768", value_parser = parse_size)]
     size: (u32, u32),
-    /// Output EXR.
+    /// Output: .exr (linear radiance) or .png (exposed from the image, tonemapped).
     #[arg(short, long, default_value = "reference.exr")]
     output: PathBuf,
     /// Samples per pixel.
@@ -630,6 +630,23 @@ fn render_sequence(
 }
 
 fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
+    // Known before a long render: EXR (linear) or PNG (tonemapped).
+    let png = match args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("exr") => false,
+        Some("png") => true,
+        _ => {
+            return Err(ssbc::Error::InvalidParameter(format!(
+                "{}: output must end in .exr or .png",
+                args.output.display()
+            )))
+        }
+    };
     let mut scene = load_scene(&args.scene, args.time)?;
     scene.ensure_light();
     let bound = args.bound.resolve(2.0 * scene.bounds().radius());
@@ -668,7 +685,11 @@ fn reference(args: ReferenceArgs) -> Result<u32, ssbc::Error> {
     let (rgba, done) = reference.render(&stop, |p| bar.set_position(p as u64));
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
-    ssbc::output::write_exr(&args.output, args.size.0, args.size.1, &rgba, &[])?;
+    if png {
+        ssbc::output::write_png_tonemapped(&args.output, args.size.0, args.size.1, &rgba, None)?;
+    } else {
+        ssbc::output::write_exr(&args.output, args.size.0, args.size.1, &rgba, &[])?;
+    }
     eprintln!(
         "{:?}: {} of {} passes in {:.2} s ({} VPLs, bound {bound}); wrote {}",
         args.method,
