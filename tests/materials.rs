@@ -13,26 +13,6 @@ use ssbc::scene::{
 };
 use std::sync::atomic::AtomicBool;
 
-fn quad(s: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32, uv_scale: f32) {
-    let n = u.cross(v).normalize();
-    let p = [corner, corner + u, corner + u + v, corner + v];
-    let uv = [
-        [0.0, 0.0],
-        [uv_scale, 0.0],
-        [uv_scale, uv_scale],
-        [0.0, uv_scale],
-    ];
-    s.add_mesh(
-        &p,
-        &[n; 4],
-        &uv,
-        &[0, 1, 2, 0, 2, 3],
-        Mat4::IDENTITY,
-        material,
-    )
-    .unwrap();
-}
-
 fn add(s: &mut Scene, m: Material) -> u32 {
     s.materials.push(m);
     (s.materials.len() - 1) as u32
@@ -85,7 +65,7 @@ fn emitter_over_floor(le: f32, half_side: f32, height: f32) -> Scene {
     panel.emission = Vec3::splat(le);
     panel.double_sided = false;
     let panel = add(&mut s, panel);
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-20.0, 0.0, 20.0),
         Vec3::X * 40.0,
@@ -95,7 +75,7 @@ fn emitter_over_floor(le: f32, half_side: f32, height: f32) -> Scene {
     );
     let a = half_side;
     // u x v points down (-Y): the front faces the floor.
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-a, height, -a),
         Vec3::X * 2.0 * a,
@@ -159,7 +139,7 @@ fn panel_room() -> Scene {
     panel.emission = Vec3::new(12.0, 11.0, 9.0);
     panel.double_sided = false;
     let panel = add(&mut s, panel);
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-1.0, 0.0, 1.0),
         Vec3::X * 2.0,
@@ -167,7 +147,7 @@ fn panel_room() -> Scene {
         white,
         1.0,
     ); // floor
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-1.0, 2.0, -1.0),
         Vec3::X * 2.0,
@@ -175,7 +155,7 @@ fn panel_room() -> Scene {
         white,
         1.0,
     ); // ceiling
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-1.0, 0.0, -1.0),
         Vec3::X * 2.0,
@@ -183,7 +163,7 @@ fn panel_room() -> Scene {
         white,
         1.0,
     ); // back
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-1.0, 0.0, 1.0),
         -Vec3::Z * 2.0,
@@ -191,7 +171,7 @@ fn panel_room() -> Scene {
         red,
         1.0,
     ); // left
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(1.0, 0.0, -1.0),
         Vec3::Z * 2.0,
@@ -200,7 +180,7 @@ fn panel_room() -> Scene {
         1.0,
     ); // right
        // Facing down, 1 cm under the ceiling.
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-0.3, 1.99, -0.3),
         Vec3::X * 0.6,
@@ -276,7 +256,7 @@ fn checker_roof(cutoff: f32) -> Scene {
     };
     roof.alpha = AlphaMode::Mask(cutoff);
     let roof = add(&mut s, roof);
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-2.0, 0.0, 2.0),
         Vec3::X * 4.0,
@@ -284,7 +264,7 @@ fn checker_roof(cutoff: f32) -> Scene {
         floor,
         1.0,
     );
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-1.0, 0.5, 1.0),
         Vec3::X * 2.0,
@@ -386,7 +366,7 @@ fn a_normal_map_tilts_the_shading_normal() {
     });
     let m = add(&mut s, m);
     // u along +x, v along -z: the tangent is +x.
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-2.0, 0.0, 2.0),
         Vec3::X * 4.0,
@@ -547,7 +527,7 @@ fn samplers_clamp_or_repeat_outside_the_unit_square() {
     };
     let repeat = add(&mut s, make(Wrap::Repeat));
     let clamp = add(&mut s, make(Wrap::ClampToEdge));
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-2.0, 0.0, 0.0),
         Vec3::X * 2.0,
@@ -555,7 +535,7 @@ fn samplers_clamp_or_repeat_outside_the_unit_square() {
         repeat,
         2.0,
     );
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(0.0, 0.0, 0.0),
         Vec3::X * 2.0,
@@ -630,7 +610,7 @@ fn the_default_light_lights_an_object_seen_from_outside() {
         (c(-1., -1., -1.), Vec3::X * 2., Vec3::Z * 2.),
     ];
     for (corner, u, v) in faces {
-        quad(&mut s, corner, u, v, m, 1.0);
+        common::quad(&mut s, corner, u, v, m, 1.0);
     }
     s.cameras.push(Camera::look_at(
         Vec3::new(3.0, 2.5, 4.0),
@@ -681,7 +661,7 @@ fn russian_roulette_keeps_a_closed_boxs_energy() {
         (Vec3::new(1.0, 0.0, -1.0), Vec3::Z * 2.0, Vec3::Y * 2.0),
     ];
     for (corner, u, v) in faces {
-        quad(&mut s, corner, u, v, m, 1.0);
+        common::quad(&mut s, corner, u, v, m, 1.0);
     }
     s.lights
         .push(common::point_light(Vec3::new(0.2, 1.6, -0.3), 3.0));
@@ -806,7 +786,7 @@ fn an_unused_emissive_material_does_not_replace_the_default_light() {
     let mut lamp = Material::diffuse(Vec3::ONE, None);
     lamp.emission = Vec3::splat(5.0);
     add(&mut s, lamp);
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-1.0, 0.0, 1.0),
         Vec3::X * 2.0,
@@ -822,7 +802,7 @@ fn an_unused_emissive_material_does_not_replace_the_default_light() {
     let mut lamp = Material::diffuse(Vec3::ONE, None);
     lamp.emission = Vec3::splat(5.0);
     let lamp = add(&mut lit, lamp);
-    quad(
+    common::quad(
         &mut lit,
         Vec3::new(-1.0, 0.0, 1.0),
         Vec3::X * 2.0,
@@ -830,7 +810,7 @@ fn an_unused_emissive_material_does_not_replace_the_default_light() {
         floor,
         1.0,
     );
-    quad(
+    common::quad(
         &mut lit,
         Vec3::new(-0.2, 1.0, -0.2),
         Vec3::X * 0.4,

@@ -8,7 +8,7 @@ mod common;
 
 use std::sync::atomic::AtomicBool;
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use ssbc::compare::block_average;
 use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::scene::{Camera, Material, Reflectance, Scene, Texture, TextureRef, TextureSampler};
@@ -23,24 +23,15 @@ fn noise(x: u32, y: u32, k: u32) -> f32 {
     (h & 0xFFFF) as f32 / 65536.0
 }
 
-fn quad(s: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32, uv_scale: f32) {
-    let n = u.cross(v).normalize();
-    let p = [corner, corner + u, corner + u + v, corner + v];
-    let uv = [
-        [0.0, 0.0],
-        [uv_scale, 0.0],
-        [uv_scale, uv_scale],
-        [0.0, uv_scale],
-    ];
-    s.add_mesh(
-        &p,
-        &[n; 4],
-        &uv,
-        &[0, 1, 2, 0, 2, 3],
-        Mat4::IDENTITY,
-        material,
-    )
-    .unwrap();
+/// A `side` x `side` texture of `texel(x, y)`.
+fn texture(side: u32, texel: impl Fn(u32, u32) -> [u8; 4]) -> Texture {
+    Texture {
+        width: side,
+        height: side,
+        rgba8: (0..side * side)
+            .flat_map(|i| texel(i % side, i / side))
+            .collect(),
+    }
 }
 
 /// A floor seen at a slant under a point light: its left half diffuse with
@@ -50,40 +41,18 @@ fn quad(s: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32, uv_scale: 
 /// metre) and the light's highlight on it.
 fn textured_floor() -> Scene {
     let mut s = Scene::new("textured floor");
-    let side = 512;
-    let colour: Vec<u8> = (0..side * side)
-        .flat_map(|i| {
-            let (x, y) = (i % side, i / side);
-            [0, 1, 2]
-                .map(|k| (20.0 + 230.0 * noise(x, y, k)) as u8)
-                .into_iter()
-                .chain([255])
-        })
-        .collect();
-    s.textures.push(Texture {
-        width: side,
-        height: side,
-        rgba8: colour,
-    });
-    let side = 256;
-    let normals: Vec<u8> = (0..side * side)
-        .flat_map(|i| {
-            let (x, y) = (i % side, i / side);
-            // Gaussian slopes (Box-Muller), 0.2 per axis.
-            let radius = (-2.0 * (1.0 - noise(x, y, 3)).ln()).sqrt() * 0.2;
-            let turn = std::f32::consts::TAU * noise(x, y, 4);
-            let n = Vec3::new(-radius * turn.cos(), -radius * turn.sin(), 1.0).normalize();
-            [n.x, n.y, n.z]
-                .map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8)
-                .into_iter()
-                .chain([255])
-        })
-        .collect();
-    s.textures.push(Texture {
-        width: side,
-        height: side,
-        rgba8: normals,
-    });
+    s.textures.push(texture(512, |x, y| {
+        let c = [0, 1, 2].map(|k| (20.0 + 230.0 * noise(x, y, k)) as u8);
+        [c[0], c[1], c[2], 255]
+    }));
+    s.textures.push(texture(256, |x, y| {
+        // Gaussian slopes (Box-Muller), 0.2 per axis.
+        let radius = (-2.0 * (1.0 - noise(x, y, 3)).ln()).sqrt() * 0.2;
+        let turn = std::f32::consts::TAU * noise(x, y, 4);
+        let n = Vec3::new(-radius * turn.cos(), -radius * turn.sin(), 1.0).normalize();
+        let c = [n.x, n.y, n.z].map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+        [c[0], c[1], c[2], 255]
+    }));
     let texture = |index| TextureRef {
         index,
         sampler: TextureSampler::default(),
@@ -98,7 +67,7 @@ fn textured_floor() -> Scene {
     metal.normal_texture = Some(texture(1));
     s.materials.push(metal);
     // u along +x, v along -z: tangent +x.
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(-4.0, 0.0, 4.0),
         Vec3::X * 4.0,
@@ -106,7 +75,7 @@ fn textured_floor() -> Scene {
         0,
         1.0,
     );
-    quad(
+    common::quad(
         &mut s,
         Vec3::new(0.0, 0.0, 4.0),
         Vec3::X * 4.0,

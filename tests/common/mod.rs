@@ -74,6 +74,28 @@ pub fn pixel(frame: &Frame, layer: &str, x: u32, y: u32) -> Vec3 {
     Vec3::new(l.rgba[i], l.rgba[i + 1], l.rgba[i + 2])
 }
 
+/// A quad from `corner` spanned by `u` and `v` (normal u x v), with uvs from
+/// (0, 0) to (uv_scale, uv_scale) along them (tangent along u).
+pub fn quad(s: &mut Scene, corner: Vec3, u: Vec3, v: Vec3, material: u32, uv_scale: f32) {
+    let n = u.cross(v).normalize();
+    let p = [corner, corner + u, corner + u + v, corner + v];
+    let uv = [
+        [0.0, 0.0],
+        [uv_scale, 0.0],
+        [uv_scale, uv_scale],
+        [0.0, uv_scale],
+    ];
+    s.add_mesh(
+        &p,
+        &[n; 4],
+        &uv,
+        &[0, 1, 2, 0, 2, 3],
+        Mat4::IDENTITY,
+        material,
+    )
+    .unwrap();
+}
+
 /// A horizontal square plane of side `size` at y = 0 with albedo `albedo`.
 pub fn plane_scene(albedo: f32, size: f32) -> Scene {
     let mut s = Scene::new("plane");
