@@ -185,3 +185,24 @@ fn minified_textures_show_their_mean_over_each_pixel() {
         "metal relMSE {metal_pixels} / {metal_blocks}"
     );
 }
+
+/// Footprint sampling and the mip chain's uploads under GPU-assisted
+/// validation: every texel read in bounds, in both G-buffer layers (the
+/// second at half resolution, its own derivatives).
+#[test]
+fn footprint_sampling_stays_in_bounds_under_gpu_assisted_validation() {
+    let scene = textured_floor();
+    let mut renderer = common::gpu_assisted_renderer();
+    let log = renderer.validation_log();
+    let mut s = common::small(130, 98);
+    s.vpl.count = 16;
+    s.points_per_vpl = 256;
+    s.ism_tile = 16;
+    s.shadow_map_size = 64;
+    s.ssbc.steps = 1;
+    s.ssbc.layers = 2;
+    s.ssbc.layer1_resolution = ssbc::settings::LayerResolution::Half;
+    renderer.render(&scene, &s).expect("render");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
