@@ -388,7 +388,8 @@ fn objects_buffer(device: &Arc<Device>, slot: usize, count: usize) -> Result<Buf
 }
 
 /// Uploads `textures` as the layers of one array (all resized to the
-/// largest size, at most [`MAX_TEXTURE_SIDE`]; one white texel if none)
+/// largest size, at most [`MAX_TEXTURE_SIDE`] and halved until the array
+/// fits [`texture_mips::ARRAY_BUDGET_BYTES`]; one white texel if none)
 /// with their mipmaps (`texture_mips`), each texture with how its texels
 /// are averaged. The image and its staging buffer.
 type StagedArray = (Image, Buffer);
@@ -402,20 +403,24 @@ fn upload_array<'a>(
     let (w, h) = textures
         .clone()
         .fold((1, 1), |(w, h), (t, _)| (w.max(t.width), h.max(t.height)));
-    let (w, h) = (w.min(MAX_TEXTURE_SIDE), h.min(MAX_TEXTURE_SIDE));
+    let largest = (w.min(MAX_TEXTURE_SIDE), h.min(MAX_TEXTURE_SIDE));
+    let count = textures.clone().count() as u32;
+    let (w, h) = texture_mips::array_extent(largest, count, texture_mips::ARRAY_BUDGET_BYTES);
+    if (w, h) != largest {
+        log::info!(
+            "{name}: {count} textures at {w}x{h} instead of {}x{} (at most {} MiB with mipmaps)",
+            largest.0,
+            largest.1,
+            texture_mips::ARRAY_BUDGET_BYTES >> 20
+        );
+    }
     let levels = texture_mips::level_count(w, h);
     // Level by level, every layer of a level together (one copy per level).
     let mut per_level = vec![Vec::new(); levels as usize];
     let mut layers = 0u32;
     for (t, texels) in textures {
         layers += 1;
-        let top = if (t.width, t.height) == (w, h) {
-            t.rgba8.clone()
-        } else {
-            let img = image::RgbaImage::from_raw(t.width, t.height, t.rgba8.clone())
-                .expect("texture size matches its data");
-            image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle).into_raw()
-        };
+        let top = texture_mips::resize((t.width, t.height), &t.rgba8, (w, h), texels);
         for (level, texels) in texture_mips::mip_chain(w, h, &top, texels)
             .into_iter()
             .enumerate()

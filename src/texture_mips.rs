@@ -8,7 +8,8 @@
 //! (not from its 8-bit rounding): colour in linear light (sRGB decoded,
 //! averaged, encoded), linear data as is, and normal maps as unit vectors:
 //! a texel stores the direction of the mean of the full-resolution normals
-//! it covers.
+//! it covers. Textures shrunk to their array's size are averaged the same
+//! way ([`resize`]), and an array is shrunk to fit [`ARRAY_BUDGET_BYTES`].
 
 use std::sync::LazyLock;
 
@@ -39,6 +40,47 @@ pub fn level_count(width: u32, height: u32) -> u32 {
 /// Size of level `level` of a `width` x `height` image.
 pub fn level_extent(width: u32, height: u32, level: u32) -> (u32, u32) {
     ((width >> level).max(1), (height >> level).max(1))
+}
+
+/// Most bytes one texture array may take with its mipmaps: every layer has
+/// the largest texture's size, so many small textures beside one large one
+/// would otherwise multiply it (a hundred 2048x2048 layers: 2.1 GiB).
+pub const ARRAY_BUDGET_BYTES: u64 = 1 << 30;
+
+/// The size of an array of `layers` RGBA8 layers whose largest texture is
+/// `largest`: halved (both sides) until the array and its mipmaps fit in
+/// `budget` bytes. With footprint filtering a smaller top level only
+/// blurs textures seen magnified.
+pub fn array_extent(largest: (u32, u32), layers: u32, budget: u64) -> (u32, u32) {
+    let (mut w, mut h) = largest;
+    // Mipmaps add a third.
+    let bytes = |w: u32, h: u32| w as u64 * h as u64 * 4 * layers as u64 * 4 / 3;
+    while bytes(w, h) > budget && (w > 1 || h > 1) {
+        (w, h) = ((w / 2).max(1), (h / 2).max(1));
+    }
+    (w, h)
+}
+
+/// `rgba8` (`from` texels) resized to `to`: a box filter averaged as its
+/// mipmaps are (linear light, unit normals) where both sides shrink, else
+/// bilinear on the stored values.
+pub fn resize(from: (u32, u32), rgba8: &[u8], to: (u32, u32), texels: Texels) -> Vec<u8> {
+    if from == to {
+        return rgba8.to_vec();
+    }
+    if to.0 <= from.0 && to.1 <= from.1 {
+        let decoded: Vec<[f32; 4]> = rgba8
+            .par_chunks_exact(4)
+            .map(|c| decode(c, texels))
+            .collect();
+        return downsample(&decoded, from, to)
+            .par_iter()
+            .flat_map_iter(|t| encode(*t, texels))
+            .collect();
+    }
+    let img = image::RgbaImage::from_raw(from.0, from.1, rgba8.to_vec())
+        .expect("texture size matches its data");
+    image::imageops::resize(&img, to.0, to.1, image::imageops::FilterType::Triangle).into_raw()
 }
 
 /// Levels 1.. of a `width` x `height` RGBA8 image (level 0 is `rgba8`
@@ -185,6 +227,33 @@ mod tests {
         let chain = mip_chain(5, 3, &[7; 60], Texels::Linear);
         assert_eq!(chain.iter().map(Vec::len).collect::<Vec<_>>(), [8, 4]);
         assert!(chain.iter().flatten().all(|&t| t == 7));
+    }
+
+    #[test]
+    fn arrays_shrink_to_their_budget() {
+        // 100 layers of 2048^2 with mipmaps: 2.2 GB; 1024^2: 559 MB.
+        assert_eq!(
+            array_extent((2048, 2048), 100, ARRAY_BUDGET_BYTES),
+            (1024, 1024)
+        );
+        assert_eq!(
+            array_extent((2048, 1024), 3, ARRAY_BUDGET_BYTES),
+            (2048, 1024)
+        );
+        assert_eq!(array_extent((2048, 2), 1, 1), (1, 1));
+    }
+
+    #[test]
+    fn shrinking_averages_like_the_mipmaps() {
+        let texels = [0, 0, 0, 255, 255, 255, 255, 255, 0, 0, 0, 255];
+        // 3 texels to 2: (2/3 black + 1/3 white), (1/3 white + 2/3 black) in linear light.
+        let out = resize((3, 1), &texels, (2, 1), Texels::Srgb);
+        assert_eq!(out, [156, 156, 156, 255, 156, 156, 156, 255]);
+        assert_eq!(resize((3, 1), &texels, (3, 1), Texels::Srgb), texels);
+        assert_eq!(
+            resize((1, 1), &[9, 9, 9, 9], (2, 2), Texels::Linear).len(),
+            16
+        );
     }
 
     #[test]
