@@ -24,12 +24,14 @@ layout(push_constant) uniform Push {
 
 #include "shadow.glsl"
 
-// The squared change of the shading normal to the neighbour across axis
-// `e` on the same smooth surface (the smaller of the two sides; 0 if
-// neither is: a silhouette or the image's edge). On one smooth surface the
-// chord between two points is square to the sum of their normals.
-float normal_change2(ivec2 pixel, ivec2 e, vec3 p, vec3 n) {
-    float best = 1e30;
+// The change of the shading normal per pixel along axis `e`, towards the
+// neighbour on the same smooth surface (the smaller change of the two
+// sides; zero if neither is: a silhouette or the image's edge). On one
+// smooth surface the chord between two points is square to the sum of
+// their normals.
+vec3 normal_step(ivec2 pixel, ivec2 e, vec3 p, vec3 n) {
+    vec3 best = vec3(0.0);
+    float best2 = 1e30;
     for (int side = -1; side <= 1; side += 2) {
         ivec2 q = pixel + side * e;
         if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
@@ -38,9 +40,13 @@ float normal_change2(ivec2 pixel, ivec2 e, vec3 p, vec3 n) {
         vec3 chord = pq.xyz - p;
         vec3 sum = n + nq;
         bool smooth_surface = pq.w != 0.0 && abs(dot(sum, chord)) <= 0.1 * length(sum) * length(chord);
-        if (smooth_surface) best = min(best, dot(nq - n, nq - n));
+        vec3 step = float(side) * (nq - n);
+        if (smooth_surface && dot(step, step) < best2) {
+            best = step;
+            best2 = dot(step, step);
+        }
     }
-    return best < 1e30 ? best : 0.0;
+    return best;
 }
 
 void main() {
@@ -54,20 +60,39 @@ void main() {
     }
     vec4 normal = imageLoad(g_normal, pixel);
     Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), normal);
-    // Geometric specular anti-aliasing for point-like lights: the normals
-    // within the pixel spread by (|dn/dx|^2 + |dn/dy|^2) / 12 (a box pixel),
-    // which widens the GGX lobe, so that a highlight smaller than the pixel
-    // gives it its mean over the pixel instead of all or nothing.
-    if (!brdf_is_lambertian(b) && pc.light_count > 0u) {
-        float spread2 = (normal_change2(pixel, ivec2(1, 0), position.xyz, normal.xyz)
-                         + normal_change2(pixel, ivec2(0, 1), position.xyz, normal.xyz)) / 12.0;
-        b.roughness = sqrt(brdf_widened_alpha(b, spread2));
+    // Geometric specular anti-aliasing for point-like lights: the pixel's
+    // normals span n +- dn_x / 2 +- dn_y / 2; the highlight is their mean,
+    // taken at the centres of the pixel's four quarters, each lobe widened
+    // by its quarter's spread ((|dn_x|^2 + |dn_y|^2) / 48, a box), so that
+    // a highlight smaller than the pixel gives it its mean over the pixel
+    // instead of all or nothing.
+    vec3 dn_x = vec3(0.0), dn_y = vec3(0.0);
+    float quarter_alpha = brdf_alpha(b);
+    bool glossy = !brdf_is_lambertian(b) && pc.light_count > 0u;
+    if (glossy) {
+        dn_x = normal_step(pixel, ivec2(1, 0), position.xyz, normal.xyz);
+        dn_y = normal_step(pixel, ivec2(0, 1), position.xyz, normal.xyz);
+        quarter_alpha = brdf_widened_alpha(b, (dot(dn_x, dn_x) + dot(dn_y, dn_y)) / 48.0);
     }
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec3 radiance = imageLoad(g_emission, pixel).rgb;
     vec3 diffuse = radiance;
     for (uint i = 0u; i < pc.light_count; i++) {
-        direct_radiance(lights[i], position.xyz, normal.xyz, b, wo, radiance, diffuse);
+        vec3 wi;
+        vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, wi);
+        if (max(irradiance.r, max(irradiance.g, irradiance.b)) <= 0.0) continue;
+        vec3 f = vec3(0.0);
+        if (glossy && (dot(dn_x, dn_x) + dot(dn_y, dn_y)) > 0.0) {
+            for (int k = 0; k < 4; k++) {
+                vec2 at = vec2(k & 1, k >> 1) * 0.5 - 0.25;
+                vec3 nk = normalize(normal.xyz + at.x * dn_x + at.y * dn_y);
+                f += 0.25 * brdf_eval_alpha(b, quarter_alpha, nk, wo, wi);
+            }
+        } else {
+            f = brdf_eval(b, normal.xyz, wo, wi);
+        }
+        radiance += f * irradiance;
+        diffuse += brdf_diffuse_color(b) / PI * irradiance;
     }
     imageStore(direct, pixel, vec4(radiance, 1.0));
     imageStore(direct_diffuse, pixel, vec4(diffuse, 1.0));

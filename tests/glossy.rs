@@ -298,11 +298,11 @@ fn kollig_keller_gives_back_what_clamping_removes_on_glossy_spheres() {
 /// light, black background) against the path tracer sampling each pixel's
 /// area. Shaded at the pixel's centre, the smooth metal spheres' highlights
 /// were all or nothing: the image was 0.949 of the truth (the smoothest
-/// metal sphere's cell 0.08), 0.994 with the lobe widened by the normals'
-/// spread over the pixel (direct_lighting.comp). Its relMSE on 4x4 blocks
-/// went 0.0103 -> 0.0166 (the widened lobe's tail lights a neighbouring
-/// block; at 160x120 0.0085 -> 0.0078), under the 0.03 aimed at for
-/// scenes modelled by others.
+/// metal sphere's cell 0.08), 0.998 with the highlight averaged over the
+/// normals the pixel spans (direct_lighting.comp). Its relMSE on 4x4
+/// blocks went 0.0103 -> 0.0159 (widened lobes' tails light a highlight's
+/// neighbouring blocks; at 160x120 0.0085 -> 0.0070), under the 0.03
+/// aimed at for scenes modelled by others.
 #[test]
 fn highlights_smaller_than_a_pixel_keep_their_energy() {
     let scene = ssbc::scene::load("tests/scenes/sphere-grid.gltf").expect("the sphere grid");

@@ -49,33 +49,30 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n) {
 // Adds the radiance one light reflects towards wo at p (normal n, BRDF b)
 // to `radiance`, and its diffuse, view-independent part
 // (brdf_diffuse_color / pi x irradiance) to `diffuse`.
-void direct_radiance(GpuLight light, vec3 p, vec3 n, Brdf b, vec3 wo, inout vec3 radiance, inout vec3 diffuse) {
+// The irradiance `light` gives at p (normal n), shadowed, and the unit
+// direction towards it (wi); zero if it does not reach p.
+vec3 light_irradiance(GpuLight light, vec3 p, vec3 n, out vec3 wi) {
     uint kind = uint(light.position_kind.w);
-    vec3 irradiance_dir;
     vec3 e;
     if (kind == LIGHT_DIRECTIONAL) {
-        irradiance_dir = -light.direction_cos_outer.xyz;
+        wi = -light.direction_cos_outer.xyz;
         e = light.intensity_cos_inner.rgb;
     } else {
         vec3 to_light = light.position_kind.xyz - p;
         float d2 = dot(to_light, to_light);
-        irradiance_dir = to_light * inversesqrt(d2);
+        wi = to_light * inversesqrt(d2);
         e = light.intensity_cos_inner.rgb / d2;
         if (kind == LIGHT_SPOT) {
             float cos_outer = light.direction_cos_outer.w;
             float cos_inner = light.intensity_cos_inner.w;
-            float cd = dot(-irradiance_dir, light.direction_cos_outer.xyz);
+            float cd = dot(-wi, light.direction_cos_outer.xyz);
             float t = clamp((cd - cos_outer) / max(cos_inner - cos_outer, 1e-3), 0.0, 1.0);
             e *= t * t;
         }
     }
-    float cos_theta = dot(n, irradiance_dir);
-    if (cos_theta <= 0.0 || max(e.r, max(e.g, e.b)) <= 0.0) {
-        return;
-    }
-    vec3 irradiance = e * cos_theta * shadow_visibility(light, p, n);
-    radiance += brdf_eval(b, n, wo, irradiance_dir) * irradiance;
-    diffuse += brdf_diffuse_color(b) / PI * irradiance;
+    float cos_theta = dot(n, wi);
+    if (cos_theta <= 0.0 || max(e.r, max(e.g, e.b)) <= 0.0) return vec3(0.0);
+    return e * cos_theta * shadow_visibility(light, p, n);
 }
 
 #endif
