@@ -194,12 +194,9 @@ fn footprint_sampling_stays_in_bounds_under_gpu_assisted_validation() {
     let scene = textured_floor();
     let mut renderer = common::gpu_assisted_renderer();
     let log = renderer.validation_log();
-    let mut s = common::small(130, 98);
-    s.vpl.count = 16;
-    s.points_per_vpl = 256;
-    s.ism_tile = 16;
-    s.shadow_map_size = 64;
-    s.ssbc.steps = 1;
+    // Small in every way, at an odd size.
+    let mut s = common::tiny_settings();
+    (s.width, s.height) = (130, 98);
     s.ssbc.layers = 2;
     s.ssbc.layer1_resolution = ssbc::settings::LayerResolution::Half;
     renderer.render(&scene, &s).expect("render");
