@@ -66,13 +66,17 @@ void main() {
     // by its quarter's spread ((|dn_x|^2 + |dn_y|^2) / 48, a box), so that
     // a highlight smaller than the pixel gives it its mean over the pixel
     // instead of all or nothing.
+    // Where the spread is under a tenth of the lobe's width (a hundredth in
+    // variance) the BRDF is taken at n alone (rough lobes, flat surfaces).
     vec3 dn_x = vec3(0.0), dn_y = vec3(0.0);
     float quarter_alpha = brdf_alpha(b);
-    bool glossy = !brdf_is_lambertian(b) && pc.light_count > 0u;
-    if (glossy) {
+    bool spread = false;
+    if (!brdf_is_lambertian(b) && pc.light_count > 0u) {
         dn_x = normal_step(pixel, ivec2(1, 0), position.xyz, normal.xyz);
         dn_y = normal_step(pixel, ivec2(0, 1), position.xyz, normal.xyz);
-        quarter_alpha = brdf_widened_alpha(b, (dot(dn_x, dn_x) + dot(dn_y, dn_y)) / 48.0);
+        float spread2 = (dot(dn_x, dn_x) + dot(dn_y, dn_y)) / 12.0;
+        spread = spread2 > 0.01 * quarter_alpha * quarter_alpha;
+        quarter_alpha = brdf_widened_alpha(b, spread2 / 4.0);
     }
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec3 radiance = imageLoad(g_emission, pixel).rgb;
@@ -81,16 +85,18 @@ void main() {
         vec3 wi;
         vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, wi);
         if (max(irradiance.r, max(irradiance.g, irradiance.b)) <= 0.0) continue;
+        // One tap where the spread does not matter: a loop, not a branch,
+        // so that a SIMD group runs as many taps as its widest lane needs
+        // (lavapipe runs both sides of a branch).
+        int taps = spread ? 4 : 1;
+        float a = spread ? quarter_alpha : brdf_alpha(b);
         vec3 f = vec3(0.0);
-        if (glossy && (dot(dn_x, dn_x) + dot(dn_y, dn_y)) > 0.0) {
-            for (int k = 0; k < 4; k++) {
-                vec2 at = vec2(k & 1, k >> 1) * 0.5 - 0.25;
-                vec3 nk = normalize(normal.xyz + at.x * dn_x + at.y * dn_y);
-                f += 0.25 * brdf_eval_alpha(b, quarter_alpha, nk, wo, wi);
-            }
-        } else {
-            f = brdf_eval(b, normal.xyz, wo, wi);
+        for (int k = 0; k < taps; k++) {
+            vec2 at = spread ? vec2(k & 1, k >> 1) * 0.5 - 0.25 : vec2(0.0);
+            vec3 nk = normalize(normal.xyz + at.x * dn_x + at.y * dn_y);
+            f += brdf_eval_alpha(b, a, nk, wo, wi);
         }
+        f /= float(taps);
         radiance += f * irradiance;
         diffuse += brdf_diffuse_color(b) / PI * irradiance;
     }
