@@ -48,6 +48,20 @@ pub fn gpu_assisted_renderer() -> Renderer {
     .expect("renderer with GPU-assisted validation")
 }
 
+/// Drops `renderer` (leaks are reported at device destruction) and fails
+/// the test if its validation layer reported anything.
+pub fn finish_clean(renderer: Renderer) {
+    let log = renderer.validation_log();
+    drop(renderer);
+    assert_eq!(
+        log.total(),
+        0,
+        "validation reported {} message(s): {:?}",
+        log.total(),
+        log.messages()
+    );
+}
+
 /// A frame small in every way (64x48, 32 VPLs of 128 points, 16-texel ISM
 /// tiles, 128-texel shadow maps) with two SSBC steps.
 pub fn tiny_settings() -> RenderSettings {
