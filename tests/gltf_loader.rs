@@ -360,6 +360,149 @@ fn bad_material_values_are_clear_errors() {
     }
 }
 
+/// `quad_with_material` with a second texture coordinate set, TEXCOORD_1:
+/// the first eight floats of the positions, (-1, 0), (1, 1), (0, 1), (1, 0).
+fn quad_with_two_uv_sets(material: &str) -> String {
+    quad_with_material(material)
+        .replace(r#""TEXCOORD_0":2}"#, r#""TEXCOORD_0":2,"TEXCOORD_1":4}"#)
+        .replace(
+            r#""type":"SCALAR"}]"#,
+            r#""type":"SCALAR"},{"bufferView":0,"componentType":5126,"count":4,"type":"VEC2"}]"#,
+        )
+}
+
+/// The texture coordinates of the loaded quad's six corners (two triangles).
+fn corner_uvs(scene: &ssbc::Scene) -> Vec<glam::Vec2> {
+    scene
+        .world_triangles()
+        .flatten()
+        .map(|v| glam::Vec2::from(v.uv))
+        .collect()
+}
+
+/// A material's `texCoord` picks the TEXCOORD set, and KHR_texture_transform
+/// maps it, T * R * S with the rotation turning uv counter-clockwise in
+/// glTF's v-down uv space (u' = cos u + sin v, v' = -sin u + cos v; the
+/// direction implementations and the sample `TextureTransformTest` use).
+/// Both are applied to the mesh's uvs, which the GPU and the CPU read.
+#[test]
+fn texture_coordinate_sets_and_texture_transforms_map_uvs() {
+    use glam::Vec2;
+    let dir = tempfile::tempdir().unwrap();
+    let set0 = [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]].map(Vec2::from);
+    let set1 = [[-1.0f32, 0.0], [1.0, 1.0], [0.0, 1.0], [1.0, 0.0]].map(Vec2::from);
+    let (offset, rotation, scale) = (Vec2::new(0.5, 0.25), 0.3f32, Vec2::new(2.0, 3.0));
+    let mapped = |uv: Vec2| {
+        let s = uv * scale;
+        let (sin, cos) = rotation.sin_cos();
+        offset + Vec2::new(cos * s.x + sin * s.y, -sin * s.x + cos * s.y)
+    };
+    let transform = format!(
+        r#""extensions":{{"KHR_texture_transform":{{"offset":[{},{}],"rotation":{rotation},"scale":[{},{}]TEXCOORD}}}}"#,
+        offset.x, offset.y, scale.x, scale.y
+    );
+    let in_transform = transform.replace("TEXCOORD", r#","texCoord":1"#);
+    let transform = transform.replace("TEXCOORD", "");
+    // The quad's corners, in triangle order.
+    let corners = |set: [Vec2; 4]| [0, 1, 2, 0, 2, 3].map(|i| set[i]);
+    for (material, expected) in [
+        (
+            r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,"texCoord":1}}}"#.to_string(),
+            corners(set1),
+        ),
+        (
+            format!(
+                r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,{transform}}}}}}}"#
+            ),
+            corners(set0).map(mapped),
+        ),
+        // The extension's texCoord overrides the textureInfo's; every
+        // texture the same, the normal texture's extension included.
+        (
+            format!(
+                r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,{in_transform}}},
+"metallicRoughnessTexture":{{"index":1,"texCoord":1,{transform}}}}},
+"normalTexture":{{"index":0,{in_transform}}},"emissiveTexture":{{"index":2,"texCoord":1,{transform}}}}}"#
+            ),
+            corners(set1).map(mapped),
+        ),
+        // Textures that disagree are read with the base colour's map (and a
+        // warning says so).
+        (
+            format!(
+                r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}}}},
+"normalTexture":{{"index":0,{transform}}}}}"#
+            ),
+            corners(set1),
+        ),
+        // No texture: set 0 as it is.
+        (r#"{"emissiveFactor":[1,1,1]}"#.to_string(), corners(set0)),
+    ] {
+        let json = quad_with_two_uv_sets(&material);
+        let scene = load_str(dir.path(), "uv.gltf", json.as_bytes()).expect(&material);
+        let got = corner_uvs(&scene);
+        for (g, e) in got.iter().zip(expected) {
+            assert!(
+                (*g - e).length() < 1e-5,
+                "{material}: uvs {got:?}, expected {expected:?}"
+            );
+        }
+    }
+    // A transform past the largest float is a clear error, as is a missing
+    // set (a warning, then set 0's absence: uv 0).
+    let json = quad_with_two_uv_sets(
+        r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,"extensions":{"KHR_texture_transform":{"offset":[3e38,0],"scale":[3e38,1]}}}}}"#,
+    );
+    let e = load_str(dir.path(), "big.gltf", json.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("KHR_texture_transform") && !e.contains('\n'),
+        "{e}"
+    );
+    let json = quad_with_two_uv_sets(
+        r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,"extensions":{"KHR_texture_transform":{"offset":[1e39,0]}}}}}"#,
+    );
+    let e = load_str(dir.path(), "inf.gltf", json.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("KHR_texture_transform") && !e.contains('\n'),
+        "{e}"
+    );
+    let json = quad_with_two_uv_sets(
+        r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,"texCoord":5}}}"#,
+    );
+    let scene = load_str(dir.path(), "missing.gltf", json.as_bytes()).unwrap();
+    assert!(corner_uvs(&scene).iter().all(|uv| *uv == Vec2::ZERO));
+}
+
+/// The render reads the transformed uvs: mirrored in u (scale [-1, 1],
+/// offset [1, 0]) the texture's halves swap sides.
+#[test]
+fn a_texture_transform_shows_in_the_render() {
+    let (left, right) = ([200u8, 40, 40], [30u8, 60, 220]);
+    let plain = r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0},"metallicFactor":0}}"#;
+    let mirrored = r#"{"pbrMetallicRoughness":{"baseColorTexture":{"index":0,
+"extensions":{"KHR_texture_transform":{"offset":[1,0],"scale":[-1,1]}}},"metallicFactor":0}}"#;
+    let settings = small(32, 32);
+    let a = render_validated(&textured_quad_from_above(plain, left, right), &settings);
+    let b = render_validated(&textured_quad_from_above(mirrored, left, right), &settings);
+    for (x, y) in [(16, 6), (16, 26), (5, 4), (27, 28)] {
+        let (pa, pb) = (pixel(&a, "direct", x, y), pixel(&b, "direct", x, y));
+        let (qa, qb) = (
+            pixel(&a, "direct", x, 31 - y),
+            pixel(&b, "direct", x, 31 - y),
+        );
+        assert!(
+            (pa - qb).abs().max_element() < 0.01 * pa.max_element()
+                && (pb - qa).abs().max_element() < 0.01 * pb.max_element()
+                && (pa - pb).abs().max_element() > 0.2 * pa.max_element(),
+            "pixel ({x},{y}): plain {pa} / {qa}, mirrored {pb} / {qb}"
+        );
+    }
+}
+
 fn centre(scene: &ssbc::Scene) -> Vec3 {
     let corners: Vec<Vec3> = scene
         .world_triangles()

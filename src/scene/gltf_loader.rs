@@ -18,7 +18,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
-use glam::{Mat4, Quat, Vec3, Vec4};
+use glam::{Affine2, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::json::{self, accessor::ComponentType, accessor::Type, validation::Checked};
 
 use super::animation::{
@@ -111,6 +111,7 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> R
         channels: Vec::new(),
         pose_nodes: Vec::new(),
         meshes: HashMap::new(),
+        uv_maps: Vec::new(),
     }
     .load()
 }
@@ -166,6 +167,51 @@ struct Loader<'a> {
     /// Per glTF mesh, the scene meshes made of its triangle primitives
     /// (made once, however many nodes draw it).
     meshes: HashMap<usize, Vec<usize>>,
+    /// Per glTF material, where its textures are read.
+    uv_maps: Vec<UvMap>,
+}
+
+/// Where a material's textures are read: a `TEXCOORD_n` set, and the affine
+/// map `KHR_texture_transform` applies to it. Applied to the mesh's texture
+/// coordinates at load (an affine map keeps the G-buffer's uv derivatives
+/// right), so one map per material: where its textures differ, the
+/// base colour's wins and a warning says so.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct UvMap {
+    set: u32,
+    transform: Affine2,
+}
+
+impl Default for UvMap {
+    fn default() -> Self {
+        Self {
+            set: 0,
+            transform: Affine2::IDENTITY,
+        }
+    }
+}
+
+/// `KHR_texture_transform`'s offset, rotation and scale as one map,
+/// T * R * S. Its rotation turns uv counter-clockwise in uv space, whose v
+/// axis points down: the matrix is the usual one for -rotation (the
+/// specification's GLSL listing has the sign the other way, KhronosGroup/glTF
+/// issue 1563; implementations and the sample model `TextureTransformTest`
+/// agree on this one).
+fn texture_transform(t: &json::extensions::texture::TextureTransform) -> Option<Affine2> {
+    let values = [
+        t.offset.0[0],
+        t.offset.0[1],
+        t.rotation.0,
+        t.scale.0[0],
+        t.scale.0[1],
+    ];
+    values.iter().all(|v| v.is_finite()).then(|| {
+        Affine2::from_scale_angle_translation(
+            Vec2::from(t.scale.0),
+            -t.rotation.0,
+            Vec2::from(t.offset.0),
+        )
+    })
 }
 
 fn checked<T: Copy>(c: &Checked<T>) -> Option<T> {
@@ -294,7 +340,7 @@ impl Loader<'_> {
     /// One warning naming the material extensions the file uses that ssbc
     /// does not implement (they change the BRDF or its texture lookups).
     fn warn_unsupported_extensions(&self) {
-        const NOT_IMPLEMENTED: [&str; 14] = [
+        const NOT_IMPLEMENTED: [&str; 13] = [
             "KHR_materials_anisotropy",
             "KHR_materials_clearcoat",
             "KHR_materials_diffuse_transmission",
@@ -308,7 +354,6 @@ impl Loader<'_> {
             "KHR_materials_unlit",
             "KHR_materials_volume",
             "KHR_materials_volume_scatter",
-            "KHR_texture_transform",
         ];
         let used: Vec<&str> = NOT_IMPLEMENTED
             .into_iter()
@@ -517,6 +562,8 @@ impl Loader<'_> {
             Some(info) => Some(self.texture_ref(info.index.value(), scene, slots)?),
             None => None,
         };
+        let uv_map = self.material_uv_map(index, m)?;
+        self.uv_maps.push(uv_map);
         Ok(super::Material {
             base_color,
             texture,
@@ -533,6 +580,71 @@ impl Loader<'_> {
                 texture: reflectance_texture,
             },
         })
+    }
+
+    /// Where material `index`'s textures are read (the occlusion texture is
+    /// not read, so it does not count).
+    fn material_uv_map(&self, index: usize, m: &json::Material) -> Result<UvMap> {
+        use json::extensions::texture::TextureTransform;
+        let pbr = &m.pbr_metallic_roughness;
+        let info = |i: &json::texture::Info| (i.tex_coord, i.extensions.as_ref().and_then(|e| e.texture_transform.clone()));
+        // The normal texture's extensions are not typed by the gltf crate.
+        let normal = m.normal_texture.as_ref().map(|n| {
+            let transform = n
+                .extensions
+                .as_ref()
+                .and_then(|e| e.others.get("KHR_texture_transform"))
+                .map(|v| serde_json::from_value::<TextureTransform>(v.clone()));
+            (n.tex_coord, transform)
+        });
+        let mut used: Vec<(&str, u32, Option<TextureTransform>)> = Vec::new();
+        if let Some(i) = &pbr.base_color_texture {
+            let (set, t) = info(i);
+            used.push(("baseColorTexture", set, t));
+        }
+        if let Some(i) = &pbr.metallic_roughness_texture {
+            let (set, t) = info(i);
+            used.push(("metallicRoughnessTexture", set, t));
+        }
+        if let Some((set, t)) = normal {
+            let t = t.transpose().map_err(|e| {
+                self.err(format!("material {index}: normalTexture's KHR_texture_transform: {e}"))
+            })?;
+            used.push(("normalTexture", set, t));
+        }
+        if let Some(i) = &m.emissive_texture {
+            let (set, t) = info(i);
+            used.push(("emissiveTexture", set, t));
+        }
+        let mut maps = Vec::with_capacity(used.len());
+        for (name, tex_coord, transform) in used {
+            let map = match transform {
+                None => UvMap { set: tex_coord, transform: Affine2::IDENTITY },
+                Some(t) => UvMap {
+                    set: t.tex_coord.unwrap_or(tex_coord),
+                    transform: texture_transform(&t).ok_or_else(|| {
+                        self.err(format!(
+                            "material {index}: {name}'s KHR_texture_transform holds a non-finite number"
+                        ))
+                    })?,
+                },
+            };
+            maps.push((name, map));
+        }
+        let Some(&(first, map)) = maps.first() else {
+            return Ok(UvMap::default());
+        };
+        let differ: Vec<&str> = maps.iter().filter(|(_, m)| *m != map).map(|(n, _)| *n).collect();
+        if !differ.is_empty() {
+            log::warn!(
+                "{}: material {index}: {} use other texture coordinates than {first} \
+                 (TEXCOORD set or KHR_texture_transform); ssbc reads a material's \
+                 textures with one, {first}'s",
+                self.name,
+                differ.join(", ")
+            );
+        }
+        Ok(map)
     }
 
     /// Texture `index`: its image (decoded once) and its sampler.
@@ -789,13 +901,32 @@ impl Loader<'_> {
                     .collect(),
                 None => Vec::new(),
             };
-            let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(0)) {
+            let uv_map = match prim.material {
+                Some(m) => self.uv_maps.get(m.value()).copied().unwrap_or_default(),
+                None => UvMap::default(),
+            };
+            let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(uv_map.set)) {
                 Some(a) => self
                     .read_floats(a, 2)?
                     .chunks_exact(2)
-                    .map(|c| [c[0], c[1]])
-                    .collect(),
-                None => Vec::new(),
+                    .map(|c| uv_map.transform.transform_point2(Vec2::new(c[0], c[1])))
+                    .map(|uv| uv.is_finite().then_some(uv.into()))
+                    .collect::<Option<_>>()
+                    .ok_or_else(|| {
+                        self.err(format!(
+                            "mesh {index} primitive {pi}: KHR_texture_transform takes texture coordinates past the largest float"
+                        ))
+                    })?,
+                None => {
+                    if uv_map.set != 0 {
+                        log::warn!(
+                            "{}: mesh {index} primitive {pi} has no TEXCOORD_{} for its material's textures",
+                            self.name,
+                            uv_map.set
+                        );
+                    }
+                    Vec::new()
+                }
             };
             let tangents: Vec<Vec4> = match attr(Semantic::Tangents) {
                 Some(a) => self

@@ -28,7 +28,8 @@ pub struct Vertex {
     pub position: [f32; 3],
     /// Unit normal.
     pub normal: [f32; 3],
-    /// Texture coordinate (every texture of the material uses this set).
+    /// Texture coordinate (every texture of the material uses this set; a
+    /// glTF material's `texCoord` set and `KHR_texture_transform` applied).
     pub uv: [f32; 2],
     /// Index into [`Scene::materials`].
     pub material: u32,
