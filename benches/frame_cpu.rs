@@ -80,7 +80,15 @@ fn add_spheres(scene: &mut Scene, count: usize) {
         }
     }
     let mesh = scene
-        .new_mesh(&positions, &positions, &[], &[], &indices, m)
+        .new_mesh(
+            ssbc::scene::MeshData {
+                positions: &positions,
+                normals: &positions,
+                indices: &indices,
+                ..Default::default()
+            },
+            m,
+        )
         .expect("sphere mesh");
     let side = (count as f32).sqrt().ceil() as usize;
     for i in 0..count {

@@ -252,7 +252,12 @@ fn metallic_roughness_texture_is_linear_blue_metal_green_roughness() {
             (base.y - srgb(texel[1])).abs() < 0.01,
             "pixel ({x},{y}): base colour {base} is not the sRGB-decoded texel"
         );
-        let cpu = ssbc::cpu::shading::brdf(&scene, &scene.materials[0], glam::Vec2::new(u, 0.5));
+        let cpu = ssbc::cpu::shading::brdf(
+            &scene,
+            &scene.materials[0],
+            glam::Vec2::new(u, 0.5),
+            glam::Vec4::ONE,
+        );
         assert!(
             (cpu.metallic - metallic).abs() < 0.01 && (cpu.roughness - roughness).abs() < 0.01,
             "CPU BRDF at u = {u}: metallic {}, roughness {}",
@@ -501,6 +506,206 @@ fn a_texture_transform_shows_in_the_render() {
             "pixel ({x},{y}): plain {pa} / {qa}, mirrored {pb} / {qb}"
         );
     }
+}
+
+/// The quad with material 0 given as JSON and a COLOR_0 attribute:
+/// `color_bytes` appended to the buffer, read by an accessor with the given
+/// members (componentType, type, ...; its bufferView is filled in).
+fn quad_with_colors(material: &str, color_bytes: &[u8], accessor: &str) -> String {
+    let (mut bin, _) = quad_buffer(2);
+    let offset = bin.len();
+    bin.extend(color_bytes);
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    quad_gltf(
+        Some(&data_uri(&bin)),
+        bin.len(),
+        5123,
+        Some(0),
+        &format!(r#","materials":[{material}]"#),
+    )
+    .replace(r#""TEXCOORD_0":2}"#, r#""TEXCOORD_0":2,"COLOR_0":4}"#)
+    .replace(
+        "],\n\"accessors\":[",
+        &format!(
+            ",{{\"buffer\":0,\"byteOffset\":{offset},\"byteLength\":{}}}],\n\"accessors\":[",
+            color_bytes.len()
+        ),
+    )
+    .replace(
+        r#""type":"SCALAR"}]"#,
+        &format!(r#""type":"SCALAR"}},{{"bufferView":4,"count":4,{accessor}}}]"#),
+    )
+}
+
+fn le_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// COLOR_0 as glTF allows it (RGB or RGBA; float, unsigned byte or short
+/// normalized) becomes each vertex's RGBA; floats past [0, 1] are clamped;
+/// other types are clear errors.
+#[test]
+fn vertex_colors_are_read_in_every_allowed_encoding() {
+    use glam::Vec4;
+    let dir = tempfile::tempdir().unwrap();
+    let floats = [
+        0.2f32, 0.4, 0.6, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.5, 0.5, 0.5,
+    ];
+    let bytes: Vec<u8> = (0..16).map(|i| (i * 17) as u8).collect();
+    let shorts: Vec<u8> = (0..16u32)
+        .flat_map(|i| ((i * 4369) as u16).to_le_bytes())
+        .collect();
+    let rgb = |c: &[f32]| {
+        c.chunks(3)
+            .map(|c| Vec4::new(c[0], c[1], c[2], 1.0))
+            .collect::<Vec<_>>()
+    };
+    let rgba = |n: f32| {
+        (0..4)
+            .map(|k| Vec4::from_slice(&[0, 1, 2, 3].map(|i| (4 * k + i) as f32 / n)))
+            .collect::<Vec<_>>()
+    };
+    for (bytes, accessor, expected) in [
+        (
+            le_bytes(&floats),
+            r#""componentType":5126,"type":"VEC3""#,
+            rgb(&floats),
+        ),
+        (
+            bytes.clone(),
+            r#""componentType":5121,"normalized":true,"type":"VEC4""#,
+            rgba(15.0),
+        ),
+        (
+            shorts,
+            r#""componentType":5123,"normalized":true,"type":"VEC4""#,
+            rgba(15.0),
+        ),
+        (
+            le_bytes(&[1.5, -0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            r#""componentType":5126,"type":"VEC3""#,
+            rgb(&[1.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        ),
+    ] {
+        let json = quad_with_colors("{}", &bytes, accessor);
+        let scene = load_str(dir.path(), "c.gltf", json.as_bytes()).expect(accessor);
+        let got: Vec<Vec4> = scene
+            .world_triangles()
+            .flatten()
+            .map(|v| v.color())
+            .collect();
+        for (k, &i) in [0usize, 1, 2, 0, 2, 3].iter().enumerate() {
+            assert!(
+                (got[k] - expected[i]).abs().max_element() < 1e-4,
+                "{accessor}: corner {k}: {} against {}",
+                got[k],
+                expected[i]
+            );
+        }
+    }
+    for (bytes, accessor, expected) in [
+        (
+            le_bytes(&[0.5; 4]),
+            r#""componentType":5126,"type":"SCALAR""#,
+            "COLOR_0 must be VEC3 or VEC4",
+        ),
+        (
+            bytes,
+            r#""componentType":5121,"type":"VEC4""#,
+            "not supported",
+        ),
+    ] {
+        let json = quad_with_colors("{}", &bytes, accessor);
+        let e = load_str(dir.path(), "c.gltf", json.as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expected) && !e.contains('\n'), "{accessor}: {e}");
+    }
+    // Without COLOR_0, white.
+    let json = quad_with_material("{}");
+    let scene = load_str(dir.path(), "w.gltf", json.as_bytes()).unwrap();
+    assert!(scene
+        .world_triangles()
+        .flatten()
+        .all(|v| v.color() == Vec4::ONE));
+}
+
+/// The quad lit from above as `textured_quad_from_above` (it fills the
+/// view), its material white and its COLOR_0 the given RGBA floats.
+fn colored_quad_from_above(material: &str, colors: &[f32; 16]) -> ssbc::Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let json = quad_with_colors(
+        material,
+        &le_bytes(colors),
+        r#""componentType":5126,"type":"VEC4""#,
+    );
+    let mut scene = load_str(dir.path(), "c.gltf", json.as_bytes()).unwrap();
+    let reference = textured_quad_from_above("{}", [0; 3], [0; 3]);
+    scene.cameras = reference.cameras.clone();
+    scene.lights = reference.lights.clone();
+    scene
+}
+
+/// Vertex colours multiply the base colour in the G-buffer and on the CPU,
+/// and their alpha the mask: a quad whose alpha falls from 1 to 0 across it
+/// is cut at the middle alike in the GPU's image and the path tracer's.
+#[test]
+fn vertex_colors_tint_and_mask_on_the_gpu_and_the_cpu() {
+    use ssbc::cpu::reference::{Reference, ReferenceSettings};
+    use std::sync::atomic::AtomicBool;
+    let c = [0.2f32, 0.5, 0.9];
+    let tint: [f32; 16] = std::array::from_fn(|i| if i % 4 == 3 { 1.0 } else { c[i % 4] });
+    // Corners 0 and 1 opaque, 2 and 3 transparent: the cut runs across.
+    let fade: [f32; 16] = std::array::from_fn(|i| match i % 4 {
+        3 => (i < 8) as u32 as f32,
+        k => c[k],
+    });
+    let settings = small(32, 32);
+    let white = r#"{"pbrMetallicRoughness":{"metallicFactor":0}}"#;
+    let tinted = render_validated(&colored_quad_from_above(white, &tint), &settings);
+    // As in base_color_texture_is_sampled_in_the_render: (0.96 base + 0.01) / pi.
+    let want = (0.96 * Vec3::from(c) + Vec3::splat(0.01)) / PI;
+    for (x, y) in [(16, 16), (3, 5), (28, 27)] {
+        let got = pixel(&tinted, "direct", x, y);
+        assert!(
+            (got - want).abs().max_element() < 0.01 * want.max_element(),
+            "({x},{y}): {got} against {want}"
+        );
+    }
+    let masked = colored_quad_from_above(
+        r#"{"pbrMetallicRoughness":{"metallicFactor":0},"alphaMode":"MASK","alphaCutoff":0.5}"#,
+        &fade,
+    );
+    let gpu = render_validated(&masked, &settings);
+    let reference = Reference::new(
+        &masked,
+        ReferenceSettings {
+            width: 32,
+            height: 32,
+            spp: 4,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .render(&AtomicBool::new(false), |_| {})
+    .0;
+    let (mut lit, mut differ) = (0, 0);
+    for i in 0..32 * 32 {
+        let g = Vec3::from_slice(&gpu.image.rgba[4 * i..4 * i + 3]);
+        let r = Vec3::from_slice(&reference[4 * i..4 * i + 3]);
+        lit += (g.max_element() > 0.5 * want.max_element()) as usize;
+        differ += ((g - r).abs().max_element() > 0.02 * want.max_element()) as usize;
+    }
+    assert!(
+        (400..=624).contains(&lit),
+        "{lit} of 1024 pixels lit: the cut is not at the middle"
+    );
+    assert!(
+        differ <= 32,
+        "{differ} pixels differ between the GPU and the path tracer"
+    );
 }
 
 fn centre(scene: &ssbc::Scene) -> Vec3 {

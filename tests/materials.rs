@@ -460,7 +460,17 @@ fn generated_tangents_read_green_as_image_up() {
             c + Vec3::Z * 2.0,
         ];
         let mesh = s
-            .new_mesh(&p, &[Vec3::Y; 4], &uv, &tangents, &[0, 2, 1, 0, 3, 2], m)
+            .new_mesh(
+                ssbc::scene::MeshData {
+                    positions: &p,
+                    normals: &[Vec3::Y; 4],
+                    uvs: &uv,
+                    tangents: &tangents,
+                    indices: &[0, 2, 1, 0, 3, 2],
+                    ..Default::default()
+                },
+                m,
+            )
             .unwrap();
         s.add_object(ssbc::scene::Object::new(mesh, Mat4::IDENTITY))
             .unwrap();

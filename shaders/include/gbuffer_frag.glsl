@@ -19,6 +19,7 @@ layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec2 v_uv;
 layout(location = 3) flat in uint v_material;
 layout(location = 4) in vec4 v_tangent;
+layout(location = 5) in vec4 v_color;
 
 layout(push_constant) uniform Push {
     mat4 view_proj;
@@ -82,7 +83,7 @@ void main() {
     vec2 duv_dx = dFdx(v_uv);
     vec2 duv_dy = dFdy(v_uv);
     GpuMaterial m = materials[v_material];
-    if (!material_opaque(m, v_uv)) discard;
+    if (!material_opaque(m, v_uv, v_color)) discard;
 #ifdef PEEL
     if (!behind_layer0()) discard;
 #endif
@@ -114,7 +115,7 @@ void main() {
     bool lambertian = reflectance.z == 0.0 && reflectance.x == 0.0;
     out_position = vec4(v_position, 1.0);
     out_normal = vec4(n, lambertian ? -1.0 : reflectance.y);
-    out_albedo = vec4(material_base_color(m, v_uv, duv_dx, duv_dy).rgb, reflectance.x);
+    out_albedo = vec4(material_base_color(m, v_uv, duv_dx, duv_dy, v_color).rgb, reflectance.x);
     out_emission = vec4(material_emission(m, v_uv, duv_dx, duv_dy), 1.0);
 }
 

@@ -82,17 +82,19 @@ vec4 sample_texture(sampler2DArray tex, int layer, int bits, vec2 uv, vec2 duv_d
     return sum / taps;
 }
 
-// Linear albedo and alpha, averaged over a footprint (see sample_texture).
-vec4 material_base_color(GpuMaterial m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
-    vec4 c = m.base_color;
+// Linear albedo and alpha, averaged over a footprint (see sample_texture),
+// times the interpolated vertex colour (glTF's COLOR_0, white without).
+vec4 material_base_color(GpuMaterial m, vec2 uv, vec2 duv_dx, vec2 duv_dy, vec4 vertex_color) {
+    vec4 c = m.base_color * vertex_color;
     if (m.textures.x >= 0) c *= sample_texture(color_textures, m.textures.x, m.samplers.x, uv, duv_dx, duv_dy);
     return c;
 }
 
 // Whether the surface exists here (alpha mask), at the point `uv` as the
 // CPU's visibility tests it: averaging alpha would thin cut-outs away.
-bool material_opaque(GpuMaterial m, vec2 uv) {
-    return m.emission_cutoff.w < 0.0 || material_base_color(m, uv, vec2(0.0), vec2(0.0)).a >= m.emission_cutoff.w;
+bool material_opaque(GpuMaterial m, vec2 uv, vec4 vertex_color) {
+    return m.emission_cutoff.w < 0.0
+        || material_base_color(m, uv, vec2(0.0), vec2(0.0), vertex_color).a >= m.emission_cutoff.w;
 }
 
 vec3 material_emission(GpuMaterial m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {

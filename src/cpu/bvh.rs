@@ -120,23 +120,23 @@ impl Masks {
         }
     }
 
-    /// Whether the point with texture coordinate `uv` of a triangle of
-    /// `material` exists.
-    fn exists(&self, material: u32, uv: impl FnOnce() -> Vec2) -> bool {
+    /// Whether the point of a triangle of `material` with texture
+    /// coordinate and vertex alpha `at()` exists.
+    fn exists(&self, material: u32, at: impl FnOnce() -> (Vec2, f32)) -> bool {
         let Some(Some(mask)) = self.of_material.get(material as usize) else {
             return true;
         };
         let mask = &self.masks[*mask as usize];
+        let (uv, vertex_alpha) = at();
         let alpha = match mask.texture {
             None => mask.alpha_factor,
             Some((slot, sampler)) => {
                 let tex = &self.alpha_textures[slot];
                 mask.alpha_factor
-                    * shading::sample_rgba8(tex.width, tex.height, &tex.rgba8, sampler, uv(), false)
-                        .w
+                    * shading::sample_rgba8(tex.width, tex.height, &tex.rgba8, sampler, uv, false).w
             }
         };
-        alpha >= mask.cutoff
+        alpha * vertex_alpha >= mask.cutoff
     }
 
     fn any(&self) -> bool {
@@ -148,9 +148,11 @@ impl Masks {
 struct MeshBvh {
     bvh: CwBvh,
     triangles: Vec<Triangle>,
-    /// Per triangle: its material and its vertices' UVs (alpha masks).
+    /// Per triangle: its material and its vertices' UVs and colours'
+    /// alphas (alpha masks; no alphas where every vertex is opaque).
     material: Vec<u32>,
     uvs: Vec<[Vec2; 3]>,
+    alphas: Vec<[f32; 3]>,
     bounds: Bounds,
 }
 
@@ -181,11 +183,18 @@ impl MeshBvh {
             .chunks_exact(3)
             .map(|t| [0, 1, 2].map(|k| Vec2::from(corner(t, k).uv)))
             .collect();
+        let alphas = if mesh.vertices.iter().all(|v| v.color[3] == u16::MAX) {
+            Vec::new()
+        } else {
+            let alphas = mesh.indices.chunks_exact(3);
+            alphas.map(|t| [0, 1, 2].map(|k| corner(t, k).color().w)).collect()
+        };
         Self {
             bvh,
             triangles,
             material,
             uvs,
+            alphas,
             bounds: mesh.bounds().unwrap_or(Bounds {
                 min: Vec3::ZERO,
                 max: Vec3::ZERO,
@@ -405,12 +414,16 @@ impl SceneBvh {
         let d = watertight_intersect(tri, r);
         if d.is_finite() && self.masks.any() {
             let material = instance.material.unwrap_or(mesh.material[local]);
-            let uv = || {
+            let at = || {
                 let b = barycentric(tri, Vec3::from(r.origin + r.direction * d));
+                let b = [1.0 - b.x - b.y, b.x, b.y];
                 let uvs = &mesh.uvs[local];
-                uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y
+                let alpha = mesh.alphas.get(local).map_or(1.0, |a| {
+                    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+                });
+                (uvs[0] * b[0] + uvs[1] * b[1] + uvs[2] * b[2], alpha)
             };
-            if !self.masks.exists(material, uv) {
+            if !self.masks.exists(material, at) {
                 return (f32::INFINITY, local);
             }
         }
@@ -614,6 +627,7 @@ impl SceneBvh {
             .try_normalize()
             .unwrap_or(geometric_normal);
         let uv = Vec2::from(v(0).uv) * b0 + Vec2::from(v(1).uv) * u + Vec2::from(v(2).uv) * w;
+        let color = v(0).color() * b0 + v(1).color() * u + v(2).color() * w;
         let object_tangent = Vec4::from(v(0).tangent) * b0
             + Vec4::from(v(1).tangent) * u
             + Vec4::from(v(2).tangent) * w;
@@ -635,7 +649,7 @@ impl SceneBvh {
         if !front {
             normal = -normal;
         }
-        let brdf = shading::brdf(scene, material, uv);
+        let brdf = shading::brdf(scene, material, uv, color);
         let emission = if front || material.double_sided {
             shading::emission(scene, material, uv)
         } else {

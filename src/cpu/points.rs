@@ -61,10 +61,10 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
         let material =
             &scene.materials[instance.placement.material.unwrap_or(v[0].material) as usize];
         let kept = !matches!(material.alpha, AlphaMode::Mask(_)) || {
-            let uv = Vec2::from(v[0].uv) * (1.0 - w1 - w2)
-                + Vec2::from(v[1].uv) * w1
-                + Vec2::from(v[2].uv) * w2;
-            shading::opaque(scene, material, uv)
+            let b = [1.0 - w1 - w2, w1, w2];
+            let uv = Vec2::from(v[0].uv) * b[0] + Vec2::from(v[1].uv) * b[1] + Vec2::from(v[2].uv) * b[2];
+            let color = v[0].color() * b[0] + v[1].color() * b[1] + v[2].color() * b[2];
+            shading::opaque(scene, material, uv, color)
         };
         let p = |k: usize| Vec3::from(v[k].position);
         let p = p(0) * (1.0 - w1 - w2) + p(1) * w1 + p(2) * w2;

@@ -77,19 +77,22 @@ pub fn sample_rgba8(
     top.lerp(bottom, fy)
 }
 
-/// Linear albedo (rgb) and alpha of `m` at `uv`.
-pub fn base_color(scene: &Scene, m: &Material, uv: Vec2) -> Vec4 {
+/// Linear albedo (rgb) and alpha of `m` at `uv`, where the interpolated
+/// vertex colour (glTF's COLOR_0; white without) is `vertex_color`.
+pub fn base_color(scene: &Scene, m: &Material, uv: Vec2, vertex_color: Vec4) -> Vec4 {
+    let factor = m.base_color * vertex_color;
     match m.texture {
-        Some(t) => m.base_color * sample(&scene.textures[t], m.sampler, uv, true),
-        None => m.base_color,
+        Some(t) => factor * sample(&scene.textures[t], m.sampler, uv, true),
+        None => factor,
     }
 }
 
-/// The BRDF of `m` at `uv`: base colour (texture included), and for glTF's
-/// metallic-roughness model metallic and roughness, each factor times its
-/// channel (B, G) of the linear metallic-roughness texture.
-pub fn brdf(scene: &Scene, m: &Material, uv: Vec2) -> Brdf {
-    let base = base_color(scene, m, uv).truncate();
+/// The BRDF of `m` at `uv` (vertex colour `vertex_color`): base colour
+/// (texture and vertex colour included), and for glTF's metallic-roughness
+/// model metallic and roughness, each factor times its channel (B, G) of
+/// the linear metallic-roughness texture.
+pub fn brdf(scene: &Scene, m: &Material, uv: Vec2, vertex_color: Vec4) -> Brdf {
+    let base = base_color(scene, m, uv, vertex_color).truncate();
     match m.reflectance {
         Reflectance::Lambertian => Brdf::lambertian(base),
         Reflectance::MetallicRoughness {
@@ -113,11 +116,12 @@ pub fn brdf(scene: &Scene, m: &Material, uv: Vec2) -> Brdf {
     }
 }
 
-/// Whether the surface of `m` exists at `uv` (its alpha mask).
-pub fn opaque(scene: &Scene, m: &Material, uv: Vec2) -> bool {
+/// Whether the surface of `m` exists at `uv` (its alpha mask; vertex
+/// colour `vertex_color`).
+pub fn opaque(scene: &Scene, m: &Material, uv: Vec2, vertex_color: Vec4) -> bool {
     match m.alpha {
         AlphaMode::Opaque => true,
-        AlphaMode::Mask(cutoff) => base_color(scene, m, uv).w >= cutoff,
+        AlphaMode::Mask(cutoff) => base_color(scene, m, uv, vertex_color).w >= cutoff,
     }
 }
 

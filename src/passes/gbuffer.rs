@@ -11,11 +11,13 @@
 //! 0) under it, back faces included. SSBC gathers from its surfaces too:
 //! the hidden faces of objects light the visible surfaces around them.
 
+use std::mem::offset_of;
 use std::sync::Arc;
 
 use ash::vk;
 
 use super::{Pass, Recording, SlotSetup};
+use crate::scene::Vertex;
 use crate::error::{Error, Result};
 use crate::gpu_scene::{GpuScene, SlotScene};
 use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
@@ -141,13 +143,14 @@ pub(crate) fn pipeline_desc(fragment: &Shader) -> GraphicsDesc<'_> {
     GraphicsDesc {
         vertex: &gbuffer_vert::SHADER,
         fragment: Some(fragment),
-        vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+        vertex_stride: std::mem::size_of::<Vertex>() as u32,
         attributes: &[
-            (0, vk::Format::R32G32B32_SFLOAT, 0),
-            (1, vk::Format::R32G32B32_SFLOAT, 12),
-            (2, vk::Format::R32G32_SFLOAT, 24),
-            (3, vk::Format::R32_UINT, 32),
-            (4, vk::Format::R32G32B32A32_SFLOAT, 36),
+            (0, vk::Format::R32G32B32_SFLOAT, offset_of!(Vertex, position)),
+            (1, vk::Format::R32G32B32_SFLOAT, offset_of!(Vertex, normal)),
+            (2, vk::Format::R32G32_SFLOAT, offset_of!(Vertex, uv)),
+            (3, vk::Format::R32_UINT, offset_of!(Vertex, material)),
+            (4, vk::Format::R32G32B32A32_SFLOAT, offset_of!(Vertex, tangent)),
+            (5, vk::Format::R16G16B16A16_UNORM, offset_of!(Vertex, color)),
         ],
         color_formats: &[GBUFFER_FORMAT; 4],
         depth_format: vk::Format::D32_SFLOAT,

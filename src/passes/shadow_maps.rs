@@ -3,11 +3,13 @@
 //! scene for a directional light. All layers live in one depth array image.
 //! Alpha-masked texels cast no shadow (the fragment shader discards them).
 
+use std::mem::offset_of;
 use std::sync::Arc;
 
 use ash::vk;
 use glam::{Mat4, Vec3, Vec4};
 
+use crate::scene::Vertex;
 use crate::error::Result;
 use crate::gpu_scene::SlotScene;
 use crate::gpu_types::{GpuLight, ShadowView};
@@ -138,11 +140,12 @@ impl ShadowMapPass {
                 &GraphicsDesc {
                     vertex: &shadow_map_vert::SHADER,
                     fragment,
-                    vertex_stride: std::mem::size_of::<crate::scene::Vertex>() as u32,
+                    vertex_stride: std::mem::size_of::<Vertex>() as u32,
                     attributes: &[
-                        (0, vk::Format::R32G32B32_SFLOAT, 0),
-                        (2, vk::Format::R32G32_SFLOAT, 24),
-                        (3, vk::Format::R32_UINT, 32),
+                        (0, vk::Format::R32G32B32_SFLOAT, offset_of!(Vertex, position)),
+                        (2, vk::Format::R32G32_SFLOAT, offset_of!(Vertex, uv)),
+                        (3, vk::Format::R32_UINT, offset_of!(Vertex, material)),
+                        (5, vk::Format::R16G16B16A16_UNORM, offset_of!(Vertex, color)),
                     ],
                     color_formats: &[],
                     depth_format: vk::Format::D32_SFLOAT,

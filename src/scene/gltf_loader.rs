@@ -936,9 +936,14 @@ impl Loader<'_> {
                     .collect(),
                 None => Vec::new(),
             };
+            let colors = match attr(Semantic::Colors(0)) {
+                Some(a) => self.read_colors(a, index, pi)?,
+                None => Vec::new(),
+            };
             if !normals.is_empty() && normals.len() != positions.len()
                 || !uvs.is_empty() && uvs.len() != positions.len()
                 || !tangents.is_empty() && tangents.len() != positions.len()
+                || !colors.is_empty() && colors.len() != positions.len()
             {
                 return Err(self.err(format!(
                     "mesh {index} primitive {pi}: attribute counts differ"
@@ -973,7 +978,17 @@ impl Loader<'_> {
             self.check_budget(
                 (vertices * std::mem::size_of::<super::Vertex>() + indices.len() * 4) as u64,
             )?;
-            made.push(scene.new_mesh(&positions, &normals, &uvs, &tangents, &indices, material)?);
+            made.push(scene.new_mesh(
+                super::MeshData {
+                    positions: &positions,
+                    normals: &normals,
+                    uvs: &uvs,
+                    tangents: &tangents,
+                    colors: &colors,
+                    indices: &indices,
+                },
+                material,
+            )?);
         }
         Ok(made)
     }
@@ -1189,6 +1204,37 @@ impl Loader<'_> {
             out.push(v);
         }
         Ok(out)
+    }
+
+    /// COLOR_0 of mesh `mesh` primitive `pi` (accessor `index`): RGB or
+    /// RGBA, float or normalized integers, as RGBA. Floats outside [0, 1]
+    /// are clamped, with a warning.
+    fn read_colors(&mut self, index: usize, mesh: usize, pi: usize) -> Result<Vec<Vec4>> {
+        let components = match self.root.accessors.get(index).map(|a| checked(&a.type_)) {
+            Some(Some(Type::Vec3)) => 3,
+            Some(Some(Type::Vec4)) => 4,
+            Some(_) => {
+                return Err(self.err(format!(
+                    "mesh {mesh} primitive {pi}: COLOR_0 must be VEC3 or VEC4"
+                )))
+            }
+            None => return Err(self.err(format!("accessor index {index} out of range"))),
+        };
+        let raw = self.read_floats(index, components)?;
+        let colors: Vec<Vec4> = raw
+            .chunks_exact(components)
+            .map(|c| Vec4::new(c[0], c[1], c[2], c.get(3).copied().unwrap_or(1.0)))
+            .collect();
+        if colors.iter().any(|c| c.min_element() < 0.0 || c.max_element() > 1.0) {
+            log::warn!(
+                "{}: mesh {mesh} primitive {pi}: COLOR_0 values outside [0, 1] are clamped",
+                self.name
+            );
+        }
+        Ok(colors
+            .into_iter()
+            .map(|c| c.clamp(Vec4::ZERO, Vec4::ONE))
+            .collect())
     }
 
     /// Index data (u8, u16 or u32).

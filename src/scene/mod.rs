@@ -19,10 +19,10 @@ use glam::{Mat3, Mat4, Vec3, Vec4};
 use crate::error::{Error, Result};
 pub use objects::{Instance, Instances, Mesh, Object, Placement};
 
-/// One vertex of a [`Mesh`] in object space, as uploaded to the GPU (52
+/// One vertex of a [`Mesh`] in object space, as uploaded to the GPU (60
 /// bytes); [`Scene::triangle`] gives them in world space.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Vertex {
     /// Position (m).
     pub position: [f32; 3],
@@ -36,6 +36,52 @@ pub struct Vertex {
     /// Unit tangent (xyz, along +u) and the handedness of the
     /// bitangent (w = ±1), for normal maps; zero without one.
     pub tangent: [f32; 4],
+    /// Linear RGBA that multiplies the material's base colour and alpha
+    /// (glTF's `COLOR_0`), as 16-bit unsigned normalized integers; white
+    /// without one ([`Vertex::WHITE`]).
+    pub color: [u16; 4],
+}
+
+impl Vertex {
+    /// The colour of a vertex without one: white, opaque.
+    pub const WHITE: [u16; 4] = [u16::MAX; 4];
+
+    /// [`Vertex::color`] as floats in [0, 1].
+    pub fn color(&self) -> Vec4 {
+        Vec4::from(self.color.map(|c| c as f32 / u16::MAX as f32))
+    }
+}
+
+impl Default for Vertex {
+    /// Every attribute zero, the colour white.
+    fn default() -> Self {
+        Self {
+            color: Self::WHITE,
+            ..bytemuck::Zeroable::zeroed()
+        }
+    }
+}
+
+/// A mesh's vertex attributes (object space) and triangles, for
+/// [`Scene::new_mesh`]. Every slice but `positions` and `indices` may be
+/// empty: flat normals are then computed, uvs are zero, tangents are
+/// generated when the material has a normal map, colours are white.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MeshData<'a> {
+    /// Vertex positions (m).
+    pub positions: &'a [Vec3],
+    /// Vertex normals.
+    pub normals: &'a [Vec3],
+    /// Texture coordinates.
+    pub uvs: &'a [[f32; 2]],
+    /// Tangents: xyz along +u, w the bitangent's handedness (glTF's
+    /// TANGENT).
+    pub tangents: &'a [Vec4],
+    /// Linear RGBA in [0, 1] multiplying the base colour (glTF's COLOR_0).
+    pub colors: &'a [Vec4],
+    /// Three vertex indices a triangle, counter-clockwise seen from its
+    /// front.
+    pub indices: &'a [u32],
 }
 
 /// How texture coordinates outside [0, 1] wrap (glTF sampler wrap modes).
@@ -508,24 +554,30 @@ impl Scene {
         transform: Mat4,
         material: u32,
     ) -> Result<usize> {
-        let mesh = self.new_mesh(positions, normals, uvs, &[], indices, material)?;
+        let mesh = self.new_mesh(
+            MeshData {
+                positions,
+                normals,
+                uvs,
+                indices,
+                ..Default::default()
+            },
+            material,
+        )?;
         self.add_object(Object::new(mesh, transform))
     }
 
     /// Adds a mesh in object space that objects can then draw
-    /// ([`Scene::add_object`]); returns its index. `normals` may be empty
-    /// (flat normals are computed), `uvs` may be empty; `tangents` (xyz
-    /// along +u, w the bitangent's handedness, as glTF's TANGENT) may be
-    /// empty: generated when the material has a normal map.
-    pub fn new_mesh(
-        &mut self,
-        positions: &[Vec3],
-        normals: &[Vec3],
-        uvs: &[[f32; 2]],
-        tangents: &[Vec4],
-        indices: &[u32],
-        material: u32,
-    ) -> Result<usize> {
+    /// ([`Scene::add_object`]); returns its index.
+    pub fn new_mesh(&mut self, data: MeshData, material: u32) -> Result<usize> {
+        let MeshData {
+            positions,
+            normals,
+            uvs,
+            tangents,
+            colors,
+            indices,
+        } = data;
         let bad = |m: &str| Err(Error::scene(&self.name, m));
         if indices.len() % 3 != 0 {
             return bad("index count is not a multiple of 3");
@@ -533,8 +585,15 @@ impl Scene {
         if !normals.is_empty() && normals.len() != positions.len()
             || !uvs.is_empty() && uvs.len() != positions.len()
             || !tangents.is_empty() && tangents.len() != positions.len()
+            || !colors.is_empty() && colors.len() != positions.len()
         {
             return bad("attribute counts differ from the position count");
+        }
+        if colors
+            .iter()
+            .any(|c| !(c.cmpge(Vec4::ZERO) & c.cmple(Vec4::ONE)).all())
+        {
+            return bad("a vertex colour is outside [0, 1]");
         }
         if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
             return bad(&format!(
@@ -550,6 +609,12 @@ impl Scene {
         }
         let wants_tangents = mat.normal_texture.is_some();
         let uv = |i: usize| uvs.get(i).copied().unwrap_or([0.0; 2]);
+        let color = |i: usize| {
+            colors
+                .get(i)
+                .map(|c| c.to_array().map(|v| (v * u16::MAX as f32).round() as u16))
+                .unwrap_or(Vertex::WHITE)
+        };
         let mut mesh = Mesh::default();
         if normals.is_empty() {
             // Flat normals: unshare vertices, one normal per triangle (the
@@ -579,6 +644,7 @@ impl Scene {
                             .copied()
                             .unwrap_or(generated)
                             .into(),
+                        color: color(i as usize),
                     });
                 }
                 mesh.indices.extend([base, base + 1, base + 2]);
@@ -599,6 +665,7 @@ impl Scene {
                     uv: uv(i),
                     material,
                     tangent: vertex_tangents[i].into(),
+                    color: color(i),
                 })
                 .collect();
             mesh.indices = indices.to_vec();

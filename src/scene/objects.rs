@@ -139,6 +139,7 @@ impl Placement {
             uv: v.uv,
             material: self.material.unwrap_or(v.material),
             tangent: world_tangent.into(),
+            color: v.color,
         }
     }
 }

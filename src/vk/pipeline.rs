@@ -108,8 +108,8 @@ pub struct GraphicsDesc<'a> {
     pub fragment: Option<&'a Shader>,
     /// Vertex stride in bytes.
     pub vertex_stride: u32,
-    /// Vertex attributes (location, format, offset).
-    pub attributes: &'a [(u32, vk::Format, u32)],
+    /// Vertex attributes (location, format, byte offset in the vertex).
+    pub attributes: &'a [(u32, vk::Format, usize)],
     /// Colour attachment formats.
     pub color_formats: &'a [vk::Format],
     /// Depth attachment format.
@@ -161,7 +161,7 @@ fn vertex_layout(
                 location,
                 binding: 0,
                 format,
-                offset,
+                offset: offset as u32,
             },
         );
     ([binding], attributes.collect())
