@@ -574,7 +574,7 @@ fn vertex_colors_are_read_in_every_allowed_encoding() {
             rgb(&floats),
         ),
         (
-            bytes.clone(),
+            bytes,
             r#""componentType":5121,"normalized":true,"type":"VEC4""#,
             rgba(15.0),
         ),
@@ -612,8 +612,8 @@ fn vertex_colors_are_read_in_every_allowed_encoding() {
             "COLOR_0 must be VEC3 or VEC4",
         ),
         (
-            bytes,
-            r#""componentType":5121,"type":"VEC4""#,
+            le_bytes(&[0.5; 16]),
+            r#""componentType":5125,"type":"VEC4""#,
             "not supported",
         ),
     ] {
@@ -706,6 +706,87 @@ fn vertex_colors_tint_and_mask_on_the_gpu_and_the_cpu() {
         differ <= 32,
         "{differ} pixels differ between the GPU and the path tracer"
     );
+}
+
+/// KHR_mesh_quantization's integer attributes: positions as plain signed
+/// shorts, normals as normalized signed bytes, uvs as normalized unsigned
+/// shorts read as the float quad does.
+#[test]
+fn quantized_attributes_are_read() {
+    let (mut bin, _) = quad_buffer(2);
+    let positions: [[i16; 3]; 4] = [[-1, 0, 1], [1, 0, 1], [1, 0, -1], [-1, 0, -1]];
+    let quantized: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    bin[..24].copy_from_slice(&quantized);
+    let normals: Vec<u8> = [[0i8, 127, 0]; 4]
+        .iter()
+        .flatten()
+        .map(|&c| c as u8)
+        .collect();
+    bin[48..60].copy_from_slice(&normals);
+    let uvs: Vec<u8> = [[0u16, 65535], [65535, 65535], [65535, 0], [0, 0]]
+        .iter()
+        .flatten()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    bin[96..112].copy_from_slice(&uvs);
+    let json = quad_gltf(
+        Some(&data_uri(&bin)),
+        bin.len(),
+        5123,
+        None,
+        r#","extensionsUsed":["KHR_mesh_quantization"],"extensionsRequired":["KHR_mesh_quantization"]"#,
+    )
+    .replace(r#"{"bufferView":0,"componentType":5126"#, r#"{"bufferView":0,"componentType":5122"#)
+    .replace(
+        r#"{"bufferView":1,"componentType":5126"#,
+        r#"{"bufferView":1,"componentType":5120,"normalized":true"#,
+    )
+    .replace(
+        r#"{"bufferView":2,"componentType":5126"#,
+        r#"{"bufferView":2,"componentType":5123,"normalized":true"#,
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_str(dir.path(), "q.gltf", json.as_bytes()).unwrap();
+    check_quad(&scene);
+    let expected = [[0.0f32, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    let got = corner_uvs(&scene);
+    for (k, &i) in [0usize, 1, 2, 0, 2, 3].iter().enumerate() {
+        assert_eq!(got[k], glam::Vec2::from(expected[i]), "corner {k}");
+    }
+}
+
+/// A file that requires an extension ssbc cannot read is refused, naming
+/// it; required material extensions render approximately, as used ones do.
+#[test]
+fn required_extensions_ssbc_cannot_read_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let with = |required: &str| {
+        quad_with_material("{}").replace(
+            r#""extensionsUsed":["KHR_materials_emissive_strength"]"#,
+            &format!(r#""extensionsUsed":[{required}],"extensionsRequired":[{required}]"#),
+        )
+    };
+    let e = load_str(
+        dir.path(),
+        "r.gltf",
+        with(r#""EXT_meshopt_compression","KHR_texture_transform""#).as_bytes(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("requires EXT_meshopt_compression,") && !e.contains("KHR_texture_transform"),
+        "{e}"
+    );
+    load_str(
+        dir.path(),
+        "r.gltf",
+        with(r#""KHR_materials_clearcoat""#).as_bytes(),
+    )
+    .unwrap();
 }
 
 fn centre(scene: &ssbc::Scene) -> Vec3 {

@@ -39,6 +39,32 @@ pub const BUDGET_BASE: u64 = 32 << 20;
 /// ...plus this many times the bytes read.
 pub const BUDGET_FACTOR: u64 = 64;
 
+/// Material extensions ssbc does not implement: it renders their materials
+/// as core metallic-roughness, with one warning per scene naming them.
+const APPROXIMATED_EXTENSIONS: [&str; 13] = [
+    "KHR_materials_anisotropy",
+    "KHR_materials_clearcoat",
+    "KHR_materials_diffuse_transmission",
+    "KHR_materials_dispersion",
+    "KHR_materials_ior",
+    "KHR_materials_iridescence",
+    "KHR_materials_pbrSpecularGlossiness",
+    "KHR_materials_sheen",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_unlit",
+    "KHR_materials_volume",
+    "KHR_materials_volume_scatter",
+];
+
+/// Extensions ssbc reads.
+const IMPLEMENTED_EXTENSIONS: [&str; 4] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+];
+
 /// Loads a glTF or GLB file; with `time`, its first animation's node
 /// transforms at that time (seconds).
 pub fn load(path: &Path, time: Option<f32>) -> Result<Scene> {
@@ -273,6 +299,7 @@ impl Loader<'_> {
             ..super::Material::metallic_roughness(Vec3::ONE, 1.0, 1.0)
         });
         let default_material = (scene.materials.len() - 1) as u32;
+        self.check_required_extensions()?;
         self.warn_unsupported_extensions();
         self.warn_not_played();
         self.channels = match (self.animation_channels(), self.time) {
@@ -337,25 +364,29 @@ impl Loader<'_> {
         Ok(scene)
     }
 
+    /// A file that requires an extension ssbc neither reads nor approximates
+    /// (compressed meshes or textures, ...) is refused, naming it.
+    fn check_required_extensions(&self) -> Result<()> {
+        let missing: Vec<&str> = self
+            .root
+            .extensions_required
+            .iter()
+            .map(String::as_str)
+            .filter(|e| !IMPLEMENTED_EXTENSIONS.contains(e) && !APPROXIMATED_EXTENSIONS.contains(e))
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(self.err(format!(
+            "the file requires {}, which ssbc does not implement",
+            missing.join(", ")
+        )))
+    }
+
     /// One warning naming the material extensions the file uses that ssbc
-    /// does not implement (they change the BRDF or its texture lookups).
+    /// does not implement (they change the BRDF).
     fn warn_unsupported_extensions(&self) {
-        const NOT_IMPLEMENTED: [&str; 13] = [
-            "KHR_materials_anisotropy",
-            "KHR_materials_clearcoat",
-            "KHR_materials_diffuse_transmission",
-            "KHR_materials_dispersion",
-            "KHR_materials_ior",
-            "KHR_materials_iridescence",
-            "KHR_materials_pbrSpecularGlossiness",
-            "KHR_materials_sheen",
-            "KHR_materials_specular",
-            "KHR_materials_transmission",
-            "KHR_materials_unlit",
-            "KHR_materials_volume",
-            "KHR_materials_volume_scatter",
-        ];
-        let used: Vec<&str> = NOT_IMPLEMENTED
+        let used: Vec<&str> = APPROXIMATED_EXTENSIONS
             .into_iter()
             .filter(|e| self.root.extensions_used.iter().any(|u| u == e))
             .collect();
@@ -1175,7 +1206,10 @@ impl Loader<'_> {
         Ok((ct, packed))
     }
 
-    /// Float (or normalized integer) attribute data, flattened.
+    /// Attribute data as floats, flattened: float, or integers (signed or
+    /// unsigned, 8 or 16 bits) normalized or not, as the core specification
+    /// and `KHR_mesh_quantization` allow them (a node's transform then
+    /// usually scales quantized positions back).
     fn read_floats(&mut self, index: usize, components: usize) -> Result<Vec<f32>> {
         let normalized = self
             .root
@@ -1186,13 +1220,15 @@ impl Loader<'_> {
         let (ct, packed) = self.accessor_elements(index, components)?;
         let mut out = Vec::with_capacity(packed.len() / ct.size());
         for c in packed.chunks_exact(ct.size()) {
+            // Signed normalized values map -max and -max - 1 both to -1.
+            let scaled = |v: f32, max: f32| if normalized { (v / max).max(-1.0) } else { v };
             let v = match ct {
                 ComponentType::F32 => f32::from_le_bytes([c[0], c[1], c[2], c[3]]),
-                ComponentType::U8 if normalized => c[0] as f32 / 255.0,
-                ComponentType::U16 if normalized => {
-                    u16::from_le_bytes([c[0], c[1]]) as f32 / 65535.0
-                }
-                _ => {
+                ComponentType::U8 => scaled(c[0] as f32, 255.0),
+                ComponentType::I8 => scaled(c[0] as i8 as f32, 127.0),
+                ComponentType::U16 => scaled(u16::from_le_bytes([c[0], c[1]]) as f32, 65535.0),
+                ComponentType::I16 => scaled(i16::from_le_bytes([c[0], c[1]]) as f32, 32767.0),
+                ComponentType::U32 => {
                     return Err(self.err(format!(
                         "accessor {index}: component type {ct:?} not supported here"
                     )))
