@@ -789,6 +789,95 @@ fn required_extensions_ssbc_cannot_read_are_clear_errors() {
     .unwrap();
 }
 
+/// The quad's positions as a sparse accessor: `sparse` is its JSON, over
+/// bufferView 4 (u8 indices `index_bytes`, then `value_floats`), and
+/// `base` says whether it starts from bufferView 0 or from zeros.
+fn sparse_quad(base: bool, sparse: &str, index_bytes: &[u8], value_floats: &[f32]) -> String {
+    let (mut bin, _) = quad_buffer(2);
+    let offset = bin.len();
+    bin.extend(index_bytes);
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let values_at = bin.len() - offset;
+    bin.extend(le_bytes(value_floats));
+    let view = if base { r#""bufferView":0,"# } else { "" };
+    quad_gltf(Some(&data_uri(&bin)), bin.len(), 5123, None, "")
+        .replace(
+            "],\n\"accessors\":[",
+            &format!(
+                ",{{\"buffer\":0,\"byteOffset\":{offset},\"byteLength\":{}}}],\n\"accessors\":[",
+                bin.len() - offset
+            ),
+        )
+        .replace(
+            r#"{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","#,
+            &format!(
+                r#"{{{view}"componentType":5126,"count":4,"type":"VEC3","sparse":{},"#,
+                sparse.replace("VALUES_AT", &values_at.to_string())
+            ),
+        )
+}
+
+/// Sparse accessors: substituted elements over a bufferView's or over
+/// zeros (an accessor without a bufferView); bad sparse parts are clear
+/// errors.
+#[test]
+fn sparse_accessors_substitute_their_elements() {
+    let dir = tempfile::tempdir().unwrap();
+    let corners = [
+        -1.0f32, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, -1.0,
+    ];
+    let all = r#"{"count":4,"indices":{"bufferView":4,"componentType":5121},"values":{"bufferView":4,"byteOffset":VALUES_AT}}"#;
+    let json = sparse_quad(false, all, &[0, 1, 2, 3], &corners);
+    check_quad(&load_str(dir.path(), "s.gltf", json.as_bytes()).unwrap());
+    // One corner moved over the bufferView's positions.
+    let one = r#"{"count":1,"indices":{"bufferView":4,"componentType":5121},"values":{"bufferView":4,"byteOffset":VALUES_AT}}"#;
+    let json = sparse_quad(true, one, &[2], &[1.0, 0.5, -1.0]);
+    let scene = load_str(dir.path(), "s1.gltf", json.as_bytes()).unwrap();
+    let moved: Vec<Vec3> = scene
+        .world_triangles()
+        .flatten()
+        .map(|v| Vec3::from(v.position))
+        .collect();
+    let expected = expected_corners();
+    assert!((moved[0] - expected[0]).length() < 1e-5, "{moved:?}");
+    // Corner 2 is 1 m higher in object space: 2 m in the world (scale 2).
+    assert!(
+        (moved[2] - (expected[2] + Vec3::Y)).length() < 1e-5,
+        "{moved:?}"
+    );
+    for (sparse, indices, expected) in [
+        (
+            one.replace(r#""count":1"#, r#""count":5"#),
+            vec![0u8],
+            "sparse count 5",
+        ),
+        (one.to_string(), vec![9u8], "sparse index 9 out of range"),
+        (
+            one.replace(r#","byteOffset":VALUES_AT"#, r#","byteOffset":4000"#),
+            vec![0u8],
+            "past the end",
+        ),
+    ] {
+        let json = sparse_quad(true, &sparse, &indices, &[0.0; 3]);
+        let e = load_str(dir.path(), "bad.gltf", json.as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(expected) && !e.contains('\n'), "{sparse}: {e}");
+    }
+    // Zeros for an accessor the input does not bound are the budget's.
+    let (bin, _) = quad_buffer(2);
+    let json = quad_gltf(Some(&data_uri(&bin)), bin.len(), 5123, None, "").replace(
+        r#"{"bufferView":2,"componentType":5126,"count":4"#,
+        r#"{"componentType":5126,"count":40000000"#,
+    );
+    let e = load_str(dir.path(), "zeros.gltf", json.as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("exceed the scene's budget"), "{e}");
+}
+
 fn centre(scene: &ssbc::Scene) -> Vec3 {
     let corners: Vec<Vec3> = scene
         .world_triangles()

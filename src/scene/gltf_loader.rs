@@ -1150,9 +1150,6 @@ impl Loader<'_> {
             .accessors
             .get(index)
             .ok_or_else(|| self.err(format!("accessor index {index} out of range")))?;
-        if a.sparse.is_some() {
-            return Err(self.err(format!("accessor {index} is sparse (not supported)")));
-        }
         let ty = checked(&a.type_)
             .ok_or_else(|| self.err(format!("accessor {index} has an invalid type")))?;
         let expected = match ty {
@@ -1176,34 +1173,104 @@ impl Loader<'_> {
                 "accessor {index} has an unreasonable count {count}"
             )));
         }
-        let offset = a.byte_offset.map(|o| o.0 as usize).unwrap_or(0);
-        let view = a
-            .buffer_view
-            .ok_or_else(|| self.err(format!("accessor {index} has no bufferView")))?;
-        let name = self.name;
-        let (bytes, stride) = self.view(view.value())?;
-        let err = |m: String| Error::scene(name, m);
         let elem = ct.size() * components;
-        let stride = stride.unwrap_or(elem);
-        if stride < elem {
-            return Err(err(format!(
-                "accessor {index}: byteStride {stride} smaller than an element"
-            )));
-        }
-        let needed = stride
-            .checked_mul(count - 1)
-            .and_then(|n| n.checked_add(offset))
-            .and_then(|n| n.checked_add(elem));
-        if needed.is_none_or(|n| n > bytes.len()) {
-            return Err(err(format!(
-                "accessor {index} runs past the end of its bufferView"
-            )));
-        }
-        let mut packed = Vec::with_capacity(count * elem);
-        for i in 0..count {
-            packed.extend_from_slice(&bytes[offset + i * stride..offset + i * stride + elem]);
+        // Zeros, or a bufferView's elements, then a sparse substitution.
+        let mut packed = match a.buffer_view {
+            None => {
+                // Nothing is read, so the input does not bound it: the
+                // scene's whole budget does.
+                if (count * elem) as u64 > self.budget() {
+                    return Err(self.err(format!(
+                        "accessor {index}: {count} elements without a bufferView exceed the scene's budget"
+                    )));
+                }
+                vec![0u8; count * elem]
+            }
+            Some(view) => {
+                let offset = a.byte_offset.map(|o| o.0 as usize).unwrap_or(0);
+                let (bytes, stride) = self.view(view.value())?;
+                let stride = stride.unwrap_or(elem);
+                if stride < elem {
+                    return Err(Error::scene(
+                        self.name,
+                        format!("accessor {index}: byteStride {stride} smaller than an element"),
+                    ));
+                }
+                let needed = stride
+                    .checked_mul(count - 1)
+                    .and_then(|n| n.checked_add(offset))
+                    .and_then(|n| n.checked_add(elem));
+                if needed.is_none_or(|n| n > bytes.len()) {
+                    return Err(Error::scene(
+                        self.name,
+                        format!("accessor {index} runs past the end of its bufferView"),
+                    ));
+                }
+                let mut packed = Vec::with_capacity(count * elem);
+                for i in 0..count {
+                    packed.extend_from_slice(&bytes[offset + i * stride..offset + i * stride + elem]);
+                }
+                packed
+            }
+        };
+        if let Some(sparse) = &a.sparse {
+            self.substitute_sparse(index, sparse, elem, &mut packed)?;
         }
         Ok((ct, packed))
+    }
+
+    /// Overwrites the elements of accessor `index` (`packed`, `elem` bytes
+    /// each) that its sparse part lists.
+    fn substitute_sparse(
+        &mut self,
+        index: usize,
+        sparse: &json::accessor::sparse::Sparse,
+        elem: usize,
+        packed: &mut [u8],
+    ) -> Result<()> {
+        let count = packed.len() / elem;
+        let n = sparse.count.0 as usize;
+        if n == 0 || n > count {
+            return Err(self.err(format!(
+                "accessor {index}: sparse count {n} is not in 1..={count}"
+            )));
+        }
+        let ict = checked(&sparse.indices.component_type)
+            .ok_or_else(|| self.err(format!("accessor {index}: invalid sparse index type")))?
+            .0;
+        let ranges = [
+            (&sparse.indices.buffer_view, sparse.indices.byte_offset.0, ict.size()),
+            (&sparse.values.buffer_view, sparse.values.byte_offset.0, elem),
+        ];
+        let name = self.name;
+        let mut read = Vec::with_capacity(2);
+        for (view, offset, size) in ranges {
+            let (bytes, _) = self.view(view.value())?;
+            let range = (offset as usize)..(offset as usize).saturating_add(n * size);
+            let chunk = bytes.get(range).ok_or_else(|| {
+                Error::scene(
+                    name,
+                    format!("accessor {index}: sparse data runs past the end of its bufferView"),
+                )
+            })?;
+            read.push(chunk.to_vec());
+        }
+        for (k, value) in read[1].chunks_exact(elem).enumerate() {
+            let at = &read[0][k * ict.size()..(k + 1) * ict.size()];
+            let i = match ict {
+                ComponentType::U8 => at[0] as usize,
+                ComponentType::U16 => u16::from_le_bytes([at[0], at[1]]) as usize,
+                _ => u32::from_le_bytes([at[0], at[1], at[2], at[3]]) as usize,
+            };
+            let target = packed.get_mut(i * elem..(i + 1) * elem).ok_or_else(|| {
+                Error::scene(
+                    self.name,
+                    format!("accessor {index}: sparse index {i} out of range ({count} elements)"),
+                )
+            })?;
+            target.copy_from_slice(value);
+        }
+        Ok(())
     }
 
     /// Attribute data as floats, flattened: float, or integers (signed or
