@@ -1,6 +1,7 @@
 #version 460
 // A test probe: brdf.glsl evaluated at the inputs the host gives, which
-// tests/glossy.rs checks against the CPU twin (src/cpu/brdf.rs).
+// tests/glossy.rs checks against the CPU twin (src/cpu/brdf.rs): per input
+// f(wo, wi), then what the surface sends as an SSBC source.
 #include "common.glsl"
 #include "brdf.glsl"
 
@@ -25,5 +26,6 @@ void main() {
     if (i >= pc.count) return;
     ProbeInput p = inputs[i];
     Brdf b = Brdf(p.base_metallic.rgb, p.base_metallic.w, p.n_roughness.w, p.wo_specular.w);
-    outputs[i] = vec4(brdf_eval(b, p.n_roughness.xyz, p.wo_specular.xyz, p.wi.xyz), 0.0);
+    outputs[2u * i] = vec4(brdf_eval(b, p.n_roughness.xyz, p.wo_specular.xyz, p.wi.xyz), 0.0);
+    outputs[2u * i + 1u] = vec4(brdf_source_color(b), 0.0);
 }

@@ -1,7 +1,8 @@
 #version 460
 // Deferred direct lighting T Le: every punctual light, shadowed by its
 // shadow map; plus Le, the radiance emissive surfaces send to the camera.
-// Also its diffuse, view-independent part (what SSBC's sources send).
+// Also what the pixel sends as an SSBC source (`direct_diffuse`): Le plus
+// its reflection made view-independent (brdf_source_color).
 #include "common.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -80,7 +81,7 @@ void main() {
     }
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec3 radiance = imageLoad(g_emission, pixel).rgb;
-    vec3 diffuse = radiance;
+    vec3 source = radiance;
     for (uint i = 0u; i < pc.light_count; i++) {
         vec3 wi;
         vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, wi);
@@ -98,8 +99,8 @@ void main() {
         }
         f /= float(taps);
         radiance += f * irradiance;
-        diffuse += brdf_diffuse_color(b) / PI * irradiance;
+        source += brdf_source_color(b) / PI * irradiance;
     }
     imageStore(direct, pixel, vec4(radiance, 1.0));
-    imageStore(direct_diffuse, pixel, vec4(diffuse, 1.0));
+    imageStore(direct_diffuse, pixel, vec4(source, 1.0));
 }

@@ -39,16 +39,16 @@ void main() {
     vec4 position = imageLoad(g_position, pixel);
     vec4 direct_radiance = imageLoad(direct, pixel);
     vec3 radiance = vec3(0.0);
-    vec3 diffuse = vec3(0.0);
+    vec3 source = vec3(0.0);
     if (position.w != 0.0) {
         vec4 n = imageLoad(g_normal, pixel);
         Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
         vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
         VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, 0u, pc.vpl_count, 1u);
-        diffuse = brdf_diffuse_color(b) / PI * light.irradiance;
-        radiance = diffuse + light.glossy;
+        radiance = brdf_diffuse_color(b) / PI * light.irradiance + light.glossy;
+        source = brdf_source_color(b) / PI * light.irradiance;
     }
     imageStore(indirect_bounded, pixel, vec4(radiance, position.w));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));
-    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + diffuse, position.w));
+    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + source, position.w));
 }

@@ -82,11 +82,12 @@ void main() {
             barrier();
         }
         if (lane == 0u && item < count) {
-            vec3 diffuse = brdf_diffuse_color(b) / PI * lane_irradiance[0][px];
-            vec3 radiance = diffuse + lane_glossy[0][px];
+            vec3 irradiance = lane_irradiance[0][px];
+            vec3 radiance = brdf_diffuse_color(b) / PI * irradiance + lane_glossy[0][px];
+            vec3 source = brdf_source_color(b) / PI * irradiance;
             imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
             imageStore(s0, pixel, vec4(imageLoad(direct, pixel).rgb + radiance, 1.0));
-            imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + diffuse, 1.0));
+            imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + source, 1.0));
         }
         // The sums are read before the next pixels overwrite them.
         barrier();

@@ -13,7 +13,8 @@
 // some subsets go missing. Where the whole (2N - 1)^2 window is on the
 // surface, tent weights (N - |dx|)(N - |dy|) instead: each subset's total
 // weight is still N^2, and its pixels' offsets average to zero. Then the
-// receiver's diffuse colour, the glossy rest, S0 and its diffuse part.
+// receiver's diffuse colour, the glossy rest, S0 and what it sends as a
+// source.
 //
 // A pixel beside a crease or contact (a neighbour of another surface
 // within crease_footprints x its footprint in space), or whose glossy lobe
@@ -41,15 +42,15 @@ layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_diffuse;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
 
 // Writes the pixel's bounded indirect light from the filtered sums (the
-// diffuse part per unit diffuse colour, the glossy rest), S0 and its
-// diffuse part.
+// diffuse part per unit diffuse colour, irradiance / pi; the glossy rest),
+// S0 and what the pixel sends as a source (brdf_source_color).
 void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weight) {
-    vec4 albedo = imageLoad(g_albedo, pixel);
-    vec3 diffuse = albedo.rgb * (1.0 - albedo.w) * sum / weight;
-    vec3 radiance = diffuse + glossy / weight;
+    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), imageLoad(g_normal, pixel));
+    vec3 radiance = brdf_diffuse_color(b) * sum / weight + glossy / weight;
     imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
-    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + diffuse, 1.0));
+    vec3 source = brdf_source_color(b) * sum / weight;
+    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + source, 1.0));
 }
 
 layout(push_constant) uniform Push {

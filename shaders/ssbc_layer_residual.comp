@@ -1,8 +1,8 @@
 #version 460
 // SSBC with a second layer, before a further step: the residual S_k at the
 // pixels of layer 1 (full or half resolution), each evaluated alone over both
-// layers' pyramids: what layer 1's surfaces send in the next step (the
-// diffuse part, as every source).
+// layers' pyramids: what layer 1's surfaces send in the next step (made
+// view-independent, as every source: brdf_source_color).
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform LayerResidualPush {
@@ -33,9 +33,9 @@ void main() {
         // Its centre in image pixels (pixel centres at integers).
         vec2 centre = (vec2(q) + 0.5) * float(1u << layer_shift(1u)) - 0.5;
         Residual r = residual_integral(position.xyz, nx, centre, count, variation);
-        // Its diffuse, view-independent part: all a source sends.
+        // What it sends, view-independent (brdf_source_color).
         Brdf b = receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q));
-        s = brdf_diffuse_color(b) / PI * residual_at(r, nx);
+        s = brdf_source_color(b) / PI * residual_at(r, nx);
     }
     imageStore(residual, q, vec4(s, 1.0));
 }

@@ -105,9 +105,12 @@ pub struct PostProcessInputs {
     pub albedo: HostImage,
     /// The clamped lighting `S0` (rgb radiance towards the camera).
     pub s0: HostImage,
-    /// `S0`'s diffuse, view-independent part, what each pixel sends as a
-    /// source of the first step (None: `s0` itself, right for Lambertian
-    /// surfaces).
+    /// What each pixel sends as a source of the first step, made
+    /// view-independent (None: `s0` itself, right for Lambertian surfaces).
+    /// ssbc's renderer sends each surface's reflected light spread evenly
+    /// by its hemispherical albedo, specular lobe included
+    /// (docs/ssbc-implementation.md); later steps do the same with
+    /// `receivers`.
     pub sources: Option<HostImage>,
     /// How the receivers reflect.
     pub receivers: ReceiverBrdf,

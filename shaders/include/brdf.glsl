@@ -71,6 +71,32 @@ vec3 brdf_diffuse_color(Brdf b) {
     return b.base * (1.0 - b.metallic);
 }
 
+// What a surface sends as an SSBC source per unit of irradiance / pi: its
+// hemispherical albedo (what it reflects, averaged over cosine-weighted
+// views), spread evenly as if it were diffuse. Its specular lobe reflects
+// F0 A(r) + B(r) (Schlick is linear in F0; single scattering, so A falls
+// with roughness), tabulated over perceptual roughness r in steps of 0.1
+// from the CPU BRDF (tests/glossy.rs checks the table); its diffuse lobe
+// (1 - m) base times the mean of 1 - specular fd(wo.h), 1 - 0.0436 specular.
+// A Lambertian surface sends its base colour, as before.
+const float SPECULAR_ALBEDO_A[11] = float[](
+    0.9524, 0.9526, 0.9509, 0.9410, 0.9138, 0.8635, 0.7902, 0.6989, 0.5984, 0.4984, 0.4064);
+const float SPECULAR_ALBEDO_B[11] = float[](
+    0.0476, 0.0470, 0.0431, 0.0354, 0.0265, 0.0187, 0.0127, 0.0086, 0.0058, 0.0040, 0.0027);
+const float DIFFUSE_ALBEDO_LOSS = 0.0436;
+
+vec3 brdf_source_color(Brdf b) {
+    if (brdf_is_lambertian(b)) return b.base;
+    float x = clamp(b.roughness, 0.0, 1.0) * 10.0;
+    int i = min(int(x), 9);
+    float t = x - float(i);
+    float a = mix(SPECULAR_ALBEDO_A[i], SPECULAR_ALBEDO_A[i + 1], t);
+    float c = mix(SPECULAR_ALBEDO_B[i], SPECULAR_ALBEDO_B[i + 1], t);
+    vec3 diffuse = brdf_diffuse_color(b) * (1.0 - DIFFUSE_ALBEDO_LOSS * b.specular);
+    vec3 specular = (1.0 - b.metallic) * b.specular * (0.04 * a + c) + b.metallic * (b.base * a + c);
+    return diffuse + specular;
+}
+
 // f(wo, wi) split as brdf_diffuse_color(b) / pi * diffuse_weight + specular,
 // around unit normal n, with the GGX lobe's alpha `a` (brdf_alpha(b), or
 // widened); both zero unless wo and wi are above the surface.

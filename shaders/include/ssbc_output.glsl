@@ -16,16 +16,15 @@ layout(set = 0, binding = 11, rgba32f) uniform writeonly image2D final_image;
 layout(set = 0, binding = 12, rgba32f) uniform writeonly image2D residual;  // S_k
 layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
 layout(set = 0, binding = 14) uniform usamplerBuffer point_texels;          // points[] as texels (reads)
-layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // S_k's diffuse part
+layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // what S_k sends
 
 // S_k(p) = diffuse colour / pi * I + the glossy rest (0 on a Lambertian
-// receiver); its diffuse, view-independent part (what the pixel sends in
-// the next step); final = previous + S_k; `reads`: the pixel's own.
+// receiver); what the pixel sends in the next step, view-independent
+// (brdf_source_color); final = previous + S_k; `reads`: the pixel's own.
 void write_residual(ivec2 p, Brdf b, vec3 integral, vec3 rest, float reads) {
-    vec3 diffuse = brdf_diffuse_color(b) / PI * integral;
-    vec3 s = diffuse + rest;
+    vec3 s = brdf_diffuse_color(b) / PI * integral + rest;
     imageStore(residual, p, vec4(s, 1.0));
-    imageStore(residual_sources, p, vec4(diffuse, 1.0));
+    imageStore(residual_sources, p, vec4(brdf_source_color(b) / PI * integral, 1.0));
     imageStore(final_image, p, vec4(imageLoad(previous, p).rgb + s, 1.0));
     imageStore(samples, p, vec4(reads));
 }
