@@ -281,7 +281,9 @@ pub fn generate_with(
             // An emissive triangle: a point in proportion to power, a VPL on
             // it, then a cosine-distributed direction (pdf cos/pi, so the
             // path's flux is pi Le / pdf_area / p_light).
-            let Some(e) = emitters.sample(scene, glam::Vec4::new(s(1), s(2), s(3), s(4))) else {
+            // (A cut-out point of an alpha-masked emitter sends nothing.)
+            let e = emitters.sample(scene, glam::Vec4::new(s(1), s(2), s(3), s(4)));
+            let Some(e) = e.filter(|e| e.radiance != Vec3::ZERO) else {
                 trail.skip(before, segments_before);
                 path += 1;
                 continue;
