@@ -1,7 +1,7 @@
 #version 460
 // Deferred direct lighting T Le: every punctual light, shadowed by its
 // shadow map; plus Le, the radiance emissive surfaces send to the camera.
-// Also what the pixel sends as an SSBC source (`direct_diffuse`): Le plus
+// Also what the pixel sends as an SSBC source (`direct_sources`): Le plus
 // its reflection made view-independent (brdf_source_color).
 #include "common.glsl"
 
@@ -15,7 +15,7 @@ layout(set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = 5) readonly buffer ShadowViews { ShadowView shadow_views[]; };
 layout(set = 0, binding = 6) uniform sampler2DArray shadow_maps;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_emission;
-layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D direct_diffuse;
+layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D direct_sources;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -56,7 +56,7 @@ void main() {
     vec4 position = imageLoad(g_position, pixel);
     if (position.w == 0.0) {
         imageStore(direct, pixel, vec4(0.0));
-        imageStore(direct_diffuse, pixel, vec4(0.0));
+        imageStore(direct_sources, pixel, vec4(0.0));
         return;
     }
     vec4 normal = imageLoad(g_normal, pixel);
@@ -102,5 +102,5 @@ void main() {
         source += brdf_source_color(b) / PI * irradiance;
     }
     imageStore(direct, pixel, vec4(radiance, 1.0));
-    imageStore(direct_diffuse, pixel, vec4(source, 1.0));
+    imageStore(direct_sources, pixel, vec4(source, 1.0));
 }

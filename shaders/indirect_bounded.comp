@@ -2,7 +2,8 @@
 // Bounded VPL lighting T_b L^ by the full gather: every VPL at every pixel,
 // f_r(x) min(G, b) V_ISM f_r(z) Phi summed (the reference of the
 // interleaved gather). Also writes S0 = direct + bounded indirect, the term
-// SSBC compensates, and its diffuse, view-independent part (SSBC's sources).
+// SSBC compensates, and what each pixel sends as an SSBC source
+// (brdf_source_color).
 #include "common.glsl"
 #include "ism.glsl"
 
@@ -16,8 +17,8 @@ layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance bits / far
-layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_diffuse;
-layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_diffuse;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
+layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -50,5 +51,5 @@ void main() {
     }
     imageStore(indirect_bounded, pixel, vec4(radiance, position.w));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));
-    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + source, position.w));
+    imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, position.w));
 }

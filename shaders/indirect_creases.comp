@@ -27,8 +27,8 @@ layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance bits / far
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 8) readonly buffer Creases { uvec4 header; uint pixels[]; } creases;
-layout(set = 0, binding = 9, rgba32f) uniform readonly image2D direct_diffuse;
-layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D s0_diffuse;
+layout(set = 0, binding = 9, rgba32f) uniform readonly image2D direct_sources;
+layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D s0_sources;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -87,7 +87,7 @@ void main() {
             vec3 source = brdf_source_color(b) / PI * irradiance;
             imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
             imageStore(s0, pixel, vec4(imageLoad(direct, pixel).rgb + radiance, 1.0));
-            imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + source, 1.0));
+            imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
         }
         // The sums are read before the next pixels overwrite them.
         barrier();

@@ -37,8 +37,8 @@ layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D interleaved_glossy;
-layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_diffuse;
-layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_diffuse;
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
+layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
 
 // Writes the pixel's bounded indirect light from the filtered sums (the
@@ -50,7 +50,7 @@ void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weigh
     imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
     vec3 source = brdf_source_color(b) * sum / weight;
-    imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb + source, 1.0));
+    imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
 }
 
 layout(push_constant) uniform Push {
@@ -76,7 +76,7 @@ void main() {
     if (own.w == NO_GEOMETRY) {
         imageStore(indirect_bounded, pixel, vec4(0.0));
         imageStore(s0, pixel, vec4(direct_radiance.rgb, 0.0));
-        imageStore(s0_diffuse, pixel, vec4(imageLoad(direct_diffuse, pixel).rgb, 0.0));
+        imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb, 0.0));
         return;
     }
     vec3 x = guide_position(own);

@@ -87,7 +87,7 @@ impl LayerStages {
 
     /// The layer's G-buffer (peeled behind `front` on layer 1), direct
     /// lighting and bounded indirect lighting: its G-buffer and `S0` (and
-    /// its diffuse part).
+    /// what it sends as SSBC sources).
     fn run(
         &mut self,
         cx: &mut Recording<'_, '_>,

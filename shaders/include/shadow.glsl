@@ -46,9 +46,6 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n) {
     return lit / 9.0;
 }
 
-// Adds the radiance one light reflects towards wo at p (normal n, BRDF b)
-// to `radiance`, and its diffuse, view-independent part
-// (brdf_diffuse_color / pi x irradiance) to `diffuse`.
 // The irradiance `light` gives at p (normal n), shadowed, and the unit
 // direction towards it (wi); zero if it does not reach p.
 vec3 light_irradiance(GpuLight light, vec3 p, vec3 n, out vec3 wi) {

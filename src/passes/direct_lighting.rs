@@ -18,10 +18,11 @@ use crate::vk::{Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Devi
 pub struct DirectLight {
     /// `T Le` towards the camera, the `direct` layer.
     pub radiance: Image,
-    /// Its diffuse, view-independent part (the diffuse colour / pi x the
-    /// irradiance, plus emission): what the pixel sends as an SSBC source.
-    /// The same as `radiance` on Lambertian surfaces.
-    pub diffuse: Image,
+    /// What the pixel sends as an SSBC source, view-independent: emission
+    /// plus brdf_source_color / pi x the irradiance (its reflection spread
+    /// evenly by its hemispherical albedo). The same as `radiance` on
+    /// Lambertian surfaces.
+    pub sources: Image,
 }
 
 /// The direct-lighting compute kernel, for one G-buffer layer.
@@ -80,7 +81,7 @@ impl Pass for DirectLightingPass {
         };
         Ok(DirectLight {
             radiance: image("lighting.direct")?,
-            diffuse: image("lighting.direct_diffuse")?,
+            sources: image("lighting.direct_sources")?,
         })
     }
 
@@ -106,7 +107,7 @@ impl Pass for DirectLightingPass {
         rec.use_buffer(&shadows.lights, Access::ComputeRead);
         rec.use_buffer(&shadows.views, Access::ComputeRead);
         rec.use_image(&direct.radiance, Access::ComputeWrite);
-        rec.use_image(&direct.diffuse, Access::ComputeWrite);
+        rec.use_image(&direct.sources, Access::ComputeWrite);
         rec.flush_barriers();
         let (w, h) = gbuffer.extent();
         let push = Push {
@@ -120,7 +121,7 @@ impl Pass for DirectLightingPass {
             g_normal: &gbuffer.normal,
             g_albedo: &gbuffer.albedo,
             direct: &direct.radiance,
-            direct_diffuse: &direct.diffuse,
+            direct_sources: &direct.sources,
             lights: &shadows.lights,
             shadow_views: &shadows.views,
             shadow_maps: (&shadows.depth, &self.shadow_sampler),

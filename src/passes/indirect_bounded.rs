@@ -83,9 +83,10 @@ pub struct BoundedLighting {
     pub indirect: Image,
     /// `S0 = T Le + T_b L^`, what the SSBC steps start from.
     pub s0: Image,
-    /// Its diffuse, view-independent part: what SSBC's sources send (the
-    /// same as `s0` on Lambertian surfaces).
-    pub s0_diffuse: Image,
+    /// What each pixel sends as a source of SSBC's first step,
+    /// view-independent (brdf_source_color; the same as `s0` on Lambertian
+    /// surfaces).
+    pub s0_sources: Image,
     /// The interleaved gather's intermediate images (None: full gather).
     pub interleaved: Option<Interleaved>,
 }
@@ -96,7 +97,7 @@ impl BoundedLighting {
         SsbcLayer {
             gbuffer: gbuffer.into(),
             s0: &self.s0,
-            sources: &self.s0_diffuse,
+            sources: &self.s0_sources,
         }
     }
 }
@@ -198,12 +199,12 @@ impl IndirectBoundedPass {
         let Recording { rec, view, .. } = cx;
         gbuffer.read_in_compute(rec);
         rec.use_image(&direct.radiance, Access::ComputeRead);
-        rec.use_image(&direct.diffuse, Access::ComputeRead);
+        rec.use_image(&direct.sources, Access::ComputeRead);
         rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
-        rec.use_image(&out.s0_diffuse, Access::ComputeWrite);
+        rec.use_image(&out.s0_sources, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
         let bindings = indirect_bounded_comp::Bindings {
@@ -211,10 +212,10 @@ impl IndirectBoundedPass {
             g_normal: &gbuffer.normal,
             g_albedo: &gbuffer.albedo,
             direct: &direct.radiance,
-            direct_diffuse: &direct.diffuse,
+            direct_sources: &direct.sources,
             indirect_bounded: &out.indirect,
             s0: &out.s0,
-            s0_diffuse: &out.s0_diffuse,
+            s0_sources: &out.s0_sources,
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
         };
@@ -278,14 +279,14 @@ impl IndirectBoundedPass {
         rec.use_image(&gbuffer.albedo, Access::ComputeRead);
         rec.use_image(&gbuffer.normal, Access::ComputeRead);
         rec.use_image(&direct.radiance, Access::ComputeRead);
-        rec.use_image(&direct.diffuse, Access::ComputeRead);
+        rec.use_image(&direct.sources, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeRead);
         rec.use_image(&interleaved.glossy, Access::ComputeRead);
         rec.use_image(&interleaved.guide, Access::ComputeRead);
         rec.use_buffer(&interleaved.creases, Access::ComputeWrite);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
-        rec.use_image(&out.s0_diffuse, Access::ComputeWrite);
+        rec.use_image(&out.s0_sources, Access::ComputeWrite);
         rec.flush_barriers();
         let (w, h) = gbuffer.extent();
         let push = FilterPush {
@@ -302,12 +303,12 @@ impl IndirectBoundedPass {
             guide: &interleaved.guide,
             g_albedo: &gbuffer.albedo,
             direct: &direct.radiance,
-            direct_diffuse: &direct.diffuse,
+            direct_sources: &direct.sources,
             interleaved: &interleaved.sums,
             interleaved_glossy: &interleaved.glossy,
             indirect_bounded: &out.indirect,
             s0: &out.s0,
-            s0_diffuse: &out.s0_diffuse,
+            s0_sources: &out.s0_sources,
             creases: &interleaved.creases,
             g_normal: &gbuffer.normal,
         };
@@ -328,14 +329,14 @@ impl IndirectBoundedPass {
         let (gbuffer, direct, ism) = reads;
         gbuffer.read_in_compute(rec);
         rec.use_image(&direct.radiance, Access::ComputeRead);
-        rec.use_image(&direct.diffuse, Access::ComputeRead);
+        rec.use_image(&direct.sources, Access::ComputeRead);
         rec.use_image(&ism.atlas, Access::ComputeRead);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(creases, Access::IndirectRead);
         rec.use_buffer(creases, Access::ComputeRead);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
-        rec.use_image(&out.s0_diffuse, Access::ComputeWrite);
+        rec.use_image(&out.s0_sources, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
         let bindings = indirect_creases_comp::Bindings {
@@ -343,10 +344,10 @@ impl IndirectBoundedPass {
             g_normal: &gbuffer.normal,
             g_albedo: &gbuffer.albedo,
             direct: &direct.radiance,
-            direct_diffuse: &direct.diffuse,
+            direct_sources: &direct.sources,
             indirect_bounded: &out.indirect,
             s0: &out.s0,
-            s0_diffuse: &out.s0_diffuse,
+            s0_sources: &out.s0_sources,
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
             creases,
@@ -402,7 +403,7 @@ impl Pass for IndirectBoundedPass {
         Ok(BoundedLighting {
             indirect: image("lighting.indirect_bounded")?,
             s0: image("ssbc.s0")?,
-            s0_diffuse: image("ssbc.s0_diffuse")?,
+            s0_sources: image("ssbc.s0_sources")?,
             interleaved,
         })
     }

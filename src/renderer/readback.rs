@@ -48,9 +48,9 @@ pub enum Layer {
     GBufferAlbedo,
     /// G-buffer emitted radiance (debug read-back).
     GBufferEmission,
-    /// `S0`'s diffuse, view-independent part, what each pixel sends as a
-    /// source of SSBC's first step (`S0` itself on Lambertian surfaces;
-    /// debug read-back).
+    /// What each pixel sends as a source of SSBC's first step: its
+    /// reflected light made view-independent (`S0` itself on Lambertian
+    /// surfaces; debug read-back).
     Sources,
     /// The deep G-buffer's second layer: position, at its resolution (debug
     /// read-back with `ssbc.layers` 2).
@@ -59,7 +59,7 @@ pub enum Layer {
     Layer1Normal,
     /// Its albedo.
     Layer1Albedo,
-    /// What it sends as SSBC sources (its `S0`'s diffuse part).
+    /// What it sends as SSBC sources.
     Layer1Sources,
 }
 
@@ -276,11 +276,11 @@ impl<'a> FrameImages<'a> {
             Layer::GBufferNormal => &g.normal,
             Layer::GBufferAlbedo => &g.albedo,
             Layer::GBufferEmission => &g.emission,
-            Layer::Sources => &self.bounded.s0_diffuse,
+            Layer::Sources => &self.bounded.s0_sources,
             Layer::Layer1Position => &layer1?.0.position,
             Layer::Layer1Normal => &layer1?.0.normal,
             Layer::Layer1Albedo => &layer1?.0.albedo,
-            Layer::Layer1Sources => &layer1?.1.s0_diffuse,
+            Layer::Layer1Sources => &layer1?.1.s0_sources,
         })
     }
 

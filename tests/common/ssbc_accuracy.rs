@@ -165,7 +165,7 @@ pub fn residual_vs_twin(
         normal: layer("gbuffer_normal"),
         albedo: layer("gbuffer_albedo"),
     };
-    // What the pixels send: S0's diffuse part (S0 on Lambertian surfaces).
+    // What the pixels send (S0 on Lambertian surfaces).
     let s0 = layer("sources");
     let twin_camera = TwinCamera {
         position: camera.position,

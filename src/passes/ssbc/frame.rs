@@ -58,8 +58,8 @@ pub struct SsbcFrame {
     pub stats: Buffer,
     /// `residual_k` for k = 1..=K.
     pub residuals: Vec<Image>,
-    /// Their diffuse, view-independent parts: what the pixels send as
-    /// sources of the next step (the same as `residuals` on Lambertian
+    /// What the pixels send as sources of the next step, view-independent
+    /// (brdf_source_color; the same as `residuals` on Lambertian
     /// receivers).
     pub residual_sources: Vec<Image>,
     /// Texels read per pixel of each step (r32f: a pixel's own reads plus its

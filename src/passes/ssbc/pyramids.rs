@@ -80,7 +80,7 @@ pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerReso
     // Pending (two), requests, the coarsest level's points, the fallback.
     let lists = 5 * (LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64);
     let pixels = width as u64 * height as u64;
-    // Final image, and per step its residual and its diffuse part (16
+    // Final image, and per step its residual and what it sends (16
     // bytes each) and samples (4).
     let images = pixels * (16 + 36 * steps as u64);
     let layer1_images = layer1.map_or(0, |r| {
