@@ -278,6 +278,8 @@ impl Loader<'_> {
     }
 
     fn load(mut self) -> Result<Scene> {
+        // Before anything is decoded.
+        self.check_required_extensions()?;
         self.buffers = vec![None; self.root.buffers.len()];
         let mut scene = Scene::new(
             Path::new(self.name)
@@ -299,7 +301,6 @@ impl Loader<'_> {
             ..super::Material::metallic_roughness(Vec3::ONE, 1.0, 1.0)
         });
         let default_material = (scene.materials.len() - 1) as u32;
-        self.check_required_extensions()?;
         self.warn_unsupported_extensions();
         self.warn_not_played();
         self.channels = match (self.animation_channels(), self.time) {
