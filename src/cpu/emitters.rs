@@ -183,8 +183,7 @@ impl Emitters {
 /// the surface, nothing at a cut-out point (which the G-buffer and the path
 /// tracer's rays do not see either).
 fn emission_at(scene: &Scene, material: &Material, v: [&Vertex; 3], b: [f32; 3]) -> Vec3 {
-    let uv = Vec2::from(v[0].uv) * b[0] + Vec2::from(v[1].uv) * b[1] + Vec2::from(v[2].uv) * b[2];
-    let color = v[0].color() * b[0] + v[1].color() * b[1] + v[2].color() * b[2];
+    let (uv, color) = shading::interpolated_uv_color(v, b);
     if shading::opaque(scene, material, uv, color) {
         shading::emission(scene, material, uv)
     } else {

@@ -61,9 +61,7 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
         let material =
             &scene.materials[instance.placement.material.unwrap_or(v[0].material) as usize];
         let kept = !matches!(material.alpha, AlphaMode::Mask(_)) || {
-            let b = [1.0 - w1 - w2, w1, w2];
-            let uv = Vec2::from(v[0].uv) * b[0] + Vec2::from(v[1].uv) * b[1] + Vec2::from(v[2].uv) * b[2];
-            let color = v[0].color() * b[0] + v[1].color() * b[1] + v[2].color() * b[2];
+            let (uv, color) = shading::interpolated_uv_color(v, [1.0 - w1 - w2, w1, w2]);
             shading::opaque(scene, material, uv, color)
         };
         let p = |k: usize| Vec3::from(v[k].position);

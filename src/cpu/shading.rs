@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3, Vec4};
 
 use super::brdf::Brdf;
-use crate::scene::{AlphaMode, Material, Reflectance, Scene, Texture, TextureSampler, Wrap};
+use crate::scene::{AlphaMode, Material, Reflectance, Scene, Texture, TextureSampler, Vertex, Wrap};
 
 /// sRGB-encoded 8-bit value to linear.
 pub fn srgb_to_linear(c: u8) -> f32 {
@@ -75,6 +75,14 @@ pub fn sample_rgba8(
     let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
     let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
     top.lerp(bottom, fy)
+}
+
+/// The texture coordinate and vertex colour at barycentrics `b` of the
+/// triangle with corners `v`.
+pub fn interpolated_uv_color(v: [&Vertex; 3], b: [f32; 3]) -> (Vec2, Vec4) {
+    let uv = Vec2::from(v[0].uv) * b[0] + Vec2::from(v[1].uv) * b[1] + Vec2::from(v[2].uv) * b[2];
+    let color = v[0].color() * b[0] + v[1].color() * b[1] + v[2].color() * b[2];
+    (uv, color)
 }
 
 /// Linear albedo (rgb) and alpha of `m` at `uv`, where the interpolated
