@@ -162,6 +162,9 @@ void main() {
         }
     }
     vec3 integral = residual_at(blend, nx);
+    // Whether the points stand for the pixel's Lambertian part but not for
+    // its glossy rest.
+    bool rest_only = false;
     if (ok && glossy && !lobes) {
         // Lobes that point apart still stand for the pixel where their
         // glossy rests agree.
@@ -174,6 +177,7 @@ void main() {
             }
         }
         ok = spread <= AGREE * (total.r + total.g + total.b);
+        rest_only = !ok;
     }
     if (ok) {
         vec3 rest = lambertian ? vec3(0.0)
@@ -199,5 +203,9 @@ void main() {
         }
     }
     // Glossy receivers at the back of the fallback list (ssbc_fallback.glsl).
-    APPEND_ITEM_TO(pending_out, pack_item(p), l == 1 && glossy);
+    if (l == 1 && rest_only) {
+        // The fallback adds its glossy rest (ssbc_fallback.glsl).
+        write_residual(p, b, integral, vec3(0.0), 0.0);
+    }
+    APPEND_ITEM_TO(pending_out, pack_item(p) | (l == 1 && rest_only ? REST_ONLY : 0u), l == 1 && glossy);
 }

@@ -50,16 +50,32 @@ void fallback(ivec2 p) {
 
 #ifdef SSBC_GLOSSY_FALLBACK
 // A glossy receiver: the walk with its BRDF, refined by its lobe
-// (ssbc_walk.glsl).
-void fallback_glossy(ivec2 p) {
+// (ssbc_walk.glsl): at a quarter of the lobe's angular scale within 3 alpha
+// of its mirror direction and at the whole scale beyond. `rest_only`: the
+// resolve kernel wrote what its evaluation points' linear form gives (they
+// stood for its Lambertian part, not for its glossy rest), and the walk
+// adds the glossy rest, refined by the lobe alone. Pixels alone for their
+// geometry (silhouettes, contacts) refine the lobe at half the scale, as
+// evaluation points do. Spheres 1024x768: texels read per pixel 38.1 ->
+// 34.9 (the Lambertian twin 28.8), relative RMSE against brute force
+// 1.09-1.46% before, see docs/performance.md.
+void fallback_glossy(ivec2 p, bool rest_only) {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     Brdf b = pixel_brdf(p);
     begin_glossy(b, x, nx);
+    glossy_refine = 1.0;
+    glossy_refine_near = rest_only ? 0.25 : 0.5;
+    glossy_near = 3.0 * glossy_alpha;
+    glossy_rest_only = rest_only;
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(p), count, variation);
-    write_residual(p, b, residual_at(residual, nx), glossy_rest, float(count));
+    if (rest_only) {
+        add_glossy_rest(p, glossy_rest, float(count));
+    } else {
+        write_residual(p, b, residual_at(residual, nx), glossy_rest, float(count));
+    }
 }
 #endif
 
@@ -69,10 +85,11 @@ void main() {
     bool both = takes_both_ends(GLOSSY_KERNEL, pc.frame.layers);
     LIST_SLOT(pending_in, slot, glossy, both);
     if (slot == ~0u) return;
-    ivec2 p = unpack_item(pending_in.items[slot]);
+    uint item = pending_in.items[slot];
+    ivec2 p = unpack_item(item);
 #ifdef SSBC_GLOSSY_FALLBACK
     if (glossy) {
-        fallback_glossy(p);
+        fallback_glossy(p, (item & REST_ONLY) != 0u);
     } else {
         fallback(p);
     }

@@ -12,8 +12,8 @@ layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D previous;   // S0 + S1 + ... + S_{k-1}
-layout(set = 0, binding = 11, rgba32f) uniform writeonly image2D final_image;
-layout(set = 0, binding = 12, rgba32f) uniform writeonly image2D residual;  // S_k
+layout(set = 0, binding = 11, rgba32f) uniform image2D final_image;
+layout(set = 0, binding = 12, rgba32f) uniform image2D residual;           // S_k
 layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
 layout(set = 0, binding = 14) uniform usamplerBuffer point_texels;          // points[] as texels (reads)
 layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // what S_k sends
@@ -26,6 +26,14 @@ void write_residual(ivec2 p, Brdf b, vec3 integral, vec3 rest, float reads) {
     imageStore(residual, p, vec4(s, 1.0));
     imageStore(residual_sources, p, vec4(brdf_source_color(b) / PI * integral, 1.0));
     imageStore(final_image, p, vec4(imageLoad(previous, p).rgb + s, 1.0));
+    imageStore(samples, p, vec4(reads));
+}
+
+// Adds a glossy rest to what write_residual wrote for the pixel (what it
+// sends is unchanged: it depends on I alone); `reads`: the pixel's own.
+void add_glossy_rest(ivec2 p, vec3 rest, float reads) {
+    imageStore(residual, p, imageLoad(residual, p) + vec4(rest, 0.0));
+    imageStore(final_image, p, imageLoad(final_image, p) + vec4(rest, 0.0));
     imageStore(samples, p, vec4(reads));
 }
 

@@ -230,8 +230,13 @@ uint pack_item(ivec2 p) {
     return uint(p.x) | (uint(p.y) << 16);
 }
 
+// Images are at most 32768 pixels a side, so an item's top bit is free: on
+// the fallback list it marks a glossy pixel whose evaluation points stood
+// for its Lambertian part but not its glossy rest (ssbc_resolve.comp).
+const uint REST_ONLY = 1u << 31;
+
 ivec2 unpack_item(uint v) {
-    return ivec2(v & 0xffffu, v >> 16);
+    return ivec2(v & 0xffffu, (v >> 16) & 0x7fffu);
 }
 
 // The residual integral's linear form (see ssbc_residual.glsl): per colour

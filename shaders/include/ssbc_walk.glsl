@@ -49,12 +49,19 @@ struct Visit {
 // mean of the residual matches brute force within 0.5% on the built-in
 // scenes and the open box at 256x192 to 640x480 (0.6 overshot by 1-3%).
 const float SPREAD = 0.3;
-// What a glossy receiver refines: clusters seen wider than this fraction
-// of its lobe's local angular scale (visit()). A pixel's own walk 0.25;
-// glossy evaluation points 0.5 (ssbc_eval.glsl), as accurate against brute
-// force there (spheres 1024x768: 1.22 / 1.18% against 1.46 / 1.40% with
-// 0.25; 1.0: 1.18%) and their levels 10% cheaper.
+// What a glossy receiver refines: clusters seen wider than glossy_refine
+// of its lobe's local angular scale (visit()), or glossy_refine_near of it
+// within glossy_near of the lobe's mirror direction. A pixel's own walk
+// 0.25 everywhere by default; glossy evaluation points 0.5 (ssbc_eval.glsl),
+// as accurate against brute force there (spheres 1024x768: 1.22 / 1.18%
+// against 1.46 / 1.40% with 0.25; 1.0: 1.18%) and their levels 10%
+// cheaper. The glossy fallback sets its own (ssbc_fallback.glsl).
 float glossy_refine = 0.25;
+float glossy_refine_near = 0.25;
+float glossy_near = 0.0;
+// Whether only the glossy rest is wanted (the Lambertian part came from
+// evaluation points): clusters are refined by the lobe alone.
+bool glossy_rest_only = false;
 
 // A cluster is skipped if G cannot exceed b anywhere in it: G <= cos_x cos_y
 // / d^2 with d >= dist - radius, cos_x bounded by the bounding slab (it
@@ -101,7 +108,7 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     float t = clamp((m + s) / max(2.0 * s, 1e-30), 0.0, 1.0);
     bool straddles = m < s && s > 0.0;
     float weight = dist > 1e-6 ? (straddles ? 0.5 * t : (m > 0.0 ? 1.0 : 0.0)) : 0.0;
-    float ratio = pc.residual.refine_ratio;
+    float ratio = pc.residual.refine_ratio * (glossy_rest_only ? 4.0 : 1.0);
     bool wide = extent.x > ratio * dist && may_exceed;
     // A glossy receiver refines what its BRDF changes across wherever G > b:
     // GGX changes over an angle of about a quarter of (alpha + the angle
@@ -113,7 +120,8 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     if (glossy_active && !skip && !wide) {
         float seen = extent.x * inv_dist;
         float off_mirror = acos(clamp(dot(d, glossy_mirror) * inv_dist, -1.0, 1.0));
-        wide = seen > glossy_refine * (glossy_alpha + max(off_mirror - seen, 0.0));
+        float beyond = max(off_mirror - seen, 0.0);
+        wide = seen > (beyond < glossy_near ? glossy_refine_near : glossy_refine) * (glossy_alpha + beyond);
     }
     int action = skip ? SKIP : (level > 0 && wide ? REFINE : ADD);
     // The straddling term t/2 s is constant: n . n = 1 carries it in V.
