@@ -34,6 +34,7 @@ use ssbc::profile::{render_frames, FrameStats};
 use ssbc::renderer::{Frame, RenderSettings, Renderer};
 use ssbc::settings::Gather;
 use ssbc::settings::{Integration, SsbcSettings};
+use ssbc::timings::Timings;
 use ssbc::Scene;
 
 fn stats(f: &Frame) -> &FrameStats {
@@ -279,11 +280,56 @@ fn lambertian(scene: &Scene) -> Scene {
     s
 }
 
-/// Table 6: what glossy materials cost against Lambertian ones.
+/// Median over adjacent pairs of frames of `a`'s `name` GPU ms over `b`'s.
+fn pair_ratio(a: &[Timings], b: &[Timings], name: &str) -> f64 {
+    let ms = |t: &Timings| {
+        t.passes
+            .as_ref()
+            .and_then(|p| p.iter().find(|p| p.name == name))
+            .map_or(f64::NAN, |p| p.gpu_ms)
+    };
+    let mut ratios: Vec<f64> = a.iter().zip(b).map(|(a, b)| ms(a) / ms(b)).collect();
+    ratios.sort_by(f64::total_cmp);
+    ratios[ratios.len() / 2]
+}
+
+/// `frames` frames of `a` and of `b` taken in turn (after a warm-up frame
+/// of each), so that both see the same load on a shared machine: the
+/// last frame of each, with the medians in its stats, and every frame's
+/// timings.
+fn measure_in_turn(
+    renderer: &mut Renderer,
+    (a, b): (&Scene, &Scene),
+    settings: &RenderSettings,
+    frames: u32,
+) -> [(Frame, Vec<Timings>); 2] {
+    let mut timings = [Vec::new(), Vec::new()];
+    let mut last = [None, None];
+    for i in 0..=frames.max(1) {
+        for (k, scene) in [a, b].into_iter().enumerate() {
+            let frame = renderer.render(scene, settings).expect("frame");
+            if i > 0 {
+                timings[k].push(frame.timings.clone());
+            }
+            last[k] = Some(frame);
+        }
+    }
+    let [ta, tb] = timings;
+    let [fa, fb] = last.map(|f| f.expect("rendered"));
+    [(fa, ta), (fb, tb)].map(|(mut f, t)| {
+        f.timings.stats = Some(FrameStats::of(&t));
+        (f, t)
+    })
+}
+
+/// Table 6: what glossy materials cost against Lambertian ones. The two
+/// variants' frames alternate, and each ratio is the median over adjacent
+/// pairs of frames: on a shared machine a ratio of the two medians, taken
+/// one after the other, moved by 15% between runs.
 fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
     println!("\n## glTF metallic-roughness against Lambertian (one step): GPU ms\n");
-    println!("| scene | size | VPLs | direct | gather | gather ratio | step | step ratio | glossy px alone | frame ratio |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | size | VPLs | direct | gather | gather ratio | step | step ratio | texels/px | glossy px alone | frame ratio |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let scenes = [
         ssbc::scene::builtin::spheres(),
         // Rough dielectrics, as most glTF assets' materials.
@@ -295,11 +341,20 @@ fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps
     {
         let matte = lambertian(glossy);
         let s = RenderSettings::new(size.0, size.1);
-        let g = measure(renderer, glossy, &s, reps);
-        let m = measure(renderer, &matte, &s, reps);
-        let ratio = |name: &str| pass_ms(&g, name) / pass_ms(&m, name);
+        let [(g, gt), (m, mt)] = measure_in_turn(renderer, (glossy, &matte), &s, reps);
+        let ratio = |name: &str| pair_ratio(&gt, &mt, name);
+        let frame_ratio = {
+            let mut r: Vec<f64> = gt
+                .iter()
+                .zip(&mt)
+                .filter_map(|(a, b)| Some(a.frame_gpu_ms? / b.frame_gpu_ms?))
+                .collect();
+            r.sort_by(f64::total_cmp);
+            r[r.len() / 2]
+        };
+        let texels = |f: &Frame| f.timings.ssbc_steps[0].samples_per_pixel_avg;
         println!(
-            "| {} | {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1}% / {:.1}% | {:.2}x |",
+            "| {} | {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.1}% / {:.1}% | {:.2}x |",
             glossy.name,
             size.0,
             size.1,
@@ -311,10 +366,12 @@ fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps
             ratio("indirect_bounded"),
             step_ms(&g, 1),
             step_ms(&m, 1),
-            step_ms(&g, 1) / step_ms(&m, 1),
+            ratio("ssbc_step_1"),
+            texels(&g),
+            texels(&m),
             g.timings.ssbc_steps[0].fallback_fraction * 100.0,
             m.timings.ssbc_steps[0].fallback_fraction * 100.0,
-            frame_ms(&g) / frame_ms(&m),
+            frame_ratio,
         );
     }
 }

@@ -50,22 +50,25 @@ void fallback(ivec2 p) {
 
 #ifdef SSBC_GLOSSY_FALLBACK
 // A glossy receiver: the walk with its BRDF, refined by its lobe
-// (ssbc_walk.glsl): at a quarter of the lobe's angular scale within 3 alpha
-// of its mirror direction and at the whole scale beyond. `rest_only`: the
-// resolve kernel wrote what its evaluation points' linear form gives (they
-// stood for its Lambertian part, not for its glossy rest), and the walk
-// adds the glossy rest, refined by the lobe alone. Pixels alone for their
-// geometry (silhouettes, contacts) refine the lobe at half the scale, as
-// evaluation points do. Spheres 1024x768: texels read per pixel 38.1 ->
-// 34.9 (the Lambertian twin 28.8), relative RMSE against brute force
-// 1.09-1.46% before, see docs/performance.md.
+// (ssbc_walk.glsl), finely only within 3 alpha of its mirror direction (at
+// the whole angular scale beyond: spheres' texels per pixel 38.1 -> 36.7,
+// relative RMSE against brute force unchanged). `rest_only`: its evaluation
+// points stood for its Lambertian part but not for its glossy rest, and the
+// resolve kernel wrote what they give; the walk adds the glossy rest, at a
+// quarter of the lobe's scale near the mirror and with the geometric
+// refinement 5x coarser (REST_ONLY_COARSER). Other glossy pixels are alone
+// for their geometry (silhouettes, contacts): their lobe at 0.75 of its
+// scale near the mirror (0.5: the same errors, 0.3% more texels). Spheres
+// 1024x768: texels per pixel 38.1 -> 34.9 (the Lambertian twin 28.8);
+// relative RMSE against brute force at 256x192 to 1024x768 1.16-1.44% ->
+// 1.22-1.50% (docs/performance.md).
 void fallback_glossy(ivec2 p, bool rest_only) {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;
     Brdf b = pixel_brdf(p);
     begin_glossy(b, x, nx);
     glossy_refine = 1.0;
-    glossy_refine_near = rest_only ? 0.25 : 0.5;
+    glossy_refine_near = rest_only ? 0.25 : 0.75;
     glossy_near = 3.0 * glossy_alpha;
     glossy_rest_only = rest_only;
     uint count = 0u;
