@@ -60,7 +60,7 @@ void fallback(ivec2 p) {
 // for their geometry (silhouettes, contacts): their lobe at 0.75 of its
 // scale near the mirror (0.5: the same errors, 0.3% more texels). Spheres
 // 1024x768: texels per pixel 38.1 -> 34.9 (the Lambertian twin 28.8);
-// relative RMSE against brute force at 256x192 to 1024x768 1.16-1.44% ->
+// relative RMSE against brute force at 256x192 to 1024x768 1.07-1.44% ->
 // 1.22-1.50% (docs/performance.md).
 void fallback_glossy(ivec2 p, bool rest_only) {
     vec3 x = imageLoad(g_position, p).xyz;

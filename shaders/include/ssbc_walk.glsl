@@ -62,9 +62,9 @@ float glossy_near = 0.0;
 // Whether only the glossy rest is wanted (the Lambertian part came from
 // evaluation points): the geometric refinement is REST_ONLY_COARSER x
 // coarser. Spheres, relative RMSE against brute force at 256x192 to
-// 1024x768 and texels per pixel at 1024x768: 1x 1.38-1.46%, 36.3; 4x
-// 1.39-1.48%, 35.3; 5x 1.39-1.50%, 34.9; 8x 1.28-1.92%, 34.8; the lobe's
-// refinement alone 1.43-1.92%, 34.7.
+// 1024x768 and texels per pixel at 1024x768: 1x 1.13-1.46%, 36.3; 4x
+// 1.20-1.48%, 35.3; 5x 1.22-1.50%, 34.9; 8x 1.28-1.92%, 34.8; the lobe's
+// refinement alone 1.43-1.92%, 34.7 (limit 2%).
 const float REST_ONLY_COARSER = 5.0;
 bool glossy_rest_only = false;
 
