@@ -94,16 +94,34 @@ pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerReso
         + layer1_images
 }
 
+/// Largest image the SSBC lists can address: an item packs a pixel's x in
+/// 16 bits and its y in 15, the top bit marking a fallback pixel whose
+/// points stood for its Lambertian part (`REST_ONLY` in ssbc_types.glsl).
+const MAX_LIST_SIZE: (u32, u32) = (1 << 16, 1 << 15);
+
+fn check_list_coordinates(width: u32, height: u32) -> Result<()> {
+    if width <= MAX_LIST_SIZE.0 && height <= MAX_LIST_SIZE.1 {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter(format!(
+        "SSBC at {width}x{height}: its lists address at most {}x{} pixels; render smaller \
+         or with ssbc.steps 0",
+        MAX_LIST_SIZE.0, MAX_LIST_SIZE.1
+    )))
+}
+
 /// Fails with a clear message if SSBC's largest texel view (the geometry
 /// pyramid, four texels per texel of every pyramid) or work list exceeds
 /// what the device can view or bind (maxTexelBufferElements, 2^27 texels on
 /// lavapipe; maxStorageBufferRange for the lists, 128 MiB there).
+/// Or if the image is larger than the lists can address.
 pub fn check_size(
     device: &Device,
     width: u32,
     height: u32,
     layer1: Option<LayerResolution>,
 ) -> Result<()> {
+    check_list_coordinates(width, height)?;
     let (size, levels) = pyramid_layout(width, height);
     let layer1 = effective_layer1(layer1, levels);
     let texels = 4 * all_layers_texels(size, levels, layer1);
@@ -226,5 +244,18 @@ impl SsbcPass {
     pub(super) fn level_extent(frame: &SsbcFrame, layer: u32, level: u32) -> (u32, u32) {
         let shift = level + Self::layer_shift(frame, layer);
         (frame.pyramid_size.0 >> shift, frame.pyramid_size.1 >> shift)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_list_coordinates;
+
+    #[test]
+    fn lists_refuse_images_their_items_cannot_address() {
+        assert!(check_list_coordinates(65536, 32768).is_ok());
+        assert!(check_list_coordinates(40000, 1).is_ok());
+        assert!(check_list_coordinates(1, 32769).is_err());
+        assert!(check_list_coordinates(65537, 1).is_err());
     }
 }
