@@ -9,16 +9,20 @@
 //! of a whole frame, 17 of 30 with the G-buffer's fragment shader cut down
 //! to four constant-ish writes and `LP_NUM_THREADS=0`, none in 60 at the
 //! default 256 bits, and as often before this project's current shaders
-//! (docs/development.md). A 4-wide render killed by a signal is therefore
-//! run again (at most 5 times); one that fails any other way, or differs
-//! by a bit, fails the test.
+//! (docs/development.md). On 2026-11-25 this machine's CI saw it far more
+//! often: 7 of 12 runs of the two-layer, two-step render, and 9 of 12 with
+//! the binary of the commit before (so not a shader of ours), and six in a
+//! row failed a CI run. A 4-wide render killed by a signal is therefore
+//! run again (at most 30 times: at 75% a run, all 31 crash once in 7500
+//! renders); one that fails any other way, or differs by a bit, fails the
+//! test.
 
 use std::os::unix::process::ExitStatusExt;
 use std::path::Path;
 use std::process::Command;
 
 /// Renders killed by a signal that are run again before giving up.
-const DRIVER_CRASH_RETRIES: usize = 5;
+const DRIVER_CRASH_RETRIES: usize = 30;
 
 use exr::prelude::*;
 
