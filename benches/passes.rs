@@ -280,17 +280,26 @@ fn lambertian(scene: &Scene) -> Scene {
     s
 }
 
-/// Median over adjacent pairs of frames of `a`'s `name` GPU ms over `b`'s.
-fn pair_ratio(a: &[Timings], b: &[Timings], name: &str) -> f64 {
-    let ms = |t: &Timings| {
-        t.passes
-            .as_ref()
-            .and_then(|p| p.iter().find(|p| p.name == name))
-            .map_or(f64::NAN, |p| p.gpu_ms)
-    };
-    let mut ratios: Vec<f64> = a.iter().zip(b).map(|(a, b)| ms(a) / ms(b)).collect();
+/// Median over adjacent pairs of frames of `a`'s `ms` over `b`'s.
+fn pair_ratio(a: &[Timings], b: &[Timings], ms: impl Fn(&Timings) -> Option<f64>) -> f64 {
+    let mut ratios: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .filter_map(|(a, b)| Some(ms(a)? / ms(b)?))
+        .collect();
     ratios.sort_by(f64::total_cmp);
-    ratios[ratios.len() / 2]
+    ratios.get(ratios.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// A pass's GPU ms in one frame's timings.
+fn timed_pass(name: &str) -> impl Fn(&Timings) -> Option<f64> + '_ {
+    move |t| {
+        t.passes
+            .as_ref()?
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| p.gpu_ms)
+    }
 }
 
 /// `frames` frames of `a` and of `b` taken in turn (after a warm-up frame
@@ -342,16 +351,8 @@ fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps
         let matte = lambertian(glossy);
         let s = RenderSettings::new(size.0, size.1);
         let [(g, gt), (m, mt)] = measure_in_turn(renderer, (glossy, &matte), &s, reps);
-        let ratio = |name: &str| pair_ratio(&gt, &mt, name);
-        let frame_ratio = {
-            let mut r: Vec<f64> = gt
-                .iter()
-                .zip(&mt)
-                .filter_map(|(a, b)| Some(a.frame_gpu_ms? / b.frame_gpu_ms?))
-                .collect();
-            r.sort_by(f64::total_cmp);
-            r[r.len() / 2]
-        };
+        let ratio = |name: &str| pair_ratio(&gt, &mt, timed_pass(name));
+        let frame_ratio = pair_ratio(&gt, &mt, |t| t.frame_gpu_ms);
         let texels = |f: &Frame| f.timings.ssbc_steps[0].samples_per_pixel_avg;
         println!(
             "| {} | {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.1}% / {:.1}% | {:.2}x |",
