@@ -523,15 +523,18 @@ fn a_sequence_writes_every_frame_with_history() {
     assert!(dark.iter().all(|v| *v == 0.0), "light off left light");
 }
 
-/// What ssbc does not play (animations, skins, morph targets) is named in
-/// one warning; the scene renders at rest.
+/// What ssbc does not play (an animation without a time, skins during
+/// playback) is named in one warning; the scene renders at rest. A skinned
+/// primitive without joints is drawn at its node, with a warning.
 #[test]
 fn skins_are_named_as_not_played() {
     let dir = tempfile::tempdir().unwrap();
-    let (bin, _) = common::quad_buffer(2);
-    let extra = r#","skins":[{"joints":[0]}]"#;
-    let json = common::quad_gltf(Some(&common::data_uri(&bin)), bin.len(), 5123, None, extra)
-        .replace(r#"{"mesh":0,"#, r#"{"mesh":0,"skin":0,"#);
+    let json = String::from_utf8(common::animated_quad("LINEAR", common::CHANNEL))
+        .unwrap()
+        .replace(
+            r#""nodes":[{"mesh":0}]"#,
+            r#""nodes":[{"mesh":0,"skin":0}],"skins":[{"joints":[0]}]"#,
+        );
     let p = write(dir.path(), "skinned.gltf", json.as_bytes());
     let out = dir.path().join("out.exr").display().to_string();
     let (ok, stderr) = run(&[&p, "--size", "16x12", "--vpls", "16", "-o", &out], &[]);
@@ -541,7 +544,14 @@ fn skins_are_named_as_not_played() {
         .filter(|l| l.contains("not played"))
         .collect();
     assert_eq!(warnings.len(), 1, "{stderr}");
-    assert!(warnings[0].contains("1 skinned node"), "{stderr}");
+    assert!(
+        warnings[0].contains("1 animation, 1 skinned node (posed once, at load)"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("has no JOINTS_0 / WEIGHTS_0; drawn at its node"),
+        "{stderr}"
+    );
 }
 
 /// `--time` plays the first animation (render, reference, sequences); a

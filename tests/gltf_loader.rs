@@ -978,3 +978,175 @@ fn the_animation_end_comes_from_the_keyframes_declared_maximum() {
     );
     assert!(still.is_err() || still.unwrap().animation_end.is_none());
 }
+
+/// A quad (4 vertices, +Y normals) as mesh 0 with one morph target (every
+/// vertex +1 in y, normals +1 in x; default weight 0.5) drawn by node 0 at
+/// its default weight and node 1 (moved 10 in x) at weight 1; and as mesh
+/// 1, skinned (vertices 0 and 1 on joint node 3 at the origin, 2 and 3 on
+/// joint node 4, bound at z = -1 and resting 3 higher, its translation
+/// animated to 5 higher at 1 s), drawn by node 2 whose own translation (100
+/// in x) glTF says to ignore. `edit` changes the JSON before it is parsed.
+fn deformed_quads(joints: [u8; 16], edit: impl Fn(String) -> String) -> Vec<u8> {
+    let mut bin = le_bytes(&[
+        -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, -1.0, // positions
+        0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, // normals
+        0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, // target positions
+        1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, // target normals
+    ]);
+    bin.extend(joints);
+    bin.extend(le_bytes(&[1.0, 0.0, 0.0, 0.0].repeat(4)));
+    let identity = glam::Mat4::IDENTITY.to_cols_array();
+    let unbind = glam::Mat4::from_translation(Vec3::Z).to_cols_array();
+    bin.extend(le_bytes(&identity));
+    bin.extend(le_bytes(&unbind));
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    bin.extend(le_bytes(&[0.0, 1.0, 0.0, 3.0, -1.0, 0.0, 5.0, -1.0]));
+    assert_eq!(bin.len(), 444);
+    let acc = |offset: usize, ty: &str, component: u32, count: usize, extra: &str| {
+        format!(
+            r#"{{"bufferView":0,"byteOffset":{offset},"componentType":{component},"count":{count},"type":"{ty}"{extra}}}"#
+        )
+    };
+    let accessors = [
+        acc(0, "VEC3", 5126, 4, r#","min":[-1,0,-1],"max":[1,0,1]"#),
+        acc(48, "VEC3", 5126, 4, ""),
+        acc(96, "VEC3", 5126, 4, ""),
+        acc(144, "VEC3", 5126, 4, ""),
+        acc(192, "VEC4", 5121, 4, ""),
+        acc(208, "VEC4", 5126, 4, ""),
+        acc(272, "MAT4", 5126, 2, ""),
+        acc(400, "SCALAR", 5123, 6, ""),
+        acc(412, "SCALAR", 5126, 2, r#","min":[0],"max":[1]"#),
+        acc(420, "VEC3", 5126, 2, ""),
+    ]
+    .join(",");
+    let json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1,2,3]}}],
+        "nodes":[{{"mesh":0}},{{"mesh":0,"weights":[1.0],"translation":[10,0,0]}},
+          {{"mesh":1,"skin":0,"translation":[100,0,0]}},{{"children":[4]}},{{"translation":[0,3,-1]}}],
+        "skins":[{{"joints":[3,4],"inverseBindMatrices":6,"skeleton":3}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1}},"indices":7,"targets":[{{"POSITION":2,"NORMAL":3}}]}}],"weights":[0.5]}},
+          {{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1,"JOINTS_0":4,"WEIGHTS_0":5}},"indices":7}}]}}],
+        "animations":[{{"channels":[{{"sampler":0,"target":{{"node":4,"path":"translation"}}}}],
+          "samplers":[{{"input":8,"output":9,"interpolation":"LINEAR"}}]}}],
+        "accessors":[{accessors}],
+        "bufferViews":[{{"buffer":0,"byteLength":444}}],
+        "buffers":[{{"byteLength":444,"uri":"{}"}}]}}"#,
+        data_uri(&bin)
+    );
+    edit(json).into_bytes()
+}
+
+const SKIN_JOINTS: [u8; 16] = [0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0];
+
+/// Each drawn quad's four corners (position, normal) in the order of the
+/// quad's vertices, from its two triangles (0 1 2, 0 2 3).
+fn quad_corners(scene: &ssbc::Scene) -> Vec<[(Vec3, Vec3); 4]> {
+    let v: Vec<(Vec3, Vec3)> = scene
+        .world_triangles()
+        .flatten()
+        .map(|v| (Vec3::from(v.position), Vec3::from(v.normal)))
+        .collect();
+    v.chunks_exact(6)
+        .map(|t| [t[0], t[1], t[2], t[5]])
+        .collect()
+}
+
+/// Morph targets at the node's weights (else the mesh's), and skins posed
+/// by their joints, at rest and at an animation time, the skinned node's
+/// own transform ignored (glTF 2.0, 3.7.2.2 and 3.7.3).
+#[test]
+fn morph_targets_and_skins_are_posed_at_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let rest =
+        ssbc::scene::load_gltf_bytes("d.gltf", &deformed_quads(SKIN_JOINTS, |j| j), dir.path())
+            .unwrap();
+    let quads = quad_corners(&rest);
+    assert_eq!(quads.len(), 3);
+    let flat = [(-1.0, 1.0), (1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)];
+    let want = |x: f32, y: [f32; 4], n: Vec3| -> [(Vec3, Vec3); 4] {
+        std::array::from_fn(|k| (Vec3::new(flat[k].0 + x, y[k], flat[k].1), n.normalize()))
+    };
+    let cases = [
+        (
+            "default weight",
+            want(0.0, [0.5; 4], Vec3::new(0.5, 1.0, 0.0)),
+        ),
+        (
+            "node's weight",
+            want(10.0, [1.0; 4], Vec3::new(1.0, 1.0, 0.0)),
+        ),
+        ("skinned at rest", want(0.0, [0.0, 0.0, 3.0, 3.0], Vec3::Y)),
+    ];
+    for ((what, want), got) in cases.iter().zip(&quads) {
+        for k in 0..4 {
+            assert!(
+                got[k].0.abs_diff_eq(want[k].0, 1e-5) && got[k].1.abs_diff_eq(want[k].1, 1e-5),
+                "{what}, corner {k}: {:?}, want {:?}",
+                got[k],
+                want[k]
+            );
+        }
+    }
+    // The animation moves joint 4 from 3 to 5 higher over a second.
+    let posed = ssbc::scene::load_gltf_bytes_at(
+        "d.gltf",
+        &deformed_quads(SKIN_JOINTS, |j| j),
+        dir.path(),
+        0.5,
+    )
+    .unwrap();
+    let skinned = quad_corners(&posed)[2];
+    let heights = skinned.map(|(p, _)| p.y);
+    assert!(
+        (heights[0]).abs() < 1e-5
+            && (heights[2] - 4.0).abs() < 1e-5
+            && (heights[3] - 4.0).abs() < 1e-5,
+        "skinned at 0.5 s: {heights:?}"
+    );
+}
+
+/// Skins and morph targets that cannot be posed are clear errors.
+#[test]
+fn bad_skins_and_morph_targets_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bad_joint = SKIN_JOINTS;
+    bad_joint[8] = 2;
+    let cases: [(&str, Vec<u8>, &str); 4] = [
+        (
+            "joint index past the skin's joints",
+            deformed_quads(bad_joint, |j| j),
+            "not one of the skin's 2 joints",
+        ),
+        (
+            "too few inverse bind matrices",
+            deformed_quads(SKIN_JOINTS, |j| {
+                j.replace(r#""count":2,"type":"MAT4""#, r#""count":1,"type":"MAT4""#)
+            }),
+            "1 inverse bind matrices for 2 joints",
+        ),
+        (
+            "a joint outside the scene",
+            deformed_quads(SKIN_JOINTS, |j| {
+                j.replace(r#""nodes":[0,1,2,3]"#, r#""nodes":[0,1,2]"#)
+            }),
+            "joint node 3 is not in the scene",
+        ),
+        (
+            "a morph target shorter than its mesh",
+            deformed_quads(SKIN_JOINTS, |j| {
+                j.replace(
+                    r#""byteOffset":96,"componentType":5126,"count":4"#,
+                    r#""byteOffset":96,"componentType":5126,"count":3"#,
+                )
+            }),
+            "morph target 0 has 3 vertices, not 4",
+        ),
+    ];
+    for (what, bytes, message) in cases {
+        let e = ssbc::scene::load_gltf_bytes("d.gltf", &bytes, dir.path())
+            .expect_err(what)
+            .to_string();
+        assert!(e.contains(message), "{what}: {e}");
+    }
+}

@@ -25,7 +25,7 @@ use super::animation::{
     poses_at, Channel, Interpolation, NodeAnimation, Path as AnimPath, PoseNode, PoseOverride,
     Sampler,
 };
-use super::{Camera, Light, LightKind, Scene, Texture, MAX_TRIANGLES};
+use super::{deform, Camera, Light, LightKind, Scene, Texture, MAX_TRIANGLES};
 use crate::error::{Error, Result};
 
 /// Largest file, buffer or image accepted, in bytes.
@@ -34,6 +34,10 @@ const MAX_BYTES: u64 = 1 << 30;
 const MAX_DEPTH: usize = 256;
 /// Largest texture side after decoding.
 const MAX_TEXTURE_SIDE: u32 = 8192;
+/// Most vertex displacements read for one primitive's morph targets (a
+/// file naming one accessor as a million targets would otherwise take
+/// minutes).
+const MAX_MORPH_READS: usize = 1 << 26;
 /// The loaded scene may take this many bytes whatever the input's size...
 pub const BUDGET_BASE: u64 = 32 << 20;
 /// ...plus this many times the bytes read.
@@ -137,6 +141,8 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> R
         channels: Vec::new(),
         pose_nodes: Vec::new(),
         meshes: HashMap::new(),
+        worlds: HashMap::new(),
+        skinned: Vec::new(),
         uv_maps: Vec::new(),
     }
     .load()
@@ -190,9 +196,14 @@ struct Loader<'a> {
     channels: Vec<Channel>,
     /// The nodes visited, parents first (for posing later).
     pose_nodes: Vec<PoseNode>,
-    /// Per glTF mesh, the scene meshes made of its triangle primitives
-    /// (made once, however many nodes draw it).
-    meshes: HashMap<usize, Vec<usize>>,
+    /// Per glTF mesh and morph weights (their bits), the scene meshes made
+    /// of its triangle primitives (made once, however many nodes draw it).
+    meshes: HashMap<(usize, Vec<u32>), Vec<usize>>,
+    /// Every node's world transform, by glTF node index (skins' joints).
+    worlds: HashMap<usize, Mat4>,
+    /// Nodes drawing a skinned mesh: (node, mesh, skin), posed once every
+    /// node's world transform is known.
+    skinned: Vec<(usize, usize, usize)>,
     /// Per glTF material, where its textures are read.
     uv_maps: Vec<UvMap>,
 }
@@ -353,6 +364,9 @@ impl Loader<'_> {
                 default_material,
             )?;
         }
+        for (node, mesh, skin) in std::mem::take(&mut self.skinned) {
+            self.skinned_mesh(node, mesh, skin, &mut scene, &material_map, default_material)?;
+        }
         if !self.channels.is_empty() {
             scene.set_animation(NodeAnimation {
                 nodes: std::mem::take(&mut self.pose_nodes),
@@ -400,34 +414,41 @@ impl Loader<'_> {
         }
     }
 
-    /// One warning naming what moves a glTF scene that ssbc does not play:
-    /// it renders every node at its rest transform and every mesh in its
-    /// bind pose, without morph targets.
+    /// One warning naming what moves a glTF scene that ssbc does not play.
+    /// Nodes are drawn at their rest transforms (or the first animation's
+    /// at the time given), meshes with their morph targets at their
+    /// weights, skinned meshes posed by their joints at load; not played:
+    /// other animations, animated morph weights, and skins during playback
+    /// (posing later moves nodes' objects, not skinned vertices).
     fn warn_not_played(&self) {
         let r = &self.root;
+        let animated = !r.animations.is_empty();
         let skinned = r.nodes.iter().filter(|n| n.skin.is_some()).count();
-        let morphed = r
-            .meshes
+        let weight_channels = r
+            .animations
             .iter()
-            .filter(|m| m.primitives.iter().any(|p| p.targets.is_some()))
+            .flat_map(|a| &a.channels)
+            .filter(|c| {
+                checked(&c.target.path) == Some(json::animation::Property::MorphTargetWeights)
+            })
             .count();
         // With a time, the first animation plays.
         let played = usize::from(self.time.is_some());
         let parts: Vec<String> = [
             (r.animations.len().saturating_sub(played), "animation", "animations"),
-            (skinned, "skinned node", "skinned nodes"),
-            (morphed, "mesh with morph targets", "meshes with morph targets"),
+            (weight_channels, "morph-weight channel", "morph-weight channels"),
+            (
+                if animated { skinned } else { 0 },
+                "skinned node (posed once, at load)",
+                "skinned nodes (posed once, at load)",
+            ),
         ]
         .into_iter()
         .filter(|(n, ..)| *n > 0)
         .map(|(n, one, many)| format!("{n} {}", if n == 1 { one } else { many }))
         .collect();
         if !parts.is_empty() {
-            log::warn!(
-                "{}: not played: {} (nodes at their rest transforms, meshes in their bind pose)",
-                self.name,
-                parts.join(", ")
-            );
+            log::warn!("{}: not played: {}", self.name, parts.join(", "));
         }
     }
 
@@ -447,7 +468,7 @@ impl Loader<'_> {
     }
 
     /// The first animation's channels (none without one). Morph-target
-    /// weights are not played (warned about with skins).
+    /// weights are not played (warn_not_played).
     fn animation_channels(&mut self) -> Result<Vec<Channel>> {
         let mut channels = Vec::new();
         let root = self.root;
@@ -770,29 +791,26 @@ impl Loader<'_> {
         if !world.is_finite() {
             return Err(self.err(format!("node {index} has a non-finite transform")));
         }
-        if let Some(mesh) = node.mesh {
-            let meshes = match self.meshes.get(&mesh.value()) {
-                Some(m) => m.clone(),
-                None => {
-                    let m = self.mesh(mesh.value(), scene, materials, default_material)?;
-                    self.meshes.insert(mesh.value(), m.clone());
-                    m
+        self.worlds.insert(index, world);
+        match (node.mesh, node.skin) {
+            // Skinned: posed by its joints once their transforms are known.
+            (Some(mesh), Some(skin)) => self.skinned.push((index, mesh.value(), skin.value())),
+            (Some(mesh), None) => {
+                let weights = self.morph_weights(node, mesh.value())?;
+                let key = (mesh.value(), weights.iter().map(|w| w.to_bits()).collect());
+                let meshes = match self.meshes.get(&key) {
+                    Some(m) => m.clone(),
+                    None => {
+                        let m = self.mesh(mesh.value(), &weights, None, scene, materials, default_material)?;
+                        self.meshes.insert(key, m.clone());
+                        m
+                    }
+                };
+                for mesh in meshes {
+                    self.add_object(scene, super::Object::at_node(mesh, world, index), index)?;
                 }
-            };
-            for mesh in meshes {
-                let added = scene.meshes()[mesh].triangle_count();
-                if scene.triangle_count() + added > MAX_TRIANGLES {
-                    return Err(self.err(format!(
-                        "more than {MAX_TRIANGLES} triangles in the world (node {index} draws \
-                         mesh {} again)",
-                        mesh
-                    )));
-                }
-                self.check_budget(std::mem::size_of::<super::Object>() as u64)?;
-                scene
-                    .add_object(super::Object::at_node(mesh, world, index))
-                    .map_err(|e| self.err(format!("node {index}: {e}")))?;
             }
+            _ => {}
         }
         if let Some(cam) = node.camera {
             let c = root
@@ -833,6 +851,86 @@ impl Loader<'_> {
                 materials,
                 default_material,
             )?;
+        }
+        Ok(())
+    }
+
+    /// Adds an object drawn by node `index`, within the world's triangle
+    /// and memory budgets.
+    fn add_object(&self, scene: &mut Scene, object: super::Object, index: usize) -> Result<()> {
+        let added = scene.meshes()[object.mesh].triangle_count();
+        if scene.triangle_count() + added > MAX_TRIANGLES {
+            return Err(self.err(format!(
+                "more than {MAX_TRIANGLES} triangles in the world (node {index} draws mesh {} again)",
+                object.mesh
+            )));
+        }
+        self.check_budget(std::mem::size_of::<super::Object>() as u64)?;
+        scene
+            .add_object(object)
+            .map(|_| ())
+            .map_err(|e| self.err(format!("node {index}: {e}")))
+    }
+
+    /// The morph-target weights node `node` draws mesh `mesh` with: its
+    /// own, else the mesh's defaults (glTF 2.0, 3.7.2.2); none without.
+    fn morph_weights(&self, node: &json::Node, mesh: usize) -> Result<Vec<f32>> {
+        let defaults = self.root.meshes.get(mesh).and_then(|m| m.weights.as_ref());
+        let weights = node.weights.as_ref().or(defaults).cloned().unwrap_or_default();
+        if weights.iter().any(|w| !w.is_finite()) {
+            return Err(self.err(format!("mesh {mesh}: a morph-target weight is not finite")));
+        }
+        Ok(weights)
+    }
+
+    /// Node `index`'s skinned mesh, posed by its skin's joints: each
+    /// joint's world transform (animated, at the loaded time) times its
+    /// inverse bind matrix. The node's own transform does not apply
+    /// (glTF 2.0, 3.7.3.3). The object does not follow later posing
+    /// (animation playback moves nodes' objects, not skins' vertices).
+    fn skinned_mesh(
+        &mut self,
+        index: usize,
+        mesh: usize,
+        skin: usize,
+        scene: &mut Scene,
+        materials: &[u32],
+        default_material: u32,
+    ) -> Result<()> {
+        let root = self.root;
+        let s = root
+            .skins
+            .get(skin)
+            .ok_or_else(|| self.err(format!("node {index}: skin index {skin} out of range")))?;
+        let inverse_binds: Vec<Mat4> = match s.inverse_bind_matrices {
+            Some(a) => self
+                .read_floats(a.value(), 16)?
+                .chunks_exact(16)
+                .map(Mat4::from_cols_slice)
+                .collect(),
+            None => vec![Mat4::IDENTITY; s.joints.len()],
+        };
+        if inverse_binds.len() < s.joints.len() {
+            return Err(self.err(format!(
+                "skin {skin}: {} inverse bind matrices for {} joints",
+                inverse_binds.len(),
+                s.joints.len()
+            )));
+        }
+        let mut joints = Vec::with_capacity(s.joints.len());
+        for (j, ibm) in s.joints.iter().zip(&inverse_binds) {
+            let Some(world) = self.worlds.get(&j.value()) else {
+                return Err(self.err(format!(
+                    "skin {skin}: joint node {} is not in the scene drawn",
+                    j.value()
+                )));
+            };
+            joints.push(*world * *ibm);
+        }
+        let weights = self.morph_weights(&root.nodes[index], mesh)?;
+        let made = self.mesh(mesh, &weights, Some((&joints, self.worlds[&index])), scene, materials, default_material)?;
+        for m in made {
+            self.add_object(scene, super::Object::new(m, Mat4::IDENTITY), index)?;
         }
         Ok(())
     }
@@ -891,9 +989,13 @@ impl Loader<'_> {
 
     /// Adds glTF mesh `index`'s triangle primitives as scene meshes (object
     /// space) and returns their indices.
+    /// Mesh `index`'s triangle primitives as scene meshes, with its morph
+    /// targets at `weights` and, with `joints` (see skinned_mesh), skinned.
     fn mesh(
         &mut self,
         index: usize,
+        weights: &[f32],
+        joints: Option<(&[Mat4], Mat4)>,
         scene: &mut Scene,
         materials: &[u32],
         default_material: u32,
@@ -920,12 +1022,12 @@ impl Loader<'_> {
             let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
             let pos_acc = attr(Semantic::Positions)
                 .ok_or_else(|| self.err(format!("mesh {index} primitive {pi} has no POSITION")))?;
-            let positions: Vec<Vec3> = self
+            let mut positions: Vec<Vec3> = self
                 .read_floats(pos_acc, 3)?
                 .chunks_exact(3)
                 .map(Vec3::from_slice)
                 .collect();
-            let normals: Vec<Vec3> = match attr(Semantic::Normals) {
+            let mut normals: Vec<Vec3> = match attr(Semantic::Normals) {
                 Some(a) => self
                     .read_floats(a, 3)?
                     .chunks_exact(3)
@@ -960,7 +1062,7 @@ impl Loader<'_> {
                     Vec::new()
                 }
             };
-            let tangents: Vec<Vec4> = match attr(Semantic::Tangents) {
+            let mut tangents: Vec<Vec4> = match attr(Semantic::Tangents) {
                 Some(a) => self
                     .read_floats(a, 4)?
                     .chunks_exact(4)
@@ -980,6 +1082,11 @@ impl Loader<'_> {
                 return Err(self.err(format!(
                     "mesh {index} primitive {pi}: attribute counts differ"
                 )));
+            }
+            let at = format!("mesh {index} primitive {pi}");
+            self.morph(&at, prim, weights, &mut positions, &mut normals, &mut tangents)?;
+            if let Some(joints) = joints {
+                self.skin(&at, prim, joints, &mut positions, &mut normals, &mut tangents)?;
             }
             let raw_indices = match prim.indices {
                 Some(a) => self.read_indices(a.value())?,
@@ -1023,6 +1130,111 @@ impl Loader<'_> {
             )?);
         }
         Ok(made)
+    }
+
+    /// Displaces a primitive's vertices by its morph targets at `weights`
+    /// (a missing weight is 0). Each target read adds a pass over the
+    /// vertices: at most MAX_MORPH_READS vertex reads in all per primitive.
+    fn morph(
+        &mut self,
+        at: &str,
+        prim: &json::mesh::Primitive,
+        weights: &[f32],
+        positions: &mut [Vec3],
+        normals: &mut [Vec3],
+        tangents: &mut [Vec4],
+    ) -> Result<()> {
+        let targets = prim.targets.as_deref().unwrap_or_default();
+        let applied = targets.iter().zip(weights).filter(|(_, w)| **w != 0.0);
+        if applied.clone().count().saturating_mul(positions.len()) > MAX_MORPH_READS {
+            return Err(self.err(format!(
+                "{at}: more morph-target work than {MAX_MORPH_READS} vertex reads"
+            )));
+        }
+        let n = positions.len();
+        for (k, (target, &w)) in applied.enumerate() {
+            let read = |loader: &mut Self, a: Option<json::Index<json::Accessor>>| -> Result<Option<Vec<f32>>> {
+                let Some(a) = a else { return Ok(None) };
+                let d = loader.read_floats(a.value(), 3)?;
+                if d.len() != 3 * n {
+                    return Err(loader.err(format!("{at}: morph target {k} has {} vertices, not {n}", d.len() / 3)));
+                }
+                Ok(Some(d))
+            };
+            if let Some(d) = read(self, target.positions)? {
+                deform::add_displacements(positions, &d, w);
+            }
+            if let Some(d) = read(self, target.normals)? {
+                deform::add_displacements(normals, &d, w);
+            }
+            if let Some(d) = read(self, target.tangents)? {
+                deform::add_tangent_displacements(tangents, &d, w);
+            }
+        }
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(self.err(format!("{at}: morph targets move a vertex past the largest float")));
+        }
+        deform::renormalize(normals, Vec3::Z);
+        Ok(())
+    }
+
+    /// Skins a primitive's vertices by `joints` (deform::skin) with its
+    /// JOINTS_n / WEIGHTS_n sets; without any, transforms them by `node`,
+    /// its node's world transform, as if it were not skinned.
+    fn skin(
+        &mut self,
+        at: &str,
+        prim: &json::mesh::Primitive,
+        (mut joints, node): (&[Mat4], Mat4),
+        positions: &mut [Vec3],
+        normals: &mut [Vec3],
+        tangents: &mut [Vec4],
+    ) -> Result<()> {
+        use json::mesh::Semantic;
+        let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
+        let n = positions.len();
+        let unposed = [node];
+        let (mut joint_sets, mut weight_sets) = (Vec::new(), Vec::new());
+        for set in 0.. {
+            let (Some(j), Some(w)) = (attr(Semantic::Joints(set)), attr(Semantic::Weights(set))) else {
+                break;
+            };
+            let (j, w) = (self.read_floats(j, 4)?, self.read_floats(w, 4)?);
+            if j.len() != 4 * n || w.len() != 4 * n {
+                return Err(self.err(format!("{at}: JOINTS_{set} / WEIGHTS_{set} counts differ from its vertices'")));
+            }
+            if let Some(bad) = j.iter().find(|&&j| !(j >= 0.0 && j.fract() == 0.0 && (j as usize) < joints.len())) {
+                return Err(self.err(format!("{at}: joint {bad} is not one of the skin's {} joints", joints.len())));
+            }
+            joint_sets.push(j);
+            weight_sets.push(w);
+        }
+        if joint_sets.is_empty() {
+            // Drawn as if not skinned: by its node's transform.
+            log::warn!(
+                "{}: {at} is skinned but has no JOINTS_0 / WEIGHTS_0; drawn at its node",
+                self.name
+            );
+            joint_sets.push(vec![0.0; 4 * n]);
+            weight_sets.push([1.0, 0.0, 0.0, 0.0].repeat(n));
+            joints = &unposed;
+        }
+        // Vertex-major, as deform::Influences wants.
+        let sets = joint_sets.len();
+        let mut joint_indices = Vec::with_capacity(4 * sets * n);
+        let mut weights = Vec::with_capacity(4 * sets * n);
+        for v in 0..n {
+            for (j, w) in joint_sets.iter().zip(&weight_sets) {
+                joint_indices.extend(j[4 * v..4 * v + 4].iter().map(|&j| j as u32));
+                weights.extend(&w[4 * v..4 * v + 4]);
+            }
+        }
+        let influences = deform::Influences { sets, joints: &joint_indices, weights: &weights };
+        deform::skin(joints, &influences, positions, normals, tangents);
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(self.err(format!("{at}: skinning moves a vertex past the largest float")));
+        }
+        Ok(())
     }
 
     /// The bytes of buffer `index` (GLB blob, data URI, or file in the scene folder).
@@ -1158,6 +1370,8 @@ impl Loader<'_> {
             Type::Vec2 => 2,
             Type::Vec3 => 3,
             Type::Vec4 => 4,
+            // Inverse bind matrices (floats: no column padding).
+            Type::Mat4 => 16,
             _ => 0,
         };
         if expected != components {

@@ -7,6 +7,7 @@
 //! and the public fields.
 
 mod animation;
+mod deform;
 pub use animation::NodeAnimation;
 pub mod builtin;
 mod objects;
