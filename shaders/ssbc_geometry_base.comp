@@ -22,6 +22,7 @@
 layout(push_constant) uniform GeometryBasePush {
     SsbcFrame frame;
     uint layer;               // the pyramid built
+    uint geometric;           // 1: g_geometric.w holds geometric normals
 } pc;
 
 #include "ssbc_pyramid.glsl"
@@ -32,6 +33,18 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 5, rgba32f) uniform readonly image2D g_albedo;
+// Its w: the geometric normal where a normal map turned g_normal's
+// (geometric_normal.glsl), if pc.geometric (a host's G-buffer has none).
+layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_geometric;
+
+// The surface's own normal at pixel q: the clusters' normal, their areas
+// and creases come from it (a normal map shades, it does not bend the
+// surface the positions lie on); g_normal's shading normal decides only
+// how the pixel reflects.
+vec3 surface_normal(ivec2 q) {
+    vec3 shading = imageLoad(g_normal, q).xyz;
+    return pc.geometric != 0u ? geometric_normal(imageLoad(g_geometric, q).w, shading) : shading;
+}
 
 // A convex polygon in image coordinates: the square clipped by at most
 // eight lines, one vertex more per line.
@@ -145,8 +158,7 @@ bool any_crease_normal(ivec2 p, vec3 np) {
     bool any_found = false;
     for (int k = 0; k < 8; k++) {
         ivec2 q = clamp(p + CREASE_NEIGHBOURS[k], ivec2(0), size - 1);
-        vec4 nq = imageLoad(g_normal, q);
-        any_found = any_found || dot(np, nq.xyz) <= CREASE_COS;
+        any_found = any_found || dot(np, surface_normal(q)) <= CREASE_COS;
     }
     return any_found;
 }
@@ -192,7 +204,7 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
         vec4 position_q = imageLoad(g_position, q);
         if (position_q.w == 0.0) continue;
         vec3 cq = position_q.xyz;
-        vec3 nq = imageLoad(g_normal, q).xyz;
+        vec3 nq = surface_normal(q);
         float aq = pixel_area(cq, nq);
         if (dot(np, nq) > CREASE_COS || length(cq - cp) > 3.0 * (sqrt(ap) + sqrt(aq))) continue;
         // Zero where both planes are at the same depth: k_p (n_q . r) - k_q (n_p . r),
@@ -246,7 +258,7 @@ void main() {
     vec3 n = vec3(0.0);
     if (all(lessThan(uvec2(p), layer_image_size(pc.layer)))) {
         position = imageLoad(g_position, p);
-        n = imageLoad(g_normal, p).xyz;
+        n = surface_normal(p);
     }
     bool geometry = position.w != 0.0;
     // A half-resolution layer-1 pixel is 2 x 2 image pixels (and a point:
@@ -267,9 +279,10 @@ void main() {
     // Layer 0's glossy receivers, for the evaluation points (ssbc_eval.glsl).
     bool glossy = false;
     if (geometry && pc.layer == 0u && (pc.frame.layers & GLOSSY_RECEIVERS) != 0u) {
-        Brdf b = receiver_brdf(imageLoad(g_albedo, p), imageLoad(g_normal, p));
+        vec4 shading = imageLoad(g_normal, p);
+        Brdf b = receiver_brdf(imageLoad(g_albedo, p), shading);
         vec3 wo = normalize(pc.frame.camera_position.xyz - position.xyz);
-        glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, n, wo);
+        glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, shading.xyz, wo);
     }
     uint flags = (geometry ? 1u : 0u) | (code << 1) | (glossy ? GLOSSY_RECEIVER : 0u);
     store_geo(dst, GeoTexel(geometry ? make_cluster(position.xyz, 0.0, 0.0, n, 1.0) : empty_cluster(), back));

@@ -142,11 +142,15 @@ void main() {
             if (ok) {
                 EvalPoint point = load_point(point_texels, texel_index(0u, t, l));
                 GeoCluster g = geo_cluster(texel_index(0u, eval_pixel(t, l), 0), 0u);
-                vec3 n = g.normal_cone.xyz;
+                // The point's surface (geometric) normal places it on the
+                // pixel's surface; its shading normal, which its linear
+                // form was selected with, must be near the pixel's.
+                vec3 n_surface = g.normal_cone.xyz;
+                vec3 n = imageLoad(g_normal, eval_pixel(t, l)).xyz;
                 vec3 d = x - g.position_extent.xyz;
                 float dist = length(d);
                 ok = point.generation == pc.generation && point.reads >= 0.0
-                    && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
+                    && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n_surface, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
                     && dist <= min(max_spacing, pc.scale_fraction * point.variation);
                 if (glossy && ok) {
                     vec4 point_rest = texelFetch(point_glossy, int(texel_index(0u, t, l)));

@@ -13,6 +13,7 @@
 #ifndef SSBC_GBUFFER_FRAG_GLSL
 #define SSBC_GBUFFER_FRAG_GLSL
 #include "common.glsl"
+#include "geometric_normal.glsl"
 
 layout(location = 0) in vec3 v_position;
 layout(location = 1) in vec3 v_normal;
@@ -96,6 +97,8 @@ void main() {
     // the footprint's mean normal. (Widening the GGX lobe by the normals'
     // spread, Toksvig's alpha^2 + 2 (1 - r) / r, made minified bumpy metal
     // worse: GGX's long tail is no Gaussian's, docs/accuracy.md.)
+    vec3 geometric = n;
+    bool mapped_normal = false;
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     if (m.textures.z >= 0 && dot(t, t) > 1e-12) {
         vec3 tex = sample_texture(linear_textures, m.textures.z, m.samplers.z, v_uv, duv_dx, duv_dy).xyz * 2.0 - 1.0;
@@ -104,10 +107,14 @@ void main() {
         vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);
         vec3 mapped = t * local.x + b * local.y + n * local.z;
         if (dot(mapped, mapped) > 0.0) n = normalize(mapped);
+        mapped_normal = true;
     }
 #ifndef PEEL
     // Two-sided shading: the normal faces the viewer.
-    if (!front) n = -n;
+    if (!front) {
+        n = -n;
+        geometric = -geometric;
+    }
 #endif
     // The BRDF as brdf_from_gbuffer reads it: metallic in albedo.w,
     // roughness in normal.w (-1: Lambertian).
@@ -116,7 +123,8 @@ void main() {
     out_position = vec4(v_position, 1.0);
     out_normal = vec4(n, lambertian ? -1.0 : reflectance.y);
     out_albedo = vec4(material_base_color(m, v_uv, duv_dx, duv_dy, v_color).rgb, reflectance.x);
-    out_emission = vec4(material_emission(m, v_uv, duv_dx, duv_dy), 1.0);
+    // w: the geometric normal where the normal map turned n (geometric_normal.glsl).
+    out_emission = vec4(material_emission(m, v_uv, duv_dx, duv_dy), mapped_normal ? encode_geometric_normal(geometric) : 1.0);
 }
 
 #endif

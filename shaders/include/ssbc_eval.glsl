@@ -47,8 +47,10 @@ const bool GLOSSY_KERNEL = false;
 
 layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
-#ifdef SSBC_GLOSSY_POINTS
+// The shading normal: how the receiver reflects (the pyramid's clusters
+// carry the surface's geometric normal, geometric_normal.glsl).
 layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_normal;
+#ifdef SSBC_GLOSSY_POINTS
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 8, rgba32f) uniform writeonly imageBuffer point_glossy;  // one per point
 #endif
@@ -73,7 +75,7 @@ void evaluate(ivec2 t, bool glossy) {
     uint q_index = texel_index(0u, q, 0);
     GeoCluster g = geo_cluster(q_index, 0u);
     vec3 x = g.position_extent.xyz;
-    vec3 nx = g.normal_cone.xyz;
+    vec3 nx = imageLoad(g_normal, q).xyz;
     float r_world = inversesqrt(pc.frame.bound);
     // A point stands for its block only on one smooth surface, except at
     // level 1: there a pixel is at most a pixel from the points it

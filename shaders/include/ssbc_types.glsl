@@ -11,6 +11,7 @@
 #extension GL_EXT_control_flow_attributes : require
 
 #include "common.glsl"
+#include "geometric_normal.glsl"
 
 // The frame as every SSBC kernel sees it (`pc.frame`; mirrored by
 // `FrameBlock` in src/passes/ssbc/push.rs).

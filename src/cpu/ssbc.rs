@@ -15,7 +15,9 @@ pub struct GBufferView<'a> {
     pub height: u32,
     /// xyz position, w = 1 on geometry.
     pub position: &'a [f32],
-    /// xyz normal.
+    /// xyz normal. The shading normal stands for the geometric one too
+    /// (the GPU's step takes senders' geometry from the geometric normal
+    /// where a normal map turned the shading normal; docs/ssbc-implementation.md).
     pub normal: &'a [f32],
     /// rgb albedo.
     pub albedo: &'a [f32],

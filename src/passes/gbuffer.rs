@@ -37,7 +37,9 @@ pub struct GBuffer {
     pub normal: Image,
     /// rgb linear albedo.
     pub albedo: Image,
-    /// rgb radiance emitted towards the camera (W/(m² sr)).
+    /// rgb radiance emitted towards the camera (W/(m² sr)); w < 0: the
+    /// geometric normal where a normal map turned `normal`'s
+    /// (shaders/include/geometric_normal.glsl), else 1.
     pub emission: Image,
     /// Depth buffer.
     pub depth: Image,

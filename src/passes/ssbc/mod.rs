@@ -203,6 +203,11 @@ pub struct SsbcGBuffer<'a> {
     pub normal: &'a Image,
     /// Diffuse albedo.
     pub albedo: &'a Image,
+    /// An image whose w, where negative, holds the surface's geometric
+    /// normal (shaders/include/geometric_normal.glsl): ssbc's emission
+    /// target, where normal maps turned the shading normal. None (a host's
+    /// G-buffer): the shading normal is the surface's.
+    pub geometric: Option<&'a Image>,
 }
 
 impl<'a> From<&'a GBuffer> for SsbcGBuffer<'a> {
@@ -211,13 +216,16 @@ impl<'a> From<&'a GBuffer> for SsbcGBuffer<'a> {
             position: &g.position,
             normal: &g.normal,
             albedo: &g.albedo,
+            geometric: Some(&g.emission),
         }
     }
 }
 
 impl SsbcGBuffer<'_> {
-    fn targets(&self) -> [&Image; 3] {
+    fn targets(&self) -> impl Iterator<Item = &Image> {
         [self.position, self.normal, self.albedo]
+            .into_iter()
+            .chain(self.geometric)
     }
 
     fn read_in_compute(&self, rec: &mut Recorder<'_>) {

@@ -124,6 +124,8 @@ impl ResidualParams {
 pub(crate) struct GeometryBasePush {
     pub frame: FrameBlock,
     pub layer: u32,
+    /// 1: `g_geometric`'s w holds geometric normals (SsbcGBuffer::geometric).
+    pub geometric: u32,
 }
 
 /// `ssbc_geometry_mips.comp`: one level >= 1 of `layer`'s geometry pyramid.

@@ -170,10 +170,13 @@ impl SsbcPass {
                     g_position: gbuffer.position,
                     g_normal: gbuffer.normal,
                     g_albedo: gbuffer.albedo,
+                    // Bound but not read without geometric normals.
+                    g_geometric: gbuffer.geometric.unwrap_or(gbuffer.normal),
                 };
                 let push = GeometryBasePush {
                     frame: mips.frame,
                     layer,
+                    geometric: u32::from(gbuffer.geometric.is_some()),
                 };
                 self.geometry_base
                     .dispatch_2d(rec.cmd, pool, &bindings, &push, extent)?;

@@ -422,6 +422,7 @@ impl SsbcPass {
                 radiance_texels: &frame.radiance_view,
                 eval_points: &frame.point_view,
                 requests,
+                g_normal: gbuffer.normal,
             };
             let groups = list.is_none().then_some(groups);
             let ends = if push.frame.glossy_receivers() { FRONT } else { BOTH_ENDS };
