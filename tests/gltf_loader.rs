@@ -1150,3 +1150,71 @@ fn bad_skins_and_morph_targets_are_clear_errors() {
         assert!(e.contains(message), "{what}: {e}");
     }
 }
+
+/// A quad (+Y normals, u along +x, v along +z) with a normal map and
+/// `KHR_texture_transform` `transform` on its textures, with or without
+/// the TANGENT attribute (1, 0, 0, 1: right for the untransformed uvs).
+fn transformed_quad(transform: &str, with_tangents: bool) -> Vec<u8> {
+    let mut bin = le_bytes(&[
+        -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, -1.0, // positions
+        0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, // normals
+        0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, // uvs
+    ]);
+    bin.extend(le_bytes(&[1.0, 0.0, 0.0, 1.0].repeat(4)));
+    bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
+    bin.extend([0u8; 4]);
+    let tangent = if with_tangents { r#","TANGENT":3"# } else { "" };
+    let texture = format!(r#"{{"index":0,"extensions":{{"KHR_texture_transform":{transform}}}}}"#);
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
+        "extensionsUsed":["KHR_texture_transform"],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{texture}}},"normalTexture":{texture}}}],
+        "textures":[{{"source":0}}],"images":[{{"uri":"{}"}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2{tangent}}},"indices":4,"material":0}}]}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},
+          {{"bufferView":0,"byteOffset":48,"componentType":5126,"count":4,"type":"VEC3"}},
+          {{"bufferView":0,"byteOffset":96,"componentType":5126,"count":4,"type":"VEC2"}},
+          {{"bufferView":0,"byteOffset":128,"componentType":5126,"count":4,"type":"VEC4"}},
+          {{"bufferView":0,"byteOffset":192,"componentType":5123,"count":6,"type":"SCALAR"}}],
+        "bufferViews":[{{"buffer":0,"byteLength":{len}}}],
+        "buffers":[{{"byteLength":{len},"uri":"{}"}}]}}"#,
+        png_uri(),
+        data_uri(&bin),
+        len = bin.len()
+    )
+    .into_bytes()
+}
+
+/// A TANGENT frame follows a texture transform that turns, scales or
+/// mirrors the uvs: the loaded tangents (direction and handedness) equal
+/// those generated from the mapped uvs. Before, the frame kept the
+/// untransformed u while the normal map was read along the mapped one.
+#[test]
+fn tangents_follow_texture_transforms() {
+    let dir = tempfile::tempdir().unwrap();
+    let tangents = |transform: &str, with: bool| -> Vec<glam::Vec4> {
+        let scene =
+            ssbc::scene::load_gltf_bytes("t.gltf", &transformed_quad(transform, with), dir.path())
+                .unwrap();
+        scene
+            .world_triangles()
+            .flatten()
+            .map(|v| glam::Vec4::from(v.tangent))
+            .collect()
+    };
+    for transform in [
+        r#"{"rotation":0.7}"#,
+        r#"{"rotation":2.5,"scale":[2,2],"offset":[0.3,0.1]}"#,
+        r#"{"scale":[-1,1]}"#,
+        r#"{"rotation":1.5707963}"#,
+        r#"{}"#,
+    ] {
+        let (given, generated) = (tangents(transform, true), tangents(transform, false));
+        for (k, (a, b)) in given.iter().zip(&generated).enumerate() {
+            assert!(
+                a.abs_diff_eq(*b, 1e-4),
+                "{transform}, corner {k}: TANGENT gives {a}, generated {b}"
+            );
+        }
+    }
+}

@@ -148,6 +148,31 @@ pub fn load_bytes(name: &str, bytes: &[u8], base: &Path, time: Option<f32>) -> R
     .load()
 }
 
+/// Turns TANGENT frames (along +u, the bitangent `cross(n, t) w` along -v)
+/// to the uvs a texture transform with linear part `map` made: the
+/// direction of the mapped u and the handedness of the mapped v, as tangents
+/// generated from the mapped uvs would have (taking the surface's u and v
+/// as equally long, all a unit frame says). Without it a rotating transform
+/// turned the normal map's slopes with the texture but not with the frame.
+fn follow_texture_transform(tangents: &mut [Vec4], normals: &[Vec3], map: glam::Mat2) {
+    let unmap = map.inverse();
+    if map == glam::Mat2::IDENTITY || !unmap.is_finite() {
+        return;
+    }
+    for (t, &n) in tangents.iter_mut().zip(normals) {
+        if *t == Vec4::ZERO {
+            continue;
+        }
+        let dp_du = t.truncate();
+        let dp_dv = -n.cross(dp_du) * if t.w < 0.0 { -1.0 } else { 1.0 };
+        // Columns of the inverse map: (du, dv) per unit of u' and of v'.
+        let dp_du_mapped = dp_du * unmap.x_axis.x + dp_dv * unmap.x_axis.y;
+        let dp_dv_mapped = dp_du * unmap.y_axis.x + dp_dv * unmap.y_axis.y;
+        let tangent = (dp_du_mapped - n * n.dot(dp_du_mapped)).normalize_or_zero();
+        *t = tangent.extend(super::handedness(n, tangent, dp_dv_mapped));
+    }
+}
+
 /// GLB header and chunk lengths must fit the file (the parser trusts them).
 fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
     let u32_at = |o: usize| {
@@ -1082,6 +1107,9 @@ impl Loader<'_> {
                 return Err(self.err(format!(
                     "mesh {index} primitive {pi}: attribute counts differ"
                 )));
+            }
+            if !uvs.is_empty() && normals.len() == tangents.len() {
+                follow_texture_transform(&mut tangents, &normals, uv_map.transform.matrix2);
             }
             let at = format!("mesh {index} primitive {pi}");
             self.morph(&at, prim, weights, &mut positions, &mut normals, &mut tangents)?;
