@@ -448,6 +448,20 @@ fn punctual_start(
     }
 }
 
+/// Largest ratio of a shading to a geometric cosine taken (grazing the
+/// geometric surface they grow without bound; the path tracer never sees
+/// them, its camera paths need no such ratio).
+const MAX_SHADING_RATIO: f32 = 4.0;
+
+/// |n_s . w| / |n_g . w|, at most MAX_SHADING_RATIO (1 where they agree).
+fn shading_ratio(shading: Vec3, geometric: Vec3, w: Vec3) -> f32 {
+    let cos_g = geometric.dot(w).abs();
+    if shading == geometric || cos_g <= 0.0 {
+        return 1.0;
+    }
+    (shading.dot(w).abs() / cos_g).min(MAX_SHADING_RATIO)
+}
+
 /// Follows light path `path` from `origin` (on triangle `leaving`, if it
 /// starts on an emitter) along `dir` carrying `flux`: a VPL at every hit,
 /// Russian roulette by f cos / pdf, BRDF-sampled bounces (Halton
@@ -482,8 +496,14 @@ fn trace_path(
             return;
         };
         let surf = bvh.surface(scene, &hit, -dir);
-        // The VPL reflects around the geometric normal (a normal map shades,
-        // it does not tilt the surface that reflects).
+        // Shading normals, as the path tracer reflects: a surface reflects
+        // the light arriving from w_i weighted by |n_s . w_i|, where the
+        // flux a light path brings counts |n_g . w_i| (Veach 1997, 5.3: the
+        // adjoint BRDF with shading normals). The VPL's flux carries the
+        // ratio; it reflects around the geometric normal (a normal map
+        // shades, it does not tilt the surface that reflects).
+        let shading = shading_ratio(surf.normal, surf.geometric_normal, -dir);
+        flux *= shading;
         out.push(Vpl {
             position: surf.position,
             normal: surf.geometric_normal,
@@ -513,15 +533,20 @@ fn trace_path(
         else {
             return;
         };
-        let survive = sample.weight.max_element().min(MAX_SURVIVAL);
+        // f |n_g . w| / pdf: the light leaving is counted by the area it
+        // leaves (the sample's weight has |n_s . w|).
+        let cos_s = sample.wi.dot(surf.normal).abs();
+        let cos_g = sample.wi.dot(surf.geometric_normal);
+        if cos_g <= 0.0 || cos_s <= 1e-6 {
+            return;
+        }
+        let weight = sample.weight * (cos_g / cos_s).min(MAX_SHADING_RATIO);
+        let survive = weight.max_element().min(MAX_SURVIVAL);
         if survive <= 0.0 || u(0) >= survive {
             return;
         }
-        flux *= sample.weight / survive;
+        flux *= weight / survive;
         dir = sample.wi;
-        if dir.dot(surf.geometric_normal) <= 0.0 {
-            return;
-        }
         origin = surf.position
             + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
     }
