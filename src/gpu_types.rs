@@ -265,14 +265,23 @@ impl GpuVpl {
         Self {
             position: v.position.extend(f32::from_bits(point_block)).into(),
             normal: v.normal.extend(f32::from_bits(cell)).into(),
+            // w: -2 for a Lambertian VPL with a shading normal (in
+            // incident.xyz), -1 for one without.
             power: if v.brdf.is_lambertian() {
-                (v.brdf.base * v.flux).extend(-1.0)
+                let shaded = v.shading_normal != glam::Vec3::ZERO;
+                (v.brdf.base * v.flux).extend(if shaded { -2.0 } else { -1.0 })
             } else {
                 v.flux.extend(v.brdf.metallic)
             }
             .into(),
             base: v.brdf.base.extend(v.brdf.roughness).into(),
-            incident: v.incident.extend(v.radius).into(),
+            incident: if v.brdf.is_lambertian() && v.shading_normal != glam::Vec3::ZERO {
+                v.shading_normal
+            } else {
+                v.incident
+            }
+            .extend(v.radius)
+            .into(),
         }
     }
 }

@@ -10,10 +10,13 @@ struct GpuVpl {
     vec4 normal;     // xyz unit normal (hemisphere it emits into); w: bits of
                      // its atlas tile's column | row << 16 (uint)
     vec4 power;      // rgb: Lambertian: albedo x flux Phi [W] (f_r(z) Phi x pi); glossy:
-                     // Phi. w: -1 Lambertian, else metallic
+                     // Phi. w: -1 Lambertian, -2 Lambertian with a shading
+                     // normal (in incident.xyz), else metallic
     vec4 base;       // glossy: rgb base colour, w roughness
-    vec4 incident;   // glossy: xyz direction the light arrived from; w: radius (m),
-                     // which widens glossy lobes towards and from it
+    vec4 incident;   // glossy: xyz direction the light arrived from (lobe
+                     // turned to the shading normal's); Lambertian with -2:
+                     // its shading normal; w: radius (m), which widens
+                     // glossy lobes towards and from it
 };
 
 // Texels per GpuVpl in the gathers' texel view.

@@ -55,19 +55,22 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint s
         if (v == 0.0) continue;
         vec4 power = texelFetch(vpl_texels, at + 2);
         bool glossy_vpl = power.w >= 0.0;
+        // A Lambertian VPL whose shading normal (incident.xyz) turns from
+        // its normal sends nothing where that faces away.
+        bool shaded_vpl = power.w < -1.5;
         // Glossy lobes towards and from the VPL widen by the angle its
         // radius subtends (a virtual spherical light): a narrow lobe then
         // cannot make one VPL a spike.
         float spread2 = 0.0;
         vec4 incident = vec4(0.0);
-        if (glossy_vpl || !lambertian) {
+        if (glossy_vpl || !lambertian || shaded_vpl) {
             incident = texelFetch(vpl_texels, at + 4);
             spread2 = incident.w * incident.w / d2;
         }
         vec3 sent;
         if (!glossy_vpl) {
-            // Lambertian: albedo Phi / pi every way.
-            sent = power.rgb / PI;
+            // Lambertian: albedo Phi / pi every way (its shading normal's).
+            sent = shaded_vpl && dot(incident.xyz, w) <= 0.0 ? vec3(0.0) : power.rgb / PI;
         } else {
             vec4 base = texelFetch(vpl_texels, at + 3);
             Brdf bz = Brdf(base.rgb, power.w, base.w, 1.0);

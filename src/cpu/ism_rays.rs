@@ -197,6 +197,7 @@ mod tests {
             normal: -Vec3::Y,
             brdf: crate::cpu::brdf::Brdf::lambertian(Vec3::ONE),
             incident: -Vec3::Y,
+            shading_normal: Vec3::ZERO,
             flux: Vec3::ONE,
             radius: 0.0,
             bounce: 1,

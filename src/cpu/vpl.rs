@@ -32,8 +32,15 @@ pub struct Vpl {
     /// radiance is the same in every direction).
     pub brdf: Brdf,
     /// Unit direction the light arrived from (on an emitter, its normal):
-    /// a glossy VPL sends `f(incident, w) Phi_i` towards w.
+    /// a glossy VPL sends `f(incident, w) Phi_i` towards w. On a surface
+    /// whose shading normal turns from `normal`, the direction whose
+    /// mirror about `normal` is the incident light's mirror about the
+    /// shading normal (the lobe points where the shading normal sends it).
     pub incident: Vec3,
+    /// A Lambertian VPL's shading normal where it turns more than
+    /// [`SHADING_TURN_COS`] from `normal` (else zero): it sends nothing
+    /// where the shading normal faces away.
+    pub shading_normal: Vec3,
     /// Flux Phi_i (W) the path carried into z_i (on an emitter: the flux it
     /// leaves with).
     pub flux: Vec3,
@@ -57,6 +64,9 @@ impl Vpl {
     /// geometry term, its lobe widened by the angle its radius subtends.
     pub fn brdf_towards(&self, w: Vec3, d2: f32) -> Vec3 {
         if self.brdf.is_lambertian() {
+            if self.shading_normal != Vec3::ZERO && self.shading_normal.dot(w) <= 0.0 {
+                return Vec3::ZERO;
+            }
             return self.brdf.base / std::f32::consts::PI;
         }
         self.brdf
@@ -303,6 +313,7 @@ pub fn generate_with(
                 normal: e.normal,
                 brdf: Brdf::lambertian(Vec3::ONE),
                 incident: e.normal,
+                shading_normal: Vec3::ZERO,
                 flux: flux / p_light,
                 radius: 0.0,
                 bounce: 0,
@@ -453,6 +464,31 @@ fn punctual_start(
 /// them, its camera paths need no such ratio).
 const MAX_SHADING_RATIO: f32 = 4.0;
 
+/// Shading normals within this cosine of the geometric one count as it
+/// (interpolated normals on tessellated curves: a glossy VPL's lobe moves
+/// by twice the angle, a Lambertian one's hemisphere by a sliver).
+pub const SHADING_TURN_COS: f32 = 0.996;
+
+/// A VPL's (incident, shading normal) where the light arrived from `wi`
+/// (see [`Vpl::incident`], [`Vpl::shading_normal`]).
+fn shading_frame(brdf: &Brdf, shading: Vec3, geometric: Vec3, wi: Vec3) -> (Vec3, Vec3) {
+    if shading.dot(geometric) >= SHADING_TURN_COS {
+        return (wi, Vec3::ZERO);
+    }
+    if brdf.is_lambertian() {
+        return (wi, shading);
+    }
+    // The mirror about the shading normal, mirrored back about the
+    // geometric one; kept above the surface.
+    let mirror = 2.0 * shading.dot(wi) * shading - wi;
+    let incident = 2.0 * geometric.dot(mirror) * geometric - mirror;
+    if incident.dot(geometric) > 0.0 {
+        (incident.normalize(), Vec3::ZERO)
+    } else {
+        (wi, Vec3::ZERO)
+    }
+}
+
 /// |n_s . w| / |n_g . w|, at most MAX_SHADING_RATIO (1 where they agree).
 fn shading_ratio(shading: Vec3, geometric: Vec3, w: Vec3) -> f32 {
     let cos_g = geometric.dot(w).abs();
@@ -504,11 +540,13 @@ fn trace_path(
         // shades, it does not tilt the surface that reflects).
         let shading = shading_ratio(surf.normal, surf.geometric_normal, -dir);
         flux *= shading;
+        let (incident, shading_normal) = shading_frame(&surf.brdf, surf.normal, surf.geometric_normal, -dir);
         out.push(Vpl {
             position: surf.position,
             normal: surf.geometric_normal,
             brdf: surf.brdf,
-            incident: -dir,
+            incident,
+            shading_normal,
             flux,
             radius: 0.0,
             bounce,
@@ -689,6 +727,7 @@ mod tests {
             normal: -Vec3::Y,
             brdf: Brdf::lambertian(Vec3::ONE),
             incident: -Vec3::Y,
+            shading_normal: Vec3::ZERO,
             flux: Vec3::ONE,
             radius: 0.0,
             bounce: 1,
