@@ -416,22 +416,15 @@ fn the_path_tracers_camera_rays_leave_no_holes_at_seams() {
 /// weights alone, 1.001 now.
 #[test]
 fn vpls_on_normal_mapped_surfaces_send_what_the_path_tracer_sees() {
-    use ssbc::scene::{Camera, Light, LightKind, Material, Texture, TextureRef, TextureSampler};
+    use ssbc::scene::{Camera, Light, LightKind, Material, TextureRef, TextureSampler};
     let mut scene = ssbc::Scene::new("bumpy floor");
     let side = 64u32;
-    scene.textures.push(Texture {
-        width: side,
-        height: side,
-        rgba8: (0..side * side)
-            .flat_map(|i| {
-                let turn = (i.wrapping_mul(2_654_435_761) >> 8) as f32 / (1u32 << 24) as f32
-                    * std::f32::consts::TAU;
-                let n = Vec3::new(0.6 * turn.cos(), 0.6 * turn.sin(), 1.0).normalize();
-                let [x, y, z] = [n.x, n.y, n.z].map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
-                [x, y, z, 255]
-            })
-            .collect(),
-    });
+    scene.textures.push(common::normal_map(side, |x, y| {
+        let i = x + y * side;
+        let turn = (i.wrapping_mul(2_654_435_761) >> 8) as f32 / (1u32 << 24) as f32
+            * std::f32::consts::TAU;
+        (0.6 * turn.cos(), 0.6 * turn.sin())
+    }));
     let mut floor = Material::diffuse(Vec3::splat(0.8), None);
     // Nearest texels: bilinear filtering would average the random tilts
     // down (the floor's direct light was 0.98 of a flat floor's, not 0.86).

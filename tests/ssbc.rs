@@ -375,7 +375,7 @@ fn ssbc_restores_the_energy_clamping_removed() {
 /// now 0.060).
 #[test]
 fn a_normal_mapped_plane_does_not_light_itself() {
-    use ssbc::scene::{Material, Texture, TextureRef, TextureSampler};
+    use ssbc::scene::{Material, TextureRef, TextureSampler};
     let mut scene = ssbc::Scene::new("grooved floor");
     let side = 64u32;
     let slope = |c: u32| match c % side {
@@ -383,17 +383,9 @@ fn a_normal_mapped_plane_does_not_light_itself() {
         60.. => -0.6,
         _ => 0.0,
     };
-    scene.textures.push(Texture {
-        width: side,
-        height: side,
-        rgba8: (0..side * side)
-            .flat_map(|i| {
-                let n = Vec3::new(slope(i % side), slope(i / side), 1.0).normalize();
-                let [x, y, z] = [n.x, n.y, n.z].map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
-                [x, y, z, 255]
-            })
-            .collect(),
-    });
+    scene
+        .textures
+        .push(common::normal_map(side, |x, y| (slope(x), slope(y))));
     let mut floor = Material::diffuse(Vec3::splat(0.8), None);
     floor.normal_texture = Some(TextureRef {
         index: 0,

@@ -9,19 +9,7 @@
 #ifndef SSBC_GEOMETRIC_NORMAL_GLSL
 #define SSBC_GEOMETRIC_NORMAL_GLSL
 
-// Octahedral map of a unit vector onto [-1, 1]^2.
-vec2 octahedral(vec3 n) {
-    n /= abs(n.x) + abs(n.y) + abs(n.z);
-    vec2 p = n.xy;
-    if (n.z < 0.0) p = (1.0 - abs(p.yx)) * vec2(p.x >= 0.0 ? 1.0 : -1.0, p.y >= 0.0 ? 1.0 : -1.0);
-    return p;
-}
-
-vec3 from_octahedral(vec2 p) {
-    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
-    if (n.z < 0.0) n.xy = (1.0 - abs(n.yx)) * vec2(n.x >= 0.0 ? 1.0 : -1.0, n.y >= 0.0 ? 1.0 : -1.0);
-    return normalize(n);
-}
+#include "octahedral.glsl"
 
 // 12 bits per octahedral coordinate (within 0.05 degrees) as a negative
 // integer, exact in a float: -(code + 1), code < 2^24.

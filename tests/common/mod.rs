@@ -364,3 +364,21 @@ pub fn stages(frame: &Frame) -> Vec<&str> {
         .map(|s| s.name.as_str())
         .collect()
 }
+
+/// A `side` x `side` tangent-space normal map: texel (x, y) tilted by the
+/// slopes `slope(x, y)` along the tangent and the bitangent.
+#[allow(dead_code)]
+pub fn normal_map(side: u32, slope: impl Fn(u32, u32) -> (f32, f32)) -> ssbc::scene::Texture {
+    ssbc::scene::Texture {
+        width: side,
+        height: side,
+        rgba8: (0..side * side)
+            .flat_map(|i| {
+                let (sx, sy) = slope(i % side, i / side);
+                let n = Vec3::new(sx, sy, 1.0).normalize();
+                let [x, y, z] = [n.x, n.y, n.z].map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+                [x, y, z, 255]
+            })
+            .collect(),
+    }
+}
