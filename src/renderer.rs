@@ -167,11 +167,12 @@ impl Passes {
         let ism = self.ism.run(cx, setup, objects)?;
         let [layer0, layer1] = &mut self.layers;
         let (front, bounded) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
-        let visible = bounded.ssbc_layer(front);
+        let normal_maps = cx.view.normal_maps;
+        let visible = bounded.ssbc_layer(front, normal_maps);
         let ssbc = &setup.settings.ssbc;
         let hidden = if ssbc.layers == 2 && ssbc.steps > 0 {
             let (gbuffer, bounded) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
-            Some(bounded.ssbc_layer(gbuffer))
+            Some(bounded.ssbc_layer(gbuffer, normal_maps))
         } else {
             // Not drawn this frame: free what an earlier frame held.
             layer1.forget(setup.slot);
@@ -497,6 +498,7 @@ fn frame_view(
             .materials
             .iter()
             .any(|m| m.reflectance != crate::scene::Reflectance::Lambertian),
+        normal_maps: scene.materials.iter().any(|m| m.normal_texture.is_some()),
     })
 }
 

@@ -22,7 +22,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::direct_lighting::DirectLight;
 use super::gbuffer::GBuffer;
-use super::ssbc::SsbcLayer;
+use super::ssbc::{SsbcGBuffer, SsbcLayer};
 use super::ism::Ism;
 use super::{FrameView, Pass, Recording, SlotSetup};
 use crate::error::Result;
@@ -92,10 +92,15 @@ pub struct BoundedLighting {
 }
 
 impl BoundedLighting {
-    /// The layer as SSBC gathers from it, with `gbuffer`.
-    pub fn ssbc_layer<'a>(&'a self, gbuffer: &'a GBuffer) -> SsbcLayer<'a> {
+    /// The layer as SSBC gathers from it, with `gbuffer` (its geometric
+    /// normals read only if the scene has `normal_maps`).
+    pub fn ssbc_layer<'a>(&'a self, gbuffer: &'a GBuffer, normal_maps: bool) -> SsbcLayer<'a> {
+        let mut gbuffer: SsbcGBuffer<'a> = gbuffer.into();
+        if !normal_maps {
+            gbuffer.geometric = None;
+        }
         SsbcLayer {
-            gbuffer: gbuffer.into(),
+            gbuffer,
             s0: &self.s0,
             sources: &self.s0_sources,
         }

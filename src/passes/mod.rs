@@ -78,6 +78,10 @@ pub struct FrameView {
     /// Whether any material is glossy (not Lambertian): SSBC then gives
     /// glossy receivers their BRDF.
     pub glossy: bool,
+    /// Whether any material has a normal map: SSBC then reads the
+    /// G-buffer's geometric normals (without, the shading normal is the
+    /// surface's and the pyramid's base level skips those loads).
+    pub normal_maps: bool,
 }
 
 /// What a pass records with besides its own resources and what it reads.
