@@ -292,6 +292,11 @@ fn seeds(png: &[u8]) -> Vec<Seed> {
             bin: Vec::new(),
         },
         Seed {
+            doc: deformed(png),
+            container: Container::Json,
+            bin: Vec::new(),
+        },
+        Seed {
             doc: glb_doc,
             container: Container::Glb,
             bin: glb_bin,
@@ -324,6 +329,54 @@ fn seeds(png: &[u8]) -> Vec<Seed> {
             bin: Vec::new(),
         },
     ]
+}
+
+/// The first seed's quad skinned by two joints (nodes 0 and 2, with
+/// inverse bind matrices) and displaced by a morph target (its normals as
+/// positions and normals) at weight 0.5 (the node's own: 0.25).
+fn deformed(png: &[u8]) -> Value {
+    let mut bin = quad_bin();
+    bin.extend([0u8, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0]); // JOINTS_0 at 140
+    for w in [
+        [1.0f32, 0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0, 0.0],
+        [0.5, 0.5, 0.0, 0.0],
+        [1.0, 0.0, 0.0, 0.0],
+    ] {
+        w.iter().for_each(|c| bin.extend(c.to_le_bytes())); // WEIGHTS_0 at 156
+    }
+    for m in [
+        glam::Mat4::IDENTITY,
+        glam::Mat4::from_translation(glam::Vec3::new(0.0, -1.0, -5.0)),
+    ] {
+        m.to_cols_array()
+            .iter()
+            .for_each(|c| bin.extend(c.to_le_bytes())); // at 220
+    }
+    let mut doc = document(
+        json!({"uri": data_uri("application/octet-stream", &bin)}),
+        bin.len(),
+        4,
+        json!({"uri": data_uri("image/png", png)}),
+        true,
+    );
+    let views = doc["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({"buffer": 0, "byteOffset": 140, "byteLength": 16}));
+    views.push(json!({"buffer": 0, "byteOffset": 156, "byteLength": 64}));
+    views.push(json!({"buffer": 0, "byteOffset": 220, "byteLength": 128}));
+    let accessors = doc["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({"bufferView": 4, "componentType": 5121, "count": 4, "type": "VEC4"}));
+    accessors.push(json!({"bufferView": 5, "componentType": 5126, "count": 4, "type": "VEC4"}));
+    accessors.push(json!({"bufferView": 6, "componentType": 5126, "count": 2, "type": "MAT4"}));
+    let primitive = &mut doc["meshes"][0]["primitives"][0];
+    primitive["attributes"]["JOINTS_0"] = json!(4);
+    primitive["attributes"]["WEIGHTS_0"] = json!(5);
+    primitive["targets"] = json!([{"POSITION": 1, "NORMAL": 1}]);
+    doc["meshes"][0]["weights"] = json!([0.5]);
+    doc["nodes"][1]["skin"] = json!(0);
+    doc["nodes"][1]["weights"] = json!([0.25]);
+    doc["skins"] = json!([{"joints": [0, 2], "inverseBindMatrices": 6, "skeleton": 0}]);
+    doc
 }
 
 /// Values a mutated field may take.
