@@ -538,8 +538,7 @@ fn trace_path(
         // adjoint BRDF with shading normals). The VPL's flux carries the
         // ratio; it reflects around the geometric normal (a normal map
         // shades, it does not tilt the surface that reflects).
-        let shading = shading_ratio(surf.normal, surf.geometric_normal, -dir);
-        flux *= shading;
+        flux *= shading_ratio(surf.normal, surf.geometric_normal, -dir);
         let (incident, shading_normal) = shading_frame(&surf.brdf, surf.normal, surf.geometric_normal, -dir);
         out.push(Vpl {
             position: surf.position,
