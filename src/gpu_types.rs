@@ -76,6 +76,13 @@ pub struct GpuMaterial {
     /// x: normal-map scale; y metallic, z roughness, w the specular layer
     /// (1: glTF metallic-roughness, 0: Lambertian).
     pub normal: [f32; 4],
+    /// Where the emissive texture, the normal map and the metallic-roughness
+    /// map are read ([`crate::scene::TextureRef::uv`]): each one's linear
+    /// part, columns (xy, zw).
+    pub uv_linear: [[f32; 4]; 3],
+    /// Their offsets: emissive xy, normal map zw; metallic-roughness xy of
+    /// the second (zw unused).
+    pub uv_offsets: [[f32; 4]; 2],
 }
 
 /// A sampler as material.glsl reads it: bits 0-1 wrap s, 2-3 wrap t
@@ -131,6 +138,21 @@ impl GpuMaterial {
                     .unwrap_or(0),
             ],
             normal: [m.normal_scale, metallic, roughness, specular],
+            uv_linear: [m.emissive_texture, m.normal_texture, reflectance_texture].map(|t| {
+                t.map_or(glam::Mat2::IDENTITY, |t| t.uv.matrix2)
+                    .to_cols_array()
+            }),
+            uv_offsets: {
+                let offset = |t: Option<crate::scene::TextureRef>| {
+                    t.map_or(glam::Vec2::ZERO, |t| t.uv.translation)
+                };
+                let (e, n, r) = (
+                    offset(m.emissive_texture),
+                    offset(m.normal_texture),
+                    offset(reflectance_texture),
+                );
+                [[e.x, e.y, n.x, n.y], [r.x, r.y, 0.0, 0.0]]
+            },
         }
     }
 }
@@ -158,7 +180,12 @@ mod tests {
                         "mat4" => 64,
                         other => panic!("unexpected GLSL type {other}"),
                     };
-                    Some((rest.trim_end_matches(';').to_string(), size))
+                    let name = rest.trim_end_matches(';');
+                    // An array of n: n x the element (std430 pads none of these).
+                    let count = name
+                        .split_once('[')
+                        .map_or(1, |(_, n)| n.trim_end_matches(']').parse().expect("array length"));
+                    Some((name.to_string(), size * count))
                 })
                 .collect()
         };
@@ -196,6 +223,8 @@ mod tests {
                 "textures",
                 "samplers",
                 "normal",
+                "uv_linear[3]",
+                "uv_offsets[2]",
             ],
             std::mem::size_of::<super::GpuMaterial>(),
         );

@@ -503,6 +503,58 @@ fn a_texture_transform_shows_in_the_render() {
     }
 }
 
+/// Each texture of a material is read at its own `KHR_texture_transform`
+/// of the shared TEXCOORD set: an emissive texture mirrored in u beside an
+/// untransformed base colour texture shows mirrored, on the GPU and in the
+/// CPU's shading, as it does alone. Before, the base colour's map was used
+/// for both (and a warning said so). Black metal: only the emission shows.
+#[test]
+fn each_texture_is_read_at_its_own_texture_transform() {
+    use ssbc::cpu::shading::{emission, srgb_to_linear};
+    let (left, right) = ([200u8, 40, 40], [30u8, 60, 220]);
+    let linear = |c: [u8; 3]| Vec3::from(c.map(srgb_to_linear));
+    let mirror = r#","extensions":{"KHR_texture_transform":{"offset":[1,0],"scale":[-1,1]}}"#;
+    let material = |base: &str, emissive: &str| {
+        format!(
+            r#"{{"pbrMetallicRoughness":{{"baseColorFactor":[0,0,0,1],"metallicFactor":1{base}}},
+"emissiveFactor":[1,1,1],"emissiveTexture":{{"index":0{emissive}}}}}"#
+        )
+    };
+    let with_base = r#","baseColorTexture":{"index":0}"#;
+    let both = textured_quad_from_above(&material(with_base, mirror), left, right);
+    let alone = textured_quad_from_above(&material("", mirror), left, right);
+    let plain = textured_quad_from_above(&material(with_base, ""), left, right);
+    // The CPU: u < 1/2 reads the mirrored texture's right half.
+    let m = &both.materials[0];
+    for (u, expected) in [(0.25, linear(right)), (0.75, linear(left))] {
+        let e = emission(&both, m, glam::Vec2::new(u, 0.5));
+        assert!(
+            (e - expected).abs().max_element() < 1e-5,
+            "u {u}: {e}, expected {expected}"
+        );
+    }
+    // The GPU: the top of the image sees u > 1/2.
+    let settings = small(32, 32);
+    let [both, alone, plain] = [both, alone, plain].map(|s| render_validated(&s, &settings));
+    for (x, y, expected) in [
+        (16, 6, linear(left)),
+        (16, 26, linear(right)),
+        (5, 4, linear(left)),
+    ] {
+        let (b, a, p) = (
+            pixel(&both, "direct", x, y),
+            pixel(&alone, "direct", x, y),
+            pixel(&plain, "direct", x, y),
+        );
+        assert!(
+            (b - expected).abs().max_element() < 0.01 * expected.max_element()
+                && (b - a).abs().max_element() < 0.01 * a.max_element()
+                && (b - p).abs().max_element() > 0.2 * p.max_element(),
+            "pixel ({x},{y}): {b} beside the base colour, {a} alone, {p} untransformed; expected {expected}"
+        );
+    }
+}
+
 /// The quad with material 0 given as JSON and a COLOR_0 attribute:
 /// `color_bytes` appended to the buffer, read by an accessor with the given
 /// members (componentType, type, ...; its bufferView is filled in).
@@ -1155,6 +1207,12 @@ fn bad_skins_and_morph_targets_are_clear_errors() {
 /// `KHR_texture_transform` `transform` on its textures, with or without
 /// the TANGENT attribute (1, 0, 0, 1: right for the untransformed uvs).
 fn transformed_quad(transform: &str, with_tangents: bool) -> Vec<u8> {
+    transformed_normal_map_quad(transform, transform, with_tangents)
+}
+
+/// [`transformed_quad`] with the base colour texture's transform `base`
+/// and the normal map's `normal`.
+fn transformed_normal_map_quad(base: &str, normal: &str, with_tangents: bool) -> Vec<u8> {
     let mut bin = le_bytes(&[
         -1.0, 0.0, 1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, -1.0, // positions
         0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, // normals
@@ -1164,11 +1222,13 @@ fn transformed_quad(transform: &str, with_tangents: bool) -> Vec<u8> {
     bin.extend([0u16, 1, 2, 0, 2, 3].iter().flat_map(|i| i.to_le_bytes()));
     bin.extend([0u8; 4]);
     let tangent = if with_tangents { r#","TANGENT":3"# } else { "" };
-    let texture = format!(r#"{{"index":0,"extensions":{{"KHR_texture_transform":{transform}}}}}"#);
+    let texture =
+        |t: &str| format!(r#"{{"index":0,"extensions":{{"KHR_texture_transform":{t}}}}}"#);
+    let (base, normal) = (texture(base), texture(normal));
     format!(
         r#"{{"asset":{{"version":"2.0"}},"scenes":[{{"nodes":[0]}}],"nodes":[{{"mesh":0}}],
         "extensionsUsed":["KHR_texture_transform"],
-        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{texture}}},"normalTexture":{texture}}}],
+        "materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{base}}},"normalTexture":{normal}}}],
         "textures":[{{"source":0}}],"images":[{{"uri":"{}"}}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2{tangent}}},"indices":4,"material":0}}]}}],
         "accessors":[{{"bufferView":0,"componentType":5126,"count":4,"type":"VEC3","min":[-1,0,-1],"max":[1,0,1]}},
@@ -1192,16 +1252,15 @@ fn transformed_quad(transform: &str, with_tangents: bool) -> Vec<u8> {
 #[test]
 fn tangents_follow_texture_transforms() {
     let dir = tempfile::tempdir().unwrap();
-    let tangents = |transform: &str, with: bool| -> Vec<glam::Vec4> {
-        let scene =
-            ssbc::scene::load_gltf_bytes("t.gltf", &transformed_quad(transform, with), dir.path())
-                .unwrap();
+    let tangents_of = |gltf: &[u8]| -> Vec<glam::Vec4> {
+        let scene = ssbc::scene::load_gltf_bytes("t.gltf", gltf, dir.path()).unwrap();
         scene
             .world_triangles()
             .flatten()
             .map(|v| glam::Vec4::from(v.tangent))
             .collect()
     };
+    let tangents = |transform: &str, with: bool| tangents_of(&transformed_quad(transform, with));
     for transform in [
         r#"{"rotation":0.7}"#,
         r#"{"rotation":2.5,"scale":[2,2],"offset":[0.3,0.1]}"#,
@@ -1210,11 +1269,23 @@ fn tangents_follow_texture_transforms() {
         r#"{}"#,
     ] {
         let (given, generated) = (tangents(transform, true), tangents(transform, false));
+        // The normal map's frame follows its own transform, whatever the
+        // base colour's (here another one, which becomes the mesh's uvs).
+        let base = r#"{"rotation":-1.1,"scale":[3,0.5],"offset":[0.2,0.7]}"#;
+        let normal_only = [true, false]
+            .map(|with| tangents_of(&transformed_normal_map_quad(base, transform, with)));
         for (k, (a, b)) in given.iter().zip(&generated).enumerate() {
             assert!(
                 a.abs_diff_eq(*b, 1e-4),
                 "{transform}, corner {k}: TANGENT gives {a}, generated {b}"
             );
+            for (t, how) in normal_only.iter().zip(["TANGENT", "generated"]) {
+                assert!(
+                    t[k].abs_diff_eq(*a, 1e-4),
+                    "{transform} on the normal map alone, corner {k}: {how} gives {}, expected {a}",
+                    t[k]
+                );
+            }
         }
     }
 }

@@ -360,10 +360,7 @@ fn a_normal_map_tilts_the_shading_normal() {
         rgba8: texel.to_vec(),
     });
     let mut m = Material::diffuse(Vec3::splat(0.5), None);
-    m.normal_texture = Some(TextureRef {
-        index: 0,
-        sampler: TextureSampler::default(),
-    });
+    m.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
     let m = add(&mut s, m);
     // u along +x, v along -z: the tangent is +x.
     common::quad(
@@ -439,10 +436,7 @@ fn generated_tangents_read_green_as_image_up() {
         ],
     });
     let mut m = Material::diffuse(Vec3::splat(0.5), None);
-    m.normal_texture = Some(TextureRef {
-        index: 0,
-        sampler: TextureSampler::default(),
-    });
+    m.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
     let m = add(&mut s, m);
     // Two floor quads, u along +x and v along +z (image-up, -v, is -z; seen
     // from above, the texture is not mirrored): the left one without

@@ -428,13 +428,13 @@ fn vpls_on_normal_mapped_surfaces_send_what_the_path_tracer_sees() {
     let mut floor = Material::diffuse(Vec3::splat(0.8), None);
     // Nearest texels: bilinear filtering would average the random tilts
     // down (the floor's direct light was 0.98 of a flat floor's, not 0.86).
-    floor.normal_texture = Some(TextureRef {
-        index: 0,
-        sampler: TextureSampler {
+    floor.normal_texture = Some(TextureRef::new(
+        0,
+        TextureSampler {
             nearest: true,
             ..TextureSampler::default()
         },
-    });
+    ));
     scene.materials.push(floor);
     scene
         .materials

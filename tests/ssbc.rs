@@ -387,10 +387,7 @@ fn a_normal_mapped_plane_does_not_light_itself() {
         .textures
         .push(common::normal_map(side, |x, y| (slope(x), slope(y))));
     let mut floor = Material::diffuse(Vec3::splat(0.8), None);
-    floor.normal_texture = Some(TextureRef {
-        index: 0,
-        sampler: TextureSampler::default(),
-    });
+    floor.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
     scene.materials.push(floor);
     common::quad(
         &mut scene,

@@ -53,10 +53,7 @@ fn textured_floor() -> Scene {
         let c = [n.x, n.y, n.z].map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
         [c[0], c[1], c[2], 255]
     }));
-    let texture = |index| TextureRef {
-        index,
-        sampler: TextureSampler::default(),
-    };
+    let texture = |index| TextureRef::new(index, TextureSampler::default());
     s.materials.push(Material::diffuse(Vec3::ONE, Some(0)));
     let mut metal = Material::diffuse(Vec3::new(0.9, 0.7, 0.5), None);
     metal.reflectance = Reflectance::MetallicRoughness {

@@ -44,6 +44,10 @@ struct GpuMaterial {
                               // 2-3 wrap t: 0 repeat, 1 clamp, 2 mirror; bit 4 nearest)
     vec4 normal;              // x normal-map scale, y metallic, z roughness, w specular
                               // layer (1: glTF metallic-roughness, 0: Lambertian)
+    vec4 uv_linear[3];        // where the emissive, normal and metallic-roughness maps are
+                              // read: linear part of each one's map of uv, columns xy, zw
+    vec4 uv_offsets[2];       // their offsets: [0].xy emissive, [0].zw normal, [1].xy
+                              // metallic-roughness
 };
 
 #endif

@@ -40,6 +40,7 @@ vec3 material_reflectance(GpuMaterial m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
     vec3 r = m.normal.yzw;
     int layer = (m.textures.w >> 1) - 1;
     if (layer >= 0) {
+        map_uv(m, UV_REFLECTANCE, uv, duv_dx, duv_dy);
         vec4 t = sample_texture(linear_textures, layer, m.samplers.w, uv, duv_dx, duv_dy);
         r.x *= t.b;
         r.y *= t.g;
@@ -101,7 +102,11 @@ void main() {
     bool mapped_normal = false;
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     if (m.textures.z >= 0 && dot(t, t) > 1e-12) {
-        vec3 tex = sample_texture(linear_textures, m.textures.z, m.samplers.z, v_uv, duv_dx, duv_dy).xyz * 2.0 - 1.0;
+        vec2 uv = v_uv;
+        vec2 dx = duv_dx;
+        vec2 dy = duv_dy;
+        map_uv(m, UV_NORMAL, uv, dx, dy);
+        vec3 tex = sample_texture(linear_textures, m.textures.z, m.samplers.z, uv, dx, dy).xyz * 2.0 - 1.0;
         vec3 local = vec3(tex.xy * m.normal.x, tex.z);
         t = normalize(t);
         vec3 b = cross(n, t) * (v_tangent.w < 0.0 ? -1.0 : 1.0);

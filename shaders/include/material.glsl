@@ -97,9 +97,26 @@ bool material_opaque(GpuMaterial m, vec2 uv, vec4 vertex_color) {
         || material_base_color(m, uv, vec2(0.0), vec2(0.0), vertex_color).a >= m.emission_cutoff.w;
 }
 
+// Which of a material's textures is read at its own map of the mesh's uv
+// (TextureRef::uv; the base colour is read at the mesh's uv).
+const int UV_EMISSIVE = 0;
+const int UV_NORMAL = 1;
+const int UV_REFLECTANCE = 2;
+
+// Texture k's coordinates and footprint (uv and its derivatives, mapped
+// in place).
+void map_uv(GpuMaterial m, int k, inout vec2 uv, inout vec2 duv_dx, inout vec2 duv_dy) {
+    mat2 linear = mat2(m.uv_linear[k].xy, m.uv_linear[k].zw);
+    vec2 offset = k == UV_EMISSIVE ? m.uv_offsets[0].xy : (k == UV_NORMAL ? m.uv_offsets[0].zw : m.uv_offsets[1].xy);
+    uv = linear * uv + offset;
+    duv_dx = linear * duv_dx;
+    duv_dy = linear * duv_dy;
+}
+
 vec3 material_emission(GpuMaterial m, vec2 uv, vec2 duv_dx, vec2 duv_dy) {
     vec3 e = m.emission_cutoff.rgb;
     if (m.textures.y >= 0 && any(greaterThan(e, vec3(0.0)))) {
+        map_uv(m, UV_EMISSIVE, uv, duv_dx, duv_dy);
         e *= sample_texture(color_textures, m.textures.y, m.samplers.y, uv, duv_dx, duv_dy).rgb;
     }
     return e;

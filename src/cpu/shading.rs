@@ -110,7 +110,7 @@ pub fn brdf(scene: &Scene, m: &Material, uv: Vec2, vertex_color: Vec4) -> Brdf {
         } => {
             let (mut metallic, mut roughness) = (metallic, roughness);
             if let Some(t) = texture {
-                let texel = sample(&scene.textures[t.index], t.sampler, uv, false);
+                let texel = sample(&scene.textures[t.index], t.sampler, t.uv.transform_point2(uv), false);
                 metallic *= texel.z;
                 roughness *= texel.y;
             }
@@ -136,7 +136,10 @@ pub fn opaque(scene: &Scene, m: &Material, uv: Vec2, vertex_color: Vec4) -> bool
 /// Emitted radiance (W/(m² sr)) of `m` at `uv`.
 pub fn emission(scene: &Scene, m: &Material, uv: Vec2) -> Vec3 {
     match m.emissive_texture {
-        Some(t) => m.emission * sample(&scene.textures[t.index], t.sampler, uv, true).truncate(),
+        Some(t) => {
+            let texel = sample(&scene.textures[t.index], t.sampler, t.uv.transform_point2(uv), true);
+            m.emission * texel.truncate()
+        }
         None => m.emission,
     }
 }
@@ -151,7 +154,7 @@ pub fn shading_normal(scene: &Scene, m: &Material, uv: Vec2, n: Vec3, tangent: V
     if tangent_xyz.length_squared() < 1e-12 {
         return n;
     }
-    let tex = sample(&scene.textures[t.index], t.sampler, uv, false);
+    let tex = sample(&scene.textures[t.index], t.sampler, t.uv.transform_point2(uv), false);
     let local = Vec3::new(
         (tex.x * 2.0 - 1.0) * m.normal_scale,
         (tex.y * 2.0 - 1.0) * m.normal_scale,

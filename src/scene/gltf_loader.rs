@@ -230,18 +230,47 @@ struct Loader<'a> {
     /// node's world transform is known.
     skinned: Vec<(usize, usize, usize)>,
     /// Per glTF material, where its textures are read.
-    uv_maps: Vec<UvMap>,
+    uv_maps: Vec<MaterialUvMaps>,
 }
 
-/// Where a material's textures are read: a `TEXCOORD_n` set, and the affine
-/// map `KHR_texture_transform` applies to it. Applied to the mesh's texture
-/// coordinates at load (an affine map keeps the G-buffer's uv derivatives
-/// right), so one map per material: where its textures differ, the
-/// base colour's wins and a warning says so.
+/// Where a texture is read: a `TEXCOORD_n` set, and the affine map
+/// `KHR_texture_transform` applies to it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct UvMap {
     set: u32,
     transform: Affine2,
+}
+
+/// Where a material's textures are read. Its first texture's map is applied
+/// to the mesh's texture coordinates at load (an affine map keeps the
+/// G-buffer's uv derivatives right); each other texture is read at its own
+/// map of those ([`super::TextureRef::uv`]), identity where they agree.
+#[derive(Clone, Copy, Debug, Default)]
+struct MaterialUvMaps {
+    mesh: UvMap,
+    emissive: Affine2,
+    normal: Affine2,
+    reflectance: Affine2,
+}
+
+/// A material's textures, as its warnings name them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum TextureSlot {
+    BaseColor,
+    MetallicRoughness,
+    Normal,
+    Emissive,
+}
+
+impl TextureSlot {
+    fn name(self) -> &'static str {
+        match self {
+            Self::BaseColor => "baseColorTexture",
+            Self::MetallicRoughness => "metallicRoughnessTexture",
+            Self::Normal => "normalTexture",
+            Self::Emissive => "emissiveTexture",
+        }
+    }
 }
 
 impl Default for UvMap {
@@ -640,29 +669,33 @@ impl Loader<'_> {
             Some(info) => Some(self.texture_ref(info.index.value(), scene, slots)?),
             None => None,
         };
-        let uv_map = self.material_uv_map(index, m)?;
-        self.uv_maps.push(uv_map);
+        let uv_maps = self.material_uv_maps(index, m)?;
+        self.uv_maps.push(uv_maps);
+        let read_at = |t: Option<super::TextureRef>, uv| t.map(|t| super::TextureRef { uv, ..t });
         Ok(super::Material {
             base_color,
             texture,
             sampler,
             emission: factor * strength,
-            emissive_texture,
-            normal_texture,
+            emissive_texture: read_at(emissive_texture, uv_maps.emissive),
+            normal_texture: read_at(normal_texture, uv_maps.normal),
             normal_scale,
             alpha,
             double_sided: m.double_sided,
             reflectance: super::Reflectance::MetallicRoughness {
                 metallic,
                 roughness,
-                texture: reflectance_texture,
+                texture: read_at(reflectance_texture, uv_maps.reflectance),
             },
         })
     }
 
     /// Where material `index`'s textures are read (the occlusion texture is
-    /// not read, so it does not count).
-    fn material_uv_map(&self, index: usize, m: &json::Material) -> Result<UvMap> {
+    /// not read, so it does not count): the mesh's map, its first
+    /// texture's (the base colour's if it has one), and each texture's
+    /// affine map from the mapped coordinates. Textures on another TEXCOORD
+    /// set than the first's are read with the first's (a warning says so).
+    fn material_uv_maps(&self, index: usize, m: &json::Material) -> Result<MaterialUvMaps> {
         use json::extensions::texture::TextureTransform;
         let pbr = &m.pbr_metallic_roughness;
         let info = |i: &json::texture::Info| (i.tex_coord, i.extensions.as_ref().and_then(|e| e.texture_transform.clone()));
@@ -675,54 +708,79 @@ impl Loader<'_> {
                 .map(|v| serde_json::from_value::<TextureTransform>(v.clone()));
             (n.tex_coord, transform)
         });
-        let mut used: Vec<(&str, u32, Option<TextureTransform>)> = Vec::new();
+        let mut used: Vec<(TextureSlot, u32, Option<TextureTransform>)> = Vec::new();
         if let Some(i) = &pbr.base_color_texture {
             let (set, t) = info(i);
-            used.push(("baseColorTexture", set, t));
+            used.push((TextureSlot::BaseColor, set, t));
         }
         if let Some(i) = &pbr.metallic_roughness_texture {
             let (set, t) = info(i);
-            used.push(("metallicRoughnessTexture", set, t));
+            used.push((TextureSlot::MetallicRoughness, set, t));
         }
         if let Some((set, t)) = normal {
             let t = t.transpose().map_err(|e| {
                 self.err(format!("material {index}: normalTexture's KHR_texture_transform: {e}"))
             })?;
-            used.push(("normalTexture", set, t));
+            used.push((TextureSlot::Normal, set, t));
         }
         if let Some(i) = &m.emissive_texture {
             let (set, t) = info(i);
-            used.push(("emissiveTexture", set, t));
+            used.push((TextureSlot::Emissive, set, t));
         }
         let mut maps = Vec::with_capacity(used.len());
-        for (name, tex_coord, transform) in used {
+        for (slot, tex_coord, transform) in used {
             let map = match transform {
                 None => UvMap { set: tex_coord, transform: Affine2::IDENTITY },
                 Some(t) => UvMap {
                     set: t.tex_coord.unwrap_or(tex_coord),
                     transform: texture_transform(&t).ok_or_else(|| {
                         self.err(format!(
-                            "material {index}: {name}'s KHR_texture_transform holds a non-finite number"
+                            "material {index}: {}'s KHR_texture_transform holds a non-finite number",
+                            slot.name()
                         ))
                     })?,
                 },
             };
-            maps.push((name, map));
+            maps.push((slot, map));
         }
-        let Some(&(first, map)) = maps.first() else {
-            return Ok(UvMap::default());
+        let mut out = MaterialUvMaps::default();
+        let Some(&(first, mesh)) = maps.first() else {
+            return Ok(out);
         };
-        let differ: Vec<&str> = maps.iter().filter(|(_, m)| *m != map).map(|(n, _)| *n).collect();
+        out.mesh = mesh;
+        // Another transform of the same set: the mesh's coordinates mapped
+        // back, then by the texture's own map.
+        let unmap = mesh.transform.inverse();
+        let mut differ = Vec::new();
+        for &(slot, map) in &maps[1..] {
+            let relative = map.transform * unmap;
+            let relative = if map == mesh {
+                Affine2::IDENTITY
+            } else if map.set == mesh.set && relative.is_finite() {
+                relative
+            } else {
+                differ.push(slot.name());
+                Affine2::IDENTITY
+            };
+            match slot {
+                TextureSlot::MetallicRoughness => out.reflectance = relative,
+                TextureSlot::Normal => out.normal = relative,
+                TextureSlot::Emissive => out.emissive = relative,
+                TextureSlot::BaseColor => {}
+            }
+        }
         if !differ.is_empty() {
             log::warn!(
-                "{}: material {index}: {} use other texture coordinates than {first} \
-                 (TEXCOORD set or KHR_texture_transform); ssbc reads a material's \
-                 textures with one, {first}'s",
+                "{}: material {index}: {} use another TEXCOORD set than {} (or its \
+                 KHR_texture_transform cannot be undone); ssbc reads a material's \
+                 textures from one set, {}'s",
                 self.name,
-                differ.join(", ")
+                differ.join(", "),
+                first.name(),
+                first.name()
             );
         }
-        Ok(map)
+        Ok(out)
     }
 
     /// Texture `index`: its image (decoded once) and its sampler.
@@ -760,10 +818,7 @@ impl Loader<'_> {
                 }
             }
         };
-        Ok(super::TextureRef {
-            index: image,
-            sampler,
-        })
+        Ok(super::TextureRef::new(image, sampler))
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -1060,10 +1115,11 @@ impl Loader<'_> {
                     .collect(),
                 None => Vec::new(),
             };
-            let uv_map = match prim.material {
+            let uv_maps = match prim.material {
                 Some(m) => self.uv_maps.get(m.value()).copied().unwrap_or_default(),
-                None => UvMap::default(),
+                None => MaterialUvMaps::default(),
             };
+            let uv_map = uv_maps.mesh;
             let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(uv_map.set)) {
                 Some(a) => self
                     .read_floats(a, 2)?
@@ -1109,7 +1165,9 @@ impl Loader<'_> {
                 )));
             }
             if !uvs.is_empty() && normals.len() == tangents.len() {
-                follow_texture_transform(&mut tangents, &normals, uv_map.transform.matrix2);
+                // The normal map's own map of the TEXCOORD set.
+                let normal_map = uv_maps.normal * uv_map.transform;
+                follow_texture_transform(&mut tangents, &normals, normal_map.matrix2);
             }
             let at = format!("mesh {index} primitive {pi}");
             self.morph(&at, prim, weights, &mut positions, &mut normals, &mut tangents)?;

@@ -15,7 +15,7 @@ unstable_pub! {
     mod gltf_loader;
 }
 
-use glam::{Mat3, Mat4, Vec3, Vec4};
+use glam::{Affine2, Mat3, Mat4, Vec2, Vec3, Vec4};
 
 use crate::error::{Error, Result};
 pub use objects::{Instance, Instances, Mesh, Object, Placement};
@@ -118,6 +118,22 @@ pub struct TextureRef {
     pub index: usize,
     /// How it is sampled.
     pub sampler: TextureSampler,
+    /// Where it is read: this affine map of the mesh's texture coordinates
+    /// (identity, unless a glTF material's textures have different
+    /// `KHR_texture_transform`s: a normal map tiled finer than the base
+    /// colour, say). A normal map's generated tangents follow it.
+    pub uv: Affine2,
+}
+
+impl TextureRef {
+    /// Texture `index` read with `sampler` at the mesh's texture coordinates.
+    pub fn new(index: usize, sampler: TextureSampler) -> Self {
+        Self {
+            index,
+            sampler,
+            uv: Affine2::IDENTITY,
+        }
+    }
 }
 
 /// Which parts of a surface exist (glTF alpha modes).
@@ -609,7 +625,22 @@ impl Scene {
             return bad(&format!("more than {MAX_TRIANGLES} triangles"));
         }
         let wants_tangents = mat.normal_texture.is_some();
+        // Tangents are generated along the normal map's own u and v.
+        let normal_map_uv = mat.normal_texture.map_or(Affine2::IDENTITY, |t| t.uv);
+        let mapped_uvs: Vec<[f32; 2]> = if normal_map_uv == Affine2::IDENTITY {
+            Vec::new()
+        } else {
+            uvs.iter()
+                .map(|&uv| normal_map_uv.transform_point2(Vec2::from(uv)).into())
+                .collect()
+        };
+        let tangent_uvs = if mapped_uvs.is_empty() {
+            uvs
+        } else {
+            &mapped_uvs
+        };
         let uv = |i: usize| uvs.get(i).copied().unwrap_or([0.0; 2]);
+        let tangent_uv = |i: usize| tangent_uvs.get(i).copied().unwrap_or([0.0; 2]);
         let color = |i: usize| {
             colors
                 .get(i)
@@ -629,7 +660,7 @@ impl Scene {
                     uv(tri[2] as usize),
                 ];
                 let generated = if wants_tangents && tangents.is_empty() {
-                    triangle_tangent(&p, &uvt, n)
+                    triangle_tangent(&p, &[0, 1, 2].map(|k| tangent_uv(tri[k] as usize)), n)
                 } else {
                     Vec4::ZERO
                 };
@@ -655,7 +686,7 @@ impl Scene {
             let vertex_tangents: Vec<Vec4> = if !tangents.is_empty() {
                 tangents.to_vec()
             } else if wants_tangents {
-                vertex_tangents(positions, &normals, uvs, indices)
+                vertex_tangents(positions, &normals, tangent_uvs, indices)
             } else {
                 vec![Vec4::ZERO; positions.len()]
             };
