@@ -42,21 +42,36 @@ void begin_glossy(Brdf b, vec3 x, vec3 nx) {
 }
 
 // Adds to glossy_rest what a cluster towards w sends with
-// weighted = max(G - b, 0) A_y S(y).
-void add_glossy(vec3 nx, vec3 w, vec3 weighted) {
+// weighted = max(G - b, 0) A_y S(y). A pixel seen over a solid angle omega
+// (A_y cos(theta_y) / d^2) around the lobe's peak takes the lobe widened
+// by its angular radius r, alpha^2 + r^2 (r^2 = omega / pi), as the gather
+// widens it by a VPL's (a virtual spherical light): about the mean of the
+// BRDF over the pixel rather than its value at the centre, which a pixel
+// beside a contact (omega near 1 sr) turned into the lobe's peak times its
+// whole solid angle (a glossy floor's row along a wall 5x too bright).
+// Fully within r of the mirror direction, not at all beyond 2 r: in the
+// tail a widened lobe is brighter than the mean of the narrow one
+// (alpha^2 / theta^4 grows with alpha^2). Coarser clusters keep the lobe:
+// they are refined until they are small against it (see visit()).
+// ssbc::cpu::ssbc::glossy_pixel_spread is the CPU twin's.
+void add_glossy(vec3 nx, vec3 w, vec3 weighted, float omega) {
     if (!glossy_active) return;
     float diffuse_weight;
     vec3 specular;
-    brdf_parts(glossy_brdf, nx, glossy_wo, w, diffuse_weight, specular);
+    float r2 = omega / PI;
+    vec3 off = w - glossy_mirror;
+    float near = r2 > 0.0 ? clamp(2.0 - sqrt(dot(off, off) / r2), 0.0, 1.0) : 0.0;
+    float a = brdf_widened_alpha(glossy_brdf, near * r2);
+    brdf_parts_alpha(glossy_brdf, a, nx, glossy_wo, w, diffuse_weight, specular);
     vec3 diffuse = brdf_diffuse_color(glossy_brdf) / PI;
     glossy_rest += (diffuse * (diffuse_weight - 1.0) + specular) * weighted;
 }
 
-// Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`) if G > b there.
-// `ny` may be shorter than 1 (a mean of spread normals): cos(theta_y) is
-// then the area-weighted mean of the cosines. Returns what it added per unit
-// of A_y S(y), max(G - b, 0).
-float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 as) {
+// Adds y (at d = y - x, normal ny, area `area`, sum of A_y S(y) `as`) if
+// G > b there. `ny` may be shorter than 1 (a mean of spread normals):
+// cos(theta_y) is then the area-weighted mean of the cosines. Returns what
+// it added per unit of A_y S(y), max(G - b, 0).
+float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, float area, vec3 as) {
     vec3 w = d / dist;
     float cos_x = dot(nx, w);
     float k = max(-dot(ny, w), 0.0) / (dist * dist);
@@ -66,7 +81,7 @@ float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, vec3 
     acc.g += vec4(wk * as.g, as.g);
     acc.b += vec4(wk * as.b, as.b);
     float excess = cos_x * k - pc.frame.bound;
-    add_glossy(nx, w, excess * as);
+    add_glossy(nx, w, excess * as, k * area);
     return excess;
 }
 
@@ -85,7 +100,10 @@ void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, floa
     if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
         vec3 as = cluster_radiance(i, c);
         float dist = sqrt(d2);
-        float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, as);
+        // (The area only widens a glossy lobe: see add_glossy.)
+        GeoAux aux = glossy_active ? geo_aux(i) : GeoAux(0.0, 0.0, 0u, 0u);
+        float area = c == 0u ? aux.front_area : aux.back_area;
+        float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, area, as);
         add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
     }
 }

@@ -56,6 +56,21 @@ pub fn residual_weight(x: Vec3, nx: Vec3, y: Vec3, ny: Vec3, bound: f32) -> f32 
     (g - bound).max(0.0)
 }
 
+/// How much a glossy receiver's GGX lobe widens (added to α²) for a source
+/// pixel seen over solid angle `omega` in direction `w`, its lobe's mirror
+/// direction `mirror`: by the pixel's angular radius squared, r² = ω / π,
+/// within r of the mirror direction, fading out by 2 r (a virtual spherical
+/// light around the peak; in the tail a widened lobe is brighter than the
+/// narrow one's mean). As `add_glossy` in ssbc_residual.glsl.
+pub fn glossy_pixel_spread(omega: f32, w: Vec3, mirror: Vec3) -> f32 {
+    let r2 = omega / std::f32::consts::PI;
+    if r2.is_nan() || r2 <= 0.0 {
+        return 0.0;
+    }
+    let near = (2.0 - ((w - mirror).length_squared() / r2).sqrt()).clamp(0.0, 1.0);
+    near * r2
+}
+
 /// The camera quantities of a pixel's world-space area `A_y`.
 #[derive(Clone, Copy, Debug)]
 pub struct TwinCamera {
@@ -295,8 +310,8 @@ pub struct BruteForceTwin<'a> {
     /// neighbour whose term they carry).
     across_creases: Vec<(Vec3, Vec3, f32, usize)>,
     /// Sources only: a second G-buffer layer, its term, and its pixels'
-    /// (position, normal, area x term).
-    hidden: Vec<(Vec3, Vec3, Vec3)>,
+    /// (position, normal, area, term).
+    hidden: Vec<(Vec3, Vec3, f32, Vec3)>,
     /// With glossy receivers, the eye they reflect towards.
     glossy_eye: Option<Vec3>,
 }
@@ -360,7 +375,7 @@ impl<'a> BruteForceTwin<'a> {
             let area = match resolution {
                 LayerResolution::Full => {
                     let f = footprint(g, &camera, i as u32 % g.width, i as u32 / g.width);
-                    let across = f.other.map(|(c, nc, a, j)| (c, nc, a * vec3_at(s_prev, j)));
+                    let across = f.other.map(|(c, nc, a, j)| (c, nc, a, vec3_at(s_prev, j)));
                     self.hidden.extend(across);
                     f.own_area
                 }
@@ -373,7 +388,7 @@ impl<'a> BruteForceTwin<'a> {
                     camera.min_cos_view,
                 ),
             };
-            self.hidden.push((p, normal, area * s));
+            self.hidden.push((p, normal, area, s));
         }
         self
     }
@@ -385,12 +400,13 @@ impl<'a> BruteForceTwin<'a> {
             return Vec3::ZERO;
         }
         let (x, nx) = (vec3_at(g.position, i), vec3_at(g.normal, i));
+        // (position, normal, area, term) of every source.
         let own = self.geometry.iter().map(|&j| {
-            let area_s = self.area[j] * vec3_at(self.s_prev, j);
-            (vec3_at(g.position, j), vec3_at(g.normal, j), area_s)
+            let s = vec3_at(self.s_prev, j);
+            (vec3_at(g.position, j), vec3_at(g.normal, j), self.area[j], s)
         });
         let across = self.across_creases.iter();
-        let others = across.map(|&(y, ny, a, j)| (y, ny, a * vec3_at(self.s_prev, j)));
+        let others = across.map(|&(y, ny, a, j)| (y, ny, a, vec3_at(self.s_prev, j)));
         let sources = own.chain(others).chain(self.hidden.iter().copied());
         let brdf = match self.glossy_eye {
             Some(eye) => {
@@ -402,16 +418,24 @@ impl<'a> BruteForceTwin<'a> {
         match brdf {
             Some((b, eye)) if !b.is_lambertian() => {
                 let wo = (eye - x).normalize_or_zero();
+                let mirror = 2.0 * nx.dot(wo) * nx - wo;
                 sources
-                    .map(|(y, ny, area_s)| {
-                        let w = (y - x).normalize_or_zero();
-                        b.eval(nx, wo, w) * residual_weight(x, nx, y, ny, self.bound) * area_s
+                    .map(|(y, ny, area, s)| {
+                        let weight = residual_weight(x, nx, y, ny, self.bound);
+                        if weight == 0.0 {
+                            return Vec3::ZERO;
+                        }
+                        let d = y - x;
+                        let w = d.normalize_or_zero();
+                        let omega = (-ny.dot(w)).max(0.0) * area / d.length_squared();
+                        let spread2 = glossy_pixel_spread(omega, w, mirror);
+                        b.widened(spread2).eval(nx, wo, w) * weight * area * s
                     })
                     .sum()
             }
             _ => {
                 let sum: Vec3 = sources
-                    .map(|(y, ny, area_s)| residual_weight(x, nx, y, ny, self.bound) * area_s)
+                    .map(|(y, ny, area, s)| residual_weight(x, nx, y, ny, self.bound) * area * s)
                     .sum();
                 vec3_at(g.albedo, i) / std::f32::consts::PI * sum
             }
