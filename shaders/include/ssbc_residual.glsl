@@ -30,6 +30,10 @@ vec3 glossy_rest = vec3(0.0);
 // where the BRDF changes across it, not only where G does (see visit()).
 vec3 glossy_mirror = vec3(0.0);
 float glossy_alpha = 1.0;
+// A pixel's area at the receiver's distance from the eye, facing it
+// (pixel_area without its cosine of view): source pixels that widen the
+// lobe (add_glossy) are near the receiver when they do.
+float glossy_pixel_area = 0.0;
 
 // Makes the walks that follow sum the glossy rest of a receiver at x (unit
 // normal nx, BRDF b) seen from the eye.
@@ -39,39 +43,62 @@ void begin_glossy(Brdf b, vec3 x, vec3 nx) {
     glossy_wo = normalize(pc.frame.camera_position.xyz - x);
     glossy_mirror = reflect(-glossy_wo, nx);
     glossy_alpha = brdf_alpha(b);
+    glossy_pixel_area = pixel_area(x, glossy_wo);
+}
+
+// The solid angle of a source pixel (cos(theta_y) / d^2 = k, `pixel_scale`
+// image pixels) for add_glossy: its area taken as a pixel's at the
+// receiver's distance, facing the eye (glossy_pixel_area; one seen
+// obliquely is larger, but dividing by its cosine of view, for every pixel
+// a walk adds, made the glossy kernels 6-10% slower on lavapipe).
+float glossy_pixel_omega(float k, float pixel_scale) {
+    return k * pixel_scale * glossy_pixel_area;
 }
 
 // Adds to glossy_rest what a cluster towards w sends with
 // weighted = max(G - b, 0) A_y S(y). A pixel seen over a solid angle omega
-// (A_y cos(theta_y) / d^2) around the lobe's peak takes the lobe widened
-// by its angular radius r, alpha^2 + r^2 (r^2 = omega / pi), as the gather
-// widens it by a VPL's (a virtual spherical light): about the mean of the
-// BRDF over the pixel rather than its value at the centre, which a pixel
-// beside a contact (omega near 1 sr) turned into the lobe's peak times its
-// whole solid angle (a glossy floor's row along a wall 5x too bright).
-// Fully within r of the mirror direction, not at all beyond 2 r: in the
-// tail a widened lobe is brighter than the mean of the narrow one
-// (alpha^2 / theta^4 grows with alpha^2). Coarser clusters keep the lobe:
-// they are refined until they are small against it (see visit()).
+// (glossy_pixel_omega) wider than the lobe around its peak takes the lobe
+// widened to its angular radius r (r^2 = omega / pi): alpha^2 becomes
+// max(alpha^2, r^2), as the gather widens it by a VPL's radius (a virtual
+// spherical light), about the mean of the BRDF over the pixel rather than
+// its value at the centre, which a pixel beside a contact (omega near
+// 1 sr) turned into the lobe's peak times its whole solid angle (a glossy
+// floor's row along a wall 5x too bright). Fully where the chord to the
+// mirror direction is within r, fading (linearly in the chord squared) to
+// nothing at 2 r: in the tail a widened lobe is brighter than the mean of
+// the narrow one (alpha^2 / theta^4 grows with alpha^2). Coarser clusters
+// keep the lobe: they are refined until they are small against it (see
+// visit()). Only pixels wider than the lobe and near its peak, behind a
+// branch: widening by r^2 wherever a pixel lies near the peak (alpha^2 +
+// r^2) made the glossy evaluation kernels 13-16% slower on lavapipe
+// (fastest of 5 alternating frames, spheres 1024x768: the lobe's view
+// terms no longer stayed out of the walk's loop), and a branch taken for
+// every pixel wider than the lobe (those beside the receiver) 10%.
 // ssbc::cpu::ssbc::glossy_pixel_spread is the CPU twin's.
 void add_glossy(vec3 nx, vec3 w, vec3 weighted, float omega) {
     if (!glossy_active) return;
     float diffuse_weight;
     vec3 specular;
-    float r2 = omega / PI;
+    float r2 = omega * (1.0 / PI);
+    float wider = r2 - glossy_alpha * glossy_alpha;
     vec3 off = w - glossy_mirror;
-    float near = r2 > 0.0 ? clamp(2.0 - sqrt(dot(off, off) / r2), 0.0, 1.0) : 0.0;
-    float a = brdf_widened_alpha(glossy_brdf, near * r2);
-    brdf_parts_alpha(glossy_brdf, a, nx, glossy_wo, w, diffuse_weight, specular);
+    float chord2 = dot(off, off);
+    if (wider > 0.0 && chord2 < 4.0 * r2) {
+        float near = clamp((4.0 * r2 - chord2) / (3.0 * r2), 0.0, 1.0);
+        float a = brdf_widened_alpha(glossy_brdf, near * wider);
+        brdf_parts_alpha(glossy_brdf, a, nx, glossy_wo, w, diffuse_weight, specular);
+    } else {
+        brdf_parts(glossy_brdf, nx, glossy_wo, w, diffuse_weight, specular);
+    }
     vec3 diffuse = brdf_diffuse_color(glossy_brdf) / PI;
     glossy_rest += (diffuse * (diffuse_weight - 1.0) + specular) * weighted;
 }
 
-// Adds y (at d = y - x, normal ny, area `area`, sum of A_y S(y) `as`) if
-// G > b there. `ny` may be shorter than 1 (a mean of spread normals):
-// cos(theta_y) is then the area-weighted mean of the cosines. Returns what
-// it added per unit of A_y S(y), max(G - b, 0).
-float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, float area, vec3 as) {
+// Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`; a pixel of
+// `pixel_scale` image pixels) if G > b there. `ny` may be shorter than 1 (a
+// mean of spread normals): cos(theta_y) is then the area-weighted mean of
+// the cosines. Returns what it added per unit of A_y S(y), max(G - b, 0).
+float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, float pixel_scale, vec3 as) {
     vec3 w = d / dist;
     float cos_x = dot(nx, w);
     float k = max(-dot(ny, w), 0.0) / (dist * dist);
@@ -81,7 +108,7 @@ float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, float
     acc.g += vec4(wk * as.g, as.g);
     acc.b += vec4(wk * as.b, as.b);
     float excess = cos_x * k - pc.frame.bound;
-    add_glossy(nx, w, excess * as, k * area);
+    add_glossy(nx, w, excess * as, glossy_pixel_omega(k, pixel_scale));
     return excess;
 }
 
@@ -92,18 +119,17 @@ void add_to_scale(inout vec2 scale, float c, float inv_d) {
 }
 
 // Adds cluster c of level-0 texel i (a pixel's own surface, or its part
-// beyond a crease) if G > b there (brute force).
-void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, float r_world, inout vec2 scale) {
+// beyond a crease; `pixel_scale` image pixels a pixel of its layer) if
+// G > b there (brute force).
+void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, float r_world, float pixel_scale,
+                       inout vec2 scale) {
     GeoCluster g = geo_cluster(i, c);
     vec3 d = g.position_extent.xyz - x;
     float d2 = dot(d, d);
     if (cluster_extent(g).y >= 0.0 && d2 < r_world * r_world && d2 >= 1e-12) {
         vec3 as = cluster_radiance(i, c);
         float dist = sqrt(d2);
-        // (The area only widens a glossy lobe: see add_glossy.)
-        GeoAux aux = glossy_active ? geo_aux(i) : GeoAux(0.0, 0.0, 0u, 0u);
-        float area = c == 0u ? aux.front_area : aux.back_area;
-        float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, area, as);
+        float excess = accumulate(acc, nx, g.normal_cone.xyz, d, dist, pixel_scale, as);
         add_to_scale(scale, excess * (as.r + as.g + as.b), 1.0 / dist);
     }
 }
@@ -120,6 +146,7 @@ const int BRUTE_SPAN = 16;
 // `center` and `radius_px` in that pyramid's pixels.
 void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,
                      inout uint count, inout vec2 scale) {
+    float pixel_scale = float(1 << (2 * p.shift));
     ivec2 lo = max(ivec2(floor(center - radius_px)), ivec2(0));
     ivec2 hi = min(ivec2(ceil(center + radius_px)), ivec2(image_size_at(uint(p.shift))) - 1);
     // Row segments in rows (stepped, one loop: see the walk).
@@ -132,8 +159,8 @@ void integrate_brute(inout Residual acc, Pyramid p, vec3 x, vec3 nx, vec2 center
             if (q.x + k <= hi.x) {
                 count++;
                 uint i = texel_index_in(p, ivec2(q.x + k, q.y), 0);
-                add_pixel_cluster(acc, i, 0u, x, nx, r_world, scale);
-                add_pixel_cluster(acc, i, 1u, x, nx, r_world, scale);
+                add_pixel_cluster(acc, i, 0u, x, nx, r_world, pixel_scale, scale);
+                add_pixel_cluster(acc, i, 1u, x, nx, r_world, pixel_scale, scale);
             }
         }
         q = q.x + BRUTE_SPAN <= hi.x ? ivec2(q.x + BRUTE_SPAN, q.y) : ivec2(lo.x, q.y + 1);

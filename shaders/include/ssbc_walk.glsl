@@ -33,7 +33,7 @@ struct Visit {
     float weight;     // 0: adds nothing
     float inv_dist;   // 1 / distance to its mean
     vec3 w;           // unit direction to its mean (a glossy receiver's BRDF)
-    float k;          // cos(theta_y) / d^2 at its mean (k A_y: its solid angle)
+    float k;          // cos(theta_y) / d^2 at its mean (a pixel's solid angle: glossy_pixel_omega)
 };
 
 // Adding a cluster from its mean takes max(G - b, 0) at the mean for the
@@ -152,25 +152,23 @@ vec3 add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
     return weighted;
 }
 
-// A glossy receiver's rest for the clusters of texel i at `level` that were
-// added (`*_weighted` from add_visit): the BRDF in a loop over those, so
-// that a SIMD group whose lanes add one cluster evaluates it once and a
-// group that adds none skips it; lavapipe runs both sides of an if for the
-// whole group, so called once per cluster it cost two evaluations per texel
+// A glossy receiver's rest for the clusters of a texel that were added
+// (`*_weighted` from add_visit): the BRDF in a loop over those, so that a
+// SIMD group whose lanes add one cluster evaluates it once and a group that
+// adds none skips it; lavapipe runs both sides of an if for the whole
+// group, so called once per cluster it cost two evaluations per texel
 // (spheres 1024x768: step 760 -> 716-731 ms, images the same bit for bit).
-// A pixel (level 0) widens the lobe by its solid angle (add_glossy).
-void add_glossy_visits(vec3 nx, uint i, int level, Visit front, vec3 front_weighted, Visit back, vec3 back_weighted) {
+// At `level` 0 each is a pixel of `pixel_scale` image pixels, whose solid
+// angle may widen the lobe (add_glossy).
+void add_glossy_visits(vec3 nx, int level, float pixel_scale, Visit front, vec3 front_weighted, Visit back,
+                       vec3 back_weighted) {
     if (!glossy_active) return;
     bool f = any(greaterThan(front_weighted, vec3(0.0)));
     bool b = any(greaterThan(back_weighted, vec3(0.0)));
     int n = int(f) + int(b);
     for (int c = 0; c < n; c++) {
         bool take_front = f && c == 0;
-        float omega = 0.0;
-        if (level == 0) {
-            GeoAux aux = geo_aux(i);
-            omega = take_front ? front.k * aux.front_area : back.k * aux.back_area;
-        }
+        float omega = level == 0 ? glossy_pixel_omega(take_front ? front.k : back.k, pixel_scale) : 0.0;
         add_glossy(nx, take_front ? front.w : back.w, take_front ? front_weighted : back_weighted, omega);
     }
 }
@@ -275,7 +273,7 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
         if (!refine) {
             vec3 front_weighted = add_visit(acc, front, cluster_radiance(i, 0u), nx, scale);
             vec3 back_weighted = add_visit(acc, back, cluster_radiance(i, 1u), nx, scale);
-            add_glossy_visits(nx, i, t.z, front, front_weighted, back, back_weighted);
+            add_glossy_visits(nx, t.z, float(1 << (2 * w.p.shift)), front, front_weighted, back, back_weighted);
         }
         int z = t.z - 1;
         int k = lowest_of_4(visit_children);

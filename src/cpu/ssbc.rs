@@ -56,19 +56,22 @@ pub fn residual_weight(x: Vec3, nx: Vec3, y: Vec3, ny: Vec3, bound: f32) -> f32 
     (g - bound).max(0.0)
 }
 
-/// How much a glossy receiver's GGX lobe widens (added to α²) for a source
-/// pixel seen over solid angle `omega` in direction `w`, its lobe's mirror
-/// direction `mirror`: by the pixel's angular radius squared, r² = ω / π,
-/// within r of the mirror direction, fading out by 2 r (a virtual spherical
-/// light around the peak; in the tail a widened lobe is brighter than the
-/// narrow one's mean). As `add_glossy` in ssbc_residual.glsl.
-pub fn glossy_pixel_spread(omega: f32, w: Vec3, mirror: Vec3) -> f32 {
+/// How much a glossy receiver's GGX lobe (`alpha`) widens (added to α²)
+/// for a source pixel seen over solid angle `omega` in direction `w`, its
+/// lobe's mirror direction `mirror`: to the pixel's angular radius
+/// (r² = ω / π; α² becomes max(α², r²)) where the chord to the mirror
+/// direction is within r, fading linearly in the chord squared to nothing
+/// at 2 r (a virtual spherical light around the peak; in the tail a
+/// widened lobe is brighter than the narrow one's mean). As `add_glossy`
+/// in ssbc_residual.glsl.
+pub fn glossy_pixel_spread(omega: f32, alpha: f32, w: Vec3, mirror: Vec3) -> f32 {
     let r2 = omega / std::f32::consts::PI;
-    if r2.is_nan() || r2 <= 0.0 {
+    let wider = r2 - alpha * alpha;
+    if wider.is_nan() || wider <= 0.0 {
         return 0.0;
     }
-    let near = (2.0 - ((w - mirror).length_squared() / r2).sqrt()).clamp(0.0, 1.0);
-    near * r2
+    let near = ((4.0 * r2 - (w - mirror).length_squared()) / (3.0 * r2)).clamp(0.0, 1.0);
+    near * wider
 }
 
 /// The camera quantities of a pixel's world-space area `A_y`.
@@ -314,6 +317,12 @@ pub struct BruteForceTwin<'a> {
     hidden: Vec<(Vec3, Vec3, f32, Vec3)>,
     /// With glossy receivers, the eye they reflect towards.
     glossy_eye: Option<Vec3>,
+    /// The camera (a source pixel's area widens a glossy lobe: its
+    /// layer's pixel at its position, as the GPU's walk takes it).
+    camera: TwinCamera,
+    /// Image pixels a pixel of the second layer covers (4 at half
+    /// resolution).
+    hidden_scale: f32,
 }
 
 fn vec3_at(buf: &[f32], i: usize) -> Vec3 {
@@ -342,6 +351,8 @@ impl<'a> BruteForceTwin<'a> {
             across_creases,
             hidden: Vec::new(),
             glossy_eye: None,
+            camera,
+            hidden_scale: 1.0,
         }
     }
 
@@ -369,6 +380,7 @@ impl<'a> BruteForceTwin<'a> {
     ) -> Self {
         let n = (g.width * g.height) as usize;
         let side = (1u32 << resolution.shift()) as f32;
+        self.hidden_scale = side * side;
         for i in (0..n).filter(|&i| g.position[i * 4 + 3] != 0.0) {
             let (p, normal) = (vec3_at(g.position, i), vec3_at(g.normal, i));
             let s = vec3_at(s_prev, i);
@@ -400,14 +412,16 @@ impl<'a> BruteForceTwin<'a> {
             return Vec3::ZERO;
         }
         let (x, nx) = (vec3_at(g.position, i), vec3_at(g.normal, i));
-        // (position, normal, area, term) of every source.
+        // (position, normal, area, term, image pixels per pixel) of every
+        // source.
         let own = self.geometry.iter().map(|&j| {
             let s = vec3_at(self.s_prev, j);
-            (vec3_at(g.position, j), vec3_at(g.normal, j), self.area[j], s)
+            (vec3_at(g.position, j), vec3_at(g.normal, j), self.area[j], s, 1.0)
         });
         let across = self.across_creases.iter();
-        let others = across.map(|&(y, ny, a, j)| (y, ny, a, vec3_at(self.s_prev, j)));
-        let sources = own.chain(others).chain(self.hidden.iter().copied());
+        let others = across.map(|&(y, ny, a, j)| (y, ny, a, vec3_at(self.s_prev, j), 1.0));
+        let hidden = self.hidden.iter().map(|&(y, ny, a, s)| (y, ny, a, s, self.hidden_scale));
+        let sources = own.chain(others).chain(hidden);
         let brdf = match self.glossy_eye {
             Some(eye) => {
                 let albedo = glam::Vec4::from_slice(&g.albedo[i * 4..i * 4 + 4]);
@@ -419,23 +433,28 @@ impl<'a> BruteForceTwin<'a> {
             Some((b, eye)) if !b.is_lambertian() => {
                 let wo = (eye - x).normalize_or_zero();
                 let mirror = 2.0 * nx.dot(wo) * nx - wo;
+                // A pixel's area at x's distance, facing the eye (the GPU's
+                // glossy_pixel_area).
+                let c = &self.camera;
+                let pixel_at_x = pixel_area(x, wo, c.position, c.forward, c.pixel_side, 0.0);
                 sources
-                    .map(|(y, ny, area, s)| {
+                    .map(|(y, ny, area, s, pixels)| {
                         let weight = residual_weight(x, nx, y, ny, self.bound);
                         if weight == 0.0 {
                             return Vec3::ZERO;
                         }
                         let d = y - x;
                         let w = d.normalize_or_zero();
-                        let omega = (-ny.dot(w)).max(0.0) * area / d.length_squared();
-                        let spread2 = glossy_pixel_spread(omega, w, mirror);
+                        // Its solid angle (the GPU's glossy_pixel_omega).
+                        let omega = (-ny.dot(w)).max(0.0) * pixels * pixel_at_x / d.length_squared();
+                        let spread2 = glossy_pixel_spread(omega, b.alpha(), w, mirror);
                         b.widened(spread2).eval(nx, wo, w) * weight * area * s
                     })
                     .sum()
             }
             _ => {
                 let sum: Vec3 = sources
-                    .map(|(y, ny, area, s)| residual_weight(x, nx, y, ny, self.bound) * area * s)
+                    .map(|(y, ny, area, s, _)| residual_weight(x, nx, y, ny, self.bound) * area * s)
                     .sum();
                 vec3_at(g.albedo, i) / std::f32::consts::PI * sum
             }

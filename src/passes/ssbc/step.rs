@@ -356,7 +356,6 @@ impl SsbcPass {
             rec.flush_barriers();
             let bindings = with_output_images!(ssbc_fallback_glossy_comp, out, {
                 geo_texels: &frame.geo_view,
-                aux_texels: &frame.aux_view,
                 radiance_texels: &frame.radiance_view,
                 pending_in: &frame.fallback,
             });
