@@ -49,8 +49,7 @@ void begin_glossy(Brdf b, vec3 x, vec3 nx) {
 // The solid angle of a source pixel (cos(theta_y) / d^2 = k, `pixel_scale`
 // image pixels) for add_glossy: its area taken as a pixel's at the
 // receiver's distance, facing the eye (glossy_pixel_area; one seen
-// obliquely is larger, but dividing by its cosine of view, for every pixel
-// a walk adds, made the glossy kernels 6-10% slower on lavapipe).
+// obliquely is larger): two products per pixel a glossy walk adds.
 float glossy_pixel_omega(float k, float pixel_scale) {
     return k * pixel_scale * glossy_pixel_area;
 }
