@@ -24,6 +24,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 #include "shadow.glsl"
+#include "geometric_normal.glsl"
 
 // The change of the shading normal per pixel along axis `e`, towards the
 // neighbour on the same smooth surface (the smaller change of the two
@@ -80,11 +81,13 @@ void main() {
         quarter_alpha = brdf_widened_alpha(b, spread2 / 4.0);
     }
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
-    vec3 radiance = imageLoad(g_emission, pixel).rgb;
+    vec4 emission = imageLoad(g_emission, pixel);
+    vec3 surface = geometric_normal(emission.w, normal.xyz);
+    vec3 radiance = emission.rgb;
     vec3 source = radiance;
     for (uint i = 0u; i < pc.light_count; i++) {
         vec3 wi;
-        vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, wi);
+        vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, surface, wi);
         if (max(irradiance.r, max(irradiance.g, irradiance.b)) <= 0.0) continue;
         // One tap where the spread does not matter: a loop, not a branch,
         // so that a SIMD group runs as many taps as its widest lane needs

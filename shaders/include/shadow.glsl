@@ -18,7 +18,10 @@ float linear_depth(float z, vec4 params) {
     return params.x * params.y / (params.y - z * (params.y - params.x));
 }
 
-// Fraction of a 3x3 neighbourhood of shadow texels that sees point p (normal n).
+// Fraction of a 3x3 neighbourhood of shadow texels that sees point p on a
+// surface of normal n (the geometric one: the offset lifts p off the
+// surface the shadow map stored; a normal map's normal, tilted towards the
+// light, lifted it too little and the plane shadowed itself in stripes).
 float shadow_visibility(GpuLight light, vec3 p, vec3 n) {
     int layer = light.shadow.x;
     if (light.shadow.y == 6) {
@@ -46,9 +49,10 @@ float shadow_visibility(GpuLight light, vec3 p, vec3 n) {
     return lit / 9.0;
 }
 
-// The irradiance `light` gives at p (normal n), shadowed, and the unit
-// direction towards it (wi); zero if it does not reach p.
-vec3 light_irradiance(GpuLight light, vec3 p, vec3 n, out vec3 wi) {
+// The irradiance `light` gives at p (shading normal n, on a surface of
+// normal `surface`), shadowed, and the unit direction towards it (wi);
+// zero if it does not reach p.
+vec3 light_irradiance(GpuLight light, vec3 p, vec3 n, vec3 surface, out vec3 wi) {
     uint kind = uint(light.position_kind.w);
     vec3 e;
     if (kind == LIGHT_DIRECTIONAL) {
@@ -69,7 +73,7 @@ vec3 light_irradiance(GpuLight light, vec3 p, vec3 n, out vec3 wi) {
     }
     float cos_theta = dot(n, wi);
     if (cos_theta <= 0.0 || max(e.r, max(e.g, e.b)) <= 0.0) return vec3(0.0);
-    return e * cos_theta * shadow_visibility(light, p, n);
+    return e * cos_theta * shadow_visibility(light, p, surface);
 }
 
 #endif
