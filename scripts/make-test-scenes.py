@@ -2,7 +2,10 @@
 """Writes tests/scenes/*.gltf: scenes modelled the way third-party files
 model them, for the tests of emissive fixtures, the default light and the
 default camera (tests/third_party_scenes.rs, docs/accuracy.md). Run from the
-repository root; standard library only.
+repository root; standard library only. `--independent DIR` writes instead
+the scenes of the check against an independent renderer (a helmet-like
+shell, a bottle, a shader ball, normal maps turned towards image-up, a
+textured studio; scripts/mitsuba-reference.py; needs numpy and Pillow).
 
   fixture-thin-box    Cornell box lit only by a thin closed box under the
                       ceiling: glTF default white material (albedo 1),
@@ -178,20 +181,6 @@ def cornell_with(name, fixture, fixture_material, doc):
     meshes = [(k, g) for k, g in walls.items()] + [("fixture", fixture)]
     write(name, meshes, dict(WALLS, fixture=fixture_material), camera=CORNELL_CAMERA, doc=doc)
 
-# The glTF default material is white (baseColorFactor 1); only emission is set.
-cornell_with("fixture-thin-box", box([-0.25, 1.97, -0.25], [0.25, 1.99, 0.25]),
-             {"emissiveFactor": [1, 1, 1], "doubleSided": True},
-             "Cornell box lit by a thin closed emissive box (albedo 1, doubleSided) 1 cm under the ceiling")
-cornell_with("fixture-quad-gap", quad([-0.25, 1.99, -0.25], [0.5, 0, 0], [0, 0, 0.5]),
-             {"emissiveFactor": [1, 1, 1], "doubleSided": True,
-              "pbrMetallicRoughness": {"baseColorFactor": [0.78, 0.78, 0.78, 1], "metallicFactor": 0}},
-             "Cornell box lit by a doubleSided emissive quad 1 cm under the ceiling")
-cornell_with("fixture-quad-flush", quad([-0.25, 1.999, -0.25], [0.5, 0, 0], [0, 0, 0.5]),
-             {"emissiveFactor": [1, 0.85, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
-              "pbrMetallicRoughness": {"baseColorFactor": [0.78, 0.78, 0.78, 1], "metallicFactor": 0}},
-             "Cornell box lit by a one-sided emissive quad 1 mm under the ceiling, facing down")
-
-
 def box8(lo, hi):
     """A closed box of 12 triangles on 8 shared corners, normals averaged
     there (as exporters write an unsplit cube): smooth normals across its edges."""
@@ -280,6 +269,159 @@ if len(sys.argv) == 3 and sys.argv[1] == "--sweep":
                             slab_scene(name, kind, t, gap, 0.13 if kind == "open-box" else 0.10, overlap, double,
                                        fixture8=fixture8, size=size)
     sys.exit(0)
+
+if len(sys.argv) == 3 and sys.argv[1] == "--independent":
+    # Scenes for the check against an independent renderer
+    # (scripts/mitsuba-reference.py, docs/accuracy.md; not committed): objects
+    # as third-party assets model them, with textures (numpy and Pillow).
+    import io
+    import numpy as np
+    from PIL import Image
+    OUT_DIR = sys.argv[2]
+    os.makedirs(OUT_DIR, exist_ok=True)
+
+    def png_bytes(a):
+        b = io.BytesIO()
+        Image.fromarray(a).save(b, format="PNG")
+        return b.getvalue()
+
+    def srgb(x):
+        return (np.clip(x, 0, 1) ** (1 / 2.2) * 255).astype(np.uint8)
+
+    def normal_png(sx, sy):
+        """A tangent-space normal map of slopes (sx, sy) (green: image-up)."""
+        n = np.stack([-sx, -sy, np.ones_like(sx)], -1)
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        return png_bytes(((n * 0.5 + 0.5) * 255).astype(np.uint8))
+
+    def tex(i, transform=None):
+        return dict({"index": i}, **({"extensions": {"KHR_texture_transform": transform}} if transform else {}))
+
+    def grooves(x, y, nx, ny, width, slope):
+        """V-grooves at the edges of nx x ny panels (width in texture units)."""
+        fx, fy = (x * nx) % 1.0, (y * ny) % 1.0
+        sx = np.where(fx < width * nx, -slope, np.where(fx > 1 - width * nx, slope, 0.0))
+        sy = np.where(fy < width * ny, -slope, np.where(fy > 1 - width * ny, slope, 0.0))
+        return sx, sy
+
+    rng = np.random.default_rng(5)
+    yy, xx = np.mgrid[0:512, 0:512] / 512
+
+    # A helmet-like shell: metal and painted panels of roughness 0.25-0.7,
+    # grooved by a normal map, an emissive strip; a smooth metal visor.
+    pu, pv = np.floor(xx * 8), np.floor(yy * 6)
+    metal = ((pu + pv) % 3 == 0).astype(float)
+    rough = 0.25 + 0.45 * ((pu * 7 + pv * 3) % 5) / 4
+    base = np.where(metal[..., None] > 0, [0.9, 0.85, 0.75], [0.35, 0.4, 0.3]) * (0.85 + 0.15 * rng.random((512, 512, 1)))
+    emission = np.where((np.abs(yy - 0.55) < 0.02) & ((xx * 8) % 1 < 0.7), 1.0, 0.0)[..., None] * [0.2, 0.8, 1.0]
+    write("helmet", [("shell", sphere([0, 0, 0], 1.0, 96, 48)), ("visor", sphere([0, 0.1, 0.45], 0.62, 64, 32))],
+          {"shell": {"pbrMetallicRoughness": {"baseColorTexture": tex(0), "metallicRoughnessTexture": tex(1)},
+                     "normalTexture": tex(2), "emissiveTexture": tex(3), "emissiveFactor": [1, 1, 1],
+                     "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}},
+           "visor": {"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.45, 0.2, 1], "metallicFactor": 1,
+                                              "roughnessFactor": 0.1}}},
+          lights=[({"type": "point", "intensity": 30}, [-2.0, 2.5, 3.0])],
+          camera={"translation": [0.0, 0.1, 3.6], "yfov": 0.7},
+          images=[png_bytes(srgb(base)), png_bytes((np.stack([0 * rough, rough, metal], -1) * 255).astype(np.uint8)),
+                  normal_png(*grooves(xx, yy, 8, 6, 4 / 512, 0.6)), png_bytes(srgb(emission))],
+          doc="A helmet-like shell: metal and painted panels, grooves in a normal map, an emissive strip; a smooth metal visor")
+
+    # A bottle-like metal body (roughness 0.3) with a painted label band, a
+    # smooth black cap, on a rough grey ground.
+    label = np.abs(yy - 0.5) < 0.2
+    base = np.where(label[..., None], np.where(((xx * 10) % 1 < 0.5)[..., None], [0.8, 0.1, 0.1], [0.9, 0.9, 0.85]),
+                    [0.55, 0.6, 0.65])
+    mr = np.stack([0 * xx, np.where(label, 0.6, 0.3), np.where(label, 0.0, 1.0)], -1)
+    write("bottle", [("body", cylinder([0, 0, 0], 0.35, 1.4, 64)), ("cap", cylinder([0, 1.4, 0], 0.18, 0.25, 48)),
+                     ("ground", quad([-4, 0, 4], [8, 0, 0], [0, 0, -8]))],
+          {"body": {"pbrMetallicRoughness": {"baseColorTexture": tex(0), "metallicRoughnessTexture": tex(1)}},
+           "cap": {"pbrMetallicRoughness": {"baseColorFactor": [0.05, 0.05, 0.05, 1], "metallicFactor": 0,
+                                            "roughnessFactor": 0.15}},
+           "ground": {"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0,
+                                               "roughnessFactor": 0.7}}},
+          lights=[({"type": "point", "intensity": 25}, [1.5, 3.0, 2.0])],
+          camera={"translation": [0.0, 0.8, 3.2], "yfov": 0.7},
+          images=[png_bytes(srgb(base)), png_bytes((mr * 255).astype(np.uint8))],
+          doc="A bottle-like metal body with a painted label, a smooth cap, on a rough ground")
+
+    # A shader ball: white metal (roughness 0.3) on a dark plinth, a grey
+    # floor and a warm back wall.
+    write("shaderball", [("ball", sphere([0, 0.85, 0], 0.6, 96, 48)), ("plinth", box([-0.45, 0, -0.45], [0.45, 0.3, 0.45])),
+                         ("floor", quad([-5, 0, 5], [10, 0, 0], [0, 0, -10])), ("wall", quad([-5, 0, -2], [10, 0, 0], [0, 5, 0]))],
+          {"ball": {"pbrMetallicRoughness": {"baseColorFactor": [0.95, 0.95, 0.95, 1], "metallicFactor": 1,
+                                             "roughnessFactor": 0.3}},
+           "plinth": {"pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.1, 0.12, 1], "metallicFactor": 0,
+                                               "roughnessFactor": 0.5}},
+           "floor": {"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1], "metallicFactor": 0,
+                                              "roughnessFactor": 0.8}},
+           "wall": {"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.5, 0.35, 1], "metallicFactor": 0,
+                                             "roughnessFactor": 0.9}}},
+          lights=[({"type": "point", "intensity": 20}, [1.5, 2.5, 1.5])],
+          camera={"translation": [0.0, 0.9, 3.0], "yfov": 0.75},
+          doc="A white metal shader ball on a plinth, a floor and a back wall")
+
+    # A quad facing the camera whose normal map turns every normal 44
+    # degrees towards image-up, under a light above it: lit where image-up
+    # is up (the uvs upright), dark where the uvs mirror the image.
+    up = np.array([0.0, 0.7, 0.714]) / np.linalg.norm([0.0, 0.7, 0.714])
+    tilt = np.broadcast_to(((up * 0.5 + 0.5) * 255).astype(np.uint8), (8, 8, 3)).copy()
+    for name, uv in (("tilt", [[0, 1], [1, 1], [1, 0], [0, 0]]), ("tilt-mirrored", [[0, 0], [1, 0], [1, 1], [0, 1]])):
+        write(name, [("q", dict(quad([-1, -1, 0], [2, 0, 0], [0, 2, 0]), uv=uv))],
+              {"q": {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0},
+                     "normalTexture": tex(0)}},
+              lights=[({"type": "point", "intensity": 5}, [0.0, 3.0, 0.3])],
+              camera={"translation": [0.0, 0.0, 2.5], "yfov": 0.9}, images=[png_bytes(tilt)],
+              doc="A normal map turned towards image-up under a light above it")
+
+    # A closed 6 x 3 x 6 m studio seen from inside: a wood floor (2x tiled
+    # base colour and metallic-roughness, a 6x tiled grooved normal map), a
+    # red wall, a gold sphere, a plastic box, an emissive panel, a point light.
+    big_y, big_x = np.mgrid[0:1024, 0:1024] / 1024
+    wood = 0.55 + 0.25 * np.sin(2 * np.pi * (big_x * 12 + 0.3 * np.sin(2 * np.pi * big_y * 3)))
+    sx, sy = grooves(big_x, big_y, 4, 4, 12 / 1024 * 4 / 4, 0.5)
+    sx, sy = sx + rng.normal(0, 0.03, sx.shape), sy + rng.normal(0, 0.03, sy.shape)
+    rough = 0.2 + 0.25 * (0.5 + 0.5 * np.sin(2 * np.pi * big_x * 2) * np.sin(2 * np.pi * big_y * 2))
+    write("studio",
+          [("floor", quad([-3, 0, 3], [6, 0, 0], [0, 0, -6])),
+           ("wall", merge([quad([-3, 3, -3], [6, 0, 0], [0, 0, 6]), quad([-3, 0, -3], [6, 0, 0], [0, 3, 0]),
+                           quad([3, 0, 3], [-6, 0, 0], [0, 3, 0]), quad([3, 0, -3], [0, 0, 6], [0, 3, 0])])),
+           ("red", quad([-3, 0, 3], [0, 0, -6], [0, 3, 0])), ("panel", quad([-1.0, 1.2, -2.98], [2.0, 0, 0], [0, 0.5, 0])),
+           ("gold", sphere([0.9, 0.6, -0.6], 0.6, 64, 32)), ("plastic", box([-1.8, 0, -1.6], [-0.8, 1.0, -0.6], 0.4))],
+          {"floor": {"pbrMetallicRoughness": {"baseColorTexture": tex(0, {"scale": [2, 2]}),
+                                              "metallicRoughnessTexture": tex(2, {"scale": [2, 2]}),
+                                              "metallicFactor": 1, "roughnessFactor": 1},
+                     "normalTexture": tex(1, {"scale": [6, 6]})},
+           "wall": {"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.78, 0.72, 1], "metallicFactor": 0,
+                                             "roughnessFactor": 0.9}},
+           "red": {"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.12, 0.08, 1], "metallicFactor": 0,
+                                            "roughnessFactor": 0.8}},
+           "gold": {"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.78, 0.34, 1], "metallicFactor": 1,
+                                             "roughnessFactor": 0.35}},
+           "plastic": {"pbrMetallicRoughness": {"baseColorFactor": [0.1, 0.3, 0.6, 1], "metallicFactor": 0,
+                                                "roughnessFactor": 0.4}},
+           "panel": {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1], "metallicFactor": 0},
+                     "emissiveFactor": [1, 0.9, 0.8], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 6}}}},
+          lights=[({"type": "point", "intensity": 12, "color": [1, 0.95, 0.9]}, [0.0, 2.7, 0.5])],
+          camera={"translation": [0.3, 1.5, 2.7], "yfov": math.radians(55)},
+          images=[png_bytes(srgb(np.stack([wood * 0.75, wood * 0.5, wood * 0.3], -1))),
+                  normal_png(sx, sy), png_bytes((np.stack([0 * rough, rough, 0 * rough], -1) * 255).astype(np.uint8))],
+          doc="A closed studio: textured, normal-mapped wood floor, gold sphere, plastic box, emissive panel, point light")
+    sys.exit(0)
+
+# The glTF default material is white (baseColorFactor 1); only emission is set.
+cornell_with("fixture-thin-box", box([-0.25, 1.97, -0.25], [0.25, 1.99, 0.25]),
+             {"emissiveFactor": [1, 1, 1], "doubleSided": True},
+             "Cornell box lit by a thin closed emissive box (albedo 1, doubleSided) 1 cm under the ceiling")
+cornell_with("fixture-quad-gap", quad([-0.25, 1.99, -0.25], [0.5, 0, 0], [0, 0, 0.5]),
+             {"emissiveFactor": [1, 1, 1], "doubleSided": True,
+              "pbrMetallicRoughness": {"baseColorFactor": [0.78, 0.78, 0.78, 1], "metallicFactor": 0}},
+             "Cornell box lit by a doubleSided emissive quad 1 cm under the ceiling")
+cornell_with("fixture-quad-flush", quad([-0.25, 1.999, -0.25], [0.5, 0, 0], [0, 0, 0.5]),
+             {"emissiveFactor": [1, 0.85, 0.6], "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4.0}},
+              "pbrMetallicRoughness": {"baseColorFactor": [0.78, 0.78, 0.78, 1], "metallicFactor": 0}},
+             "Cornell box lit by a one-sided emissive quad 1 mm under the ceiling, facing down")
+
+
 
 # Issue 34's two held-out boxes, rebuilt from their description, and
 # variants of proportion (tests/third_party_scenes.rs renders every one).
