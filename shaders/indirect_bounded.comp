@@ -19,6 +19,7 @@ layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance bits / far
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
+layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -45,7 +46,8 @@ void main() {
         vec4 n = imageLoad(g_normal, pixel);
         Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
         vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
-        VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, 0u, pc.vpl_count, 1u);
+        vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
+        VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, 0u, pc.vpl_count, 1u);
         radiance = brdf_diffuse_color(b) / PI * light.irradiance + light.glossy;
         source = brdf_source_color(b) / PI * light.irradiance;
     }

@@ -29,6 +29,7 @@ layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // distance b
 layout(set = 0, binding = 8) readonly buffer Creases { uvec4 header; uint pixels[]; } creases;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D s0_sources;
+layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -69,7 +70,8 @@ void main() {
             vec4 n = imageLoad(g_normal, pixel);
             b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
             vec3 wo = normalize(pc.camera_position.xyz - x);
-            light = vpl_sum(x, n.xyz, b, wo, lane, pc.vpl_count, LANES);
+            vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
+            light = vpl_sum(x, n.xyz, ng, b, wo, lane, pc.vpl_count, LANES);
         }
         lane_irradiance[lane][px] = light.irradiance;
         lane_glossy[lane][px] = light.glossy;

@@ -23,6 +23,7 @@ layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D interleaved;
 layout(set = 0, binding = 6, rgba32ui) uniform writeonly uimage2D guide;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D interleaved_glossy;
+layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -53,7 +54,8 @@ void main() {
     vec4 n = imageLoad(g_normal, pixel);
     Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
-    VplLight light = vpl_sum(position.xyz, n.xyz, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
+    vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
+    VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
     float subsets = float(pc.side * pc.side);
     imageStore(interleaved, pixel, vec4(light.irradiance * (subsets / PI), 1.0));
     imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, light.spread2));

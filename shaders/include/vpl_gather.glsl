@@ -8,10 +8,14 @@
 #define SSBC_VPL_GATHER_GLSL
 
 #include "brdf.glsl"
+#include "geometric_normal.glsl"
 
 // ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
 // n), whose surface makes cos_x with -w. The tolerance grows with the
-// receiver's slope across a splat (its own surface's points land in its texel).
+// receiver's slope across a splat (its own surface's points land in its
+// texel): the slope of its surface (geometric normal), not of a normal map's
+// normal, which turned towards the VPL left too little tolerance and the
+// surface shadowed itself.
 float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
     vec2 uv = ism_paraboloid(w, n);
     float stored = uintBitsToFloat(imageLoad(ism, ism_texel(cell, uv, pc.tile)).r);
@@ -20,7 +24,7 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
 }
 
 // What VPLs first, first + stride, ... (below last) send to a receiver at x
-// (normal n, BRDF bx, seen from wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
+// (shading normal n on a surface of geometric normal ng, BRDF bx, seen from wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
 // irradiance = sum f_z(incident, z->x) Phi min(G, b) V_ISM (its diffuse,
 // view-independent part), glossy = what the rest of f_x adds (0 on a
 // Lambertian receiver, which never evaluates its BRDF).
@@ -32,7 +36,7 @@ struct VplLight {
     float spread2;
 };
 
-VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint stride) {
+VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint last, uint stride) {
     bool lambertian = brdf_is_lambertian(bx);
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
     VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);
@@ -50,7 +54,7 @@ VplLight vpl_sum(vec3 x, vec3 n, Brdf bx, vec3 wo, uint first, uint last, uint s
         float cos_x = -dot(n, w);
         if (cos_z <= 0.0 || cos_x <= 0.0) continue;
         float g = min(cos_x * cos_z / d2, pc.bound);
-        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, cos_x);
+        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w));
         // Hidden from the VPL: neither BRDF is needed.
         if (v == 0.0) continue;
         vec4 power = texelFetch(vpl_texels, at + 2);

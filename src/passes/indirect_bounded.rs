@@ -223,6 +223,7 @@ impl IndirectBoundedPass {
             s0_sources: &out.s0_sources,
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
+            g_emission: &gbuffer.emission,
         };
         self.full
             .dispatch_2d(rec.cmd, pool, &bindings, &push, gbuffer.extent())
@@ -257,6 +258,7 @@ impl IndirectBoundedPass {
             interleaved: &interleaved.sums,
             interleaved_glossy: &interleaved.glossy,
             guide: &interleaved.guide,
+            g_emission: &gbuffer.emission,
         };
         // One work group: 8 x 8 pixels of one subset (z), N pixels apart.
         let (w, h) = gbuffer.extent();
@@ -356,6 +358,7 @@ impl IndirectBoundedPass {
             vpl_texels: &ism.vpl_texels,
             ism: &ism.atlas,
             creases,
+            g_emission: &gbuffer.emission,
         };
         self.creases
             .dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)

@@ -154,7 +154,8 @@ pub struct IsmReadback {
 impl IsmReadback {
     /// The GPU's ISM visibility test, replayed on the CPU: is `x` visible from
     /// VPL `index` (at `vpl`) according to its imperfect shadow map? `normal`
-    /// is the receiver's.
+    /// is the receiver's surface's (its geometric normal where a normal map
+    /// turns the shading normal).
     pub fn visible(&self, index: usize, vpl: &Vpl, x: glam::Vec3, normal: glam::Vec3) -> bool {
         let d = x - vpl.position;
         let dist = d.length();
