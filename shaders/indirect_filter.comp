@@ -4,8 +4,10 @@
 // block, i.e. each VPL subset, exactly once, so the mean of the interleaved
 // sums (N^2 x one subset's sum) over a box on one surface is the sum over
 // every VPL. Each pixel takes, of the N^2 boxes that contain it, the one
-// with most pixels on its own surface (normals within acos(min_normal_cos),
-// within max_plane_slope x their distance of its tangent plane; ties go to
+// with most pixels on its own surface (shading normals within
+// acos(min_normal_cos), within max_plane_slope x their distance of its
+// tangent plane, the geometric normal's: a normal map turns the shading
+// normal, not the surface the neighbours lie on; ties go to
 // the most central box), and averages those pixels: across depth and
 // normal discontinuities nothing is mixed, and beside an edge the box
 // turns away from it, so the pixel still sees every subset. Only where no
@@ -23,6 +25,7 @@
 #include "common.glsl"
 #include "guide.glsl"
 #include "brdf.glsl"
+#include "geometric_normal.glsl"
 
 const int MAX_SIDE = 4;
 const int MAX_WINDOW = 2 * MAX_SIDE - 1;
@@ -40,6 +43,7 @@ layout(set = 0, binding = 7, rgba32f) uniform readonly image2D interleaved_gloss
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 // Writes the pixel's bounded indirect light from the filtered sums (the
 // diffuse part per unit diffuse colour, irradiance / pi; the glossy rest),
@@ -81,6 +85,7 @@ void main() {
     }
     vec3 x = guide_position(own);
     vec3 n = guide_normal(own);
+    vec3 surface = geometric_normal(imageLoad(g_emission, pixel).w, n);
     int reach = pc.side - 1;
     // Which pixels of the (2N - 1)^2 window around the pixel are on its
     // surface: bit dx of rows[dy].
@@ -107,7 +112,7 @@ void main() {
             float distance = length(d);
             bool adjacent = max(abs(offset.x), abs(offset.y)) == 1;
             float per_pixel = distance / length(vec2(offset));
-            if (abs(dot(n, d)) > pc.max_plane_slope * distance
+            if (abs(dot(surface, d)) > pc.max_plane_slope * distance
                 || dot(n, guide_normal(g)) < pc.min_normal_cos) {
                 if (adjacent) other = min(other, per_pixel);
                 continue;

@@ -285,6 +285,7 @@ impl IndirectBoundedPass {
         rec.update_buffer(&interleaved.creases, 0, bytemuck::bytes_of(&LIST_HEADER));
         rec.use_image(&gbuffer.albedo, Access::ComputeRead);
         rec.use_image(&gbuffer.normal, Access::ComputeRead);
+        rec.use_image(&gbuffer.emission, Access::ComputeRead);
         rec.use_image(&direct.radiance, Access::ComputeRead);
         rec.use_image(&direct.sources, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeRead);
@@ -318,6 +319,7 @@ impl IndirectBoundedPass {
             s0_sources: &out.s0_sources,
             creases: &interleaved.creases,
             g_normal: &gbuffer.normal,
+            g_emission: &gbuffer.emission,
         };
         self.filter
             .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
