@@ -4,8 +4,8 @@ model them, for the tests of emissive fixtures, the default light and the
 default camera (tests/third_party_scenes.rs, docs/accuracy.md). Run from the
 repository root; standard library only. `--independent DIR` writes instead
 the scenes of the check against an independent renderer (a helmet-like
-shell, a bottle, a shader ball, normal maps turned towards image-up, a
-textured studio; scripts/mitsuba-reference.py; needs numpy and Pillow).
+shell, a bottle, a shader ball, normal maps turned towards image-up,
+alpha-masked leaves under a sun, a textured studio; scripts/mitsuba-reference.py; needs numpy and Pillow).
 
   fixture-thin-box    Cornell box lit only by a thin closed box under the
                       ceiling: glTF default white material (albedo 1),
@@ -157,12 +157,15 @@ def write(name, meshes, materials, lights=(), camera=None, images=(), doc=""):
         used.add("KHR_materials_emissive_strength")
     if lights:
         used.add("KHR_lights_punctual")
-        gltf["extensions"] = {"KHR_lights_punctual": {"lights": [l for l, _ in lights]}}
-        nodes += [{"name": "light", "translation": t, "extensions": {"KHR_lights_punctual": {"light": i}}}
-                  for i, (_, t) in enumerate(lights)]
+        gltf["extensions"] = {"KHR_lights_punctual": {"lights": [l[0] for l in lights]}}
+        # (light, translation) or (light, translation, rotation quaternion)
+        nodes += [dict({"name": "light", "translation": l[1], "extensions": {"KHR_lights_punctual": {"light": i}}},
+                       **({"rotation": l[2]} if len(l) > 2 else {}))
+                  for i, l in enumerate(lights)]
     if camera:
         gltf["cameras"] = [{"type": "perspective", "perspective": {"yfov": camera["yfov"], "znear": 0.01, "aspectRatio": 4 / 3}}]
-        nodes.append({"name": "camera", "translation": camera["translation"], "camera": 0})
+        nodes.append(dict({"name": "camera", "translation": camera["translation"], "camera": 0},
+                          **({"rotation": camera["rotation"]} if "rotation" in camera else {})))
     if images:
         gltf["images"] = [{"uri": "data:image/png;base64," + base64.b64encode(i).decode()} for i in images]
         gltf["textures"] = [{"source": k} for k in range(len(images))]
@@ -372,6 +375,32 @@ if len(sys.argv) == 3 and sys.argv[1] == "--independent":
               lights=[({"type": "point", "intensity": 5}, [0.0, 3.0, 0.3])],
               camera={"translation": [0.0, 0.0, 2.5], "yfov": 0.9}, images=[png_bytes(tilt)],
               doc="A normal map turned towards image-up under a light above it")
+
+    # A garden: leaves cut out by an alpha mask (MASK, doubleSided), a ground
+    # whose checker is turned, scaled and offset by KHR_texture_transform,
+    # a copper ball, under a directional sun.
+    holes = (((xx * 6) % 1 - 0.5) ** 2 + ((yy * 6) % 1 - 0.5) ** 2 > 0.09).astype(float)
+    leaf = np.concatenate([srgb(np.stack([0.2 + 0.6 * xx, 0.6 + 0.3 * yy, 0.1 + 0 * xx], -1)),
+                           (holes * 255).astype(np.uint8)[..., None]], -1)
+    check = ((np.floor(xx * 8) + np.floor(yy * 8)) % 2) * 0.5 + 0.3
+    leaves = []
+    for x, z, a in [(-1.0, -0.5, 0.3), (0.6, -1.0, -0.5), (0.0, 0.5, 1.2)]:
+        c, s = math.cos(a), math.sin(a)
+        leaves.append(quad([x - c * 0.6, 0.2, z - s * 0.6], [c * 1.2, 0, s * 1.2], [0, 1.2, 0]))
+    write("garden", [("ground", quad([-4, 0, 4], [8, 0, 0], [0, 0, -8])), ("leaf", merge(leaves)),
+                     ("ball", sphere([1.5, 0.5, 0.5], 0.5, 48, 24))],
+          {"ground": {"pbrMetallicRoughness": {
+              "baseColorTexture": tex(1, {"rotation": 0.5, "scale": [3, 3], "offset": [0.2, 0.1]}),
+              "metallicFactor": 0, "roughnessFactor": 0.8}},
+           "leaf": {"pbrMetallicRoughness": {"baseColorTexture": tex(0), "metallicFactor": 0, "roughnessFactor": 0.6},
+                    "alphaMode": "MASK", "alphaCutoff": 0.5, "doubleSided": True},
+           "ball": {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.6, 0.5, 1], "metallicFactor": 1,
+                                             "roughnessFactor": 0.4}}},
+          lights=[({"type": "directional", "intensity": 3.0, "color": [1, 0.95, 0.85]}, [0, 0, 0],
+                   [-0.3535534, 0.3535534, 0.1464466, 0.8535534])],
+          camera={"translation": [0.0, 1.6, 4.5], "yfov": 0.8, "rotation": [-0.1305262, 0, 0, 0.9914449]},
+          images=[png_bytes(leaf), png_bytes(srgb(np.stack([check, check * 0.9, check * 0.8], -1)))],
+          doc="Alpha-masked leaves, a ground with a turned checker, a copper ball, under a directional sun")
 
     # A closed 6 x 3 x 6 m studio seen from inside: a wood floor (2x tiled
     # base colour and metallic-roughness, a 6x tiled grooved normal map), a

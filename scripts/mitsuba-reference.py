@@ -187,6 +187,7 @@ class Converter:
         self.gltf = gltf
         self.brdf = brdf
         self.images = {}
+        self.masked = False
 
     def bitmap(self, info, pixels, raw=True):
         """A Mitsuba bitmap texture of `pixels` (H x W x C, linear) read with
@@ -270,6 +271,7 @@ class Converter:
         if self.brdf != "gltf":
             bsdf = {"type": "twosided", "bsdf": bsdf}
         if alpha is not None:
+            self.masked = True
             bsdf = {"type": "mask", "opacity": alpha if isinstance(alpha, dict) else {"type": "rgb", "value": [alpha] * 3},
                     "bsdf": bsdf}
         emissive = np.array(m.get("emissiveFactor", [0, 0, 0]), dtype=np.float64)
@@ -501,7 +503,7 @@ def main():
     conv = Converter(mi, gltf, args.brdf)
     doc = gltf.doc
     lights = doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", [])
-    scene = {"type": "scene", "integrator": {"type": "path", "max_depth": args.max_depth, "hide_emitters": False}}
+    scene = {"type": "scene"}
     camera = None
     for n, world in walk(gltf):
         node = doc["nodes"][n]
@@ -519,6 +521,10 @@ def main():
             light = conv.light(lights[ext["light"]], world)
             if light is not None:
                 scene[f"light{n}"] = light
+    # `path` tests shadow rays against the geometry only; `volpath` lets
+    # them through the cut-out parts of alpha masks (null interactions).
+    integrator = "volpath" if conv.masked else "path"
+    scene["integrator"] = {"type": integrator, "max_depth": args.max_depth, "hide_emitters": False}
     if camera is None:
         sys.exit("mitsuba-reference: the scene has no camera (ssbc's default camera is not reproduced)")
     cam, world = camera
