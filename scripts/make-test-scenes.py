@@ -5,7 +5,7 @@ default camera (tests/third_party_scenes.rs, docs/accuracy.md). Run from the
 repository root; standard library only. `--independent DIR` writes instead
 the scenes of the check against an independent renderer (a helmet-like
 shell, a bottle, a shader ball, normal maps turned towards image-up,
-alpha-masked leaves under a sun, a textured studio; scripts/mitsuba-reference.py; needs numpy and Pillow).
+alpha-masked leaves under a sun, a spot light, a textured studio; scripts/mitsuba-reference.py; needs numpy and Pillow).
 
   fixture-thin-box    Cornell box lit only by a thin closed box under the
                       ceiling: glTF default white material (albedo 1),
@@ -401,6 +401,20 @@ if len(sys.argv) == 3 and sys.argv[1] == "--independent":
           camera={"translation": [0.0, 1.6, 4.5], "yfov": 0.8, "rotation": [-0.1305262, 0, 0, 0.9914449]},
           images=[png_bytes(leaf), png_bytes(srgb(np.stack([check, check * 0.9, check * 0.8], -1)))],
           doc="Alpha-masked leaves, a ground with a turned checker, a copper ball, under a directional sun")
+
+    # A spot light (glTF's smooth falloff, 20-34 degree cone) pointing down
+    # at a floor before a wall, a white-metal ball half in its cone.
+    write("spot", [("floor", quad([-3, 0, 3], [6, 0, 0], [0, 0, -6])), ("wall", quad([-3, 0, -2], [6, 0, 0], [0, 3, 0])),
+                   ("ball", sphere([0.5, 0.4, 0], 0.4, 48, 24))],
+          {"floor": {"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1], "metallicFactor": 0,
+                                              "roughnessFactor": 0.8}},
+           "wall": {"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.4, 0.3, 1], "metallicFactor": 0}},
+           "ball": {"pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1], "metallicFactor": 1,
+                                             "roughnessFactor": 0.3}}},
+          lights=[({"type": "spot", "intensity": 15, "spot": {"innerConeAngle": 0.35, "outerConeAngle": 0.6}},
+                   [0, 2.5, 0.3], [-0.7071068, 0, 0, 0.7071068])],
+          camera={"translation": [0, 1.5, 4], "yfov": 0.8, "rotation": [-0.1305262, 0, 0, 0.9914449]},
+          doc="A spot light pointing down at a floor before a wall, a metal ball half in its cone")
 
     # A closed 6 x 3 x 6 m studio seen from inside: a wood floor (2x tiled
     # base colour and metallic-roughness, a 6x tiled grooved normal map), a

@@ -16,7 +16,8 @@ TEXCOORD_0), metallic-roughness materials with their textures (base
 colour and emission sRGB, metallic-roughness linear B/G, normal maps with
 their scale, KHR_texture_transform, sampler wrap and filter), alpha MASK /
 BLEND (as a mask at 0.5), KHR_materials_emissive_strength,
-KHR_lights_punctual (radiometric, as docs/conventions.md: W/sr, W/m^2) and
+KHR_lights_punctual (radiometric, as docs/conventions.md: W/sr, W/m^2;
+spot lights with glTF's falloff under the gltf BRDF, Mitsuba's own else) and
 the first camera in node order (required: ssbc's default camera is not
 reproduced).
 
@@ -339,11 +340,15 @@ class Converter:
             return {"type": "directional", "direction": direction.tolist(), "irradiance": value}
         if kind == "spot":
             spot = light.get("spot", {})
-            inner = math.degrees(spot.get("innerConeAngle", 0.0))
-            outer = math.degrees(spot.get("outerConeAngle", math.pi / 4))
+            cos_inner = math.cos(spot.get("innerConeAngle", 0.0))
+            cos_outer = math.cos(spot.get("outerConeAngle", math.pi / 4))
+            if self.brdf == "gltf":
+                return {"type": "gltf_spot", "position": position.tolist(), "direction": direction.tolist(),
+                        "intensity": color.tolist(), "cos_inner": cos_inner, "cos_outer": cos_outer}
             warn("a spot light's falloff is Mitsuba's (linear in angle), not glTF's (smooth in cosine)")
             up = np.array([0.0, 1.0, 0.0]) if abs(direction[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
-            return {"type": "spot", "intensity": value, "cutoff_angle": outer, "beam_width": inner,
+            return {"type": "spot", "intensity": value, "cutoff_angle": math.degrees(math.acos(cos_outer)),
+                    "beam_width": math.degrees(math.acos(cos_inner)),
                     "to_world": self.mi.ScalarTransform4f().look_at(origin=position.tolist(),
                                                                     target=(position + direction).tolist(),
                                                                     up=up.tolist())}
@@ -467,6 +472,51 @@ def register_gltf_bsdf(mi, min_roughness):
             return "GltfBsdf[]"
 
     mi.register_bsdf("gltf", lambda props: GltfBsdf(props))
+
+    class GltfSpot(mi.Emitter):
+        """KHR_lights_punctual's spot: intensity (W/sr) x t^2,
+        t = clamp((cos - cos_outer) / (cos_inner - cos_outer), 0, 1)."""
+
+        def __init__(self, props):
+            mi.Emitter.__init__(self, props)
+            self.position = mi.Point3f(props["position"])
+            self.direction = dr.normalize(mi.Vector3f(props["direction"]))
+            self.intensity = mi.Color3f(props["intensity"])
+            self.cos_inner = props["cos_inner"]
+            self.cos_outer = props["cos_outer"]
+            self.m_flags = mi.EmitterFlags.DeltaPosition
+
+        def sample_direction(self, it, sample, active=True):
+            d = self.position - it.p
+            dist2 = dr.squared_norm(d)
+            dist = dr.sqrt(dist2)
+            ds = dr.zeros(mi.DirectionSample3f)
+            ds.p = self.position
+            ds.d = d / dist
+            ds.dist = dist
+            ds.pdf = 1.0
+            ds.delta = True
+            ds.emitter = mi.EmitterPtr(self)
+            t = dr.clip((dr.dot(-ds.d, self.direction) - self.cos_outer)
+                        / dr.maximum(self.cos_inner - self.cos_outer, 1e-4), 0.0, 1.0)
+            return ds, self.intensity * (t * t / dist2)
+
+        def pdf_direction(self, it, ds, active=True):
+            return 0.0
+
+        def eval_direction(self, it, ds, active=True):
+            return 0.0
+
+        def eval(self, si, active=True):
+            return 0.0  # a point: no ray hits it
+
+        def traverse(self, callback):
+            pass
+
+        def to_string(self):
+            return "GltfSpot[]"
+
+    mi.register_emitter("gltf_spot", lambda props: GltfSpot(props))
 
 
 def main():
