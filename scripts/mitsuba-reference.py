@@ -543,8 +543,16 @@ def main():
                        key=lambda p: [int(x) for x in re.findall(r"\d+", os.path.basename(p))[:1] or [0]])
         if found:
             os.environ["DRJIT_LIBLLVM_PATH"] = found[-1]
-    import mitsuba as mi
-    mi.set_variant(args.variant or ("llvm_ad_rgb" if args.brdf == "gltf" else "scalar_rgb"))
+    try:
+        import mitsuba as mi
+    except ImportError:
+        sys.exit("mitsuba-reference: Mitsuba 3 is not installed (pip install mitsuba)")
+    variant = args.variant or ("llvm_ad_rgb" if args.brdf == "gltf" else "scalar_rgb")
+    try:
+        mi.set_variant(variant)
+    except Exception as e:  # noqa: BLE001 (Dr.Jit reports a missing LLVM in several ways)
+        sys.exit(f"mitsuba-reference: Mitsuba's {variant} variant is unavailable ({e}); the gltf BRDF needs "
+                 "libLLVM >= 16 (Debian 12: apt install libllvm19, or set DRJIT_LIBLLVM_PATH)")
     if args.brdf == "gltf":
         register_gltf_bsdf(mi, args.min_roughness)
     width, height = (int(v) for v in args.size.lower().split("x"))
