@@ -25,15 +25,24 @@ layout(push_constant) uniform Push {
 
 #include "shadow.glsl"
 #include "geometric_normal.glsl"
+// A tap's lobe takes its quarter's widening fully within the widened
+// lobe's alpha of the peak (in tan^2 of the angle from its half vector),
+// fading to none at 3 alpha: in GGX's tail a widened lobe is brighter than
+// the narrow one's mean over the quarter (alpha^2 / theta^4 grows with
+// alpha^2). Sphere grid 160x120, direct light against the area-sampled
+// path tracer, relMSE per pixel: 0.0330 widened everywhere, 0.0078 faded
+// (a fade by 2 alpha: 0.9874 of the mean, by 3: 0.9916).
+const float WIDENED_TO = 9.0;
 
 // The change of the shading normal per pixel along axis `e`, towards the
 // neighbour on the same smooth surface (the smaller change of the two
-// sides; zero if neither is: a silhouette or the image's edge). On one
-// smooth surface the chord between two points is square to the sum of
-// their normals.
-vec3 normal_step(ivec2 pixel, ivec2 e, vec3 p, vec3 n) {
+// sides; zero if neither is: a silhouette or the image's edge), and the
+// position's (dp). On one smooth surface the chord between two points is
+// square to the sum of their normals.
+vec3 normal_step(ivec2 pixel, ivec2 e, vec3 p, vec3 n, out vec3 dp) {
     vec3 best = vec3(0.0);
     float best2 = 1e30;
+    dp = vec3(0.0);
     for (int side = -1; side <= 1; side += 2) {
         ivec2 q = pixel + side * e;
         if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
@@ -46,9 +55,18 @@ vec3 normal_step(ivec2 pixel, ivec2 e, vec3 p, vec3 n) {
         if (smooth_surface && dot(step, step) < best2) {
             best = step;
             best2 = dot(step, step);
+            dp = float(side) * chord;
         }
     }
     return best;
+}
+
+// The half vector between the eye and the light (at its position, or in
+// direction `wi` for a directional light) seen from p.
+vec3 half_vector_at(vec3 p, GpuLight light, vec3 wi) {
+    vec3 to_light = uint(light.position_kind.w) == LIGHT_DIRECTIONAL ? wi
+        : normalize(light.position_kind.xyz - p);
+    return normalize(normalize(pc.camera_position.xyz - p) + to_light);
 }
 
 void main() {
@@ -62,23 +80,20 @@ void main() {
     }
     vec4 normal = imageLoad(g_normal, pixel);
     Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), normal);
-    // Geometric specular anti-aliasing for point-like lights: the pixel's
-    // normals span n +- dn_x / 2 +- dn_y / 2; the highlight is their mean,
-    // taken at the centres of the pixel's four quarters, each lobe widened
-    // by its quarter's spread ((|dn_x|^2 + |dn_y|^2) / 48, a box), so that
-    // a highlight smaller than the pixel gives it its mean over the pixel
-    // instead of all or nothing.
+    // Geometric specular anti-aliasing for point-like lights: across the
+    // pixel the normal relative to the half vector spans n +- d_x / 2 +-
+    // d_y / 2 (d: the normal's step per pixel less the half vector's); the
+    // highlight is the mean, taken at the centres of the pixel's four
+    // quarters, each lobe widened by its quarter's spread ((|d_x|^2 +
+    // |d_y|^2) / 48, a box), so that a highlight smaller than the pixel
+    // gives it its mean over the pixel instead of all or nothing.
     // Where the spread is under a tenth of the lobe's width (a hundredth in
     // variance) the BRDF is taken at n alone (rough lobes, flat surfaces).
-    vec3 dn_x = vec3(0.0), dn_y = vec3(0.0);
-    float quarter_alpha = brdf_alpha(b);
-    bool spread = false;
-    if (!brdf_is_lambertian(b) && pc.light_count > 0u) {
-        dn_x = normal_step(pixel, ivec2(1, 0), position.xyz, normal.xyz);
-        dn_y = normal_step(pixel, ivec2(0, 1), position.xyz, normal.xyz);
-        float spread2 = (dot(dn_x, dn_x) + dot(dn_y, dn_y)) / 12.0;
-        spread = spread2 > 0.01 * quarter_alpha * quarter_alpha;
-        quarter_alpha = brdf_widened_alpha(b, spread2 / 4.0);
+    vec3 dn_x = vec3(0.0), dn_y = vec3(0.0), dp_x = vec3(0.0), dp_y = vec3(0.0);
+    bool glossy = !brdf_is_lambertian(b) && pc.light_count > 0u;
+    if (glossy) {
+        dn_x = normal_step(pixel, ivec2(1, 0), position.xyz, normal.xyz, dp_x);
+        dn_y = normal_step(pixel, ivec2(0, 1), position.xyz, normal.xyz, dp_y);
     }
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec4 emission = imageLoad(g_emission, pixel);
@@ -89,15 +104,40 @@ void main() {
         vec3 wi;
         vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, surface, wi);
         if (max(irradiance.r, max(irradiance.g, irradiance.b)) <= 0.0) continue;
+        // What the lobe sees change across the pixel is the normal relative
+        // to the half vector: the half vector turns too, as the eye and the
+        // light are seen from another point (on a convex mirror it adds to
+        // the normal's turn: a sphere's highlight 1.18x too bright in its
+        // pixel with the normal's alone).
+        vec3 d_x = dn_x, d_y = dn_y;
+        vec3 h = normalize(wo + wi);
+        float alpha = brdf_alpha(b);
+        float widened = alpha;
+        bool spread = false;
+        if (glossy && (dot(dp_x, dp_x) > 0.0 || dot(dp_y, dp_y) > 0.0)) {
+            if (dot(dp_x, dp_x) > 0.0) d_x -= half_vector_at(position.xyz + dp_x, lights[i], wi) - h;
+            if (dot(dp_y, dp_y) > 0.0) d_y -= half_vector_at(position.xyz + dp_y, lights[i], wi) - h;
+            float spread2 = (dot(d_x, d_x) + dot(d_y, d_y)) / 12.0;
+            spread = spread2 > 0.01 * alpha * alpha;
+            widened = brdf_widened_alpha(b, spread2 / 4.0);
+        }
         // One tap where the spread does not matter: a loop, not a branch,
         // so that a SIMD group runs as many taps as its widest lane needs
         // (lavapipe runs both sides of a branch).
         int taps = spread ? 4 : 1;
-        float a = spread ? quarter_alpha : brdf_alpha(b);
         vec3 f = vec3(0.0);
         for (int k = 0; k < taps; k++) {
             vec2 at = spread ? vec2(k & 1, k >> 1) * 0.5 - 0.25 : vec2(0.0);
-            vec3 nk = normalize(normal.xyz + at.x * dn_x + at.y * dn_y);
+            vec3 nk = normalize(normal.xyz + at.x * d_x + at.y * d_y);
+            float a = alpha;
+            if (spread) {
+                // tan^2 of the tap's angle to the half vector.
+                vec3 c = cross(nk, h);
+                float t2 = dot(c, c) / max(dot(nk, h) * dot(nk, h), 1e-8);
+                float w2 = widened * widened;
+                float near = clamp((WIDENED_TO * w2 - t2) / ((WIDENED_TO - 1.0) * w2), 0.0, 1.0);
+                a = sqrt(alpha * alpha + near * (w2 - alpha * alpha));
+            }
             f += brdf_eval_alpha(b, a, nk, wo, wi);
         }
         f /= float(taps);
