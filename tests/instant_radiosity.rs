@@ -134,22 +134,14 @@ fn bounded_indirect_equals_cpu_vpl_sum(
 /// A floor whose normal map turns every normal `tilt` towards a wall a point
 /// light lights (none: no normal map), seen from above the floor.
 fn floor_turned_to_a_wall(tilt: Option<f32>) -> ssbc::Scene {
-    use ssbc::scene::{
-        Camera, Light, LightKind, Material, Scene, Texture, TextureRef, TextureSampler,
-    };
+    use ssbc::scene::{Camera, Light, LightKind, Material, Scene, TextureRef, TextureSampler};
     let mut scene = Scene::new("normal-map-towards-vpls");
     let mut floor = Material::diffuse(Vec3::splat(0.7), None);
     if let Some(tilt) = tilt {
-        scene.textures.push(Texture {
-            width: 1,
-            height: 1,
-            rgba8: vec![
-                128,
-                ((-tilt.sin() * 0.5 + 0.5) * 255.0).round() as u8,
-                ((tilt.cos() * 0.5 + 0.5) * 255.0).round() as u8,
-                255,
-            ],
-        });
+        // Every normal turned by `tilt` towards image-down (-green).
+        scene
+            .textures
+            .push(common::normal_map(1, |_, _| (0.0, -tilt.tan())));
         floor.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
     }
     scene.materials.push(floor);

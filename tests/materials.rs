@@ -42,6 +42,27 @@ fn mean_rgb(rgba: &[f32], keep: impl Fn(usize) -> bool) -> f64 {
     sum / n.max(1) as f64
 }
 
+/// A scene with one grey Lambertian material (its index) whose normal map
+/// turns every normal by `tilt` towards image-up (green).
+fn turned_normals(name: &str, tilt: f32) -> (Scene, u32) {
+    let mut s = Scene::new(name);
+    s.textures
+        .push(common::normal_map(1, |_, _| (0.0, tilt.tan())));
+    let mut m = Material::diffuse(Vec3::splat(0.5), None);
+    m.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
+    let m = add(&mut s, m);
+    (s, m)
+}
+
+/// Direct light only (no VPLs, no SSBC), with the layers read back.
+fn direct_only(scene: &Scene, width: u32, height: u32) -> Frame {
+    let mut settings = common::small(width, height);
+    settings.vpl.count = 0;
+    settings.ssbc.steps = 0;
+    settings.debug_readback = true;
+    common::render_validated(scene, &settings)
+}
+
 fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
     &f.layer(name.parse().expect("a layer name"))
         .unwrap_or_else(|| panic!("layer {name}"))
@@ -382,11 +403,7 @@ fn a_normal_map_tilts_the_shading_normal() {
         Vec3::ZERO,
         40f32.to_radians(),
     ));
-    let mut settings = common::small(32, 24);
-    settings.vpl.count = 0;
-    settings.ssbc.steps = 0;
-    settings.debug_readback = true;
-    let f = common::render_validated(&s, &settings);
+    let f = direct_only(&s, 32, 24);
     // The stored texel, decoded, is the normal the renderer should use.
     let decode = |c: u8| c as f32 / 255.0 * 2.0 - 1.0;
     // Tangent +x, bitangent (green, image-up = -v) +z, normal +y.
@@ -424,20 +441,7 @@ fn a_normal_map_tilts_the_shading_normal() {
 #[test]
 fn generated_tangents_read_green_as_image_up() {
     let tilt = 60f32.to_radians();
-    let mut s = Scene::new("green-up");
-    s.textures.push(Texture {
-        width: 1,
-        height: 1,
-        rgba8: vec![
-            128,
-            ((tilt.sin() * 0.5 + 0.5) * 255.0).round() as u8,
-            ((tilt.cos() * 0.5 + 0.5) * 255.0).round() as u8,
-            255,
-        ],
-    });
-    let mut m = Material::diffuse(Vec3::splat(0.5), None);
-    m.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
-    let m = add(&mut s, m);
+    let (mut s, m) = turned_normals("green-up", tilt);
     // Two floor quads, u along +x and v along +z (image-up, -v, is -z; seen
     // from above, the texture is not mirrored): the left one without
     // tangents, the right one with glTF's (+x, w = 1).
@@ -483,11 +487,7 @@ fn generated_tangents_read_green_as_image_up() {
         Vec3::ZERO,
         50f32.to_radians(),
     ));
-    let mut settings = common::small(64, 32);
-    settings.vpl.count = 0;
-    settings.ssbc.steps = 0;
-    settings.debug_readback = true;
-    let f = common::render_validated(&s, &settings);
+    let f = direct_only(&s, 64, 32);
     let d = layer(&f, "direct");
     let at = |x: usize| d[(16 * 64 + x) * 4];
 
@@ -521,20 +521,7 @@ fn generated_tangents_read_green_as_image_up() {
 #[test]
 fn a_normal_map_turned_to_a_grazing_light_is_not_striped_by_its_shadow_map() {
     let tilt = 60f32.to_radians();
-    let mut s = Scene::new("grazing-normal-map");
-    s.textures.push(Texture {
-        width: 1,
-        height: 1,
-        rgba8: vec![
-            128,
-            ((tilt.sin() * 0.5 + 0.5) * 255.0).round() as u8,
-            ((tilt.cos() * 0.5 + 0.5) * 255.0).round() as u8,
-            255,
-        ],
-    });
-    let mut m = Material::diffuse(Vec3::splat(0.5), None);
-    m.normal_texture = Some(TextureRef::new(0, TextureSampler::default()));
-    let m = add(&mut s, m);
+    let (mut s, m) = turned_normals("grazing-normal-map", tilt);
     // u along +x, v along -z: image-up (-v, green) is +z, towards the light.
     common::quad(
         &mut s,
@@ -556,11 +543,7 @@ fn a_normal_map_turned_to_a_grazing_light_is_not_striped_by_its_shadow_map() {
         Vec3::ZERO,
         50f32.to_radians(),
     ));
-    let mut settings = common::small(64, 48);
-    settings.vpl.count = 0;
-    settings.ssbc.steps = 0;
-    settings.debug_readback = true;
-    let f = common::render_validated(&s, &settings);
+    let f = direct_only(&s, 64, 48);
     let position = layer(&f, "gbuffer_position");
     let direct = layer(&f, "direct");
     let n = Vec3::new(0.0, tilt.cos(), tilt.sin());
@@ -623,11 +606,7 @@ fn samplers_clamp_or_repeat_outside_the_unit_square() {
         Vec3::new(0.0, 0.0, -0.5),
         60f32.to_radians(),
     ));
-    let mut settings = common::small(64, 48);
-    settings.vpl.count = 0;
-    settings.ssbc.steps = 0;
-    settings.debug_readback = true;
-    let f = common::render_validated(&s, &settings);
+    let f = direct_only(&s, 64, 48);
     let albedo = layer(&f, "gbuffer_albedo");
     let camera = s.camera(None).unwrap();
     let bvh = ssbc::cpu::bvh::SceneBvh::new(&s);
