@@ -29,6 +29,13 @@ to it. `--lambertian` makes every material a Lambertian `diffuse` of its
 base colour (for scenes whose materials are all metallic 0, roughness 1,
 or to separate the geometry, lights and camera from the BRDF).
 
+Not reproduced (ssbc follows glTF, Mitsuba cannot here): a one-sided
+(`doubleSided: false`) surface seen from behind is culled for the camera,
+and a double-sided emitter emits from both sides; Mitsuba shows the first
+and emits from the front only (a warning names such emitters; a reversed
+null-BSDF copy a hair behind the surface emitted the back's light right in
+open space but 2.4x too much beside a ceiling 1 cm away).
+
 Pixels are area-sampled with a box filter (`ssbc reference --antialias`
 does the same; `ssbc render` samples pixel centres).
 """
