@@ -24,7 +24,8 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
 }
 
 // What VPLs first, first + stride, ... (below last) send to a receiver at x
-// (shading normal n on a surface of geometric normal ng, BRDF bx, seen from wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
+// (shading normal n on a surface of geometric normal ng, BRDF bx, seen from
+// wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
 // irradiance = sum f_z(incident, z->x) Phi min(G, b) V_ISM (its diffuse,
 // view-independent part), glossy = what the rest of f_x adds (0 on a
 // Lambertian receiver, which never evaluates its BRDF).
