@@ -8,6 +8,7 @@ use glam::Vec3;
 use ssbc::cpu::brdf::Brdf;
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::vpl::bounded_radiance;
+use ssbc::passes::indirect_bounded::ism_bias_for;
 use ssbc::renderer::{Bound, RenderSettings};
 use ssbc::settings::SsbcSettings;
 use ssbc::Frame;
@@ -88,7 +89,7 @@ fn bounded_indirect_equals_cpu_vpl_sum(
         let wo = (eye - x).normalize();
         gpu.push(rgb(gpu_layer, i));
         cpu_ism.push(bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |k, v| {
-            ism.visible(k, v, x, n)
+            ism.visible(k, v, x, n, ism_bias_for(&a))
         }));
         cpu_exact.push(bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |_, v| {
             // Exact visibility, with the receiver nudged off its surface.
@@ -106,7 +107,7 @@ fn bounded_indirect_equals_cpu_vpl_sum(
                 }
                 pairs += 1;
                 let exact = !bvh.occluded(v.position + v.normal * 1e-4, x + n * 1e-4);
-                agree += (exact == ism.visible(k, v, x, n)) as usize;
+                agree += (exact == ism.visible(k, v, x, n, ism_bias_for(&a))) as usize;
             }
         }
     }

@@ -16,11 +16,11 @@
 // texel): the slope of its surface (geometric normal), not of a normal map's
 // normal, which turned towards the VPL left too little tolerance and the
 // surface shadowed itself.
-float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x) {
+float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x, float bias) {
     vec2 uv = ism_paraboloid(w, n);
     float stored = uintBitsToFloat(imageLoad(ism, ism_texel(cell, uv, pc.tile)).r);
     if (stored < 0.0) return 1.0;
-    return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, pc.ism_bias) ? 1.0 : 0.0;
+    return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, bias) ? 1.0 : 0.0;
 }
 
 // What VPLs first, first + stride, ... (below last) send to a receiver at x
@@ -40,6 +40,9 @@ struct VplLight {
 VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint last, uint stride) {
     bool lambertian = brdf_is_lambertian(bx);
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
+    // The ISM test's relative tolerance, less for a narrow glossy lobe,
+    // which shows a leak as a reflection (twin: indirect_bounded::ism_bias_for).
+    float bias = lambertian ? pc.ism_bias : pc.ism_bias * clamp(10.0 * brdf_alpha(bx), 0.25, 1.0);
     VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);
     float spread_weight = 0.0;
     for (uint i = first; i < last; i += stride) {
@@ -55,7 +58,7 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
         float cos_x = -dot(n, w);
         if (cos_z <= 0.0 || cos_x <= 0.0) continue;
         float g = min(cos_x * cos_z / d2, pc.bound);
-        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w));
+        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w), bias);
         // Hidden from the VPL: neither BRDF is needed.
         if (v == 0.0) continue;
         vec4 power = texelFetch(vpl_texels, at + 2);

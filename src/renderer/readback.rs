@@ -155,8 +155,16 @@ impl IsmReadback {
     /// The GPU's ISM visibility test, replayed on the CPU: is `x` visible from
     /// VPL `index` (at `vpl`) according to its imperfect shadow map? `normal`
     /// is the receiver's surface's (its geometric normal where a normal map
-    /// turns the shading normal).
-    pub fn visible(&self, index: usize, vpl: &Vpl, x: glam::Vec3, normal: glam::Vec3) -> bool {
+    /// turns the shading normal), `relative_bias` its relative tolerance
+    /// ([`ism_bias_for`](crate::passes::indirect_bounded::ism_bias_for)).
+    pub fn visible(
+        &self,
+        index: usize,
+        vpl: &Vpl,
+        x: glam::Vec3,
+        normal: glam::Vec3,
+        relative_bias: f32,
+    ) -> bool {
         let d = x - vpl.position;
         let dist = d.length();
         let w = d / dist;
@@ -176,7 +184,7 @@ impl IsmReadback {
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
         let c = (-normal.dot(w)).clamp(0.1, 1.0);
         let slope = (1.0 - c * c).sqrt() / c;
-        let tolerance = crate::passes::indirect_bounded::ISM_BIAS * dist + footprint * slope + 1e-3;
+        let tolerance = relative_bias * dist + footprint * slope + 1e-3;
         dist <= stored * self.far + tolerance
     }
 }
