@@ -41,6 +41,7 @@ does the same; `ssbc render` samples pixel centres).
 """
 import argparse
 import base64
+import io
 import json
 import math
 import os
@@ -80,7 +81,7 @@ class Gltf:
                 offset += 8 + chunk_len
         else:
             self.doc = json.loads(data)
-        self.buffers = [self._buffer(i, b) for i, b in enumerate(self.doc.get("buffers", []))]
+        self.buffers = [self._buffer(b) for b in self.doc.get("buffers", [])]
         for ext in self.doc.get("extensionsUsed", []):
             if ext not in READ_EXTENSIONS:
                 warn(f"extension {ext} is not read")
@@ -91,7 +92,7 @@ class Gltf:
         path = os.path.normpath(os.path.join(self.folder, uri.replace("%20", " ")))
         return open(path, "rb").read()
 
-    def _buffer(self, i, b):
+    def _buffer(self, b):
         if "uri" not in b:
             return self.glb_bin
         return self._uri(b["uri"])
@@ -136,7 +137,6 @@ class Gltf:
             data = self._uri(img["uri"])
         else:
             data, _ = self.view_bytes(img["bufferView"])
-        import io
         return np.asarray(Image.open(io.BytesIO(data)).convert("RGBA"), dtype=np.float64) / 255.0
 
 
