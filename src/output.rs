@@ -107,20 +107,35 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[f32], exposure: f
 
 /// The exposure that maps the log-average luminance of the pixels with
 /// geometry (alpha > 0; all pixels if none) to the middle grey 0.18
-/// (Reinhard et al. 2002's key value).
+/// (Reinhard et al. 2002's key value). Luminances count as at least a
+/// hundredth of the 95th percentile's: near-black pixels (a dark visor
+/// mirroring the empty background, grooves) pulled the log-average down
+/// and a helmet-like asset came out white (exposure 25 instead of 2.8, a
+/// third of its pixels past twice the white point); scenes without such
+/// pixels (cornell, tori, the studio) keep their exposure.
 pub fn auto_exposure(rgba: &[f32]) -> f32 {
     let luminance = |p: &[f32]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let mut geometry: Vec<&[f32]> = rgba.chunks_exact(4).filter(|p| p[3] > 0.0).collect();
+    let mut geometry: Vec<f32> = rgba
+        .chunks_exact(4)
+        .filter(|p| p[3] > 0.0)
+        .map(|p| luminance(p).max(0.0))
+        .filter(|l| l.is_finite())
+        .collect();
     if geometry.is_empty() {
-        geometry = rgba.chunks_exact(4).collect();
+        geometry = rgba
+            .chunks_exact(4)
+            .map(|p| luminance(p).max(0.0))
+            .filter(|l| l.is_finite())
+            .collect();
     }
-    let n = geometry.len().max(1) as f64;
-    let log_sum: f64 = geometry
-        .iter()
-        .map(|p| (1e-6 + luminance(p).max(0.0) as f64).ln())
-        .filter(|v| v.is_finite())
-        .sum();
-    let average = (log_sum / n).exp();
+    if geometry.is_empty() {
+        return 1.0;
+    }
+    let k = (geometry.len() - 1) * 95 / 100;
+    let p95 = *geometry.select_nth_unstable_by(k, f32::total_cmp).1;
+    let floor = (0.01 * p95 as f64).max(1e-6);
+    let log_sum: f64 = geometry.iter().map(|&l| (l as f64).max(floor).ln()).sum();
+    let average = (log_sum / geometry.len() as f64).exp();
     if average > 1e-5 && average.is_finite() {
         (0.18 / average) as f32
     } else {
@@ -234,4 +249,28 @@ pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
         size.height() as u32,
         image.layer_data.channel_data.pixels.1,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::auto_exposure;
+
+    fn image(luminances: &[f32]) -> Vec<f32> {
+        luminances.iter().flat_map(|&l| [l, l, l, 1.0]).collect()
+    }
+
+    /// Middle grey at the log-average luminance; near-black pixels count as
+    /// a hundredth of the 95th percentile, so that half an image of them
+    /// does not overexpose the other half 18x (the old floor, 1e-6, gave
+    /// 18; this gives 1.8).
+    #[test]
+    fn near_black_pixels_do_not_overexpose_the_rest() {
+        let uniform = auto_exposure(&image(&[0.5; 16]));
+        assert!((uniform - 0.36).abs() < 1e-4, "{uniform}");
+        let half_black: Vec<f32> = (0..16)
+            .map(|i| if i % 2 == 0 { 1e-4 } else { 1.0 })
+            .collect();
+        let e = auto_exposure(&image(&half_black));
+        assert!((e - 1.8).abs() < 0.01, "{e}");
+    }
 }
