@@ -64,8 +64,8 @@ void store_point(uint index, EvalPoint p) {
 }
 
 // The point of texel t of level pc.level; `glossy`: at a glossy receiver,
-// whose glossy rest is summed too (the lobe refined at half its fineness,
-// see ssbc_walk.glsl) and written to point_glossy (w: the step's
+// whose glossy rest is summed too (the lobe refined more coarsely than a
+// pixel's own walk, see ssbc_walk.glsl) and written to point_glossy (w: the step's
 // generation). Pixels of the same material whose lobe points nearly the
 // same way interpolate it (ssbc_resolve.comp).
 void evaluate(ivec2 t, bool glossy) {
@@ -94,7 +94,14 @@ void evaluate(ivec2 t, bool glossy) {
 #ifdef SSBC_GLOSSY_POINTS
     if (glossy) {
         begin_glossy(receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q)), x, nx);
-        glossy_refine = 0.5;
+        // The lobe refined at half its scale within 3 alpha of its mirror
+        // direction, at its whole scale beyond (as the fallback does):
+        // spheres 1024x768 34.4 -> 34.3 texels per pixel, against brute
+        // force the same (half everywhere before; the whole scale
+        // everywhere: 1.91% at 640x480 instead of 1.48%).
+        glossy_refine = 1.0;
+        glossy_refine_near = 0.5;
+        glossy_near = 3.0 * glossy_alpha;
     }
 #endif
     uint count = 0u;

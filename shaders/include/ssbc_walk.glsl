@@ -53,10 +53,11 @@ const float SPREAD = 0.3;
 // What a glossy receiver refines: clusters seen wider than glossy_refine
 // of its lobe's local angular scale (visit()), or glossy_refine_near of it
 // within glossy_near of the lobe's mirror direction. A pixel's own walk
-// 0.25 everywhere by default; glossy evaluation points 0.5 (ssbc_eval.glsl),
-// as accurate against brute force there (spheres 1024x768: 1.22 / 1.18%
-// against 1.46 / 1.40% with 0.25; 1.0: 1.18%) and their levels 10%
-// cheaper. The glossy fallback sets its own (ssbc_fallback.glsl).
+// 0.25 everywhere by default; glossy evaluation points 0.5 within 3 alpha
+// of the mirror and 1.0 beyond (ssbc_eval.glsl), as accurate against brute
+// force there (spheres 1024x768, 0.5 everywhere: 1.22 / 1.18% against 1.46
+// / 1.40% with 0.25; 1.0: 1.18%) and their levels 10% cheaper. The glossy
+// fallback sets its own (ssbc_fallback.glsl).
 float glossy_refine = 0.25;
 float glossy_refine_near = 0.25;
 float glossy_near = 0.0;
