@@ -211,14 +211,27 @@ fn halton(mut i: u32, base: u32) -> f32 {
     r
 }
 
-/// The path tracer at `size` with `spp` samples and at most `bounces`.
+/// The path tracer at `size` with `spp` samples and at most `bounces`, at
+/// pixel centres.
 fn path_traced(scene: &Scene, size: (u32, u32), spp: u32, bounces: u32) -> Vec<f32> {
+    path_traced_with(scene, size, spp, bounces, false)
+}
+
+/// The path tracer, sampling each pixel's area if `antialias`.
+fn path_traced_with(
+    scene: &Scene,
+    size: (u32, u32),
+    spp: u32,
+    bounces: u32,
+    antialias: bool,
+) -> Vec<f32> {
     let settings = ReferenceSettings {
         width: size.0,
         height: size.1,
         spp,
         bounces,
         seed: 7,
+        antialias,
         ..Default::default()
     };
     Reference::new(scene, settings)
@@ -377,20 +390,13 @@ fn highlights_smaller_than_a_pixel_keep_their_energy() {
     let scene = ssbc::scene::load("tests/scenes/sphere-grid.gltf").expect("the sphere grid");
     let size = (128, 96);
     let gpu = common::render_validated(&scene, &RenderSettings::new(size.0, size.1));
-    let truth = Reference::new(
+    let truth = path_traced_with(
         &scene,
-        ReferenceSettings {
-            width: size.0,
-            height: size.1,
-            spp: 512,
-            seed: 7,
-            antialias: true,
-            ..Default::default()
-        },
-    )
-    .unwrap()
-    .render(&AtomicBool::new(false), |_| {})
-    .0;
+        size,
+        512,
+        ReferenceSettings::default().bounces,
+        true,
+    );
     let (mean, rel_mse) = against(&gpu.image.rgba, &truth, size);
     eprintln!("sphere grid: GPU / area-sampled path tracer {mean:.4}, relMSE(4x4) {rel_mse:.5}");
     assert!((mean - 1.0).abs() <= 0.03, "mean ratio {mean}");
@@ -413,21 +419,7 @@ fn a_highlights_anti_aliasing_follows_the_half_vector() {
     s.vpl.count = 0;
     s.ssbc.steps = 0;
     let gpu = common::render_validated(&scene, &s);
-    let truth = Reference::new(
-        &scene,
-        ReferenceSettings {
-            width: size.0,
-            height: size.1,
-            spp: 256,
-            bounces: 0,
-            seed: 7,
-            antialias: true,
-            ..Default::default()
-        },
-    )
-    .unwrap()
-    .render(&AtomicBool::new(false), |_| {})
-    .0;
+    let truth = path_traced_with(&scene, size, 256, 0, true);
     let per_pixel = compare(&gpu.image.rgba, &truth).unwrap();
     eprintln!(
         "sphere grid, direct light: GPU / area-sampled path tracer {:.4}, relMSE per pixel {:.5}",

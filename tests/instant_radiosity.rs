@@ -132,6 +132,66 @@ fn bounded_indirect_equals_cpu_vpl_sum(
     );
 }
 
+/// A 4 m square floor at y = 0 (material 0) and a 4 x 2 m wall at z = -2
+/// (material 1) behind it.
+fn floor_and_wall(scene: &mut ssbc::Scene) {
+    common::quad(
+        scene,
+        Vec3::new(-2.0, 0.0, 2.0),
+        Vec3::X * 4.0,
+        -Vec3::Z * 4.0,
+        0,
+        1.0,
+    );
+    common::quad(
+        scene,
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::X * 4.0,
+        Vec3::Y * 2.0,
+        1,
+        1.0,
+    );
+}
+
+/// The floor's (y = 0) VPL light in frame `f`, GPU against the CPU sum over
+/// the same VPLs with exact visibility, summed per band (`band` of a floor
+/// point; None leaves it out): (GPU, exact) per band, and the pixels counted.
+fn floor_against_exact(
+    scene: &ssbc::Scene,
+    f: &Frame,
+    band: impl Fn(Vec3) -> Option<usize>,
+) -> (Vec<(f64, f64)>, usize) {
+    let eye = scene.camera(None).unwrap().position;
+    let bvh = SceneBvh::new(scene);
+    let (pos, nrm, alb) = (
+        layer(f, "gbuffer_position"),
+        layer(f, "gbuffer_normal"),
+        layer(f, "gbuffer_albedo"),
+    );
+    let gpu_layer = layer(f, "indirect_bounded");
+    let (mut bands, mut pixels) = (Vec::new(), 0);
+    for i in 0..(f.width * f.height) as usize {
+        let x = rgb(pos, i);
+        if pos[i * 4 + 3] == 0.0 || x.y > 1e-3 {
+            continue;
+        }
+        let Some(k) = band(x) else { continue };
+        let n = rgb(nrm, i);
+        let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
+        let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
+        let exact = bounded_radiance(x, n, &a, (eye - x).normalize(), &f.vpls, f.bound, |_, v| {
+            !bvh.occluded(v.position + v.normal * 1e-4, x + Vec3::Y * 1e-4)
+        });
+        if bands.len() <= k {
+            bands.resize(k + 1, (0.0, 0.0));
+        }
+        bands[k].0 += rgb(gpu_layer, i).element_sum() as f64;
+        bands[k].1 += exact.element_sum() as f64;
+        pixels += 1;
+    }
+    (bands, pixels)
+}
+
 /// A floor whose normal map turns every normal `tilt` towards a wall a point
 /// light lights (none: no normal map), seen from above the floor.
 fn floor_turned_to_a_wall(tilt: Option<f32>) -> ssbc::Scene {
@@ -151,22 +211,7 @@ fn floor_turned_to_a_wall(tilt: Option<f32>) -> ssbc::Scene {
         .push(Material::diffuse(Vec3::new(0.8, 0.6, 0.4), None));
     // u along +x, v along -z: image-up (green) is +z, so the normals turn
     // towards -z, the wall.
-    common::quad(
-        &mut scene,
-        Vec3::new(-2.0, 0.0, 2.0),
-        Vec3::X * 4.0,
-        -Vec3::Z * 4.0,
-        0,
-        1.0,
-    );
-    common::quad(
-        &mut scene,
-        Vec3::new(-2.0, 0.0, -2.0),
-        Vec3::X * 4.0,
-        Vec3::Y * 2.0,
-        1,
-        1.0,
-    );
+    floor_and_wall(&mut scene);
     scene.lights.push(Light {
         kind: LightKind::Point,
         position: Vec3::new(0.0, 1.0, -1.6),
@@ -194,31 +239,8 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
     let mut settings = settings(Bound::Auto);
     settings.vpl.count = 256;
     let f = common::render_validated(&scene, &settings);
-    let eye = scene.camera(None).unwrap().position;
-    let bvh = SceneBvh::new(&scene);
-    let (pos, nrm, alb) = (
-        layer(&f, "gbuffer_position"),
-        layer(&f, "gbuffer_normal"),
-        layer(&f, "gbuffer_albedo"),
-    );
-    let gpu_layer = layer(&f, "indirect_bounded");
     // Floor pixels in bands by distance from the wall.
-    let mut bands = [(0f64, 0f64); 4];
-    for i in 0..(f.width * f.height) as usize {
-        let x = rgb(pos, i);
-        if pos[i * 4 + 3] == 0.0 || x.y > 1e-3 {
-            continue;
-        }
-        let n = rgb(nrm, i);
-        let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
-        let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
-        let exact = bounded_radiance(x, n, &a, (eye - x).normalize(), &f.vpls, f.bound, |_, v| {
-            !bvh.occluded(v.position + v.normal * 1e-4, x + Vec3::Y * 1e-4)
-        });
-        let band = (((x.z + 2.0) / 4.0 * 4.0) as usize).min(3);
-        bands[band].0 += rgb(gpu_layer, i).element_sum() as f64;
-        bands[band].1 += exact.element_sum() as f64;
-    }
+    let (bands, _) = floor_against_exact(&scene, &f, |x| Some(((x.z + 2.0) as usize).min(3)));
     let ratios: Vec<f64> = bands.iter().map(|(g, c)| g / c).collect();
     eprintln!("floor's VPL light, GPU / exact visibility, by distance from the wall: {ratios:.4?}");
     for r in ratios {
@@ -256,22 +278,7 @@ fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     scene
         .materials
         .push(Material::diffuse(Vec3::splat(0.5), None));
-    common::quad(
-        &mut scene,
-        Vec3::new(-2.0, 0.0, 2.0),
-        Vec3::X * 4.0,
-        -Vec3::Z * 4.0,
-        0,
-        1.0,
-    );
-    common::quad(
-        &mut scene,
-        Vec3::new(-2.0, 0.0, -2.0),
-        Vec3::X * 4.0,
-        Vec3::Y * 2.0,
-        1,
-        1.0,
-    );
+    floor_and_wall(&mut scene);
     let (lo, hi) = (Vec3::new(-0.6, 0.0, -0.3), Vec3::new(0.6, 0.5, 0.3));
     ssbc::scene::builtin::axis_box(&mut scene, lo, hi, 2).unwrap();
     scene
@@ -285,34 +292,12 @@ fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     let mut settings = settings(Bound::Auto);
     settings.vpl.count = 256;
     let f = common::render_validated(&scene, &settings);
-    let eye = scene.camera(None).unwrap().position;
-    let bvh = SceneBvh::new(&scene);
-    let (pos, nrm, alb) = (
-        layer(&f, "gbuffer_position"),
-        layer(&f, "gbuffer_normal"),
-        layer(&f, "gbuffer_albedo"),
-    );
-    let gpu_layer = layer(&f, "indirect_bounded");
-    // Quarter-metre bands of the floor by distance from the plinth.
-    let (mut bands, mut pixels) = ([(0f64, 0f64); 4], 0);
-    for i in 0..(f.width * f.height) as usize {
-        let x = rgb(pos, i);
-        // The floor in front of the plinth, as wide as it is.
-        if pos[i * 4 + 3] == 0.0 || x.y > 1e-3 || x.z < hi.z || x.z > hi.z + 1.0 || x.x.abs() > hi.x
-        {
-            continue;
-        }
-        let n = rgb(nrm, i);
-        let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
-        let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
-        let truth = bounded_radiance(x, n, &a, (eye - x).normalize(), &f.vpls, f.bound, |_, v| {
-            !bvh.occluded(v.position + v.normal * 1e-4, x + Vec3::Y * 1e-4)
-        });
-        let band = (((x.z - hi.z) * 4.0) as usize).min(3);
-        bands[band].0 += rgb(gpu_layer, i).element_sum() as f64;
-        bands[band].1 += truth.element_sum() as f64;
-        pixels += 1;
-    }
+    // The metre of floor in front of the plinth, as wide as it is, in
+    // quarter-metre bands by distance from it.
+    let (bands, pixels) = floor_against_exact(&scene, &f, |x| {
+        let ahead = x.z - hi.z;
+        ((0.0..1.0).contains(&ahead) && x.x.abs() <= hi.x).then(|| ((ahead * 4.0) as usize).min(3))
+    });
     let (gpu, exact) = bands
         .iter()
         .fold((0.0, 0.0), |(g, e), b| (g + b.0, e + b.1));
