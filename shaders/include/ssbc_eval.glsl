@@ -65,8 +65,8 @@ void store_point(uint index, EvalPoint p) {
 
 // The point of texel t of level pc.level; `glossy`: at a glossy receiver,
 // whose glossy rest is summed too (the lobe refined more coarsely than a
-// pixel's own walk, see ssbc_walk.glsl) and written to point_glossy (w: the step's
-// generation). Pixels of the same material whose lobe points nearly the
+// pixel's own walk, see ssbc_walk.glsl) and written to point_glossy (w:
+// the step's generation). Pixels of the same material whose lobe points nearly the
 // same way interpolate it (ssbc_resolve.comp).
 void evaluate(ivec2 t, bool glossy) {
     int l = int(pc.level);
