@@ -20,14 +20,24 @@
 //
 // A pixel beside a crease or contact (a neighbour of another surface
 // within crease_footprints x its footprint in space), or whose glossy lobe
-// turns across the window by more than lobe_turn x its width, is listed
-// for indirect_creases.comp, which evaluates every VPL there.
+// turns across the window by more than lobe_turn x its width (RIM_TURN x
+// that beside another surface), is listed for indirect_creases.comp,
+// which evaluates every VPL there.
 #include "common.glsl"
 #include "guide.glsl"
 #include "brdf.glsl"
 #include "geometric_normal.glsl"
 
 const int MAX_SIDE = 4;
+// Beside another surface or the background (a pixel of the window that is
+// not on the receiver's surface) the lobe may turn RIM_TURN x lobe_turn:
+// where a glossy object turns away from the eye its lobe turns fastest and
+// its neighbours lie on one side only, and averaging them speckled its last
+// 1-3 pixels. A shader ball (metal, roughness 0.3) at 320x240, the bounded
+// layer against the full gather's, relative RMSE per pixel: 10.8% without,
+// 5.0% at 0.5, 6.9% at 0.75 (lobe_turn 2 everywhere: 4.4%, but the crease
+// kernel 2.3x on spheres at 1024x768; this 1.16x).
+const float RIM_TURN = 0.5;
 const int MAX_WINDOW = 2 * MAX_SIDE - 1;
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -100,6 +110,7 @@ void main() {
     bool glossy_receiver = roughness >= 0.0;
     vec3 own_mirror = glossy_receiver ? mirror(x, n) : vec3(0.0);
     float turn = 0.0;
+    bool edge = false;
     for (int dy = 0; dy <= 2 * reach; dy++) {
         uint row = 0u;
         for (int dx = 0; dx <= 2 * reach; dx++) {
@@ -107,7 +118,10 @@ void main() {
             ivec2 q = pixel + offset;
             if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
             uvec4 g = imageLoad(guide, q);
-            if (g.w == NO_GEOMETRY) continue;
+            if (g.w == NO_GEOMETRY) {
+                edge = true;
+                continue;
+            }
             vec3 d = guide_position(g) - x;
             float distance = length(d);
             bool adjacent = max(abs(offset.x), abs(offset.y)) == 1;
@@ -115,6 +129,7 @@ void main() {
             if (abs(dot(surface, d)) > pc.max_plane_slope * distance
                 || dot(n, guide_normal(g)) < pc.min_normal_cos) {
                 if (adjacent) other = min(other, per_pixel);
+                edge = true;
                 continue;
             }
             if (adjacent) footprint = min(footprint, per_pixel);
@@ -132,7 +147,7 @@ void main() {
     // (the mean spread of the glossy light of the pixel's own subset).
     float alpha = max(roughness, BRDF_MIN_ROUGHNESS);
     float widened = sqrt(alpha * alpha * alpha * alpha + max(imageLoad(interleaved_glossy, pixel).w, 0.0));
-    bool narrow_lobe = glossy_receiver && turn > pc.lobe_turn * min(widened, 1.0);
+    bool narrow_lobe = glossy_receiver && turn > (edge ? RIM_TURN : 1.0) * pc.lobe_turn * min(widened, 1.0);
     if (other <= pc.crease_footprints * footprint || narrow_lobe) {
         uint slot = atomicAdd(creases.header.w, 1u);
         creases.pixels[slot] = uint(pixel.x) | uint(pixel.y) << 16;

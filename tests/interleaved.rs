@@ -54,12 +54,14 @@ fn interleaved_gather_matches_the_full_gather() {
         // pixel noise (it differs from its 3x3 blur by 10%; the two blurred
         // images agree to 2.5%) is what remains at this size. Spheres'
         // smooth metals mirror single VPLs: a pixel's highlight from a
-        // neighbour's subset lands a pixel off (measured 12.7% over all,
-        // 3.6% off creases; 57% with no glossy pixel listed, 3.1% with
-        // every one).
+        // neighbour's subset lands a pixel off (measured 9.7% over all,
+        // 3.7% off creases; 57% with no glossy pixel listed, 3.1% with
+        // every one). Beside a silhouette or crease a glossy pixel is
+        // listed at half the lobe turn (indirect_filter.comp's RIM_TURN):
+        // 12.7% over all without.
         let (continuous, all) = match scene.name.as_str() {
             "tori" => (0.025, 0.05),
-            "spheres" => (0.05, 0.15),
+            "spheres" => (0.05, 0.11),
             _ => (0.025, 0.03),
         };
         assert!(
