@@ -114,19 +114,17 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[f32], exposure: f
 /// third of its pixels past twice the white point); scenes without such
 /// pixels (cornell, tori, the studio) keep their exposure.
 pub fn auto_exposure(rgba: &[f32]) -> f32 {
-    let luminance = |p: &[f32]| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
-    let mut geometry: Vec<f32> = rgba
-        .chunks_exact(4)
-        .filter(|p| p[3] > 0.0)
-        .map(|p| luminance(p).max(0.0))
-        .filter(|l| l.is_finite())
-        .collect();
-    if geometry.is_empty() {
-        geometry = rgba
-            .chunks_exact(4)
-            .map(|p| luminance(p).max(0.0))
+    // Finite luminances of the pixels `keep` selects.
+    let luminances = |keep: fn(&[f32]) -> bool| -> Vec<f32> {
+        rgba.chunks_exact(4)
+            .filter(|p| keep(p))
+            .map(|p| (0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).max(0.0))
             .filter(|l| l.is_finite())
-            .collect();
+            .collect()
+    };
+    let mut geometry = luminances(|p| p[3] > 0.0);
+    if geometry.is_empty() {
+        geometry = luminances(|_| true);
     }
     if geometry.is_empty() {
         return 1.0;
