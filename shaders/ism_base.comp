@@ -2,14 +2,15 @@
 // ISM coarse layer: every texel of a VPL's tile starts from the ray-cast
 // distance of its block (src/cpu/ism_rays.rs) instead of "no point", so that
 // occluders near the VPL, which get few points, still shadow; the splat then
-// adds the points' finer detail with atomicMin.
+// adds the points' finer detail with atomicMin. A block carries how
+// squarely its surface faces the VPL (ism_pack).
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0, r32ui) uniform writeonly uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
-layout(set = 0, binding = 2) readonly buffer Base { float base[]; }; // m, grid^2 per VPL
+layout(set = 0, binding = 2) readonly buffer Base { vec2 base[]; }; // (m, facing), grid^2 per VPL
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -24,8 +25,8 @@ void main() {
     if (i >= pc.tile * pc.tile || v >= pc.vpl_count) return;
     uvec2 local = uvec2(i % pc.tile, i / pc.tile);
     uvec2 block = local * pc.grid / pc.tile;
-    float d = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
+    vec2 corner = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
     uint cell = floatBitsToUint(vpls[v].normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
-    imageStore(ism_depth, origin + ivec2(local), uvec4(floatBitsToUint(d * pc.depth_scale)));
+    imageStore(ism_depth, origin + ivec2(local), uvec4(ism_pack(corner.x * pc.depth_scale, corner.y)));
 }

@@ -1,15 +1,16 @@
 #version 460
 // ISM point splatting: every VPL splats its own block of scene points (the
 // one its identity picks, position.w) into its paraboloid tile with atomicMin
-// on the (positive float) distance bits. Points come placed in world space
-// (ism_points.comp; w = 0: a hidden object's).
+// on the packed distance and how squarely the point's surface faces the
+// VPL (ism_pack). Points come placed in world space (ism_points.comp; w:
+// their surface's packed normal, 0: a hidden object's).
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0, r32ui) uniform uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
-layout(set = 0, binding = 2) readonly buffer Points { vec4 points[]; }; // xyz world, w 1 (0: hidden)
+layout(set = 0, binding = 2) readonly buffer Points { vec4 points[]; }; // xyz world, w normal (0: hidden)
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -27,7 +28,8 @@ void main() {
     GpuVpl vpl = vpls[v];
     uint block = floatBitsToUint(vpl.position.w);
     vec4 point = points[block * pc.points_per_vpl + i];
-    if (point.w == 0.0) return; // a hidden object's
+    uint normal_bits = floatBitsToUint(point.w);
+    if (normal_bits == 0u) return; // a hidden object's
     vec3 p = point.xyz;
     vec3 d = p - vpl.position.xyz;
     float dist = length(d);
@@ -39,7 +41,7 @@ void main() {
     // to a/4 of the tile; larger splats near the VPL close holes.
     float radius_texels = clamp(pc.point_radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
     int r = int(radius_texels);
-    uint depth = floatBitsToUint(dist * pc.depth_scale);
+    uint depth = ism_pack(dist * pc.depth_scale, abs(dot(w, ism_unpack_normal(normal_bits))));
     uint cell = floatBitsToUint(vpl.normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
     ivec2 center = ivec2(uv * float(pc.tile));

@@ -32,10 +32,9 @@ pub struct VplCache {
     pub subsets: Vec<u32>,
     /// Each VPL's coarse ray-cast ISM layer, in the same order
     /// ([`ism_rays::coarse_depths`]).
-    pub ism_base: Vec<f32>,
-    /// The distances along each VPL's corner rays that `ism_base` was
-    /// made of ([`ism_rays::corner_depths`]).
-    ism_corners: Vec<f32>,
+    pub ism_base: Vec<ism_rays::Corner>,
+    /// Where each VPL's corner rays stopped, what `ism_base` was made of ([`ism_rays::corner_depths`]).
+    ism_corners: Vec<ism_rays::Corner>,
     /// The scene's bounds and which objects were visible (a hash) when
     /// traced.
     traced_in: (Bounds, u64),

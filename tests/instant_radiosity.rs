@@ -253,18 +253,20 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
 
 /// A mirror-like metal floor (roughness 0.12) before a plinth that hides
 /// the lit wall behind it from the floor just in front. The ISM test's
-/// tolerance (a share of the VPL's distance) lets an occluder close to the
-/// receiver through; a diffuse receiver spreads such a leak over its
-/// hemisphere, a narrow lobe reflects it where the plinth should be dark.
-/// Receivers with GGX alpha under 0.1 take less of it
-/// (`indirect_bounded::ism_bias_for`). GPU / exact-visibility VPL sum over
-/// the metre of floor in front of the plinth, 256 VPLs, full gather: 1.69
-/// (7.51 with the whole tolerance). By quarter metre from the plinth it is
-/// 32, 7.2, 1.8 and 0.20 (43, 24, 19 and 3.1 before): what is left is the
-/// contact leak within a footprint of 32-texel tiles, and beyond it the
-/// plinth's edge splatted over receivers that see past it (with at least
-/// half the tolerance instead of a quarter: 3.5 in all, the far quarter
-/// 1.1). docs/accuracy.md.
+/// tolerance lets an occluder close to the receiver through; a diffuse
+/// receiver spreads such a leak over its hemisphere, a narrow lobe
+/// reflects it where the plinth should be dark. Receivers with GGX alpha
+/// under 0.1 take less of the relative bias (`indirect_bounded::ism_bias_for`),
+/// and the slope term is the stored surface's (`ism_tolerance`): the floor,
+/// seen at a grazing angle from the wall's VPLs, gave the plinth, which
+/// faces them, several footprints of tolerance. GPU / exact-visibility VPL
+/// sum, 256 VPLs, full gather, by quarter metre from the plinth: 5.5, 2.5,
+/// 1.3 and 0.16; the nearest half metre 3.4 (with the receiver's slope: 32,
+/// 7.2, 1.8 and 0.20, the nearest half metre 14.7; before the bias for
+/// narrow lobes, 43, 24, 19 and 3.1). What is left near the plinth is the
+/// floor behind it in the texels along its lower edge, which the test
+/// cannot tell from the receiver's own plane; far from it, the plinth's
+/// top edge splatted over receivers that see past it. docs/accuracy.md.
 #[test]
 fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     use ssbc::scene::{Camera, Material, Scene};
@@ -303,13 +305,18 @@ fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
         .fold((0.0, 0.0), |(g, e), b| (g + b.0, e + b.1));
     let ratio = gpu / exact;
     let by_band: Vec<f64> = bands.iter().map(|(g, e)| g / e).collect();
+    let near = (bands[0].0 + bands[1].0) / (bands[0].1 + bands[1].1);
     eprintln!(
-        "mirror-like floor before a plinth: {pixels} pixels, GPU / exact visibility {ratio:.3} \
-         (by distance from the plinth: {by_band:.2?})"
+        "mirror-like floor before a plinth: {pixels} pixels, GPU / exact visibility {ratio:.3}, \
+         the nearest half metre {near:.2} (by distance from the plinth: {by_band:.2?})"
     );
     assert!(pixels > 300, "the floor before the plinth is in view");
     assert!(
-        ratio < 2.5,
+        near < 5.0,
+        "the floor beside the plinth reflects {near:.2}x its VPL light (the plinth leaks)"
+    );
+    assert!(
+        ratio < 1.5,
         "the floor reflects {ratio:.2}x its VPL light (the plinth leaks)"
     );
 }

@@ -19,6 +19,20 @@ struct GpuVpl {
                      // glossy lobes towards and from it
 };
 
+#include "octahedral.glsl"
+
+// A unit normal in 32 bits (pack_normal in src/cpu/points.rs): its
+// octahedral map, 15 bits a coordinate, the top bit set (0: no normal).
+uint ism_pack_normal(vec3 n) {
+    uvec2 q = uvec2(round(clamp(octahedral(n) * 0.5 + 0.5, 0.0, 1.0) * 32767.0));
+    return 0x80000000u | (q.x << 15) | q.y;
+}
+
+vec3 ism_unpack_normal(uint bits) {
+    vec2 e = vec2(uvec2((bits >> 15) & 32767u, bits & 32767u)) * (2.0 / 32767.0) - 1.0;
+    return from_octahedral(e);
+}
+
 // Texels per GpuVpl in the gathers' texel view.
 const uint VPL_TEXELS = 5u;
 
@@ -48,13 +62,63 @@ ivec2 ism_texel(uint cell, vec2 uv, uint tile) {
     return origin + local;
 }
 
+// An atlas texel: the nearest distance (/ far, below ISM_DEPTH_RANGE) in
+// its high 24 bits, so that atomicMin keeps the nearest, and in its low 8
+// how squarely that surface faces the VPL: 1 + 254 |cos| between its
+// normal and the ray (0: not known, the ray-cast layer's).
+const float ISM_DEPTH_RANGE = 4.0;
+const float ISM_DEPTH_STEPS = 16777215.0;  // 2^24 - 1
+
+uint ism_pack(float depth, float facing) {
+    float q = clamp(depth * (ISM_DEPTH_STEPS / ISM_DEPTH_RANGE), 0.0, ISM_DEPTH_STEPS);
+    uint code = facing < 0.0 ? 0u : 1u + uint(round(clamp(facing, 0.0, 1.0) * 254.0));
+    return (uint(q) << 8) | code;
+}
+
+float ism_texel_depth(uint texel) {
+    return float(texel >> 8) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
+}
+
+// |cos| of the stored surface to the VPL's ray, or -1 if not known.
+float ism_texel_facing(uint texel) {
+    uint code = texel & 255u;
+    return code == 0u ? -1.0 : float(code - 1u) * (1.0 / 254.0);
+}
+
+// tan of the angle whose cosine is c, c clamped to [0.1, 1].
+float ism_slope(float c) {
+    c = clamp(c, 0.1, 1.0);
+    return sqrt(1.0 - c * c) / c;
+}
+
+// How much slope a texel's stored surface allows (see ism_tolerance):
+// ISM_SLOPE_MARGIN x its own, because the nearest point of the receiver's
+// own surface in a texel faces the VPL a little more squarely than the
+// receiver does (with 1x a floor seen at a grazing angle shadowed 1.1% of
+// its own light), plus ISM_CURVE for a surface that curves within a
+// footprint. Margin, curve: a floor turned to the VPLs, its lowest band
+// of its own light; a mirror-like floor before a plinth, its nearest
+// quarter metres (tests/instant_radiosity.rs): 1.0, 0.5: 0.988, 5.5 and
+// 2.5; 1.25, 0.5: 0.993, 5.5 and 2.5; 1.5, 0.5: 0.995, 5.5 and 2.5; 1.5,
+// 1.0: 0.997, 6.1 and 2.5.
+const float ISM_SLOPE_MARGIN = 1.5;
+const float ISM_CURVE = 0.5;
+
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change
-// of the receiver's own surface across one splat footprint (a texel or a
-// point, whichever is larger) at its slope. Mirrored in renderer.rs.
-float ism_tolerance(float dist, float cos_x, uint tile, float point_radius, float relative_bias) {
+// of a surface across one splat footprint (a texel or a point, whichever is
+// larger) at its slope to the VPL's ray. The receiver's own surface lands
+// in its texel, so its slope (cos_x) is enough for it; but at grazing
+// angles that let any occluder within several footprints through (a
+// mirror-like floor before a plinth reflected the VPLs the plinth hides:
+// 14.7x the exact-visibility light over the nearest half metre). Where the
+// texel says how the surface it stores faces the ray (`facing` >= 0), the
+// slope is at most that surface's (with a margin, above): the receiver's
+// own surface still gets what it needs, and an occluder facing the VPL
+// shadows (3.4x). Mirrored in renderer/readback.rs.
+float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
     float footprint = max(dist * 4.0 / float(tile), point_radius);
-    float c = clamp(cos_x, 0.1, 1.0);
-    float slope = sqrt(1.0 - c * c) / c;
+    float slope = ism_slope(cos_x);
+    if (facing >= 0.0) slope = min(slope, ISM_SLOPE_MARGIN * ism_slope(facing) + ISM_CURVE);
     return relative_bias * dist + footprint * slope + 1e-3;
 }
 

@@ -11,16 +11,15 @@
 #include "geometric_normal.glsl"
 
 // ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
-// n), whose surface makes cos_x with -w. The tolerance grows with the
-// receiver's slope across a splat (its own surface's points land in its
-// texel): the slope of its surface (geometric normal), not of a normal map's
-// normal, which turned towards the VPL left too little tolerance and the
-// surface shadowed itself.
+// n), whose surface makes cos_x with -w: the slope of its surface
+// (geometric normal), not of a normal map's normal, which turned towards
+// the VPL left too little tolerance and the surface shadowed itself (see
+// ism_tolerance).
 float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x, float bias) {
     vec2 uv = ism_paraboloid(w, n);
-    float stored = uintBitsToFloat(imageLoad(ism, ism_texel(cell, uv, pc.tile)).r);
-    if (stored < 0.0) return 1.0;
-    return dist <= stored * pc.far + ism_tolerance(dist, cos_x, pc.tile, pc.point_radius, bias) ? 1.0 : 0.0;
+    uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
+    float tolerance = ism_tolerance(dist, cos_x, ism_texel_facing(stored), pc.tile, pc.point_radius, bias);
+    return dist <= ism_texel_depth(stored) * pc.far + tolerance ? 1.0 : 0.0;
 }
 
 // What VPLs first, first + stride, ... (below last) send to a receiver at x

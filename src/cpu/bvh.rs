@@ -338,6 +338,13 @@ impl SceneBvh {
         [tri.v0, tri.v1, tri.v2].map(|v| instance.to_world.transform_point3(v.into()))
     }
 
+    /// The unit geometric normal of world triangle `t` (either side; zero
+    /// for a degenerate one).
+    pub fn triangle_normal(&self, t: u32) -> Vec3 {
+        let v = self.world_triangle(t);
+        (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero()
+    }
+
     /// Number of world triangles.
     fn triangle_count(&self) -> u32 {
         self.instances.last().map_or(0, |i| {

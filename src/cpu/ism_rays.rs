@@ -9,7 +9,9 @@
 //! blocks, cast on the CPU with the BVH: a block holds the farthest of the
 //! distances at its four corners (so along an occluder's silhouette it errs
 //! towards visibility, as pull-push does), and the splatted points add the
-//! detail finer than a block (atomicMin keeps the nearest).
+//! detail finer than a block (atomicMin keeps the nearest). A block also
+//! says how squarely the surface it holds faces the VPL (the ISM test's
+//! tolerance, `ism_tolerance` in shaders/include/ism.glsl).
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -24,6 +26,18 @@ pub const BASE_GRID: u32 = 8;
 
 /// Rays a VPL casts for its layer: the corners of the blocks.
 pub const RAYS_PER_VPL: u32 = (BASE_GRID + 1) * (BASE_GRID + 1);
+
+/// Where one corner ray of a VPL's layer stops: its distance, and |cos|
+/// between the ray and the normal of the surface it met (-1: it met
+/// nothing, or that is not known).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct Corner {
+    /// Distance (m).
+    pub t: f32,
+    /// |cos| between the ray and the surface's normal, or -1.
+    pub facing: f32,
+}
 
 /// Unit direction leaving a VPL with normal `n` through paraboloid
 /// coordinate `uv` in `[0, 1]²` (the inverse of `ism_paraboloid` in
@@ -42,10 +56,10 @@ pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {
     (t * xy.x + b * xy.y + n * z).normalize()
 }
 
-/// The layer of every VPL, in their order: [`BASE_GRID`]² distances (m) per
-/// VPL, row by row along the paraboloid's v then u; `miss` where every
-/// corner ray of a block leaves the scene.
-pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<f32> {
+/// The layer of every VPL, in their order: [`BASE_GRID`]² blocks per VPL,
+/// row by row along the paraboloid's v then u ([`blocks`]); distance
+/// `miss` where every corner ray of a block leaves the scene.
+pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<Corner> {
     blocks(&corner_depths(bvh, vpls, miss, None))
 }
 
@@ -54,14 +68,14 @@ pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<f32> {
 pub struct KnownCorners<'a> {
     /// The earlier VPLs.
     pub vpls: &'a [Vpl],
-    /// Their corner distances.
-    pub depths: &'a [f32],
+    /// Their corners.
+    pub depths: &'a [Corner],
     /// Where moved objects were and are.
     pub moved: &'a [Bounds],
 }
 
-/// The distances along every VPL's [`RAYS_PER_VPL`] corner rays (capped at
-/// `miss`). A VPL that `known` already had (same path and bounce, same
+/// Where every VPL's [`RAYS_PER_VPL`] corner rays stop (distances capped
+/// at `miss`). A VPL that `known` already had (same path and bounce, same
 /// place and normal) casts again only the rays that meet a moved box
 /// before their earlier hit: the others hit what they hit before.
 pub fn corner_depths(
@@ -69,7 +83,7 @@ pub fn corner_depths(
     vpls: &[Vpl],
     miss: f32,
     known: Option<KnownCorners<'_>>,
-) -> Vec<f32> {
+) -> Vec<Corner> {
     let n = RAYS_PER_VPL as usize;
     let g = BASE_GRID as usize;
     let earlier: std::collections::HashMap<(u64, u32), usize> = known
@@ -82,7 +96,7 @@ pub fn corner_depths(
                 .collect()
         })
         .unwrap_or_default();
-    let mut out = vec![0.0f32; vpls.len() * n];
+    let mut out = vec![Corner { t: 0.0, facing: -1.0 }; vpls.len() * n];
     out.par_chunks_mut(n)
         .zip(vpls.par_iter())
         .for_each(|(corners, v)| {
@@ -117,23 +131,27 @@ pub fn corner_depths(
                 if let Some((old, seen)) = &before {
                     if !seen
                         .iter()
-                        .any(|b| super::vpl::ray_meets_box(origin, dir, old[k], b))
+                        .any(|b| super::vpl::ray_meets_box(origin, dir, old[k].t, b))
                     {
                         *c = old[k];
                         continue;
                     }
                 }
-                *c = bvh
+                let hit = bvh
                     .intersect(origin, dir, 0.0, f32::INFINITY)
-                    .map_or(miss, |hit| hit.t.min(miss));
+                    .filter(|hit| hit.t < miss);
+                *c = hit.map_or(Corner { t: miss, facing: -1.0 }, |hit| Corner {
+                    t: hit.t,
+                    facing: bvh.triangle_normal(hit.triangle).dot(dir).abs(),
+                });
             }
         });
     out
 }
 
-/// Each VPL's [`BASE_GRID`]² blocks from its corner distances: a block
-/// holds the farthest of its four corners.
-pub fn blocks(corners: &[f32]) -> Vec<f32> {
+/// Each VPL's [`BASE_GRID`]² blocks from its corners: a block holds the
+/// farthest of its four corners (and how that one's surface faces the ray).
+pub fn blocks(corners: &[Corner]) -> Vec<Corner> {
     let g = BASE_GRID as usize;
     corners
         .chunks_exact(RAYS_PER_VPL as usize)
@@ -141,10 +159,9 @@ pub fn blocks(corners: &[f32]) -> Vec<f32> {
             (0..g * g).map(move |k| {
                 let (x, y) = (k % g, k / g);
                 let corner = |dx: usize, dy: usize| c[(y + dy) * (g + 1) + x + dx];
-                corner(0, 0)
-                    .max(corner(1, 0))
-                    .max(corner(0, 1))
-                    .max(corner(1, 1))
+                [corner(1, 0), corner(0, 1), corner(1, 1)]
+                    .into_iter()
+                    .fold(corner(0, 0), |far, c| if c.t > far.t { c } else { far })
             })
         })
         .collect()
@@ -179,7 +196,8 @@ mod tests {
     #[test]
     fn a_vpl_under_a_slab_sees_it_above_and_the_room_at_the_horizon() {
         // A VPL on the ceiling of the Cornell box looking down at a quad 1 cm
-        // below it: the centre blocks hold 1 cm, the rim blocks the walls.
+        // below it: the centre blocks hold 1 cm (the quad facing the VPL),
+        // the rim blocks the walls.
         let mut scene = crate::scene::builtin::cornell();
         let m = scene.materials.len() as u32 - 1;
         let p = [
@@ -206,8 +224,15 @@ mod tests {
         let d = coarse_depths(&bvh, &[vpl], 100.0);
         let g = BASE_GRID as usize;
         let centre = d[(g / 2) * g + g / 2];
-        assert!((0.01..0.015).contains(&centre), "centre block {centre}");
-        let rim = d[(g / 2) * g];
+        assert!((0.01..0.015).contains(&centre.t), "centre block {centre:?}");
+        // How squarely the quad meets the block's farthest corner ray: the
+        // height of the ray's origin above it over the distance.
+        let height = 2.0 - RAY_EPSILON * 3.0 - 1.99;
+        assert!(
+            (centre.facing - height / centre.t).abs() < 1e-3,
+            "centre block {centre:?}"
+        );
+        let rim = d[(g / 2) * g].t;
         assert!(rim > 0.5, "rim block {rim}");
     }
 }

@@ -20,6 +20,10 @@ pub struct IsmPoints {
     /// `blocks * points_per_block` points: xyz in object space, w the
     /// object's index (`f32::from_bits`).
     pub positions: Vec<[f32; 4]>,
+    /// Each point's surface normal (its triangle's, in object space),
+    /// [`pack_normal`]ed: the ISM test's tolerance needs how the surface a
+    /// VPL sees faces it.
+    pub normals: Vec<u32>,
     /// Points in a block.
     pub points_per_block: usize,
     /// World radius one point stands for: sqrt(area / (pi * points_per_vpl)).
@@ -65,14 +69,15 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
             shading::opaque(scene, material, uv, color)
         };
         let p = |k: usize| Vec3::from(v[k].position);
+        let normal = pack_normal((p(1) - p(0)).cross(p(2) - p(0)));
         let p = p(0) * (1.0 - w1 - w2) + p(1) * w1 + p(2) * w2;
-        kept.then_some([p.x, p.y, p.z, f32::from_bits(instance.object)])
+        kept.then_some(([p.x, p.y, p.z, f32::from_bits(instance.object)], normal))
     };
     let masked = scene
         .materials
         .iter()
         .any(|m| matches!(m.alpha, AlphaMode::Mask(_)));
-    let mut positions: Vec<[f32; 4]> = if masked {
+    let mut points: Vec<([f32; 4], u32)> = if masked {
         // Points on cut-out texels are drawn again (up to 16 draws a point).
         (0..16 * count as u64)
             .filter_map(point)
@@ -88,32 +93,80 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
     };
     // A scene almost entirely cut out: repeat the points found (every VPL
     // block must be full), or a vertex if there were none.
-    let found = positions.len();
+    let found = points.len();
     for i in found..count {
         let p = if found > 0 {
-            positions[i % found]
+            points[i % found]
         } else {
             let (instance, v) = tri(0);
             let a = v[0].position;
-            [a[0], a[1], a[2], f32::from_bits(instance.object)]
+            ([a[0], a[1], a[2], f32::from_bits(instance.object)], pack_normal(Vec3::Z))
         };
-        positions.push(p);
+        points.push(p);
     }
+    let (positions, normals) = points.into_iter().unzip();
     // Consecutive Halton points are well spread, so each VPL's block of
     // consecutive points is itself a good area sampling.
     let point_radius =
         (total as f32 / (std::f32::consts::PI * points_per_vpl.max(1) as f32)).sqrt();
     IsmPoints {
         positions,
+        normals,
         points_per_block: points_per_vpl,
         point_radius,
         total_area: total as f32,
     }
 }
 
+/// A direction (any length but zero; zero gives +z) in 32 bits for the GPU
+/// (`ism_unpack_normal` in shaders/include/ism.glsl): its octahedral map,
+/// 15 bits a coordinate, and the top bit set, so that no normal packs to
+/// 0, a hidden object's point.
+pub fn pack_normal(n: Vec3) -> u32 {
+    let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
+    let n = if n.is_finite() { n } else { Vec3::Z };
+    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+    let e = if n.z < 0.0 {
+        Vec2::new((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
+    } else {
+        Vec2::new(n.x, n.y)
+    };
+    let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 32767.0).round();
+    0x8000_0000 | (q.x as u32) << 15 | q.y as u32
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `ism_unpack_normal` in shaders/include/ism.glsl.
+    fn unpack_normal(bits: u32) -> Vec3 {
+        let e = Vec2::new(((bits >> 15) & 32767) as f32, (bits & 32767) as f32) * (2.0 / 32767.0) - 1.0;
+        let mut n = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+        let t = (-n.z).max(0.0);
+        n.x += if n.x >= 0.0 { -t } else { t };
+        n.y += if n.y >= 0.0 { -t } else { t };
+        n.normalize()
+    }
+
+    #[test]
+    fn normals_pack_to_32_bits_and_back() {
+        let mut worst = 0.0f32;
+        for i in 0..2000 {
+            // A spiral over the sphere, and the axes (the octahedron's corners).
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / 2000.0;
+            let phi = i as f32 * 2.399_963;
+            let r = (1.0 - z * z).sqrt();
+            let n = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            for n in [n, Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
+                let bits = pack_normal(n * 3.0);
+                assert_ne!(bits, 0, "0 is a hidden object's point");
+                worst = worst.max(unpack_normal(bits).cross(n).length());
+            }
+        }
+        assert!(worst < 2e-4, "worst angle {worst} rad");
+        assert!((unpack_normal(pack_normal(Vec3::ZERO)) - Vec3::Z).length() < 1e-4);
+    }
 
     #[test]
     fn points_follow_area() {

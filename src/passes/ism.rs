@@ -31,8 +31,9 @@ pub struct Ism {
     /// `vpls` as RGBA32F texels (three per VPL), for the gathers. Declared
     /// before the buffer so that it is dropped first.
     pub vpl_texels: BufferView,
-    /// The atlas: per texel the bits of the nearest distance (r32ui, a
-    /// positive float divided by `far`), what lighting reads.
+    /// The atlas: per texel the nearest distance divided by `far` and how
+    /// squarely its surface faces the VPL (r32ui, `ism_pack` in
+    /// shaders/include/ism.glsl), what lighting reads.
     pub atlas: Image,
     /// The VPLs (`GpuVpl`), in the order of their interleaving subsets.
     pub vpls: Buffer,
@@ -44,12 +45,16 @@ pub struct Ism {
     /// Blocks of scene points, `points_per_vpl` each (VPLs share blocks),
     /// in their objects' space.
     pub points: Buffer,
+    /// Each point's surface normal in its object's space (`u32`,
+    /// [`crate::cpu::points::pack_normal`]).
+    pub point_normals: Buffer,
     /// The same points placed in world space for this frame's objects.
     pub world_points: Buffer,
     /// The (points, objects) versions `world_points` holds, once a frame
     /// ssbc submits placed them (placing is skipped while they hold).
     placed: std::cell::Cell<Option<(u64, u64)>>,
-    /// Each VPL's coarse ray-cast layer (m, `BASE_GRID`² per VPL).
+    /// Each VPL's coarse ray-cast layer (`BASE_GRID`² [`ism_rays::Corner`]s
+    /// per VPL: distance in m, facing).
     pub base_depths: Buffer,
     /// The (VPL, points) versions the buffers hold.
     versions: (u64, u64),
@@ -174,10 +179,10 @@ impl Pass for IsmPass {
         } else {
             vpls.to_vec()
         };
-        let point_data = if points.positions.is_empty() {
-            vec![[0.0f32; 4]]
+        let (point_data, normal_data) = if points.positions.is_empty() {
+            (vec![[0.0f32; 4]], vec![0u32])
         } else {
-            points.positions.clone()
+            (points.positions.clone(), points.normals.clone())
         };
         let subsets = &setup.cache.vpls().subsets;
         let base_data = base_layer(setup);
@@ -209,6 +214,12 @@ impl Pass for IsmPass {
                 device,
                 "ism.points",
                 &point_data,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
+            point_normals: Buffer::with_data(
+                device,
+                "ism.point_normals",
+                &normal_data,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
             placed: std::cell::Cell::new(None),
@@ -259,6 +270,8 @@ impl Pass for IsmPass {
         if !points.positions.is_empty() && ism.versions.1 != cached_points.version {
             ism.points
                 .write(0, bytemuck::cast_slice(&points.positions))?;
+            ism.point_normals
+                .write(0, bytemuck::cast_slice(&points.normals))?;
         }
         ism.versions = (cached_vpls.version, cached_points.version);
         ism.far = far;
@@ -298,6 +311,7 @@ impl Pass for IsmPass {
         if !(*reuse && ism.placed.get() == Some(placing)) {
             let scope = profiler.begin(rec.cmd, "ism_points");
             rec.use_buffer(&ism.points, Access::ComputeRead);
+            rec.use_buffer(&ism.point_normals, Access::ComputeRead);
             rec.use_buffer(objects, Access::ComputeRead);
             rec.use_buffer(&ism.world_points, Access::ComputeWrite);
             rec.flush_barriers();
@@ -306,6 +320,7 @@ impl Pass for IsmPass {
                 points: &ism.points,
                 objects,
                 world_points: &ism.world_points,
+                normals: &ism.point_normals,
             };
             let push = PlacePush { count };
             self.place
@@ -361,10 +376,11 @@ impl Pass for IsmPass {
 
 /// The VPLs' ray-cast layers, or one block when there are no VPLs (a buffer
 /// is never empty).
-fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [f32] {
+fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::Corner] {
+    const NONE: [ism_rays::Corner; 1] = [ism_rays::Corner { t: 0.0, facing: -1.0 }];
     let base = &setup.cache.vpls().ism_base;
     if base.is_empty() {
-        &[0.0]
+        &NONE
     } else {
         base
     }

@@ -53,11 +53,12 @@ pub(super) fn frame_memory(settings: &RenderSettings, lights: usize) -> u64 {
     };
     let vpls = settings.vpl.count as u64;
     let tile = settings.ism_tile as u64;
-    // The atlas, the VPLs and their ray-cast layers; the point blocks they
-    // share, in object space and placed in the world.
+    // The atlas, the VPLs and their ray-cast layers (a distance and a facing
+    // per block); the point blocks they share, in object space with their
+    // normals and placed in the world.
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
-    let ism =
-        vpls * (tile * tile * 4 + 48 + 256) + 2 * blocks * settings.points_per_vpl as u64 * 16;
+    let ism = vpls * (tile * tile * 4 + 48 + 512)
+        + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
     let shadow = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
     // Resident frames' temporal history.
     let history = if settings.history.enabled {

@@ -147,6 +147,9 @@ pub struct IsmReadback {
     pub far: f32,
     /// The atlas, as distances divided by `far`.
     pub depth: Vec<f32>,
+    /// Per texel, |cos| between the VPL's ray and the normal of the surface
+    /// it stores (-1: not known).
+    pub facing: Vec<f32>,
     /// World radius of one splatted point.
     pub point_radius: f32,
 }
@@ -182,11 +185,37 @@ impl IsmReadback {
         let stored = self.depth[texel];
         // ism_tolerance() in shaders/include/ism.glsl.
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
-        let c = (-normal.dot(w)).clamp(0.1, 1.0);
-        let slope = (1.0 - c * c).sqrt() / c;
+        let slope_of = |c: f32| {
+            let c = c.clamp(0.1, 1.0);
+            (1.0 - c * c).sqrt() / c
+        };
+        let mut slope = slope_of(-normal.dot(w));
+        let facing = self.facing[texel];
+        if facing >= 0.0 {
+            slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
+        }
         let tolerance = relative_bias * dist + footprint * slope + 1e-3;
         dist <= stored * self.far + tolerance
     }
+}
+
+/// ISM_CURVE and ISM_SLOPE_MARGIN in shaders/include/ism.glsl.
+const ISM_CURVE: f32 = 0.5;
+const ISM_SLOPE_MARGIN: f32 = 1.5;
+
+/// An atlas texel's distance (divided by `far`) and facing (-1: not known),
+/// as `ism_pack` in shaders/include/ism.glsl packs them.
+fn ism_unpack(texel: u32) -> (f32, f32) {
+    let depth = (texel >> 8) as f32 * (4.0 / 16_777_215.0);
+    let code = texel & 255;
+    (
+        depth,
+        if code == 0 {
+            -1.0
+        } else {
+            (code - 1) as f32 / 254.0
+        },
+    )
 }
 
 /// A rendered frame: the final image, its component layers and timings.
@@ -409,7 +438,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
                 debug_assert_eq!(k as usize, samples.len() + 1);
                 samples.push(buffer.read::<f32>()?);
             }
-            Readback::IsmAtlas => ism_depth = Some(buffer.read::<f32>()?),
+            Readback::IsmAtlas => ism_depth = Some(buffer.read::<u32>()?),
             Readback::Layer(layer) => layers.push(LayerImage {
                 layer,
                 rgba: crop(buffer.read::<f32>()?, 4),
@@ -476,13 +505,14 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         ssbc_steps,
     };
     let ism = images.ism;
-    let ism_readback = ism_depth.map(|depth| IsmReadback {
+    let ism_readback = ism_depth.map(|texels| IsmReadback {
         width: ism.atlas.desc.width,
         height: ism.atlas.desc.height,
         tile: ism.tile,
         tiles_per_row: ism.tiles_per_row,
         far: ism.far,
-        depth,
+        depth: texels.iter().map(|&t| ism_unpack(t).0).collect(),
+        facing: texels.iter().map(|&t| ism_unpack(t).1).collect(),
         point_radius: ism.point_radius,
     });
     Ok(Frame {
