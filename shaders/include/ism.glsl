@@ -71,7 +71,8 @@ const float ISM_DEPTH_STEPS = 16777215.0;  // 2^24 - 1
 
 uint ism_pack(float depth, float facing) {
     float q = clamp(depth * (ISM_DEPTH_STEPS / ISM_DEPTH_RANGE), 0.0, ISM_DEPTH_STEPS);
-    uint code = facing < 0.0 ? 0u : 1u + uint(round(clamp(facing, 0.0, 1.0) * 254.0));
+    // (A facing that is not a number, from a degenerate transform, is not known.)
+    uint code = facing >= 0.0 ? 1u + uint(round(min(facing, 1.0) * 254.0)) : 0u;
     return (uint(q) << 8) | code;
 }
 
