@@ -256,7 +256,7 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
 /// tolerance lets an occluder close to the receiver through; a diffuse
 /// receiver spreads such a leak over its hemisphere, a narrow lobe
 /// reflects it where the plinth should be dark. Receivers with GGX alpha
-/// under 0.1 take less of the relative bias (`indirect_bounded::ism_bias_for`),
+/// under 0.25 take less of the relative bias (`indirect_bounded::ism_bias_for`),
 /// and the slope term is the stored surface's (`ism_tolerance`): the floor,
 /// seen at a grazing angle from the wall's VPLs, gave the plinth, which
 /// faces them, several footprints of tolerance. GPU / exact-visibility VPL

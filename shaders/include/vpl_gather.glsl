@@ -41,7 +41,7 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
     // The ISM test's relative tolerance, less for a narrow glossy lobe,
     // which shows a leak as a reflection (twin: indirect_bounded::ism_bias_for).
-    float bias = lambertian ? pc.ism_bias : pc.ism_bias * clamp(10.0 * brdf_alpha(bx), 0.25, 1.0);
+    float bias = lambertian ? pc.ism_bias : pc.ism_bias * clamp(4.0 * brdf_alpha(bx), 0.25, 1.0);
     VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);
     float spread_weight = 0.0;
     for (uint i = first; i < last; i += stride) {
