@@ -2,11 +2,10 @@
 // ISM points to world space, once per redraw: each point (stored in its
 // object's space, w the object) placed by its object's transform, with its
 // surface normal (w: ism_pack_normal); a hidden object's points get w = 0
-// and are not splatted. (Placing them in the
-// splat instead repeats the transform for every VPL sharing a block and
-// doubled the splat's time on llvmpipe; placing takes 18.5 ms for 262k
-// points there, one or eight a invocation alike, and runs only when the
-// points or the objects changed.)
+// and are not splatted. (Placing them in the splat instead repeats the
+// transform for every VPL sharing a block and doubled the splat's time on
+// llvmpipe; placing takes 18.5 ms for 262k points there, one or eight a
+// invocation alike, and runs only when the points or the objects changed.)
 #include "common.glsl"
 #include "ism.glsl"
 
