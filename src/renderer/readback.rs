@@ -505,15 +505,18 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         ssbc_steps,
     };
     let ism = images.ism;
-    let ism_readback = ism_depth.map(|texels| IsmReadback {
-        width: ism.atlas.desc.width,
-        height: ism.atlas.desc.height,
-        tile: ism.tile,
-        tiles_per_row: ism.tiles_per_row,
-        far: ism.far,
-        depth: texels.iter().map(|&t| ism_unpack(t).0).collect(),
-        facing: texels.iter().map(|&t| ism_unpack(t).1).collect(),
-        point_radius: ism.point_radius,
+    let ism_readback = ism_depth.map(|texels| {
+        let (depth, facing) = texels.into_iter().map(ism_unpack).unzip();
+        IsmReadback {
+            width: ism.atlas.desc.width,
+            height: ism.atlas.desc.height,
+            tile: ism.tile,
+            tiles_per_row: ism.tiles_per_row,
+            far: ism.far,
+            depth,
+            facing,
+            point_radius: ism.point_radius,
+        }
     });
     Ok(Frame {
         width: settings.width,
