@@ -20,7 +20,8 @@
 //! 6. glTF metallic-roughness against Lambertian: `spheres` and the glTF
 //!    open-front box (rough dielectrics) with their materials and with each
 //!    made Lambertian of its base colour, the same VPL count: the gather, an
-//!    SSBC step, direct light;
+//!    SSBC step (and its ratio over the ratio of texels read: what a texel
+//!    costs), direct light; then the step's parts at the larger size;
 //! 7. camera-only frames of a resident scene (the camera moved 1 cm per
 //!    frame) with shadow maps and ISMs kept from the slot's previous frame,
 //!    against the same frames redrawing them (`reuse_unchanged` off);
@@ -337,8 +338,10 @@ fn measure_in_turn(
 /// one after the other, moved by 15% between runs.
 fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
     println!("\n## glTF metallic-roughness against Lambertian (one step): GPU ms\n");
-    println!("| scene | size | VPLs | direct | gather | gather ratio | step | step ratio | texels/px | glossy px alone | frame ratio |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| scene | size | VPLs | direct | gather | gather ratio | step | step ratio | texels/px | per texel | glossy px alone | frame ratio |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    // The step's parts of each scene's largest size, printed after.
+    let mut parts = Vec::new();
     let scenes = [
         ssbc::scene::builtin::spheres(),
         // Rough dielectrics, as most glTF assets' materials.
@@ -354,8 +357,9 @@ fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps
         let ratio = |name: &str| pair_ratio(&gt, &mt, timed_pass(name));
         let frame_ratio = pair_ratio(&gt, &mt, |t| t.frame_gpu_ms);
         let texels = |f: &Frame| f.timings.ssbc_steps[0].samples_per_pixel_avg;
+        let step_ratio = ratio("ssbc_step_1");
         println!(
-            "| {} | {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.1}% / {:.1}% | {:.2}x |",
+            "| {} | {}x{} | {} | {:.1} / {:.1} | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1} / {:.1} | {:.2}x | {:.1}% / {:.1}% | {:.2}x |",
             glossy.name,
             size.0,
             size.1,
@@ -367,14 +371,61 @@ fn glossy_against_lambertian(renderer: &mut Renderer, sizes: &[(u32, u32)], reps
             ratio("indirect_bounded"),
             step_ms(&g, 1),
             step_ms(&m, 1),
-            ratio("ssbc_step_1"),
+            step_ratio,
             texels(&g),
             texels(&m),
+            step_ratio / (texels(&g) / texels(&m)),
             g.timings.ssbc_steps[0].fallback_fraction * 100.0,
             m.timings.ssbc_steps[0].fallback_fraction * 100.0,
             frame_ratio,
         );
+        if Some(&size) == sizes.last() {
+            parts.push((
+                format!("{} {}x{}", glossy.name, size.0, size.1),
+                step_parts(&g, &m, &gt, &mt),
+            ));
+        }
     }
+    // Where the step's excess goes: its kernels, glossy / Lambertian, and
+    // of each the kernel that evaluates the points or pixels at glossy
+    // receivers (on a CPU device it runs after the one without glossy
+    // code; on a GPU one dispatch runs both and has no part of its own).
+    for (name, rows) in parts {
+        println!("\n### {name}: one step's parts, GPU ms (glossy / Lambertian, pair ratio)\n");
+        println!("| part | glossy | Lambertian | ratio | of it, the glossy kernel |");
+        println!("|---|---|---|---|---|");
+        for row in rows {
+            println!("{row}");
+        }
+    }
+}
+
+/// Table rows for the parts of step 1 (`ssbc_step_1/...`) of the frames
+/// `g` (glossy) and `m` (its Lambertian twin), measured in turn.
+fn step_parts(g: &Frame, m: &Frame, gt: &[Timings], mt: &[Timings]) -> Vec<String> {
+    let prefix = "ssbc_step_1/";
+    stats(g)
+        .passes
+        .iter()
+        .map(|p| p.name.as_str())
+        .filter(|n| n.starts_with(prefix) && !n.ends_with("/glossy"))
+        .map(|name| {
+            let glossy_kernel = format!("{name}/glossy");
+            let own = pass_ms(g, &glossy_kernel);
+            format!(
+                "| {} | {:.1} | {:.1} | {:.2}x | {} |",
+                &name[prefix.len()..],
+                pass_ms(g, name),
+                pass_ms(m, name),
+                pair_ratio(gt, mt, timed_pass(name)),
+                if own > 0.0 {
+                    format!("{own:.1}")
+                } else {
+                    "-".to_string()
+                },
+            )
+        })
+        .collect()
 }
 
 /// Table 7: camera-only resident frames keeping the view-independent
