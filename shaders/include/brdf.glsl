@@ -48,21 +48,22 @@ float brdf_widened_alpha(Brdf b, float spread2) {
     return brdf_is_lambertian(b) || !(spread2 > 0.0) ? a : min(sqrt(a * a + spread2), 1.0);
 }
 
-// GGX D times height-correlated Smith V for unit n and h (nv, nl > 0), in
-// one division. 1 - (n.h)^2 is |n x h|^2: near the peak of a narrow lobe
-// the difference cancelled to a few bits in f32, and GPUs' normalize
-// (NVIDIA: 1.9e-3 against the CPU) moved D with them.
-//   D = a^2 / (pi d^2), d = |n x h|^2 + (n.h)^2 a^2
+// GGX D times height-correlated Smith V for unit n, nv = n . wo and
+// nl = n . wi (both > 0), alpha^2 a2, and the half vector's unnormalised
+// sum = wo + wi (len2 = |sum|^2), in one division. 1 - (n.h)^2 is
+// |n x h|^2: near the peak of a narrow lobe the difference cancelled to a
+// few bits in f32, and GPUs' normalize (NVIDIA: 1.9e-3 against the CPU)
+// moved D with them. With n.h = (nv + nl) / |sum|:
+//   D = a^2 / (pi d^2), d = |n x h|^2 + (n.h)^2 a^2 = e / |sum|^2,
+//   e = |n x sum|^2 + (nv + nl)^2 a^2
 //   V = 0.5 / (nl sqrt(nv^2 (1 - a^2) + a^2) + nv sqrt(nl^2 (1 - a^2) + a^2))
-float ggx_dv(vec3 n, vec3 h, float a, float nv, float nl) {
-    float nh = dot(n, h);
-    if (nh <= 0.0) return 0.0;
-    vec3 c = cross(n, h);
-    float a2 = a * a;
-    float d = dot(c, c) + nh * nh * a2;
+float ggx_dv(vec3 n, vec3 sum, float len2, float a2, float nv, float nl) {
+    vec3 c = cross(n, sum);
+    float nvl = nv + nl;
+    float e = dot(c, c) + nvl * nvl * a2;
     float gv = nl * sqrt(nv * nv * (1.0 - a2) + a2);
     float gl = nv * sqrt(nl * nl * (1.0 - a2) + a2);
-    return 0.5 * a2 / (PI * d * d * (gv + gl));
+    return 0.5 * a2 * len2 * len2 / (PI * e * e * (gv + gl));
 }
 
 // The diffuse colour (1 - m) base: f's diffuse lobe is that / pi times
@@ -97,28 +98,56 @@ vec3 brdf_source_color(Brdf b) {
     return diffuse + specular;
 }
 
+// What f depends on for one receiver (unit normal n, view wo), for
+// brdf_view_parts: a walk evaluates it towards many wi at one receiver.
+// Schlick is linear in its F0: the specular colour
+//   (1 - m) w Fd + m Fm = f0 + (f90 - f0) s,  s = (1 - wo.h)^5,
+//   f0 = (1 - m) w 0.04 + m base,  f90 = (1 - m) w + m,
+// and the diffuse weight 1 - w Fd = 1 - w (0.04 + 0.96 s).
+struct BrdfView {
+    vec3 n;
+    vec3 wo;
+    float nv;            // n . wo: f is 0 unless > 0
+    vec3 f0;
+    vec3 f90_minus_f0;
+    float specular;      // the dielectric layer w
+    bool lambertian;
+};
+
+BrdfView brdf_view(Brdf b, vec3 n, vec3 wo) {
+    float m = b.metallic;
+    vec3 f0 = (1.0 - m) * b.specular * 0.04 + m * b.base;
+    float f90 = (1.0 - m) * b.specular + m;
+    return BrdfView(n, wo, dot(n, wo), f0, vec3(f90) - f0, b.specular, brdf_is_lambertian(b));
+}
+
 // f(wo, wi) split as brdf_diffuse_color(b) / pi * diffuse_weight + specular,
-// around unit normal n, with the GGX lobe's alpha `a` (brdf_alpha(b), or
-// widened); both zero unless wo and wi are above the surface.
-void brdf_parts_alpha(Brdf b, float a, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
+// for the receiver `v`, with the GGX lobe's alpha^2 `a2` (brdf_alpha(b)^2,
+// or widened); both zero unless wo and wi are above the surface.
+void brdf_view_parts(BrdfView v, float a2, vec3 wi, out float diffuse_weight, out vec3 specular) {
     diffuse_weight = 0.0;
     specular = vec3(0.0);
-    float nv = dot(n, wo);
-    float nl = dot(n, wi);
-    if (nv <= 0.0 || nl <= 0.0) return;
+    float nl = dot(v.n, wi);
+    if (v.nv <= 0.0 || nl <= 0.0) return;
     diffuse_weight = 1.0;
-    if (brdf_is_lambertian(b)) return;
-    vec3 sum = wo + wi;
+    if (v.lambertian) return;
+    vec3 sum = v.wo + wi;
     float len2 = dot(sum, sum);
     if (len2 <= 0.0) return;
-    vec3 h = sum * inversesqrt(len2);
-    float s1 = clamp(1.0 - abs(dot(wo, h)), 0.0, 1.0);
+    // wo . h = (1 + wo . wi) / |sum| = |sum| / 2.
+    float s1 = clamp(1.0 - 0.5 * len2 * inversesqrt(len2), 0.0, 1.0);
     float schlick = s1 * s1 * s1 * s1 * s1;
-    float fd = 0.04 + 0.96 * schlick;
-    vec3 fm = b.base + (vec3(1.0) - b.base) * schlick;
-    float m = b.metallic;
-    diffuse_weight = 1.0 - b.specular * fd;
-    specular = ((1.0 - m) * b.specular * fd + m * fm) * ggx_dv(n, h, a, nv, nl);
+    diffuse_weight = 1.0 - v.specular * (0.04 + 0.96 * schlick);
+    specular = (v.f0 + v.f90_minus_f0 * schlick) * ggx_dv(v.n, sum, len2, a2, v.nv, nl);
+}
+
+void brdf_parts_a2(Brdf b, float a2, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
+    brdf_view_parts(brdf_view(b, n, wo), a2, wi, diffuse_weight, specular);
+}
+
+// brdf_parts_a2 with the lobe's alpha `a`.
+void brdf_parts_alpha(Brdf b, float a, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
+    brdf_parts_a2(b, a * a, n, wo, wi, diffuse_weight, specular);
 }
 
 void brdf_parts(Brdf b, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {

@@ -23,7 +23,8 @@
 // (glossy points and the glossy fallback) before residual_integral;
 // inactive elsewhere.
 bool glossy_active = false;
-Brdf glossy_brdf;
+BrdfView glossy_view;
+vec3 glossy_diffuse;  // its diffuse lobe, brdf_diffuse_color / pi
 vec3 glossy_wo;
 vec3 glossy_rest = vec3(0.0);
 // Its lobe: the mirror direction of wo and GGX alpha. A cluster is refined
@@ -39,8 +40,9 @@ float glossy_pixel_area = 0.0;
 // normal nx, BRDF b) seen from the eye.
 void begin_glossy(Brdf b, vec3 x, vec3 nx) {
     glossy_active = true;
-    glossy_brdf = b;
     glossy_wo = normalize(pc.frame.camera_position.xyz - x);
+    glossy_view = brdf_view(b, nx, glossy_wo);
+    glossy_diffuse = brdf_diffuse_color(b) / PI;
     glossy_mirror = reflect(-glossy_wo, nx);
     glossy_alpha = brdf_alpha(b);
     glossy_pixel_area = pixel_area(x, glossy_wo);
@@ -54,11 +56,17 @@ float glossy_pixel_omega(float k, float pixel_scale) {
     return k * pixel_scale * glossy_pixel_area;
 }
 
-// Adds to glossy_rest what a cluster towards w sends with
-// weighted = max(G - b, 0) A_y S(y). A pixel seen over a solid angle omega
-// (glossy_pixel_omega) wider than the lobe around its peak takes the lobe
-// widened to its angular radius r (r^2 = omega / pi): alpha^2 becomes
-// max(alpha^2, r^2), as the gather widens it by a VPL's radius (a virtual
+// The squared chord from the mirror direction to unit w.
+float mirror_chord2(vec3 w) {
+    vec3 off = w - glossy_mirror;
+    return dot(off, off);
+}
+
+// Adds to glossy_rest what a cluster towards unit w (mirror_chord2(w) =
+// chord2) sends with weighted = max(G - b, 0) A_y S(y). A pixel seen over
+// a solid angle omega (glossy_pixel_omega) wider than the lobe around its
+// peak takes the lobe widened to its angular radius r (r^2 = omega / pi):
+// alpha^2 becomes max(alpha^2, r^2), as the gather widens it by a VPL's radius (a virtual
 // spherical light), about the mean of the BRDF over the pixel rather than
 // its value at the centre, which a pixel beside a contact (omega near
 // 1 sr) turned into the lobe's peak times its whole solid angle (a glossy
@@ -67,30 +75,21 @@ float glossy_pixel_omega(float k, float pixel_scale) {
 // nothing at 2 r: in the tail a widened lobe is brighter than the mean of
 // the narrow one (alpha^2 / theta^4 grows with alpha^2). Coarser clusters
 // keep the lobe: they are refined until they are small against it (see
-// visit()). Only pixels wider than the lobe and near its peak, behind a
-// branch: widening by r^2 wherever a pixel lies near the peak (alpha^2 +
-// r^2) made the glossy evaluation kernels 13-16% slower on lavapipe
-// (fastest of 5 alternating frames, spheres 1024x768: the lobe's view
-// terms no longer stayed out of the walk's loop), and a branch taken for
-// every pixel wider than the lobe (those beside the receiver) 10%.
-// ssbc::cpu::ssbc::glossy_pixel_spread is the CPU twin's.
-void add_glossy(vec3 nx, vec3 w, vec3 weighted, float omega) {
+// visit()). One evaluation, its alpha^2 selected: lavapipe runs both sides
+// of an if for the whole SIMD group, and a branch between the widened and
+// the plain lobe cost two (spheres 1024x768, glossy kernels of a step:
+// 324-327 -> 298-299 ms with one; the receiver's terms in BrdfView another
+// 3%). ssbc::cpu::ssbc::glossy_pixel_spread is the CPU twin's.
+void add_glossy(vec3 w, float chord2, vec3 weighted, float omega) {
     if (!glossy_active) return;
     float diffuse_weight;
     vec3 specular;
     float r2 = omega * (1.0 / PI);
     float wider = r2 - glossy_alpha * glossy_alpha;
-    vec3 off = w - glossy_mirror;
-    float chord2 = dot(off, off);
-    if (wider > 0.0 && chord2 < 4.0 * r2) {
-        float near = clamp((4.0 * r2 - chord2) / (3.0 * r2), 0.0, 1.0);
-        float a = brdf_widened_alpha(glossy_brdf, near * wider);
-        brdf_parts_alpha(glossy_brdf, a, nx, glossy_wo, w, diffuse_weight, specular);
-    } else {
-        brdf_parts(glossy_brdf, nx, glossy_wo, w, diffuse_weight, specular);
-    }
-    vec3 diffuse = brdf_diffuse_color(glossy_brdf) / PI;
-    glossy_rest += (diffuse * (diffuse_weight - 1.0) + specular) * weighted;
+    float near = clamp((4.0 * r2 - chord2) / (3.0 * r2), 0.0, 1.0);
+    float spread2 = wider > 0.0 && chord2 < 4.0 * r2 ? near * wider : 0.0;
+    brdf_view_parts(glossy_view, min(glossy_alpha * glossy_alpha + spread2, 1.0), w, diffuse_weight, specular);
+    glossy_rest += (glossy_diffuse * (diffuse_weight - 1.0) + specular) * weighted;
 }
 
 // Adds y (at d = y - x, normal ny, sum of A_y S(y) `as`; a pixel of
@@ -107,7 +106,7 @@ float accumulate(inout Residual acc, vec3 nx, vec3 ny, vec3 d, float dist, float
     acc.g += vec4(wk * as.g, as.g);
     acc.b += vec4(wk * as.b, as.b);
     float excess = cos_x * k - pc.frame.bound;
-    add_glossy(nx, w, excess * as, glossy_pixel_omega(k, pixel_scale));
+    add_glossy(w, mirror_chord2(w), excess * as, glossy_pixel_omega(k, pixel_scale));
     return excess;
 }
 
