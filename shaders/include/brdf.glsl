@@ -38,6 +38,11 @@ float brdf_alpha(Brdf b) {
     return r * r;
 }
 
+// alpha^2 of a GGX lobe of alpha `a` widened by spread2 >= 0 (below).
+float widened_a2(float a, float spread2) {
+    return min(a * a + spread2, 1.0);
+}
+
 // GGX alpha of the same BRDF with its lobe widened: alpha^2 grows by
 // spread2 (an angle squared, rad^2). Brdf::widened in brdf.rs, whose
 // roughness is the square root of this (taken here as alpha directly:
@@ -45,7 +50,7 @@ float brdf_alpha(Brdf b) {
 // round trip cost a square root and a clamp each).
 float brdf_widened_alpha(Brdf b, float spread2) {
     float a = brdf_alpha(b);
-    return brdf_is_lambertian(b) || !(spread2 > 0.0) ? a : min(sqrt(a * a + spread2), 1.0);
+    return brdf_is_lambertian(b) || !(spread2 > 0.0) ? a : sqrt(widened_a2(a, spread2));
 }
 
 // GGX D times height-correlated Smith V for unit n, nv = n . wo and
@@ -141,13 +146,9 @@ void brdf_view_parts(BrdfView v, float a2, vec3 wi, out float diffuse_weight, ou
     specular = (v.f0 + v.f90_minus_f0 * schlick) * ggx_dv(v.n, sum, len2, a2, v.nv, nl);
 }
 
-void brdf_parts_a2(Brdf b, float a2, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
-    brdf_view_parts(brdf_view(b, n, wo), a2, wi, diffuse_weight, specular);
-}
-
-// brdf_parts_a2 with the lobe's alpha `a`.
+// brdf_view_parts around unit normal n seen from wo, with the lobe's alpha `a`.
 void brdf_parts_alpha(Brdf b, float a, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {
-    brdf_parts_a2(b, a * a, n, wo, wi, diffuse_weight, specular);
+    brdf_view_parts(brdf_view(b, n, wo), a * a, wi, diffuse_weight, specular);
 }
 
 void brdf_parts(Brdf b, vec3 n, vec3 wo, vec3 wi, out float diffuse_weight, out vec3 specular) {

@@ -25,7 +25,6 @@
 bool glossy_active = false;
 BrdfView glossy_view;
 vec3 glossy_diffuse;  // its diffuse lobe, brdf_diffuse_color / pi
-vec3 glossy_wo;
 vec3 glossy_rest = vec3(0.0);
 // Its lobe: the mirror direction of wo and GGX alpha. A cluster is refined
 // where the BRDF changes across it, not only where G does (see visit()).
@@ -40,12 +39,12 @@ float glossy_pixel_area = 0.0;
 // normal nx, BRDF b) seen from the eye.
 void begin_glossy(Brdf b, vec3 x, vec3 nx) {
     glossy_active = true;
-    glossy_wo = normalize(pc.frame.camera_position.xyz - x);
-    glossy_view = brdf_view(b, nx, glossy_wo);
+    vec3 wo = normalize(pc.frame.camera_position.xyz - x);
+    glossy_view = brdf_view(b, nx, wo);
     glossy_diffuse = brdf_diffuse_color(b) / PI;
-    glossy_mirror = reflect(-glossy_wo, nx);
+    glossy_mirror = reflect(-wo, nx);
     glossy_alpha = brdf_alpha(b);
-    glossy_pixel_area = pixel_area(x, glossy_wo);
+    glossy_pixel_area = pixel_area(x, wo);
 }
 
 // The solid angle of a source pixel (cos(theta_y) / d^2 = k, `pixel_scale`
@@ -66,8 +65,8 @@ float mirror_chord2(vec3 w) {
 // chord2) sends with weighted = max(G - b, 0) A_y S(y). A pixel seen over
 // a solid angle omega (glossy_pixel_omega) wider than the lobe around its
 // peak takes the lobe widened to its angular radius r (r^2 = omega / pi):
-// alpha^2 becomes max(alpha^2, r^2), as the gather widens it by a VPL's radius (a virtual
-// spherical light), about the mean of the BRDF over the pixel rather than
+// alpha^2 becomes max(alpha^2, r^2), as the gather widens it by a VPL's
+// radius (a virtual spherical light), about the mean of the BRDF over the pixel rather than
 // its value at the centre, which a pixel beside a contact (omega near
 // 1 sr) turned into the lobe's peak times its whole solid angle (a glossy
 // floor's row along a wall 5x too bright). Fully where the chord to the
@@ -88,7 +87,7 @@ void add_glossy(vec3 w, float chord2, vec3 weighted, float omega) {
     float wider = r2 - glossy_alpha * glossy_alpha;
     float near = clamp((4.0 * r2 - chord2) / (3.0 * r2), 0.0, 1.0);
     float spread2 = wider > 0.0 && chord2 < 4.0 * r2 ? near * wider : 0.0;
-    brdf_view_parts(glossy_view, min(glossy_alpha * glossy_alpha + spread2, 1.0), w, diffuse_weight, specular);
+    brdf_view_parts(glossy_view, widened_a2(glossy_alpha, spread2), w, diffuse_weight, specular);
     glossy_rest += (glossy_diffuse * (diffuse_weight - 1.0) + specular) * weighted;
 }
 
