@@ -183,10 +183,8 @@ void main() {
         vec3 total = brdf_diffuse_color(b) / PI * integral + rest_blend;
         float spread = 0.0;
         for (int k = 0; k < 4; k++) {
-            if (corner_weight(fraction, k) > 0.0) {
-                vec3 d = abs(rests[k] - rest_blend);
-                spread += corner_weight(fraction, k) * (d.r + d.g + d.b);
-            }
+            vec3 d = abs(rests[k] - rest_blend);
+            spread += corner_weight(fraction, k) * (d.r + d.g + d.b);
         }
         ok = spread <= AGREE * (total.r + total.g + total.b);
         rest_only = !ok;

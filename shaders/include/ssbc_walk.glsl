@@ -190,8 +190,10 @@ vec3 add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
 // SIMD group whose lanes add at most one cluster evaluates it once;
 // lavapipe runs both sides of an if for the whole group, so called once
 // per cluster it cost two evaluations per texel (spheres 1024x768: step
-// 760 -> 716-731 ms, images the same bit for bit). It runs a loop's body at
-// least once too: every texel costs one evaluation. (Exactly one per
+// 760 -> 716-731 ms, images the same bit for bit). A group whose lanes
+// add nothing costs little here (a loop with a runtime zero count added
+// 7.5 ms to the open box's glossy kernels, the BRDF passes 14 ms more;
+// two texels per pass saved nothing: docs/performance.md). (Exactly one per
 // texel, a back cluster that adds with the front one waiting for the next
 // texel that adds nothing, was slower: the texels whose clusters both add
 // while one waits, read again, were 2% more texels, and the glossy kernels
