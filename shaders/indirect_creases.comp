@@ -23,7 +23,7 @@ layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
-layout(set = 0, binding = 6) uniform samplerBuffer vpl_texels;
+layout(set = 0, binding = 6) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 8) readonly buffer Creases { uvec4 header; uint pixels[]; } creases;

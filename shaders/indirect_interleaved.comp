@@ -16,7 +16,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 2) uniform samplerBuffer vpl_texels;
+layout(set = 0, binding = 2) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
 layout(set = 0, binding = 4) readonly buffer Subsets { uint subset_start[]; };
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D interleaved;

@@ -30,7 +30,7 @@ layout(push_constant) uniform ResolvePush {
 layout(set = 0, binding = 3) buffer Claims { uint claims[]; };
 // Per evaluation point, at glossy receivers, the glossy rest (xyz) and the
 // bits of the generation of the step that computed it (w; see EvalPoint).
-layout(set = 0, binding = 16) uniform samplerBuffer point_glossy;
+layout(set = 0, binding = 16) uniform textureBuffer point_glossy;
 
 layout(local_size_x = 64) in;
 

@@ -17,7 +17,7 @@ layout(push_constant) uniform SamplesPush {
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 3) uniform usamplerBuffer point_texels;  // points[] as texels
+layout(set = 0, binding = 3) uniform utextureBuffer point_texels;  // points[] as texels
 layout(set = 0, binding = 4, r32f) uniform image2D samples;
 
 void main() {

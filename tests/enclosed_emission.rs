@@ -3,20 +3,27 @@
 //! same emitter samples, on every scene in `tests/scenes/` (the folder
 //! `SSBC_SCENES` names instead, for sweeps). CPU only.
 
+mod common;
+
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::emitters::luminance;
 use ssbc::cpu::enclosure::Enclosure;
 use ssbc::cpu::vpl::{self, VplSettings};
 use ssbc::reference::{Reference, ReferenceSettings};
 
-/// Emitter samples the path tracer decides (its share's noise is about
-/// 1 point at an even split).
-const SAMPLES: u64 = 2048;
+/// Emitter samples the path tracer decides. Its share's noise, measured as
+/// the spread of its estimates against 32768 samples on these scenes: about
+/// 0.15 point at 2048 samples, 0.05-0.09 at 8192.
+const SAMPLES: u64 = 8192;
+
+/// How far the left-out share may lie from the path tracer's (the README's
+/// claim): 0.2 point, about three times the path tracer's own noise.
+const TOLERANCE: f64 = 0.002;
 
 #[test]
 fn left_out_emission_is_what_cannot_reach_the_camera() {
-    let dir = std::env::var("SSBC_SCENES")
-        .unwrap_or_else(|_| format!("{}/tests/scenes", env!("CARGO_MANIFEST_DIR")));
+    let dir = common::tuning_var("SSBC_SCENES")
+        .unwrap_or_else(|| format!("{}/tests/scenes", env!("CARGO_MANIFEST_DIR")));
     let mut paths: Vec<_> = std::fs::read_dir(&dir)
         .expect("scene folder")
         .map(|e| e.unwrap().path())
@@ -70,7 +77,7 @@ fn left_out_emission_is_what_cannot_reach_the_camera() {
             0.0
         };
         eprintln!(
-            "{name}: emitted {emitted:.3} W, left out {left_out:.3} W ({:.1}%); path tracer: {:.1}% cannot reach the camera; left out although it reaches it: {:.2}% of samples",
+            "{name}: emitted {emitted:.3} W, left out {left_out:.3} W ({:.2}%); path tracer: {:.2}% cannot reach the camera; left out although it reaches it: {:.2}% of samples",
             share * 100.0,
             truth.max(0.0) * 100.0,
             wrongly_left_out * 100.0
@@ -80,9 +87,9 @@ fn left_out_emission_is_what_cannot_reach_the_camera() {
                 "{name}: left out {left_out} W > emitted {emitted} W"
             ));
         }
-        if (share - truth).abs() > 0.05 {
+        if (share as f64 - truth as f64).abs() > TOLERANCE {
             failures.push(format!(
-                "{name}: left out {:.1}% of the emission, the path tracer finds {:.1}% enclosed",
+                "{name}: left out {:.2}% of the emission, the path tracer finds {:.2}% enclosed",
                 share * 100.0,
                 truth * 100.0
             ));

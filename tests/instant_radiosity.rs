@@ -350,7 +350,7 @@ fn a_normal_mapped_plane_is_one_surface_to_the_gathers_filter() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
     if !renderer.device().profiling().pipeline_statistics {
-        eprintln!("no pipeline statistics on this device: nothing to count");
+        common::cannot_check("no pipeline statistics on this device: nothing to count");
         return;
     }
     let mut s = settings(Bound::Auto);

@@ -158,13 +158,15 @@ fn minified_textures_show_their_mean_over_each_pixel() {
         );
         report.push((name, mean, pixel_mse, block_mse));
     }
-    // Measured (2026-11-25): diffuse mean 1.0009, relMSE 0.0118 per pixel
-    // and 0.00036 on blocks (one texel per pixel before: 0.182 and 0.012);
-    // metal 1.22, 0.45 and 0.41 (before 0.77, 4.40 and 1.51). The metal's
-    // mean normal keeps the lobe as narrow as one bump's, so its highlight
-    // is too bright and narrow (docs/accuracy.md); the limits there only
-    // hold the gain.
-    let [(_, diffuse_mean, diffuse_pixels, diffuse_blocks), (_, _, metal_pixels, metal_blocks)] =
+    // Measured (2026-11-25, again 2026-11-27 on Mesa 25): diffuse mean
+    // 1.0009, relMSE 0.0118 per pixel and 0.00036 on blocks (one texel per
+    // pixel before: 0.182 and 0.012); metal 1.2227, 0.453 and 0.411
+    // (before 0.77, 4.40 and 1.51). The metal's mean normal keeps the lobe
+    // as narrow as one bump's, so its highlight is too bright and narrow
+    // (docs/accuracy.md): a known imperfection, pinned to a band around
+    // what was measured so that neither a regression nor an empty image
+    // (mean 0, relMSE about 0.99) passes.
+    let [(_, diffuse_mean, diffuse_pixels, diffuse_blocks), (_, metal_mean, metal_pixels, metal_blocks)] =
         report[..]
     else {
         unreachable!()
@@ -178,8 +180,12 @@ fn minified_textures_show_their_mean_over_each_pixel() {
         "diffuse relMSE {diffuse_pixels} / {diffuse_blocks}"
     );
     assert!(
-        metal_pixels < 1.0 && metal_blocks < 0.8,
-        "metal relMSE {metal_pixels} / {metal_blocks}"
+        (1.15..1.30).contains(&metal_mean),
+        "metal mean {metal_mean} outside its measured band 1.15-1.30"
+    );
+    assert!(
+        (0.38..0.53).contains(&metal_pixels) && (0.34..0.49).contains(&metal_blocks),
+        "metal relMSE {metal_pixels} / {metal_blocks} outside its measured bands 0.38-0.53 / 0.34-0.49"
     );
 }
 

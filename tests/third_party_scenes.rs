@@ -55,15 +55,50 @@ fn block_rel_mse(a: &[f32], b: &[f32], (w, h): (u32, u32)) -> f64 {
     sum / ((w / 4) * (h / 4)) as f64
 }
 
+/// GPU against path tracer: the ratio of the means and the relative MSE on
+/// 4x4 blocks (which holds the path tracer's own noise too).
+struct Agreement {
+    ratio: f64,
+    blocks: f64,
+}
+
+impl Agreement {
+    /// Failures against the mean's tolerance and the block limit `blocks`
+    /// (about 1.5 times what was measured: an image wrong by a constant
+    /// factor of 0.7, or black, exceeds every limit).
+    fn failures(&self, name: &str, blocks: f64) -> Vec<String> {
+        let mut failures = Vec::new();
+        if (self.ratio - 1.0).abs() >= TOLERANCE {
+            failures.push(format!("{name}: GPU / path tracer {}", self.ratio));
+        }
+        if self.blocks > blocks {
+            failures.push(format!(
+                "{name}: relMSE on 4x4 blocks {} above {blocks}",
+                self.blocks
+            ));
+        }
+        failures
+    }
+
+    fn assert(&self, name: &str, blocks: f64) {
+        let failures = self.failures(name, blocks);
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+}
+
 /// Renders `name` at the defaults for [`SIZE`] and with the path tracer
-/// (256 spp: the mean's noise is about 0.2%); returns GPU mean / path-traced
-/// mean after printing it with the block error and the VPLs per light path.
-fn gpu_over_path_tracer(name: &str) -> (f64, ssbc::renderer::Frame) {
+/// (256 spp: the mean's noise is about 0.2%); prints and returns how they
+/// agree, with the VPLs per light path.
+fn gpu_over_path_tracer(name: &str) -> (Agreement, ssbc::renderer::Frame) {
     gpu_over_path_tracer_at(name, SIZE, 256)
 }
 
 /// [`gpu_over_path_tracer`] at `size` with `spp` path-traced samples.
-fn gpu_over_path_tracer_at(name: &str, size: (u32, u32), spp: u32) -> (f64, ssbc::renderer::Frame) {
+fn gpu_over_path_tracer_at(
+    name: &str,
+    size: (u32, u32),
+    spp: u32,
+) -> (Agreement, ssbc::renderer::Frame) {
     let scene = load(name);
     let settings = common::small(size.0, size.1);
     let frame = common::render_validated(&scene, &settings);
@@ -80,17 +115,17 @@ fn gpu_over_path_tracer_at(name: &str, size: (u32, u32), spp: u32) -> (f64, ssbc
     .render(&AtomicBool::new(false), |_| {})
     .0;
     let ratio = mean(&frame.image.rgba) / mean(&reference);
+    let blocks = block_rel_mse(&frame.image.rgba, &reference, size);
     let t = &frame.timings;
     eprintln!(
-        "{name}: GPU / path tracer {ratio:.4}, relMSE on 4x4 blocks {:.4}; {} VPLs from {} light paths (at most {} from one), {:.3} W of {:.3} W of emission into solids left out",
-        block_rel_mse(&frame.image.rgba, &reference, size),
+        "{name}: GPU / path tracer {ratio:.4}, relMSE on 4x4 blocks {blocks:.4}; {} VPLs from {} light paths (at most {} from one), {:.3} W of {:.3} W of emission into solids left out",
         t.vpl_count,
         t.light_paths,
         t.max_vpls_per_light_path,
         t.enclosed_emission_w,
         t.emission_w,
     );
-    (ratio, frame)
+    (Agreement { ratio, blocks }, frame)
 }
 
 /// Within 5% of the path tracer (the bar): what is left is the
@@ -100,8 +135,9 @@ const TOLERANCE: f64 = 0.05;
 
 #[test]
 fn a_thin_closed_emissive_box_under_the_ceiling() {
-    let (ratio, frame) = gpu_over_path_tracer("fixture-thin-box");
-    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    let (agreement, frame) = gpu_over_path_tracer("fixture-thin-box");
+    // Measured 0.0165 (2026-11-27).
+    agreement.assert("fixture-thin-box", 0.025);
     // The inner sides' light stays in the box: half the emission is left
     // out, and no path bounces there until the budget is spent.
     assert!(frame.timings.enclosed_emission_w > 1.5);
@@ -132,11 +168,9 @@ fn rooms_of_slabs_lit_by_a_thin_closed_fixture() {
         // and the ISMs err by 5-10% in whole regions of these images (the
         // 10 cm fixture: 0.93 at 64x48, 0.95 at 128x96, 0.99 at 160x120);
         // 64 samples make the path tracer's mean good to about 0.3%.
-        let (ratio, frame) = gpu_over_path_tracer_at(name, (160, 120), 64);
+        let (agreement, frame) = gpu_over_path_tracer_at(name, (160, 120), 64);
         let t = &frame.timings;
-        if (ratio - 1.0).abs() >= TOLERANCE {
-            failures.push(format!("{name}: GPU / path tracer {ratio}"));
-        }
+        failures.extend(agreement.failures(name, slab_block_limit(name)));
         if !(t.enclosed_emission_w <= t.emission_w && t.enclosed_emission_w > 0.25 * t.emission_w) {
             failures.push(format!(
                 "{name}: {} W of {} W left out",
@@ -147,22 +181,37 @@ fn rooms_of_slabs_lit_by_a_thin_closed_fixture() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// The relative MSE on 4x4 blocks a slab room may reach at 160x120 against
+/// 64 path-traced samples: about 1.5 times what was measured (2026-11-27:
+/// the open box 0.079, where ISM visibility errs most; the closed rooms
+/// 0.018-0.026; the rest 0.003-0.005).
+fn slab_block_limit(name: &str) -> f64 {
+    match name {
+        "slabs-open-box" => 0.12,
+        n if n.starts_with("slabs-room") => 0.04,
+        _ => 0.008,
+    }
+}
+
 #[test]
 fn a_double_sided_quad_1cm_under_the_ceiling() {
-    let (ratio, _) = gpu_over_path_tracer("fixture-quad-gap");
-    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    let (agreement, _) = gpu_over_path_tracer("fixture-quad-gap");
+    // Measured 0.0306.
+    agreement.assert("fixture-quad-gap", 0.045);
 }
 
 #[test]
 fn a_one_sided_quad_flush_with_the_ceiling() {
-    let (ratio, _) = gpu_over_path_tracer("fixture-quad-flush");
-    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    let (agreement, _) = gpu_over_path_tracer("fixture-quad-flush");
+    // Measured 0.0108.
+    agreement.assert("fixture-quad-flush", 0.016);
 }
 
 #[test]
 fn a_closed_room_lit_by_a_point_light() {
-    let (ratio, _) = gpu_over_path_tracer("closed-room");
-    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    let (agreement, _) = gpu_over_path_tracer("closed-room");
+    // Measured 0.0035.
+    agreement.assert("closed-room", 0.006);
 }
 
 #[test]
@@ -170,8 +219,9 @@ fn emission_that_cannot_light_the_scene_gets_the_default_light_as_well() {
     // A bottle whose label glows: its light leaves the convex bottle.
     let label = load("glowing-label");
     assert_eq!(label.lights.len(), 1, "the default light is added");
-    let (ratio, frame) = gpu_over_path_tracer("glowing-label");
-    assert!((ratio - 1.0).abs() < TOLERANCE, "GPU / path tracer {ratio}");
+    let (agreement, frame) = gpu_over_path_tracer("glowing-label");
+    // Measured 0.0012.
+    agreement.assert("glowing-label", 0.003);
     // More than the label shows: the bottle is lit.
     let lit = frame
         .image

@@ -4,6 +4,11 @@
 #ifndef SSBC_COMMON_GLSL
 #define SSBC_COMMON_GLSL
 
+// Buffers read as texels are `textureBuffer`s fetched without a sampler: a
+// `samplerBuffer` is an OpTypeSampledImage of Dim Buffer, which SPIR-V 1.6
+// forbids (Vulkan 1.4 validation flags it).
+#extension GL_EXT_samplerless_texture_functions : require
+
 const float PI = 3.14159265358979;
 
 const uint LIGHT_POINT = 0u;

@@ -15,7 +15,7 @@ layout(set = 0, binding = 10, rgba32f) uniform readonly image2D previous;   // S
 layout(set = 0, binding = 11, rgba32f) uniform image2D final_image;
 layout(set = 0, binding = 12, rgba32f) uniform image2D residual;           // S_k
 layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
-layout(set = 0, binding = 14) uniform usamplerBuffer point_texels;          // points[] as texels (reads)
+layout(set = 0, binding = 14) uniform utextureBuffer point_texels;          // points[] as texels (reads)
 layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // what S_k sends
 
 // S_k(p) = diffuse colour / pi * I + the glossy rest (0 on a Lambertian

@@ -8,9 +8,9 @@
 
 #include "ssbc_types.glsl"
 
-layout(set = 0, binding = 0) uniform usamplerBuffer geo_texels;       // four per GeoTexel
-layout(set = 0, binding = 1) uniform usamplerBuffer aux_texels;       // one per GeoAux
-layout(set = 0, binding = 2) uniform samplerBuffer radiance_texels;   // two per texel: front, back
+layout(set = 0, binding = 0) uniform utextureBuffer geo_texels;       // four per GeoTexel
+layout(set = 0, binding = 1) uniform utextureBuffer aux_texels;       // one per GeoAux
+layout(set = 0, binding = 2) uniform textureBuffer radiance_texels;   // two per texel: front, back
 
 // Cluster c (0 front, 1 back) of texel i.
 GeoCluster geo_cluster(uint i, uint c) {

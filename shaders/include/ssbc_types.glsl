@@ -265,7 +265,7 @@ struct EvalPoint {
 
 // Evaluation point `index` from a texel view of the points (four
 // R32G32B32A32_UINT texels per point).
-EvalPoint load_point(usamplerBuffer texels, uint index) {
+EvalPoint load_point(utextureBuffer texels, uint index) {
     int at = int(4u * index);
     uvec4 tail = texelFetch(texels, at + 3);
     return EvalPoint(Residual(uintBitsToFloat(texelFetch(texels, at)),

@@ -1,5 +1,5 @@
 //! Texel views of buffers (`VkBufferView`): a buffer read as an array of
-//! formatted texels through `texelFetch` on a `samplerBuffer`.
+//! formatted texels through `texelFetch` on a `textureBuffer` (GL_EXT_samplerless_texture_functions).
 //!
 //! Why SSBC uses them: a traversal reads pyramid texels at addresses that
 //! differ per invocation. A storage-buffer load of a `vec4` costs lavapipe a

@@ -240,7 +240,7 @@ pub enum Binding<'a> {
     StorageBuffer(&'a Buffer),
     /// A whole uniform buffer.
     UniformBuffer(&'a Buffer),
-    /// A buffer read as texels (`samplerBuffer`).
+    /// A buffer read as texels (`textureBuffer`).
     UniformTexelBuffer(&'a BufferView),
     /// A buffer read and written as texels (`imageBuffer`).
     StorageTexelBuffer(&'a BufferView),

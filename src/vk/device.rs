@@ -228,6 +228,29 @@ fn queue_family_index(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Optio
         .map(|i| i as u32)
 }
 
+/// The driver's name and version as it reports them (Vulkan 1.2's
+/// driverName and driverInfo, e.g. "llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM
+/// 15.0.6)"): what tells two drivers of one device name apart.
+fn driver_description(instance: &ash::Instance, physical: vk::PhysicalDevice) -> String {
+    let mut v12 = vk::PhysicalDeviceVulkan12Properties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut v12);
+    // SAFETY: a live physical device of this Vulkan 1.3 instance.
+    unsafe { instance.get_physical_device_properties2(physical, &mut props2) };
+    let text = |c: Result<&CStr, _>| {
+        c.map(|c| c.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    let (name, info) = (
+        text(v12.driver_name_as_c_str()),
+        text(v12.driver_info_as_c_str()),
+    );
+    match (name.is_empty(), info.is_empty()) {
+        (true, true) => "(driver not named)".into(),
+        (false, false) => format!("{name}, {info}"),
+        _ => format!("{name}{info}"),
+    }
+}
+
 fn device_name(props: &vk::PhysicalDeviceProperties) -> String {
     props
         .device_name_as_c_str()
@@ -306,7 +329,10 @@ impl Device {
             .vk("vkCreateDevice")?;
         instance.pin_driver_libraries();
         let name = device_name(&properties);
-        log::info!("using Vulkan device '{name}'");
+        log::info!(
+            "using Vulkan device '{name}' (driver: {})",
+            driver_description(&instance.raw, physical)
+        );
         Self::from_parts(
             instance,
             physical,
@@ -536,6 +562,11 @@ impl Device {
     /// Device name as the driver reports it.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The driver's name and version (driverName, driverInfo).
+    pub fn driver(&self) -> String {
+        driver_description(&self.instance.raw, self.physical)
     }
 
     /// Device limits.

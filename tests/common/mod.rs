@@ -9,6 +9,36 @@ use glam::{Mat4, Vec3};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 use ssbc::scene::{Camera, Light, LightKind, Scene};
 
+/// Whether the suite runs under the README's test command
+/// (`scripts/test.sh`), which has set up everything a check needs.
+pub fn under_test_command() -> bool {
+    std::env::var_os("SSBC_TEST_COMMAND").is_some()
+}
+
+/// A test that cannot run its check here: under the test command that is
+/// a setup error and fails the test; elsewhere it says so on stderr (the
+/// caller then returns).
+pub fn cannot_check(why: &str) {
+    assert!(
+        !under_test_command(),
+        "this test cannot run its check under the test command: {why}"
+    );
+    eprintln!("SKIPPED (not under scripts/test.sh): {why}");
+}
+
+/// A tuning variable a test reads (`SSBC_SCENES`, `SSBC_REFINE_RATIO`, ...):
+/// when set it changes what the test checks, so the test names it in its
+/// output; the test command refuses them (scripts/test.sh).
+pub fn tuning_var(name: &str) -> Option<String> {
+    let value = std::env::var(name).ok()?;
+    assert!(
+        !under_test_command(),
+        "{name}={value} would change what the tests check; the test command refuses it"
+    );
+    eprintln!("NOTE: {name}={value} changes what this test checks");
+    Some(value)
+}
+
 /// Renders `scene` with validation + synchronization validation on, drops the
 /// renderer, and panics if the layer reported anything.
 pub fn render_validated(scene: &Scene, settings: &RenderSettings) -> Frame {
@@ -380,5 +410,48 @@ pub fn normal_map(side: u32, slope: impl Fn(u32, u32) -> (f32, f32)) -> ssbc::sc
                 [x, y, z, 255]
             })
             .collect(),
+    }
+}
+
+/// Every channel of every layer of an EXR, by name (`layer/channel`),
+/// sorted by name.
+pub fn exr_channels(path: &std::path::Path) -> Vec<(String, Vec<f32>)> {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .expect("read EXR");
+    let mut out = Vec::new();
+    for layer in &image.layer_data {
+        let prefix = match &layer.attributes.layer_name {
+            Some(name) => format!("{name}/"),
+            None => String::new(),
+        };
+        for channel in &layer.channel_data.list {
+            let name = format!("{prefix}{}", channel.name);
+            out.push((name, channel.sample_data.values_as_f32().collect()));
+        }
+    }
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
+/// The previous lavapipe (Debian 12's own Mesa 22.3, unpacked by
+/// scripts/setup.sh): its ICD manifest, or None (and [`cannot_check`])
+/// where there is none.
+pub fn previous_driver() -> Option<String> {
+    let manifest = std::env::var("SSBC_PREVIOUS_ICD")
+        .unwrap_or_else(|_| "/usr/local/lib/ssbc-mesa-stock/lvp_icd.json".into());
+    if std::path::Path::new(&manifest).is_file() {
+        Some(manifest)
+    } else {
+        cannot_check(&format!(
+            "no previous driver at {manifest} (scripts/setup.sh unpacks it)"
+        ));
+        None
     }
 }

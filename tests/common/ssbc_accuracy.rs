@@ -116,8 +116,21 @@ pub fn one_step(size: (u32, u32), bound: Bound) -> RenderSettings {
     };
     s.vpl.count = 64;
     s.ssbc.steps = 1;
-    // Tuning overrides (examples/ssbc_accuracy.rs): SSBC_<FIELD>=value.
-    let var = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<f32>().ok());
+    // Tuning overrides (examples/ssbc_accuracy.rs): SSBC_<FIELD>=value,
+    // named in the output; the test command refuses them.
+    let var = |name: &str| {
+        let value = std::env::var(name).ok()?;
+        assert!(
+            std::env::var_os("SSBC_TEST_COMMAND").is_none(),
+            "{name}={value} would change what the tests check"
+        );
+        eprintln!("NOTE: {name}={value} overrides the default setting");
+        Some(
+            value
+                .parse::<f32>()
+                .unwrap_or_else(|_| panic!("{name}={value}: not a number")),
+        )
+    };
     if let Some(v) = var("SSBC_REFINE_RATIO") {
         s.ssbc.refine_ratio = v;
     }
