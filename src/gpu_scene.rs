@@ -32,9 +32,7 @@ pub struct GpuMesh {
 }
 
 /// One indexed draw of a range of a mesh for one object (its index goes in
-/// the push block, where the vertex shaders read it: indexing the objects
-/// with `gl_InstanceIndex` made llvmpipe corrupt its heap in 9 of 10
-/// 4-wide runs).
+/// the push block, where the vertex shaders read it).
 #[derive(Clone, Copy, Debug)]
 pub struct Draw {
     /// First index.

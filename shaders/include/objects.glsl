@@ -1,6 +1,5 @@
 // The scene's objects (GpuObject in common.glsl): vertex shaders read the
-// drawn object's index from their push block (set per draw; indexing by
-// gl_InstanceIndex made llvmpipe corrupt its heap at 4-wide subgroups).
+// drawn object's index from their push block (set per draw).
 #ifndef SSBC_OBJECTS_GLSL
 #define SSBC_OBJECTS_GLSL
 #include "common.glsl"
