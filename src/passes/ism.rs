@@ -31,9 +31,9 @@ pub struct Ism {
     /// `vpls` as RGBA32F texels (three per VPL), for the gathers. Declared
     /// before the buffer so that it is dropped first.
     pub vpl_texels: BufferView,
-    /// The atlas: per texel the nearest distance divided by `far` and how
-    /// squarely its surface faces the VPL (r32ui, `ism_pack` in
-    /// shaders/include/ism.glsl), what lighting reads.
+    /// The atlas: per texel the plane of the surface nearest the VPL at the
+    /// texel's centre (r32ui: distance divided by `far`, normal; `ism_pack`
+    /// in shaders/include/ism.glsl), what lighting reads.
     pub atlas: Image,
     /// The VPLs (`GpuVpl`), in the order of their interleaving subsets.
     pub vpls: Buffer,
@@ -53,8 +53,8 @@ pub struct Ism {
     /// The (points, objects) versions `world_points` holds, once a frame
     /// ssbc submits placed them (placing is skipped while they hold).
     placed: std::cell::Cell<Option<(u64, u64)>>,
-    /// Each VPL's coarse ray-cast layer (`BASE_GRID`² [`ism_rays::Corner`]s
-    /// per VPL: distance in m, facing).
+    /// Each VPL's coarse ray-cast layer (`RAYS_PER_VPL` [`ism_rays::CornerPlane`]s
+    /// per VPL).
     pub base_depths: Buffer,
     /// The (VPL, points) versions the buffers hold.
     versions: (u64, u64),
@@ -376,8 +376,11 @@ impl Pass for IsmPass {
 
 /// The VPLs' ray-cast layers, or one block when there are no VPLs (a buffer
 /// is never empty).
-fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::Corner] {
-    const NONE: [ism_rays::Corner; 1] = [ism_rays::Corner { t: 0.0, facing: -1.0 }];
+fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::CornerPlane] {
+    const NONE: [ism_rays::CornerPlane; 1] = [ism_rays::CornerPlane {
+        plane: 0.0,
+        normal: 0,
+    }];
     let base = &setup.cache.vpls().ism_base;
     if base.is_empty() {
         &NONE
