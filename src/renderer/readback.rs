@@ -251,7 +251,12 @@ impl IsmReadback {
         let local = ((uv.x * tile as f32) as i64).clamp(0, tile - 1);
         let local_y = ((uv.y * tile as f32) as i64).clamp(0, tile - 1);
         let texel = ((origin.1 + local_y) * self.width as i64 + origin.0 + local) as usize;
-        (texel, glam::IVec2::new(local as i32, local_y as i32), dist, w)
+        (
+            texel,
+            glam::IVec2::new(local as i32, local_y as i32),
+            dist,
+            w,
+        )
     }
 }
 
