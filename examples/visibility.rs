@@ -28,21 +28,6 @@ struct Replay {
     leaked: f64,
     leaked_beyond: f64,
     pairs: usize,
-    /// Weight of the false shadows: against a texel without a plane, its
-    /// own surface's plane (normals within 25 degrees), another plane.
-    shadow_kind: [f64; 3],
-    /// Weight of the leaks: without a plane, stored beyond the receiver,
-    /// within the tolerance of a plane.
-    leak_kind: [f64; 3],
-}
-
-/// 0: no plane; 1: a plane within 25 degrees of `n`; 2: another plane.
-fn kind(probe: &ssbc::renderer::IsmProbe, n: glam::Vec3) -> usize {
-    match probe.stored_normal {
-        None => 0,
-        Some(s) if s.dot(n).abs() > 0.9 => 1,
-        Some(_) => 2,
-    }
 }
 
 fn replay(scene: &ssbc::Scene, frame: &Frame, stride: usize) -> Replay {
@@ -80,43 +65,15 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, stride: usize) -> Replay {
             let weight = (luminance(vpl.flux) * (cos_z * cos_x / d2).min(frame.bound)) as f64;
             r.pairs += 1;
             let exact = !bvh.occluded(vpl.position + vpl.normal * 1e-4, x + n * 1e-4);
-            let probe = ism.probe(k, vpl, x, n, ism_bias_for(&brdf));
-            let approx = probe.dist <= probe.depth + probe.tolerance;
+            let approx = ism.visible(k, vpl, x, n, ism_bias_for(&brdf));
             if exact {
                 r.visible += weight;
-                if approx {
-                    r.passed += weight;
-                } else {
-                    r.shadow_kind[kind(&probe, n)] += weight;
-                    if std::env::var_os("VIS_DUMP").is_some() {
-                        eprintln!(
-                            "shadow: w {weight:.3e} vpl {k} at {:.3} n {:.2} -> x {:.3} n {:.2}: dist {:.3} depth {:.3} tol {:.3} fp {:.3} stored n {:?}",
-                            vpl.position, vpl.normal, x, n, probe.dist, probe.depth, probe.tolerance, probe.footprint,
-                            probe.stored_normal.map(|s| (s * 100.0).round() / 100.0)
-                        );
-                    }
-                }
+                r.passed += weight * approx as u8 as f64;
             } else {
                 r.occluded += weight;
                 if approx {
                     r.leaked += weight;
-                    let beyond = probe.depth >= probe.dist;
-                    r.leaked_beyond += weight * beyond as u8 as f64;
-                    let k = if probe.stored_normal.is_none() {
-                        0
-                    } else if beyond {
-                        1
-                    } else {
-                        2
-                    };
-                    r.leak_kind[k] += weight;
-                    if std::env::var_os("VIS_DUMP").is_some() {
-                        eprintln!(
-                            "leak: w {weight:.3e} vpl {k} at {:.3} n {:.2} bounce {} -> x {:.3} n {:.2}: dist {:.3} depth {:.3} tol {:.3} fp {:.3} stored n {:?}",
-                            vpl.position, vpl.normal, vpl.bounce, x, n, probe.dist, probe.depth, probe.tolerance, probe.footprint,
-                            probe.stored_normal.map(|s| (s * 100.0).round() / 100.0)
-                        );
-                    }
+                    r.leaked_beyond += weight * ism.stored_beyond(k, vpl, x) as u8 as f64;
                 }
             }
         }
@@ -155,8 +112,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .unwrap_or((160, 120));
     let stride: usize = value("--stride").and_then(|v| v.parse().ok()).unwrap_or(3);
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    println!("| scene | passed (of visible) | leaked (of occluded) | leaked beyond the stored depth | pairs | false shadows: no plane / own plane / other plane | leaks: no plane / beyond / within tolerance |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs |");
+    println!("|---|---|---|---|---|---|");
     for name in &scenes {
         let mut scene = ssbc::scene::load(name)?;
         scene.ensure_light();
@@ -174,19 +131,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.ssbc.steps = 0;
         let frame = renderer.render(&scene, &settings)?;
         let r = replay(&scene, &frame, stride);
-        let shares = |k: [f64; 3], of: f64| {
-            k.map(|w| format!("{:.1}%", 100.0 * w / of.max(1e-30)))
-                .join(" / ")
-        };
         println!(
-            "| {} | {:.4} | {:.4} | {:.0}% | {} | {} | {} |",
+            "| {} | {:.4} | {:.4} | {:.4} | {:.0}% | {} |",
             scene.name,
             r.passed / r.visible.max(1e-30),
             r.leaked / r.occluded.max(1e-30),
+            (r.passed + r.leaked) / r.visible.max(1e-30),
             100.0 * r.leaked_beyond / r.leaked.max(1e-30),
             r.pairs,
-            shares(r.shadow_kind, r.visible),
-            shares(r.leak_kind, r.occluded),
         );
     }
     Ok(())

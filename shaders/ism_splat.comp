@@ -1,10 +1,9 @@
 #version 460
 // ISM point splatting: every VPL splats its own block of scene points (the
-// one its identity picks, position.w) into its paraboloid tile: each texel
-// the point covers gets, by atomicMin, where the point's tangent plane
-// meets the texel's centre ray, with the plane's normal (ism_pack). Points
-// come placed in world space (ism_points.comp; w: their surface's packed
-// normal, 0: a hidden object's).
+// one its identity picks, position.w) into its paraboloid tile with atomicMin
+// on the packed distance and how squarely the point's surface faces the
+// VPL (ism_pack). Points come placed in world space (ism_points.comp; w:
+// their surface's packed normal, 0: a hidden object's).
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
@@ -42,10 +41,7 @@ void main() {
     // to a/4 of the tile; larger splats near the VPL close holes.
     float radius_texels = clamp(pc.point_radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
     int r = int(radius_texels);
-    vec3 normal = ism_unpack_normal(normal_bits);
-    uint code = ism_pack_plane_normal(normal);
-    // The plane's offset from the VPL along its normal.
-    float offset = dot(normal, d);
+    uint depth = ism_pack(dist * pc.depth_scale, abs(dot(w, ism_unpack_normal(normal_bits))));
     uint cell = floatBitsToUint(vpl.normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
     ivec2 center = ivec2(uv * float(pc.tile));
@@ -54,15 +50,7 @@ void main() {
             if (dx * dx + dy * dy > r * r) continue;
             ivec2 local = center + ivec2(dx, dy);
             if (any(lessThan(local, ivec2(0))) || any(greaterThanEqual(local, ivec2(int(pc.tile))))) continue;
-            // The plane where this texel's centre ray meets it; the point's
-            // own distance, without a plane, where that ray runs along the
-            // plane or away from it.
-            vec3 wc = ism_texel_direction(vpl.normal.xyz, local, pc.tile);
-            float along = dot(normal, wc);
-            bool meets = offset * along > 0.0 && abs(along) > 0.02;
-            uint packed = meets ? ism_pack(offset / along * pc.depth_scale, code)
-                                : ism_pack(dist * pc.depth_scale, 0u);
-            imageAtomicMin(ism_depth, origin + local, packed);
+            imageAtomicMin(ism_depth, origin + local, depth);
         }
     }
 }

@@ -47,7 +47,7 @@ use crate::vk::{
 use guard_band::GuardBand;
 use history::{History, HistoryPlan};
 use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
-pub use readback::{Frame, IsmProbe, IsmReadback, Layer, LayerImage};
+pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 
 /// Bytes of device memory one frame slot's resources take for `scene` at
 /// `settings` (an estimate from the sizes the passes allocate, within a few

@@ -32,7 +32,7 @@ pub struct VplCache {
     pub subsets: Vec<u32>,
     /// Each VPL's coarse ray-cast ISM layer, in the same order
     /// ([`ism_rays::coarse_depths`]).
-    pub ism_base: Vec<ism_rays::CornerPlane>,
+    pub ism_base: Vec<ism_rays::Corner>,
     /// Where each VPL's corner rays stopped, what `ism_base` was made of ([`ism_rays::corner_depths`]).
     ism_corners: Vec<ism_rays::Corner>,
     /// The scene's bounds and which objects were visible (a hash) when
@@ -195,7 +195,7 @@ impl SceneCache {
                 ism_rays::corner_depths(&cache.bvh, &set.vpls, miss, known)
             });
             cache.vpls = Some(VplCache {
-                ism_base: ism_rays::corner_planes(&ism_corners),
+                ism_base: ism_rays::blocks(&ism_corners),
                 ism_corners,
                 traced_in: (cache.bounds, shown),
                 gpu: gpu

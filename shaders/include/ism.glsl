@@ -62,68 +62,28 @@ ivec2 ism_texel(uint cell, vec2 uv, uint tile) {
     return origin + local;
 }
 
-// Unit direction leaving a VPL with normal n through paraboloid coordinate
-// uv (the inverse of ism_paraboloid; paraboloid_direction in
-// src/cpu/ism_rays.rs).
-vec3 ism_direction(vec3 n, vec2 uv) {
-    vec2 p = uv * 2.0 - 1.0;
-    float r2 = min(dot(p, p), 0.998);
-    p *= inversesqrt(max(dot(p, p), 1e-12)) * sqrt(r2);
-    float z = (1.0 - r2) / (1.0 + r2);
-    vec2 xy = p * (1.0 + z);
-    vec3 t, b;
-    ism_basis(n, t, b);
-    return t * xy.x + b * xy.y + n * z;
-}
-
-// The direction through the centre of texel `local` of a tile.
-vec3 ism_texel_direction(vec3 n, ivec2 local, uint tile) {
-    return ism_direction(n, (vec2(local) + 0.5) / float(tile));
-}
-
-// An atlas texel: the surface nearest the VPL at the texel's centre, as a
-// plane. High 16 bits: the distance at which the texel's centre ray meets
-// the plane (/ far, below ISM_DEPTH_RANGE), so that atomicMin keeps the
-// nearest; low 16: the plane's normal (octahedral, 8 bits a coordinate; 0:
-// not known, the distance is then the surface's own). The test evaluates
-// the plane along the receiver's own ray (ism_plane_depth): a surface is
-// compared with itself exactly wherever it is flat, instead of with the
-// nearest of it anywhere in the texel, which needed a tolerance of the
-// texel's footprint times the surface's slope and let light through walls
-// thinner than that (issue 61: 22-30% of the occluded light).
+// An atlas texel: the nearest distance (/ far, below ISM_DEPTH_RANGE) in
+// its high 24 bits, so that atomicMin keeps the nearest, and in its low 8
+// how squarely that surface faces the VPL: 1 + 254 |cos| between its
+// normal and the ray (0: not known, the ray-cast layer's).
 const float ISM_DEPTH_RANGE = 4.0;
-const float ISM_DEPTH_STEPS = 65535.0;
+const float ISM_DEPTH_STEPS = 16777215.0;  // 2^24 - 1
 
-uint ism_pack_plane_normal(vec3 n) {
-    uvec2 q = uvec2(round(clamp(octahedral(n) * 0.5 + 0.5, 0.0, 1.0) * 255.0));
-    return max((q.x << 8) | q.y, 1u);
-}
-
-uint ism_pack(float depth, uint normal_code) {
+uint ism_pack(float depth, float facing) {
     float q = clamp(depth * (ISM_DEPTH_STEPS / ISM_DEPTH_RANGE), 0.0, ISM_DEPTH_STEPS);
-    return (uint(q) << 16) | normal_code;
+    // (A facing that is not a number, from a degenerate transform, is not known.)
+    uint code = facing >= 0.0 ? 1u + uint(round(min(facing, 1.0) * 254.0)) : 0u;
+    return (uint(q) << 8) | code;
 }
 
 float ism_texel_depth(uint texel) {
-    return float(texel >> 16) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
+    return float(texel >> 8) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
 }
 
-bool ism_texel_has_plane(uint texel) {
-    return (texel & 0xFFFFu) != 0u;
-}
-
-vec3 ism_texel_normal(uint texel) {
-    vec2 e = vec2(uvec2((texel >> 8) & 255u, texel & 255u)) * (2.0 / 255.0) - 1.0;
-    return from_octahedral(e);
-}
-
-// Where the ray along unit `w` meets the plane of normal `normal` that the
-// ray along `wc` meets at `depth`; a plane the ray runs along (within a
-// 50th of a radian) or away from does not stop it.
-float ism_plane_depth(float depth, vec3 normal, vec3 wc, vec3 w) {
-    float a = dot(normal, wc);
-    float b = dot(normal, w);
-    return a * b > 0.0 && abs(b) > 0.02 ? depth * a / b : 1e30;
+// |cos| of the stored surface to the VPL's ray, or -1 if not known.
+float ism_texel_facing(uint texel) {
+    uint code = texel & 255u;
+    return code == 0u ? -1.0 : float(code - 1u) * (1.0 / 254.0);
 }
 
 // tan of the angle whose cosine is c, c clamped to [0.1, 1].
@@ -132,27 +92,35 @@ float ism_slope(float c) {
     return sqrt(1.0 - c * c) / c;
 }
 
-// Depth tolerance [m] of the test against a texel without a plane (the
-// ray-cast layer where its rays met nothing): the depth change of the
-// receiver's surface across a footprint at its slope, as before planes.
-float ism_footprint_tolerance(float dist, float cos_x, uint tile, float point_radius, float relative_bias) {
-    float footprint = max(dist * 4.0 / float(tile), point_radius);
-    return relative_bias * dist + footprint * ism_slope(cos_x) + 1e-3;
-}
+// How much slope a texel's stored surface allows (see ism_tolerance):
+// ISM_SLOPE_MARGIN x its own, because the nearest point of the receiver's
+// own surface in a texel faces the VPL a little more squarely than the
+// receiver does (with 1x a floor seen at a grazing angle shadowed 1.1% of
+// its own light), plus ISM_CURVE for a surface that curves within a
+// footprint. Margin, curve: a floor turned to the VPLs, its lowest band
+// of its own light; a mirror-like floor before a plinth, its nearest
+// quarter metres (tests/instant_radiosity.rs): 1.0, 0.5: 0.988, 5.5 and
+// 2.5; 1.25, 0.5: 0.993, 5.5 and 2.5; 1.5, 0.5: 0.995, 5.5 and 2.5; 1.5,
+// 1.0: 0.997, 6.1 and 2.5.
+const float ISM_SLOPE_MARGIN = 1.5;
+const float ISM_CURVE = 0.5;
 
-// Depth tolerance [m] of the test against a texel's plane, for a receiver
-// of normal `receiver` (unit): a relative bias, and what a curved surface
-// departs from the plane of another of its points: over a lateral offset s
-// its normal turns by an angle a = s / R and it falls s a / 2 behind the
-// plane, s at most a texel's footprint and a point's radius (the splat).
-// Up to 60 degrees of turn; beyond, the plane is another surface, and the
-// receiver lies behind it or not.
-float ism_plane_tolerance(float dist, vec3 receiver, vec3 stored, uint tile, float point_radius, float relative_bias) {
-    float reach = dist * 4.0 / float(tile) + point_radius;
-    float c = abs(dot(receiver, stored));
-    // The chord of the turn (its angle to within 5% up to 60 degrees).
-    float curve = c > 0.5 ? 0.5 * reach * sqrt(max(2.0 - 2.0 * c, 0.0)) : 0.0;
-    return relative_bias * dist + curve + 1e-3;
+// Depth tolerance of the ISM test [m]: a relative bias, plus the depth change
+// of a surface across one splat footprint (a texel or a point, whichever is
+// larger) at its slope to the VPL's ray. The receiver's own surface lands
+// in its texel, so its slope (cos_x) is enough for it; but at grazing
+// angles that let any occluder within several footprints through (a
+// mirror-like floor before a plinth reflected the VPLs the plinth hides:
+// 14.7x the exact-visibility light over the nearest half metre). Where the
+// texel says how the surface it stores faces the ray (`facing` >= 0), the
+// slope is at most that surface's (with a margin, above): the receiver's
+// own surface still gets what it needs, and an occluder facing the VPL
+// shadows (3.4x). Mirrored in renderer/readback.rs.
+float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
+    float footprint = max(dist * 4.0 / float(tile), point_radius);
+    float slope = ism_slope(cos_x);
+    if (facing >= 0.0) slope = min(slope, ISM_SLOPE_MARGIN * ism_slope(facing) + ISM_CURVE);
+    return relative_bias * dist + footprint * slope + 1e-3;
 }
 
 #endif

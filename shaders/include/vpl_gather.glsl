@@ -11,23 +11,15 @@
 #include "geometric_normal.glsl"
 
 // ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
-// n), on a surface of geometric normal `ng` making cos_x with -w (the
-// surface's own, not a normal map's: see ism_plane_tolerance). A texel
-// with a plane is evaluated along the receiver's own ray.
-float ism_visible(uint cell, vec3 w, vec3 n, float dist, vec3 ng, float cos_x, float bias) {
+// n), whose surface makes cos_x with -w: the slope of its surface
+// (geometric normal), not of a normal map's normal, which turned towards
+// the VPL left too little tolerance and the surface shadowed itself (see
+// ism_tolerance).
+float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x, float bias) {
     vec2 uv = ism_paraboloid(w, n);
-    ivec2 local = clamp(ivec2(uv * float(pc.tile)), ivec2(0), ivec2(int(pc.tile) - 1));
     uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
-    float depth = ism_texel_depth(stored) * pc.far;
-    float tolerance;
-    if (ism_texel_has_plane(stored)) {
-        vec3 normal = ism_texel_normal(stored);
-        depth = ism_plane_depth(depth, normal, ism_texel_direction(n, local, pc.tile), w);
-        tolerance = ism_plane_tolerance(dist, ng, normal, pc.tile, pc.point_radius, bias);
-    } else {
-        tolerance = ism_footprint_tolerance(dist, cos_x, pc.tile, pc.point_radius, bias);
-    }
-    return dist <= depth + tolerance ? 1.0 : 0.0;
+    float tolerance = ism_tolerance(dist, cos_x, ism_texel_facing(stored), pc.tile, pc.point_radius, bias);
+    return dist <= ism_texel_depth(stored) * pc.far + tolerance ? 1.0 : 0.0;
 }
 
 #ifdef EXACT_VISIBILITY
@@ -93,7 +85,7 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
 #ifdef EXACT_VISIBILITY
         float v = exact_visible(z, n_z.xyz, x, ng);
 #else
-        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, ng, -dot(ng, w), bias);
+        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w), bias);
 #endif
         // Hidden from the VPL: neither BRDF is needed.
         if (v == 0.0) continue;

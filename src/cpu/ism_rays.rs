@@ -5,54 +5,38 @@
 //! ceiling 1 cm above an emissive quad, the inside of a thin box. Pull-push
 //! then fills the holes with the far surfaces behind it, and the VPL lights
 //! the room through the occluder. Each VPL's tile therefore starts from
-//! exact surfaces on a coarse grid of its paraboloid, [`BASE_GRID`]²
-//! blocks, cast on the CPU with the BVH: each texel takes the plane of the
-//! surface its nearest corner ray met (exact wherever one flat surface
-//! covers the texel and that corner; along an occluder's silhouette it
-//! errs either way by half a block), and the splatted points add the detail
-//! finer than a block (atomicMin keeps the nearest). `ism_base.comp`
-//! evaluates the plane at each texel's centre ray. (Each block taking its
-//! farthest corner, as before planes, erred towards visibility only: on the
-//! slab room a quarter of the occluded VPL light came through.)
+//! exact distances on a coarse grid of its paraboloid, [`BASE_GRID`]²
+//! blocks, cast on the CPU with the BVH: a block holds the farthest of the
+//! distances at its four corners (so along an occluder's silhouette it errs
+//! towards visibility, as pull-push does), and the splatted points add the
+//! detail finer than a block (atomicMin keeps the nearest). A block also
+//! says how squarely the surface it holds faces the VPL (the ISM test's
+//! tolerance, `ism_tolerance` in shaders/include/ism.glsl).
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bvh::{SceneBvh, RAY_EPSILON};
-use super::points::pack_normal;
 use super::sampling::basis;
 use super::vpl::Vpl;
 use crate::scene::Bounds;
 
-/// CornerPlanes per side of a tile's ray-cast layer.
+/// Blocks per side of a tile's ray-cast layer.
 pub const BASE_GRID: u32 = 8;
 
 /// Rays a VPL casts for its layer: the corners of the blocks.
 pub const RAYS_PER_VPL: u32 = (BASE_GRID + 1) * (BASE_GRID + 1);
 
-/// Where one corner ray of a VPL's layer stops: its distance and the plane
-/// of the surface it met.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Where one corner ray of a VPL's layer stops: its distance, and |cos|
+/// between the ray and the normal of the surface it met (-1: it met
+/// nothing, or that is not known).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Corner {
     /// Distance (m).
     pub t: f32,
-    /// The plane's offset from the VPL along `normal`: dot(normal, hit -
-    /// VPL) (m).
-    pub offset: f32,
-    /// The surface's normal ([`pack_normal`]), 0 where the ray met nothing.
-    pub normal: u32,
-}
-
-/// One block of a VPL's layer as the GPU reads it (`ism_base.comp`): the
-/// plane of the surface its farthest corner ray met.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct CornerPlane {
-    /// The plane's offset from the VPL along its normal (m); without a
-    /// plane, the corner's distance.
-    pub plane: f32,
-    /// The plane's normal ([`pack_normal`]), 0: none (the rays met nothing).
-    pub normal: u32,
+    /// |cos| between the ray and the surface's normal, or -1.
+    pub facing: f32,
 }
 
 /// Unit direction leaving a VPL with normal `n` through paraboloid
@@ -72,11 +56,11 @@ pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {
     (t * xy.x + b * xy.y + n * z).normalize()
 }
 
-/// The layer of every VPL, in their order: [`RAYS_PER_VPL`] corner planes
-/// per VPL, row by row along the paraboloid's v then u ([`corner_planes`]); distance
+/// The layer of every VPL, in their order: [`BASE_GRID`]² blocks per VPL,
+/// row by row along the paraboloid's v then u ([`blocks`]); distance
 /// `miss` where every corner ray of a block leaves the scene.
-pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<CornerPlane> {
-    corner_planes(&corner_depths(bvh, vpls, miss, None))
+pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<Corner> {
+    blocks(&corner_depths(bvh, vpls, miss, None))
 }
 
 /// Corner rays of earlier VPLs: their VPLs and [`corner_depths`], and the
@@ -112,12 +96,7 @@ pub fn corner_depths(
                 .collect()
         })
         .unwrap_or_default();
-    let none = Corner {
-        t: 0.0,
-        offset: 0.0,
-        normal: 0,
-    };
-    let mut out = vec![none; vpls.len() * n];
+    let mut out = vec![Corner { t: 0.0, facing: -1.0 }; vpls.len() * n];
     out.par_chunks_mut(n)
         .zip(vpls.par_iter())
         .for_each(|(corners, v)| {
@@ -161,34 +140,29 @@ pub fn corner_depths(
                 let hit = bvh
                     .intersect(origin, dir, 0.0, f32::INFINITY)
                     .filter(|hit| hit.t < miss);
-                let missed = Corner {
-                    t: miss,
-                    offset: miss,
-                    normal: 0,
-                };
-                *c = hit.map_or(missed, |hit| {
-                    let normal = bvh.triangle_normal(hit.triangle);
-                    let at = origin + dir * hit.t - v.position;
-                    Corner {
-                        t: hit.t,
-                        offset: normal.dot(at),
-                        normal: pack_normal(normal),
-                    }
+                *c = hit.map_or(Corner { t: miss, facing: -1.0 }, |hit| Corner {
+                    t: hit.t,
+                    facing: bvh.triangle_normal(hit.triangle).dot(dir).abs(),
                 });
             }
         });
     out
 }
 
-/// Each VPL's corner planes as the GPU reads them: [`RAYS_PER_VPL`] per
-/// VPL, the plane each corner ray met (without one, its distance). Each
-/// texel of the layer takes its nearest corner's.
-pub fn corner_planes(corners: &[Corner]) -> Vec<CornerPlane> {
+/// Each VPL's [`BASE_GRID`]² blocks from its corners: a block holds the
+/// farthest of its four corners (and how that one's surface faces the ray).
+pub fn blocks(corners: &[Corner]) -> Vec<Corner> {
+    let g = BASE_GRID as usize;
     corners
-        .iter()
-        .map(|c| CornerPlane {
-            plane: if c.normal == 0 { c.t } else { c.offset },
-            normal: c.normal,
+        .chunks_exact(RAYS_PER_VPL as usize)
+        .flat_map(|c| {
+            (0..g * g).map(move |k| {
+                let (x, y) = (k % g, k / g);
+                let corner = |dx: usize, dy: usize| c[(y + dy) * (g + 1) + x + dx];
+                [corner(1, 0), corner(0, 1), corner(1, 1)]
+                    .into_iter()
+                    .fold(corner(0, 0), |far, c| if c.t > far.t { c } else { far })
+            })
         })
         .collect()
 }
@@ -248,17 +222,17 @@ mod tests {
             path: 0,
         };
         let d = coarse_depths(&bvh, &[vpl], 100.0);
-        let g = BASE_GRID as usize + 1;
-        // The centre corner holds the quad's plane, 1 cm below the VPL (its
-        // offset along the quad's normal, which may point either way).
+        let g = BASE_GRID as usize;
         let centre = d[(g / 2) * g + g / 2];
-        assert_ne!(centre.normal, 0, "centre block {centre:?}");
+        assert!((0.01..0.015).contains(&centre.t), "centre block {centre:?}");
+        // How squarely the quad meets the block's farthest corner ray: the
+        // height of the ray's origin above it over the distance.
+        let height = 2.0 - RAY_EPSILON * 3.0 - 1.99;
         assert!(
-            (centre.plane.abs() - 0.01).abs() < 1e-4,
+            (centre.facing - height / centre.t).abs() < 1e-3,
             "centre block {centre:?}"
         );
-        // The rim corners hold the walls, farther away.
-        let rim = d[(g / 2) * g];
-        assert!(rim.plane.abs() > 0.5, "rim block {rim:?}");
+        let rim = d[(g / 2) * g].t;
+        assert!(rim > 0.5, "rim block {rim}");
     }
 }

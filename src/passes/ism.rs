@@ -13,6 +13,7 @@ use super::{Pass, Recording, SlotSetup};
 use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
+use crate::settings::Visibility;
 use crate::shaders::{ism_base_comp, ism_points_comp, ism_splat_comp};
 use crate::vk::{
     Access, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
@@ -31,9 +32,9 @@ pub struct Ism {
     /// `vpls` as RGBA32F texels (three per VPL), for the gathers. Declared
     /// before the buffer so that it is dropped first.
     pub vpl_texels: BufferView,
-    /// The atlas: per texel the plane of the surface nearest the VPL at the
-    /// texel's centre (r32ui: distance divided by `far`, normal; `ism_pack`
-    /// in shaders/include/ism.glsl), what lighting reads.
+    /// The atlas: per texel the nearest distance divided by `far` and how
+    /// squarely its surface faces the VPL (r32ui, `ism_pack` in
+    /// shaders/include/ism.glsl), what lighting reads.
     pub atlas: Image,
     /// The VPLs (`GpuVpl`), in the order of their interleaving subsets.
     pub vpls: Buffer,
@@ -53,8 +54,8 @@ pub struct Ism {
     /// The (points, objects) versions `world_points` holds, once a frame
     /// ssbc submits placed them (placing is skipped while they hold).
     placed: std::cell::Cell<Option<(u64, u64)>>,
-    /// Each VPL's coarse ray-cast layer (`RAYS_PER_VPL` [`ism_rays::CornerPlane`]s
-    /// per VPL).
+    /// Each VPL's coarse ray-cast layer (`BASE_GRID`² [`ism_rays::Corner`]s
+    /// per VPL: distance in m, facing).
     pub base_depths: Buffer,
     /// The (VPL, points) versions the buffers hold.
     versions: (u64, u64),
@@ -132,8 +133,9 @@ impl Pass for IsmPass {
     const NAME: &'static str = "ism";
     /// The atlas depends on the VPLs, the points, the far plane and the tile.
     const VIEW_INDEPENDENT: bool = true;
-    /// (VPL version, points version, far plane bits, tile side).
-    type Key = (u64, u64, u32, u32);
+    /// (VPL version, points version, far plane bits, tile side, whether
+    /// visibility is exact: no atlas is drawn then).
+    type Key = (u64, u64, u32, u32, bool);
     /// The atlas and the VPLs and points it is splatted from.
     type Resources = Ism;
     /// The frame slot's objects (points move with them) and their version.
@@ -146,6 +148,7 @@ impl Pass for IsmPass {
             cache.points().version,
             cache.diagonal().to_bits(),
             setup.settings.ism_tile,
+            setup.settings.visibility == Visibility::Exact,
         )
     }
 
@@ -296,7 +299,8 @@ impl Pass for IsmPass {
         (objects, objects_version): (&Buffer, u64),
         ism: &Ism,
     ) -> Result<()> {
-        if ism.vpl_count == 0 {
+        // Exact visibility reads the VPLs, not the atlas.
+        if ism.vpl_count == 0 || cx.settings.visibility == Visibility::Exact {
             return Ok(());
         }
         let Recording {
@@ -376,11 +380,8 @@ impl Pass for IsmPass {
 
 /// The VPLs' ray-cast layers, or one block when there are no VPLs (a buffer
 /// is never empty).
-fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::CornerPlane] {
-    const NONE: [ism_rays::CornerPlane; 1] = [ism_rays::CornerPlane {
-        plane: 0.0,
-        normal: 0,
-    }];
+fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::Corner] {
+    const NONE: [ism_rays::Corner; 1] = [ism_rays::Corner { t: 0.0, facing: -1.0 }];
     let base = &setup.cache.vpls().ism_base;
     if base.is_empty() {
         &NONE

@@ -145,11 +145,11 @@ pub struct IsmReadback {
     pub tiles_per_row: u32,
     /// Distances are stored divided by this.
     pub far: f32,
-    /// The atlas, as distances divided by `far` (where the texel's centre
-    /// ray meets its plane).
+    /// The atlas, as distances divided by `far`.
     pub depth: Vec<f32>,
-    /// Per texel, the normal of the plane it stores (None: no plane).
-    pub normal: Vec<Option<glam::Vec3>>,
+    /// Per texel, |cos| between the VPL's ray and the normal of the surface
+    /// it stores (-1: not known).
+    pub facing: Vec<f32>,
     /// World radius of one splatted point.
     pub point_radius: f32,
 }
@@ -168,75 +168,34 @@ impl IsmReadback {
         normal: glam::Vec3,
         relative_bias: f32,
     ) -> bool {
-        let p = self.probe(index, vpl, x, normal, relative_bias);
-        p.dist <= p.depth + p.tolerance
-    }
-
-    /// What the ISM test compares for `x` (see [`IsmReadback::visible`]).
-    pub fn probe(
-        &self,
-        index: usize,
-        vpl: &Vpl,
-        x: glam::Vec3,
-        normal: glam::Vec3,
-        relative_bias: f32,
-    ) -> IsmProbe {
-        let (texel, local, dist, w) = self.lookup(index, vpl, x);
-        let mut depth = self.depth[texel] * self.far;
-        // ism_visible() in shaders/include/vpl_gather.glsl and the
-        // tolerances in shaders/include/ism.glsl.
+        let (texel, dist, w) = self.lookup(index, vpl, x);
+        let stored = self.depth[texel];
+        // ism_tolerance() in shaders/include/ism.glsl.
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
-        let stored = self.normal[texel];
-        let tolerance = match stored {
-            Some(stored) => {
-                let uv = (local.as_vec2() + 0.5) / self.tile as f32;
-                let wc = crate::cpu::ism_rays::paraboloid_direction(vpl.normal, uv);
-                let (a, b) = (stored.dot(wc), stored.dot(w));
-                depth = if a * b > 0.0 && b.abs() > 0.02 {
-                    depth * a / b
-                } else {
-                    1e30
-                };
-                let c = normal.dot(stored).abs();
-                let reach = dist * 4.0 / self.tile as f32 + self.point_radius;
-                let curve = if c > 0.5 {
-                    0.5 * reach * (2.0 - 2.0 * c).max(0.0).sqrt()
-                } else {
-                    0.0
-                };
-                relative_bias * dist + curve + 1e-3
-            }
-            None => {
-                let c = (-normal.dot(w)).clamp(0.1, 1.0);
-                relative_bias * dist + footprint * (1.0 - c * c).sqrt() / c + 1e-3
-            }
+        let slope_of = |c: f32| {
+            let c = c.clamp(0.1, 1.0);
+            (1.0 - c * c).sqrt() / c
         };
-        IsmProbe {
-            dist,
-            depth,
-            tolerance,
-            footprint,
-            stored_normal: stored,
+        let mut slope = slope_of(-normal.dot(w));
+        let facing = self.facing[texel];
+        if facing >= 0.0 {
+            slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
         }
+        let tolerance = relative_bias * dist + footprint * slope + 1e-3;
+        dist <= stored * self.far + tolerance
     }
 
-    /// Whether the surface VPL `index`'s map stores where `x` lands lies
-    /// at or beyond `x` along the ray (no occluder there at all, rather
-    /// than one within the test's tolerance).
+    /// Whether the distance VPL `index`'s map stores where `x` lands lies
+    /// at or beyond `x` (no occluder there at all, rather than one within
+    /// the test's tolerance).
     pub fn stored_beyond(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
-        let p = self.probe(index, vpl, x, glam::Vec3::ZERO, 0.0);
-        p.depth >= p.dist
+        let (texel, dist, _) = self.lookup(index, vpl, x);
+        self.depth[texel] * self.far >= dist
     }
 
-    /// The atlas texel where `x` lands in VPL `index`'s map (and in its
-    /// tile), its distance from the VPL and the unit direction to it
-    /// (ism_texel()).
-    fn lookup(
-        &self,
-        index: usize,
-        vpl: &Vpl,
-        x: glam::Vec3,
-    ) -> (usize, glam::IVec2, f32, glam::Vec3) {
+    /// The atlas texel where `x` lands in VPL `index`'s map, its distance
+    /// from the VPL and the unit direction to it (ism_texel()).
+    fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
         let d = x - vpl.position;
         let dist = d.length();
         let w = d / dist;
@@ -251,46 +210,27 @@ impl IsmReadback {
         let local = ((uv.x * tile as f32) as i64).clamp(0, tile - 1);
         let local_y = ((uv.y * tile as f32) as i64).clamp(0, tile - 1);
         let texel = ((origin.1 + local_y) * self.width as i64 + origin.0 + local) as usize;
-        (
-            texel,
-            glam::IVec2::new(local as i32, local_y as i32),
-            dist,
-            w,
-        )
+        (texel, dist, w)
     }
 }
 
-/// An atlas texel's distance (divided by `far`) and plane normal (None:
-/// no plane), as `ism_pack` in shaders/include/ism.glsl packs them.
-fn ism_unpack(texel: u32) -> (f32, Option<glam::Vec3>) {
-    let depth = (texel >> 16) as f32 * (4.0 / 65535.0);
-    let code = texel & 0xFFFF;
-    let normal = (code != 0).then(|| {
-        let e = glam::Vec2::new((code >> 8) as f32, (code & 255) as f32) * (2.0 / 255.0) - 1.0;
-        // from_octahedral() in shaders/include/octahedral.glsl.
-        let mut n = glam::Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
-        let t = (-n.z).max(0.0);
-        n.x += if n.x >= 0.0 { -t } else { t };
-        n.y += if n.y >= 0.0 { -t } else { t };
-        n.normalize()
-    });
-    (depth, normal)
-}
+/// ISM_CURVE and ISM_SLOPE_MARGIN in shaders/include/ism.glsl.
+const ISM_CURVE: f32 = 0.5;
+const ISM_SLOPE_MARGIN: f32 = 1.5;
 
-/// What the ISM test compares for one receiver and VPL.
-#[derive(Clone, Copy, Debug)]
-pub struct IsmProbe {
-    /// The receiver's distance from the VPL (m).
-    pub dist: f32,
-    /// Where the receiver's ray meets the stored surface (m; its plane's
-    /// where it has one).
-    pub depth: f32,
-    /// The test's tolerance (m).
-    pub tolerance: f32,
-    /// The texel's footprint at the receiver (m).
-    pub footprint: f32,
-    /// The stored plane's normal, None: no plane.
-    pub stored_normal: Option<glam::Vec3>,
+/// An atlas texel's distance (divided by `far`) and facing (-1: not known),
+/// as `ism_pack` in shaders/include/ism.glsl packs them.
+fn ism_unpack(texel: u32) -> (f32, f32) {
+    let depth = (texel >> 8) as f32 * (4.0 / 16_777_215.0);
+    let code = texel & 255;
+    (
+        depth,
+        if code == 0 {
+            -1.0
+        } else {
+            (code - 1) as f32 / 254.0
+        },
+    )
 }
 
 /// A rendered frame: the final image, its component layers and timings.
@@ -581,7 +521,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
     };
     let ism = images.ism;
     let ism_readback = ism_depth.map(|texels| {
-        let (depth, normal) = texels.into_iter().map(ism_unpack).unzip();
+        let (depth, facing) = texels.into_iter().map(ism_unpack).unzip();
         IsmReadback {
             width: ism.atlas.desc.width,
             height: ism.atlas.desc.height,
@@ -589,7 +529,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
             tiles_per_row: ism.tiles_per_row,
             far: ism.far,
             depth,
-            normal,
+            facing,
             point_radius: ism.point_radius,
         }
     });
