@@ -23,28 +23,7 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x, float bias
 }
 
 #ifdef EXACT_VISIBILITY
-// The scene's top-level acceleration structure (src/vk/acceleration.rs).
-layout(set = 0, binding = 15) uniform accelerationStructureEXT scene_tlas;
-
-// Exact visibility: whether the segment from the VPL at z (normal n_z) to
-// the receiver at x (geometric normal ng, turned towards the VPL) is free,
-// both ends lifted off their surfaces by 1e-4 of their coordinates' size
-// (RAY_EPSILON, as the CPU's twin: src/cpu/bvh.rs).
-float exact_visible(vec3 z, vec3 n_z, vec3 x, vec3 ng) {
-    vec3 origin = z + n_z * (1e-4 * (1.0 + max(max(abs(z.x), abs(z.y)), abs(z.z))));
-    vec3 to_z = origin - x;
-    vec3 lift = dot(ng, to_z) >= 0.0 ? ng : -ng;
-    vec3 target = x + lift * (1e-4 * (1.0 + max(max(abs(x.x), abs(x.y)), abs(x.z))));
-    vec3 d = target - origin;
-    float len = length(d);
-    if (!(len > 1e-7)) return 1.0;
-    rayQueryEXT query;
-    rayQueryInitializeEXT(query, scene_tlas, gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsOpaqueEXT,
-                          0xFFu, origin, 0.0, d / len, len);
-    while (rayQueryProceedEXT(query)) {
-    }
-    return rayQueryGetIntersectionTypeEXT(query, true) == gl_RayQueryCommittedIntersectionNoneEXT ? 1.0 : 0.0;
-}
+#include "exact_visibility.glsl"
 #endif
 
 // What VPLs first, first + stride, ... (below last) send to a receiver at x
@@ -83,7 +62,8 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
         if (cos_z <= 0.0 || cos_x <= 0.0) continue;
         float g = min(cos_x * cos_z / d2, pc.bound);
 #ifdef EXACT_VISIBILITY
-        float v = exact_visible(z, n_z.xyz, x, ng);
+        // The VPL leaves its surface along its normal (it lies on it).
+        float v = segment_free(z, n_z.xyz, x, ng) ? 1.0 : 0.0;
 #else
         float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w), bias);
 #endif

@@ -29,8 +29,8 @@ use crate::error::Result;
 use crate::settings::Gather;
 use crate::shaders::{
     indirect_bounded_comp, indirect_bounded_exact_comp, indirect_creases_comp,
-    indirect_creases_exact_comp, indirect_filter_comp, indirect_interleaved_comp,
-    indirect_interleaved_exact_comp,
+    indirect_creases_exact_comp, indirect_filter_comp, indirect_filter_exact_comp,
+    indirect_interleaved_comp, indirect_interleaved_exact_comp,
 };
 use crate::vk::{
     Access, AccelerationStructure, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout,
@@ -172,6 +172,9 @@ pub struct IndirectBoundedPass {
 struct ExactGathers {
     full: ComputeKernel<indirect_bounded_exact_comp::Interface, GatherPush>,
     interleaved: ComputeKernel<indirect_interleaved_exact_comp::Interface, GatherPush>,
+    /// The filter, which also checks that nothing separates a pixel from
+    /// the neighbours it averages (a wall thinner than its surface tests).
+    filter: ComputeKernel<indirect_filter_exact_comp::Interface, FilterPush>,
     creases: ComputeKernel<indirect_creases_exact_comp::Interface, GatherPush>,
 }
 
@@ -258,6 +261,7 @@ impl IndirectBoundedPass {
                 Some(_) => Some(ExactGathers {
                     full: ComputeKernel::new(device)?.named("indirect_bounded_exact"),
                     interleaved: ComputeKernel::new(device)?.named("indirect_interleaved_exact"),
+                    filter: ComputeKernel::new(device)?.named("indirect_filter_exact"),
                     creases: ComputeKernel::new(device)?.named("indirect_creases_exact"),
                 }),
                 None => None,
@@ -400,11 +404,14 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, direct, side): (&GBuffer, &DirectLight, u32),
+        (gbuffer, direct, side, visibility): (&GBuffer, &DirectLight, u32, VplVisibility<'_>),
         interleaved: &Interleaved,
         out: &BoundedLighting,
     ) -> Result<()> {
         let rec = &mut *cx.rec;
+        if let VplVisibility::Exact(tlas) = visibility {
+            rec.use_buffer(&tlas.buffer, Access::ComputeRayQuery);
+        }
         rec.update_buffer(&interleaved.creases, 0, bytemuck::bytes_of(&LIST_HEADER));
         rec.use_image(&gbuffer.albedo, Access::ComputeRead);
         rec.use_image(&gbuffer.normal, Access::ComputeRead);
@@ -430,22 +437,45 @@ impl IndirectBoundedPass {
             pad: 0,
             camera_position: cx.view.camera.position.extend(1.0).into(),
         };
-        let bindings = indirect_filter_comp::Bindings {
-            guide: &interleaved.guide,
-            g_albedo: &gbuffer.albedo,
-            direct: &direct.radiance,
-            direct_sources: &direct.sources,
-            interleaved: &interleaved.sums,
-            interleaved_glossy: &interleaved.glossy,
-            indirect_bounded: &out.indirect,
-            s0: &out.s0,
-            s0_sources: &out.s0_sources,
-            creases: &interleaved.creases,
-            g_normal: &gbuffer.normal,
-            g_emission: &gbuffer.emission,
-        };
-        self.filter
-            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+        match visibility {
+            VplVisibility::Ism => {
+                let bindings = indirect_filter_comp::Bindings {
+                    guide: &interleaved.guide,
+                    g_albedo: &gbuffer.albedo,
+                    direct: &direct.radiance,
+                    direct_sources: &direct.sources,
+                    interleaved: &interleaved.sums,
+                    interleaved_glossy: &interleaved.glossy,
+                    indirect_bounded: &out.indirect,
+                    s0: &out.s0,
+                    s0_sources: &out.s0_sources,
+                    creases: &interleaved.creases,
+                    g_normal: &gbuffer.normal,
+                    g_emission: &gbuffer.emission,
+                };
+                self.filter
+                    .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+            }
+            VplVisibility::Exact(scene_tlas) => {
+                let bindings = indirect_filter_exact_comp::Bindings {
+                    guide: &interleaved.guide,
+                    g_albedo: &gbuffer.albedo,
+                    direct: &direct.radiance,
+                    direct_sources: &direct.sources,
+                    interleaved: &interleaved.sums,
+                    interleaved_glossy: &interleaved.glossy,
+                    indirect_bounded: &out.indirect,
+                    s0: &out.s0,
+                    s0_sources: &out.s0_sources,
+                    creases: &interleaved.creases,
+                    g_normal: &gbuffer.normal,
+                    g_emission: &gbuffer.emission,
+                    scene_tlas,
+                };
+                let kernel = &self.exact()?.filter;
+                kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+            }
+        }
     }
 
     /// Every VPL at the pixels the filter listed beside creases.
@@ -580,6 +610,7 @@ impl Pass for IndirectBoundedPass {
                 None => layouts.push(exact.full.set_layout()),
                 Some(_) => {
                     layouts.push(exact.interleaved.set_layout());
+                    layouts.push(exact.filter.set_layout());
                     layouts.push(exact.creases.set_layout());
                 }
             }
@@ -606,7 +637,8 @@ impl Pass for IndirectBoundedPass {
                 cx.profiler.end(cx.rec.cmd, part);
                 let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/filter"));
                 let side = ism.subset_count.isqrt();
-                self.record_filter(cx, pool, (gbuffer, direct, side), interleaved, out)?;
+                let filter_reads = (gbuffer, direct, side, visibility);
+                self.record_filter(cx, pool, filter_reads, interleaved, out)?;
                 cx.profiler.end(cx.rec.cmd, part);
                 let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/creases"));
                 self.record_creases(cx, pool, reads, &interleaved.creases, out)?;
