@@ -53,12 +53,19 @@ pub struct RayScene {
     top: Vec<Option<SlotTopLevel>>,
 }
 
+/// Whether exact visibility is possible for `scene` on `device`: ray
+/// queries, and no alpha-masked material (a ray query would need the alpha
+/// test).
+pub fn exact_visibility_possible(device: &Device, scene: &Scene) -> bool {
+    device.ray_queries().is_some() && scene.materials.iter().all(|m| m.alpha == AlphaMode::Opaque)
+}
+
 impl RayScene {
-    /// The structures for `scene` on `device`, or None where the device has
-    /// no ray queries or a material is alpha-masked (logged).
+    /// The structures for `scene` on `device`, or None where exact
+    /// visibility is not possible ([`exact_visibility_possible`]; logged).
     pub fn new(device: &Arc<Device>, scene: &Scene, slots: usize) -> Option<Self> {
         device.ray_queries()?;
-        if scene.materials.iter().any(|m| m.alpha != AlphaMode::Opaque) {
+        if !exact_visibility_possible(device, scene) {
             log::info!(
                 "exact visibility unavailable for '{}': alpha-masked materials (ISMs are used)",
                 scene.name

@@ -45,7 +45,7 @@ use crate::vk::{
     ValidationLog,
 };
 use guard_band::GuardBand;
-use history::{History, HistoryPlan};
+use history::{History, HistoryPlan, Motion};
 use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
 pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 
@@ -865,12 +865,20 @@ impl Renderer {
         } = request;
         let host_settings = settings;
         // A still view's frame continues the light paths after its
-        // history's (an independent VPL set).
+        // history's (an independent VPL set), and it converges to the
+        // truth only with exact visibility (where possible, by default).
         let shifted;
+        let still = history.is_some_and(|plan| plan.motion == Motion::Still);
+        let exact_when_still = still
+            && settings.visibility == Visibility::Auto
+            && crate::ray_scene::exact_visibility_possible(&self.device, scene);
         let settings = match history {
-            Some(plan) if plan.path_offset > 0 => {
+            Some(plan) if plan.path_offset > 0 || exact_when_still => {
                 let mut s = settings.clone();
                 s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
+                if exact_when_still {
+                    s.visibility = Visibility::Exact;
+                }
                 shifted = s;
                 &shifted
             }

@@ -119,22 +119,27 @@ fn exact_visibility_leaks_nothing_through_thin_walls() {
 fn isms_leak_through_a_shared_wall_no_more_than_measured() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    for (name, measured) in [
-        ("thin-two-rooms-1mm", 0.042),
-        ("thin-two-rooms-20cm", 0.026),
-    ] {
+    // Every thin scene is reported; the rooms' leak is pinned.
+    for name in SCENES {
+        let measured: f64 = match name {
+            "thin-two-rooms-1mm" => 0.042,
+            "thin-two-rooms-20cm" => 0.026,
+            _ => f64::NAN,
+        };
         let scene = load(name);
         let mut settings = common::small(SIZE.0, SIZE.1);
         settings.visibility = Visibility::Ism;
         let frame = renderer.render(&scene, &settings).expect("render");
-        let truth = truth(&scene, 32);
+        let truth = truth(&scene, 64);
         let (ratio, dark, pixels) = light_and_dark(&frame.image.rgba, &truth);
         eprintln!(
             "{name}: ISMs: mean / path tracer {ratio:.4}; on the {pixels} unlit pixels {:.2}% of the mean",
             dark * 100.0
         );
-        assert!(pixels > 500, "{name}: only {pixels} unlit pixels");
-        assert!(dark < 1.5 * measured, "{name}: unlit pixels at {dark}");
+        if measured.is_finite() {
+            assert!(pixels > 500, "{name}: only {pixels} unlit pixels");
+            assert!(dark < 1.5 * measured, "{name}: unlit pixels at {dark}");
+        }
     }
     drop(renderer);
     assert_eq!(log.total(), 0, "validation messages");

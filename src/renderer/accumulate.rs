@@ -7,7 +7,7 @@
 
 use crate::error::{Error, Result};
 use crate::resident::ResidentScene;
-use crate::scene::{AlphaMode, Scene};
+use crate::scene::Scene;
 use crate::settings::{RenderSettings, Visibility};
 
 use super::{Frame, Renderer};
@@ -54,8 +54,7 @@ impl Renderer {
         // visibility's bias: exact visibility where the device and the
         // scene allow.
         if settings.visibility == Visibility::Auto {
-            let exact = self.device().ray_queries().is_some()
-                && scene.materials.iter().all(|m| m.alpha == AlphaMode::Opaque);
+            let exact = crate::ray_scene::exact_visibility_possible(self.device(), scene);
             settings.visibility = if exact {
                 Visibility::Exact
             } else {
