@@ -105,6 +105,38 @@ fn glossy_filter_turn() -> f32 {
         .unwrap_or(GLOSSY_FILTER_TURN)
 }
 
+/// Dispatches with a kernel's ISM or exact twin: the same bindings but for
+/// what visibility reads (the twins' `ism` atlas, or `scene_tlas`); the
+/// exact kernel is looked up only when used.
+macro_rules! with_visibility {
+    ($visibility:expr, (ism: $atlas:expr, $ism:expr, $ism_mod:ident), ($exact:expr, $exact_mod:ident),
+     { $($field:ident $(: $value:expr)?),* $(,)? }, |$kernel:ident, $bindings:ident| $dispatch:expr) => {
+        match $visibility {
+            VplVisibility::Ism => {
+                let ($kernel, $bindings) = (&$ism, $ism_mod::Bindings { ism: $atlas, $($field $(: $value)?),* });
+                $dispatch
+            }
+            VplVisibility::Exact(scene_tlas) => {
+                let ($kernel, $bindings) = ($exact, $exact_mod::Bindings { scene_tlas, $($field $(: $value)?),* });
+                $dispatch
+            }
+        }
+    };
+    ($visibility:expr, ($ism:expr, $ism_mod:ident), ($exact:expr, $exact_mod:ident),
+     { $($field:ident $(: $value:expr)?),* $(,)? }, |$kernel:ident, $bindings:ident| $dispatch:expr) => {
+        match $visibility {
+            VplVisibility::Ism => {
+                let ($kernel, $bindings) = (&$ism, $ism_mod::Bindings { $($field $(: $value)?),* });
+                $dispatch
+            }
+            VplVisibility::Exact(scene_tlas) => {
+                let ($kernel, $bindings) = ($exact, $exact_mod::Bindings { scene_tlas, $($field $(: $value)?),* });
+                $dispatch
+            }
+        }
+    };
+}
+
 /// What the gathers read: the G-buffer, the direct light, the VPLs (with
 /// their ISM atlas) and how visibility is tested.
 pub type Reads<'a> = (&'a GBuffer, &'a DirectLight, &'a Ism, VplVisibility<'a>);
@@ -299,41 +331,24 @@ impl IndirectBoundedPass {
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
         let extent = gbuffer.extent();
-        match visibility {
-            VplVisibility::Ism => {
-                let bindings = indirect_bounded_comp::Bindings {
-                    g_position: &gbuffer.position,
-                    g_normal: &gbuffer.normal,
-                    g_albedo: &gbuffer.albedo,
-                    direct: &direct.radiance,
-                    direct_sources: &direct.sources,
-                    indirect_bounded: &out.indirect,
-                    s0: &out.s0,
-                    s0_sources: &out.s0_sources,
-                    vpl_texels: &ism.vpl_texels,
-                    ism: &ism.atlas,
-                    g_emission: &gbuffer.emission,
-                };
-                self.full.dispatch_2d(rec.cmd, pool, &bindings, &push, extent)
-            }
-            VplVisibility::Exact(scene_tlas) => {
-                let bindings = indirect_bounded_exact_comp::Bindings {
-                    g_position: &gbuffer.position,
-                    g_normal: &gbuffer.normal,
-                    g_albedo: &gbuffer.albedo,
-                    direct: &direct.radiance,
-                    direct_sources: &direct.sources,
-                    indirect_bounded: &out.indirect,
-                    s0: &out.s0,
-                    s0_sources: &out.s0_sources,
-                    vpl_texels: &ism.vpl_texels,
-                    scene_tlas,
-                    g_emission: &gbuffer.emission,
-                };
-                let full = &self.exact()?.full;
-                full.dispatch_2d(rec.cmd, pool, &bindings, &push, extent)
-            }
-        }
+        with_visibility!(
+            visibility,
+            (ism: &ism.atlas, self.full, indirect_bounded_comp),
+            (&self.exact()?.full, indirect_bounded_exact_comp),
+            {
+                g_position: &gbuffer.position,
+                g_normal: &gbuffer.normal,
+                g_albedo: &gbuffer.albedo,
+                direct: &direct.radiance,
+                direct_sources: &direct.sources,
+                indirect_bounded: &out.indirect,
+                s0: &out.s0,
+                s0_sources: &out.s0_sources,
+                vpl_texels: &ism.vpl_texels,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, extent)
+        )
     }
 
     /// Each pixel's own subset's sum, and its guide.
@@ -362,40 +377,23 @@ impl IndirectBoundedPass {
             h.div_ceil(side).div_ceil(8),
             side * side,
         ];
-        match visibility {
-            VplVisibility::Ism => {
-                let bindings = indirect_interleaved_comp::Bindings {
-                    g_position: &gbuffer.position,
-                    g_normal: &gbuffer.normal,
-                    g_albedo: &gbuffer.albedo,
-                    vpl_texels: &ism.vpl_texels,
-                    ism: &ism.atlas,
-                    subsets: &ism.subsets,
-                    interleaved: &interleaved.sums,
-                    interleaved_glossy: &interleaved.glossy,
-                    guide: &interleaved.guide,
-                    g_emission: &gbuffer.emission,
-                };
-                self.interleaved
-                    .dispatch(rec.cmd, pool, &bindings, &push, groups)
-            }
-            VplVisibility::Exact(scene_tlas) => {
-                let bindings = indirect_interleaved_exact_comp::Bindings {
-                    g_position: &gbuffer.position,
-                    g_normal: &gbuffer.normal,
-                    g_albedo: &gbuffer.albedo,
-                    vpl_texels: &ism.vpl_texels,
-                    scene_tlas,
-                    subsets: &ism.subsets,
-                    interleaved: &interleaved.sums,
-                    interleaved_glossy: &interleaved.glossy,
-                    guide: &interleaved.guide,
-                    g_emission: &gbuffer.emission,
-                };
-                let kernel = &self.exact()?.interleaved;
-                kernel.dispatch(rec.cmd, pool, &bindings, &push, groups)
-            }
-        }
+        with_visibility!(
+            visibility,
+            (ism: &ism.atlas, self.interleaved, indirect_interleaved_comp),
+            (&self.exact()?.interleaved, indirect_interleaved_exact_comp),
+            {
+                g_position: &gbuffer.position,
+                g_normal: &gbuffer.normal,
+                g_albedo: &gbuffer.albedo,
+                vpl_texels: &ism.vpl_texels,
+                subsets: &ism.subsets,
+                interleaved: &interleaved.sums,
+                interleaved_glossy: &interleaved.glossy,
+                guide: &interleaved.guide,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch(rec.cmd, pool, &bindings, &push, groups)
+        )
     }
 
     /// Sums the subsets back on each surface, then the albedo and S0; lists
@@ -437,45 +435,26 @@ impl IndirectBoundedPass {
             pad: 0,
             camera_position: cx.view.camera.position.extend(1.0).into(),
         };
-        match visibility {
-            VplVisibility::Ism => {
-                let bindings = indirect_filter_comp::Bindings {
-                    guide: &interleaved.guide,
-                    g_albedo: &gbuffer.albedo,
-                    direct: &direct.radiance,
-                    direct_sources: &direct.sources,
-                    interleaved: &interleaved.sums,
-                    interleaved_glossy: &interleaved.glossy,
-                    indirect_bounded: &out.indirect,
-                    s0: &out.s0,
-                    s0_sources: &out.s0_sources,
-                    creases: &interleaved.creases,
-                    g_normal: &gbuffer.normal,
-                    g_emission: &gbuffer.emission,
-                };
-                self.filter
-                    .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
-            }
-            VplVisibility::Exact(scene_tlas) => {
-                let bindings = indirect_filter_exact_comp::Bindings {
-                    guide: &interleaved.guide,
-                    g_albedo: &gbuffer.albedo,
-                    direct: &direct.radiance,
-                    direct_sources: &direct.sources,
-                    interleaved: &interleaved.sums,
-                    interleaved_glossy: &interleaved.glossy,
-                    indirect_bounded: &out.indirect,
-                    s0: &out.s0,
-                    s0_sources: &out.s0_sources,
-                    creases: &interleaved.creases,
-                    g_normal: &gbuffer.normal,
-                    g_emission: &gbuffer.emission,
-                    scene_tlas,
-                };
-                let kernel = &self.exact()?.filter;
-                kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
-            }
-        }
+        with_visibility!(
+            visibility,
+            (self.filter, indirect_filter_comp),
+            (&self.exact()?.filter, indirect_filter_exact_comp),
+            {
+                guide: &interleaved.guide,
+                g_albedo: &gbuffer.albedo,
+                direct: &direct.radiance,
+                direct_sources: &direct.sources,
+                interleaved: &interleaved.sums,
+                interleaved_glossy: &interleaved.glossy,
+                indirect_bounded: &out.indirect,
+                s0: &out.s0,
+                s0_sources: &out.s0_sources,
+                creases: &interleaved.creases,
+                g_normal: &gbuffer.normal,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+        )
     }
 
     /// Every VPL at the pixels the filter listed beside creases.
@@ -501,44 +480,25 @@ impl IndirectBoundedPass {
         rec.use_image(&out.s0_sources, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
-        match visibility {
-            VplVisibility::Ism => {
-                let bindings = indirect_creases_comp::Bindings {
-                    g_position: &gbuffer.position,
-                    g_normal: &gbuffer.normal,
-                    g_albedo: &gbuffer.albedo,
-                    direct: &direct.radiance,
-                    direct_sources: &direct.sources,
-                    indirect_bounded: &out.indirect,
-                    s0: &out.s0,
-                    s0_sources: &out.s0_sources,
-                    vpl_texels: &ism.vpl_texels,
-                    ism: &ism.atlas,
-                    creases,
-                    g_emission: &gbuffer.emission,
-                };
-                self.creases
-                    .dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
-            }
-            VplVisibility::Exact(scene_tlas) => {
-                let bindings = indirect_creases_exact_comp::Bindings {
-                    g_position: &gbuffer.position,
-                    g_normal: &gbuffer.normal,
-                    g_albedo: &gbuffer.albedo,
-                    direct: &direct.radiance,
-                    direct_sources: &direct.sources,
-                    indirect_bounded: &out.indirect,
-                    s0: &out.s0,
-                    s0_sources: &out.s0_sources,
-                    vpl_texels: &ism.vpl_texels,
-                    scene_tlas,
-                    creases,
-                    g_emission: &gbuffer.emission,
-                };
-                let kernel = &self.exact()?.creases;
-                kernel.dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
-            }
-        }
+        with_visibility!(
+            visibility,
+            (ism: &ism.atlas, self.creases, indirect_creases_comp),
+            (&self.exact()?.creases, indirect_creases_exact_comp),
+            {
+                g_position: &gbuffer.position,
+                g_normal: &gbuffer.normal,
+                g_albedo: &gbuffer.albedo,
+                direct: &direct.radiance,
+                direct_sources: &direct.sources,
+                indirect_bounded: &out.indirect,
+                s0: &out.s0,
+                s0_sources: &out.s0_sources,
+                vpl_texels: &ism.vpl_texels,
+                creases,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
+        )
     }
 }
 
