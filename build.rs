@@ -164,7 +164,7 @@ fn shader_module(
     let mut code = format!(
         "\n/// `shaders/{file}`: SPIR-V, reflected bindings and push constants.\npub mod {module} {{\n"
     );
-    code += "    #[allow(unused_imports)]\n    use crate::vk::{Binding, Buffer, BufferView, Image, Sampler, Shader, ShaderBindings, ShaderInterface};\n";
+    code += "    #[allow(unused_imports)]\n    use crate::vk::{AccelerationStructure, Binding, Buffer, BufferView, Image, Sampler, Shader, ShaderBindings, ShaderInterface};\n";
     code += "    #[allow(unused_imports)]\n    use ash::vk::DescriptorType;\n\n";
     let _ = writeln!(code, "    /// The shader.\n    pub const SHADER: Shader = Shader {{\n        name: \"{file}\",\n        spirv: include_bytes!(concat!(env!(\"OUT_DIR\"), \"/{spv_name}\")),\n        bindings: &[");
     for b in &bindings {
@@ -188,6 +188,7 @@ fn shader_module(
             }
             DescriptorType::STORAGE_IMAGE => "&'a Image",
             DescriptorType::COMBINED_IMAGE_SAMPLER => "(&'a Image, &'a Sampler)",
+            DescriptorType::ACCELERATION_STRUCTURE_KHR => "&'a AccelerationStructure",
             other => {
                 return Err(format!(
                     "binding {}: descriptor type {} not supported",
@@ -216,6 +217,9 @@ fn shader_module(
                 format!("Binding::StorageTexelBuffer(self.{})", b.name)
             }
             DescriptorType::STORAGE_IMAGE => format!("Binding::storage(self.{})", b.name),
+            DescriptorType::ACCELERATION_STRUCTURE_KHR => {
+                format!("Binding::AccelerationStructure(self.{})", b.name)
+            }
             _ => format!("Binding::sampled(self.{0}.0, self.{0}.1)", b.name),
         };
         let _ = writeln!(code, "                ({}, {value}),", b.binding);

@@ -23,10 +23,16 @@ alpha-masked leaves under a sun, a spot light, a textured studio; scripts/mitsub
                       open-front box without camera and a closed room with
                       one, with fixtures 1 mm to 10 cm thick, touching the
                       ceiling or 1 cm under it, one- and double-sided walls.
+  thin-*              visibility through thin walls (issue 61): an open-front
+                      box of closed slabs 1 mm to 20 cm thick (albedo 1 white,
+                      saturated red and green, one- or double-sided) lit by a
+                      thin closed fixture under the ceiling, seen from outside
+                      and from inside; two open-top rooms sharing one slab
+                      wall, a point light in one of them, seen from above.
 """
 import base64, json, math, os, struct, sys, zlib
 
-OUT_DIR = "tests/scenes"
+OUT_DIR = os.environ.get("SCENES_OUT", "tests/scenes")
 
 def cross(a, b): return [a[1]*b[2]-a[2]*b[1], a[2]*b[0]-a[0]*b[2], a[0]*b[1]-a[1]*b[0]]
 def dot(a, b): return sum(x * y for x, y in zip(a, b))
@@ -257,6 +263,73 @@ def slab_scene(name, kind, fixture_t, gap, slab_t, overlap, walls_double_sided, 
                        "pbrMetallicRoughness": {"baseColorFactor": [fixture_colour] * 3 + [1], "metallicFactor": 0}}
     meshes = [(SLAB_COLOURS[n], g) for n, g in slab_walls(lo, hi, slab_t, sides, overlap)] + extra + [("fixture", fixture)]
     write(name, meshes, mats, camera=camera, doc=doc)
+
+def look_at(eye, target):
+    """A glTF camera node's rotation (quaternion x, y, z, w) looking from eye at target, +Y up."""
+    f = [t - e for t, e in zip(target, eye)]; l = math.sqrt(dot(f, f)); f = [c / l for c in f]
+    r = cross(f, [0, 1, 0]); l = math.sqrt(dot(r, r)); r = [c / l for c in r]
+    u = cross(r, f)
+    # Columns of the rotation: r, u, -f (the camera looks down its -Z).
+    m = [[r[0], u[0], -f[0]], [r[1], u[1], -f[1]], [r[2], u[2], -f[2]]]
+    tr = m[0][0] + m[1][1] + m[2][2]
+    if tr > 0:
+        s4 = math.sqrt(tr + 1.0) * 2
+        return [(m[2][1] - m[1][2]) / s4, (m[0][2] - m[2][0]) / s4, (m[1][0] - m[0][1]) / s4, 0.25 * s4]
+    i = max(range(3), key=lambda k: m[k][k])
+    j, k = (i + 1) % 3, (i + 2) % 3
+    s4 = math.sqrt(1.0 + m[i][i] - m[j][j] - m[k][k]) * 2
+    q = [0.0, 0.0, 0.0, 0.0]
+    q[i] = 0.25 * s4
+    q[j] = (m[j][i] + m[i][j]) / s4
+    q[k] = (m[k][i] + m[i][k]) / s4
+    q[3] = (m[k][j] - m[j][k]) / s4
+    return q
+
+THIN_WALLS = {"white": {"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0}},
+              "red": {"pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1], "metallicFactor": 0}},
+              "green": {"pbrMetallicRoughness": {"baseColorFactor": [0, 1, 0, 1], "metallicFactor": 0}}}
+
+def thin_box(name, slab_t, double, view, doc):
+    """An open-front 2 m box of five closed slabs slab_t thick (albedo 1 white,
+    saturated red and green), a grey block inside, lit only by a 6 mm closed
+    emissive fixture touching the ceiling; the camera outside (front, left,
+    above: the ceiling's and the left wall's outer faces in view) or inside."""
+    lo, hi = [-1, 0, -1], [1, 2, 1]
+    mats = {k: dict(v, doubleSided=double) for k, v in THIN_WALLS.items()}
+    mats["grey"] = {"pbrMetallicRoughness": {"baseColorFactor": [0.6, 0.6, 0.6, 1], "metallicFactor": 0},
+                    "doubleSided": double}
+    mats["fixture"] = {"emissiveFactor": [1, 1, 1], "doubleSided": True,
+                       "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0}}
+    walls = slab_walls(lo, hi, slab_t, ["floor", "ceiling", "back", "left", "right"], False)
+    meshes = [(SLAB_COLOURS[n], g) for n, g in walls]
+    meshes += [("grey", box([-0.5, 0, -0.6], [0.1, 0.9, 0.0], 0.3)),
+               ("fixture", box([-0.5, 2 - 0.006, -0.5], [0.5, 2, 0.5]))]
+    if view == "outside":
+        eye, target = [-3.2, 3.6, 4.6], [0, 1.0, 0]
+    else:
+        eye, target = [0.5, 1.0, 0.9], [-0.3, 0.9, -1]
+    camera = {"translation": eye, "rotation": look_at(eye, target), "yfov": math.radians(45)}
+    write(name, meshes, mats, camera=camera, doc=doc)
+
+def two_rooms(name, wall_t, double, doc):
+    """Two open-top rooms (2 x 1.5 x 2 m each) of closed 10 cm slabs, side by
+    side, sharing one slab wall_t thick; a 2 W/sr point light in the left
+    room, seen from above: the right room is unlit in truth."""
+    mats = {k: dict(v, doubleSided=double) for k, v in THIN_WALLS.items()}
+    t, h = 0.10, 1.5
+    half = wall_t / 2
+    parts = {"white": [box([-2 - half - t, -t, -1 - t], [2 + half + t, 0, 1 + t]),            # floor
+                       box([-2 - half - t, 0, -1 - t], [2 + half + t, h, -1]),               # back
+                       box([-2 - half - t, 0, 1], [2 + half + t, h, 1 + t])],                # front
+             "red": [box([-2 - half - t, 0, -1], [-2 - half, h, 1])],                        # left outer wall
+             "green": [box([2 + half, 0, -1], [2 + half + t, h, 1])],                        # right outer wall
+             "shared": [box([-half, 0, -1], [half, h, 1])]}
+    mats["shared"] = dict(THIN_WALLS["white"], doubleSided=double)
+    meshes = [(k, merge(v)) for k, v in parts.items()]
+    light = ({"type": "point", "color": [1, 1, 1], "intensity": 2.0}, [-1.0, 1.0, 0.3])
+    eye, target = [0.0, 5.5, 3.2], [0.0, 0.4, 0.0]
+    camera = {"translation": eye, "rotation": look_at(eye, target), "yfov": math.radians(45)}
+    write(name, meshes, mats, lights=[light], camera=camera, doc=doc)
 
 if len(sys.argv) == 3 and sys.argv[1] == "--sweep":
     # The whole grid of proportions, for examples/fixture_sweep.rs (not committed).
@@ -508,3 +581,16 @@ write("emissive-floor", [("floor", quad([-20, 0, 20], [40, 0, 0], [0, 0, -40]))]
       {"floor": {"emissiveFactor": [0.5, 0.5, 0.5],
                  "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0}}},
       doc="A 40 m emissive floor plane; no lights, no camera")
+
+thin_box("thin-box-13cm-outside", 0.13, True, "outside",
+         doc="Open-front box of 13 cm doubleSided slabs (albedo 1 white, saturated red, green), seen from outside")
+thin_box("thin-box-1mm-outside", 0.001, False, "outside",
+         doc="Open-front box of 1 mm one-sided slabs, seen from outside")
+thin_box("thin-box-20cm-outside", 0.20, False, "outside",
+         doc="Open-front box of 20 cm one-sided slabs, seen from outside")
+thin_box("thin-box-1mm-inside", 0.001, True, "inside",
+         doc="Open-front box of 1 mm doubleSided slabs, seen from inside")
+two_rooms("thin-two-rooms-1mm", 0.001, True,
+          doc="Two open-top rooms sharing a 1 mm doubleSided wall, a point light in the left one, seen from above")
+two_rooms("thin-two-rooms-20cm", 0.20, False,
+          doc="Two open-top rooms sharing a 20 cm one-sided wall, a point light in the left one, seen from above")

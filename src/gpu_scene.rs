@@ -10,6 +10,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::error::Result;
 use crate::gpu_types::{GpuMaterial, GpuObject};
+use crate::ray_scene::RayScene;
 use crate::scene::{AlphaMode, Scene};
 use crate::texture_mips::{self, Texels};
 use crate::vk::{Buffer, Device, Image, ImageDesc, Pipeline, Recorder, Sampler};
@@ -53,6 +54,9 @@ pub struct SlotScene<'a> {
     pub scene: &'a GpuScene,
     /// `GpuObject` per scene object.
     pub objects: &'a Buffer,
+    /// The objects' top-level acceleration structure, where this frame
+    /// tests VPL visibility exactly.
+    pub top_level: Option<&'a crate::vk::AccelerationStructure>,
 }
 
 /// GPU copies of a [`Scene`]'s meshes, objects and materials.
@@ -85,6 +89,11 @@ pub struct GpuScene {
     /// Staging buffers whose copies are recorded in a frame that may not
     /// have been submitted yet (released by the next frame).
     recorded: Vec<Buffer>,
+    /// Each mesh's vertex count (the acceleration structures' bounds).
+    vertex_counts: Vec<u32>,
+    /// Acceleration structures for exact visibility (None: the device has
+    /// no ray queries, or the scene needs alpha tests).
+    pub rays: Option<RayScene>,
 }
 
 impl GpuScene {
@@ -98,6 +107,11 @@ impl GpuScene {
         // rasterizers their fast depth-only path: llvmpipe's shadow pass
         // was 14x slower with it).
         let (mut vertices, mut indices, mut meshes) = (Vec::new(), Vec::new(), Vec::new());
+        let rays = RayScene::new(device, scene, slots);
+        let input = match rays {
+            Some(_) => RayScene::INPUT_USAGE,
+            None => vk::BufferUsageFlags::empty(),
+        };
         for mesh in scene.meshes() {
             let (mut opaque, mut masked) = (Vec::new(), Vec::new());
             for tri in mesh.indices.chunks_exact(3) {
@@ -121,13 +135,13 @@ impl GpuScene {
             device,
             "scene.vertices",
             &vertices,
-            vk::BufferUsageFlags::VERTEX_BUFFER,
+            vk::BufferUsageFlags::VERTEX_BUFFER | input,
         )?;
         let indices = Buffer::with_data(
             device,
             "scene.indices",
             &indices,
-            vk::BufferUsageFlags::INDEX_BUFFER,
+            vk::BufferUsageFlags::INDEX_BUFFER | input,
         )?;
         let objects = (0..slots)
             .map(|slot| Ok((objects_buffer(device, slot, scene.objects().len())?, 0)))
@@ -231,6 +245,12 @@ impl GpuScene {
                 .map(|(i, b)| (b, i))
                 .collect(),
             recorded: Vec::new(),
+            vertex_counts: scene
+                .meshes()
+                .iter()
+                .map(|m| m.vertices.len() as u32)
+                .collect(),
+            rays,
         };
         gpu.set_objects(scene);
         Ok(gpu)
@@ -300,6 +320,7 @@ impl GpuScene {
         SlotScene {
             scene: self,
             objects: &self.objects[slot].0,
+            top_level: None,
         }
     }
 
@@ -339,9 +360,10 @@ impl GpuScene {
         }
     }
 
-    /// Records the texture copies still pending (the first frame after an
-    /// upload does this before its passes).
-    pub fn record_uploads(&mut self, rec: &mut Recorder<'_>) {
+    /// Records the texture copies still pending and the meshes'
+    /// acceleration structures (the first frame after an upload does this
+    /// before its passes).
+    pub fn record_uploads(&mut self, rec: &mut Recorder<'_>) -> Result<()> {
         for (staging, array) in self.pending.drain(..) {
             let image = if array == 0 {
                 &self.color_textures
@@ -351,11 +373,23 @@ impl GpuScene {
             rec.copy_buffer_to_mips(&staging, image, 4);
             self.recorded.push(staging);
         }
+        if let Some(rays) = &mut self.rays {
+            let meshes: Vec<_> = self
+                .meshes
+                .iter()
+                .copied()
+                .zip(self.vertex_counts.iter().copied())
+                .collect();
+            let inputs = (&self.vertices, &self.indices);
+            rays.record_bottom_levels(rec, inputs, &meshes, &mut self.recorded)?;
+        }
+        Ok(())
     }
 
-    /// Whether texture copies are still to be recorded.
+    /// Whether texture copies or acceleration structures are still to be
+    /// recorded.
     pub fn has_pending_uploads(&self) -> bool {
-        !self.pending.is_empty()
+        !self.pending.is_empty() || self.rays.as_ref().is_some_and(|r| !r.is_built())
     }
 
     /// Lets the staging buffers go once the frame that copies them has been

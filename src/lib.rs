@@ -101,6 +101,7 @@ unstable_pub! {
     mod gpu_scene;
     mod gpu_types;
     mod passes;
+    mod ray_scene;
     mod scene_cache;
 }
 unstable_pub! {

@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 use crate::gpu_scene::SlotScene;
 use crate::passes::direct_lighting::{DirectLight, DirectLightingPass};
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
-use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass};
+use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass, VplVisibility};
 use crate::passes::ism::{Ism, IsmPass};
 use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
 use crate::passes::ssbc::{SsbcCamera, SsbcPass};
@@ -36,6 +36,7 @@ use crate::postprocess::HostImage;
 use crate::resident::{ResidentScene, SceneVersions};
 use crate::scene::Scene;
 use crate::scene_cache::SceneCache;
+use crate::settings::Visibility;
 pub use crate::settings::{Bound, RenderSettings, RendererConfig};
 use crate::timings::{monotonic_ns, CpuSpan};
 pub use crate::timings::{CpuTimings, SsbcStepTiming, Timings};
@@ -44,7 +45,7 @@ use crate::vk::{
     ValidationLog,
 };
 use guard_band::GuardBand;
-use history::{History, HistoryPlan};
+use history::{History, HistoryPlan, Motion};
 use readback::{hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
 pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 
@@ -97,9 +98,13 @@ impl LayerStages {
     ) -> Result<(&GBuffer, &BoundedLighting)> {
         let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
         let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
+        let visibility = match scene.top_level {
+            Some(tlas) => VplVisibility::Exact(tlas),
+            None => VplVisibility::Ism,
+        };
         let bounded = self
             .indirect_bounded
-            .run(cx, setup, (gbuffer, direct, ism))?;
+            .run(cx, setup, (gbuffer, direct, ism, visibility))?;
         Ok((gbuffer, bounded))
     }
 
@@ -502,6 +507,21 @@ fn frame_view(
     })
 }
 
+/// Whether the frame tests VPL visibility exactly (ray queries): asked
+/// for, and possible on this device and scene (an error naming why not).
+/// [`Visibility::Auto`] is resolved before (accumulated frames).
+fn exact_visibility(settings: &RenderSettings, cache: &SceneCache) -> Result<bool> {
+    match settings.visibility {
+        Visibility::Auto | Visibility::Ism => Ok(false),
+        Visibility::Exact if cache.gpu_scene.rays.is_some() => Ok(true),
+        Visibility::Exact => Err(Error::InvalidParameter(
+            "exact visibility (ssbc.visibility) needs a device with ray queries \
+             (VK_KHR_ray_query) and a scene without alpha-masked materials"
+                .into(),
+        )),
+    }
+}
+
 /// The frame's recorder: ssbc's command buffer, or the host's `host`.
 fn begin_recording<'a>(
     commands: &'a mut CommandPool,
@@ -517,7 +537,7 @@ fn begin_recording<'a>(
         // timeline cannot see when the host's command buffer finishes, so
         // staging could not be freed safely).
         let mut upload = commands.begin()?;
-        cache.gpu_scene.record_uploads(&mut upload);
+        cache.gpu_scene.record_uploads(&mut upload)?;
         device.wait(upload.submit()?)?;
         cache.gpu_scene.release_staging();
     }
@@ -845,12 +865,20 @@ impl Renderer {
         } = request;
         let host_settings = settings;
         // A still view's frame continues the light paths after its
-        // history's (an independent VPL set).
+        // history's (an independent VPL set), and it converges to the
+        // truth only with exact visibility (where possible, by default).
         let shifted;
+        let still = history.is_some_and(|plan| plan.motion == Motion::Still);
+        let exact_when_still = still
+            && settings.visibility == Visibility::Auto
+            && crate::ray_scene::exact_visibility_possible(&self.device, scene);
         let settings = match history {
-            Some(plan) if plan.path_offset > 0 => {
+            Some(plan) if plan.path_offset > 0 || exact_when_still => {
                 let mut s = settings.clone();
                 s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
+                if exact_when_still {
+                    s.visibility = Visibility::Exact;
+                }
                 shifted = s;
                 &shifted
             }
@@ -879,8 +907,14 @@ impl Renderer {
         let record_start = monotonic_ns();
         let host = sink.host_command_buffer();
         let mut rec = begin_recording(&mut self.commands[slot], &device, host, cache)?;
-        // The first frame after an upload copies the scene's textures.
-        cache.gpu_scene.record_uploads(&mut rec);
+        // The first frame after an upload copies the scene's textures (and
+        // builds its meshes' acceleration structures).
+        cache.gpu_scene.record_uploads(&mut rec)?;
+        let exact = exact_visibility(settings, cache)?;
+        if exact {
+            let rays = cache.gpu_scene.rays.as_mut().expect("checked");
+            rays.record_top_level(&mut rec, slot, scene, versions.objects)?;
+        }
         let cache = &*cache;
         // Frames in a host's command buffer are labelled, not timed (ssbc
         // cannot know when the host's submission finishes).
@@ -910,12 +944,16 @@ impl Renderer {
                 .step(&plan, settings, (view.view_proj, view.camera.position)),
             previous_slot: plan.previous_slot,
         });
-        self.passes.record(
-            &mut cx,
-            &setup,
-            cache.gpu_scene.for_slot(slot),
-            history_frame,
-        )?;
+        let mut slot_scene = cache.gpu_scene.for_slot(slot);
+        if exact {
+            slot_scene.top_level = cache
+                .gpu_scene
+                .rays
+                .as_ref()
+                .and_then(|r| r.top_level(slot));
+        }
+        self.passes
+            .record(&mut cx, &setup, slot_scene, history_frame)?;
         self.profiler.end_frame(rec.cmd);
         let light_paths = cache.vpls().set.paths;
 

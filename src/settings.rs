@@ -164,6 +164,8 @@ pub struct RenderSettings {
     pub points_per_vpl: u32,
     /// How the bounded VPL lighting visits the VPLs.
     pub gather: Gather,
+    /// How it tests whether a VPL sees a receiver.
+    pub visibility: Visibility,
     /// Side N of the interleaved pattern: N x N subsets of the VPLs.
     pub interleave: u32,
     /// Clamping bound b.
@@ -296,6 +298,7 @@ impl Default for RenderSettings {
             ism_tile: 32,
             points_per_vpl: 1024,
             gather: Gather::Interleaved,
+            visibility: Visibility::Auto,
             interleave: 4,
             bound: Bound::Auto,
             ssbc: SsbcSettings::default(),
@@ -343,6 +346,24 @@ pub enum Gather {
     Full,
 }
 
+/// How the bounded VPL lighting tests whether a VPL sees a receiver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Visibility {
+    /// Imperfect shadow maps for a frame on its own; exact for the frames
+    /// of an accumulation ([`Renderer::render_accumulated`](crate::Renderer::render_accumulated)),
+    /// which converge to the truth only with it, where the device has ray
+    /// queries and the scene no alpha-masked materials (ISMs otherwise).
+    #[default]
+    Auto,
+    /// Imperfect shadow maps (every device).
+    Ism,
+    /// Ray queries against the scene's acceleration structures
+    /// (VK_KHR_ray_query; opaque materials): exact, and an error where
+    /// unavailable.
+    Exact,
+}
+
 /// How each residual step integrates over the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -369,6 +390,7 @@ pub enum LayerResolution {
 
 named_choice!(Gather, [Gather::Interleaved => "interleaved", Gather::Full => "full"]);
 named_choice!(Integration, [Integration::Hierarchical => "hierarchical", Integration::Brute => "brute"]);
+named_choice!(Visibility, [Visibility::Auto => "auto", Visibility::Ism => "ism", Visibility::Exact => "exact"]);
 named_choice!(LayerResolution, [LayerResolution::Full => "full", LayerResolution::Half => "half"]);
 
 impl LayerResolution {

@@ -10,9 +10,17 @@ use ssbc::compare::{block_average, compare};
 use ssbc::reference::{Reference, ReferenceSettings};
 use ssbc::renderer::RenderSettings;
 
-fn settings(vpls: usize) -> RenderSettings {
+/// `vpls` VPLs with the visibility `render_accumulated` resolves `Auto`
+/// to here (exact where the device has ray queries), so that accumulated
+/// and single frames compare.
+fn settings(vpls: usize, exact: bool) -> RenderSettings {
     let mut s = RenderSettings::new(64, 48);
     s.vpl.count = vpls;
+    s.visibility = if exact {
+        ssbc::settings::Visibility::Exact
+    } else {
+        ssbc::settings::Visibility::Ism
+    };
     s
 }
 
@@ -28,6 +36,8 @@ fn accumulated_frames_converge_like_more_vpls() {
     let scene = ssbc::scene::load("assets/open-front-box.gltf").unwrap();
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
+    let exact = renderer.device().ray_queries().is_some();
+    let settings = |vpls| settings(vpls, exact);
     let stop = AtomicBool::new(false);
     let mut progress = Vec::new();
     let eight = renderer

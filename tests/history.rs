@@ -13,9 +13,13 @@ use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Scene};
 use ssbc::{Frame, RenderSettings};
 
+/// ISM visibility throughout: these tests check history's bookkeeping,
+/// which `Visibility::Auto` would mix with exact visibility on still
+/// frames (where the device has ray queries).
 fn settings() -> RenderSettings {
     let mut s = common::small(64, 48);
     s.vpl.count = 64;
+    s.visibility = ssbc::settings::Visibility::Ism;
     s
 }
 
@@ -375,4 +379,39 @@ fn setting_the_same_camera_and_lights_keeps_accumulating() {
     );
     drop(renderer);
     assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+/// With `Visibility::Auto` (the default) a still view's frames after the
+/// first test VPL visibility exactly where the device has ray queries (an
+/// accumulated still view then converges to the truth, not to the ISMs'
+/// bias): they draw no ISMs; a moved camera's frame draws them again.
+#[test]
+fn a_still_view_turns_to_exact_visibility() {
+    let scene = open_box();
+    let mut s = settings();
+    s.visibility = ssbc::settings::Visibility::Auto;
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    if renderer.device().ray_queries().is_none() {
+        common::cannot_check("the device has no ray queries");
+        return;
+    }
+    let mut resident = ResidentScene::new(scene).unwrap();
+    let splats = |f: &Frame| {
+        f.timings
+            .timed_passes()
+            .iter()
+            .any(|p| p.name == "ism_splat")
+    };
+    let drew: Vec<bool> = (0..4)
+        .map(|_| splats(&renderer.render_resident(&resident, &s).unwrap()))
+        .collect();
+    assert_eq!(drew, [true, false, false, false], "ISMs drawn per frame");
+    let mut camera = resident.scene().camera(None).unwrap();
+    camera.position += glam::Vec3::new(0.01, 0.0, 0.0);
+    resident.set_camera(camera);
+    let moved = renderer.render_resident(&resident, &s).unwrap();
+    assert!(splats(&moved), "a moved camera's frame drew no ISMs");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
 }

@@ -132,6 +132,86 @@ fn bounded_indirect_equals_cpu_vpl_sum(
     );
 }
 
+/// Exact visibility (ray queries, where the device has them: Mesa 25's
+/// lavapipe does): the GPU's bounded VPL lighting is the CPU's sum with
+/// ray-cast visibility, pixel by pixel, on the Lambertian box and the
+/// glossy spheres.
+#[test]
+fn exact_visibility_is_the_cpu_sum_with_ray_casts() {
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    if renderer.device().ray_queries().is_none() {
+        common::cannot_check("the device has no ray queries");
+        return;
+    }
+    for scene in [
+        ssbc::scene::builtin::cornell(),
+        ssbc::scene::builtin::spheres(),
+    ] {
+        let mut s = settings(Bound::Auto);
+        s.visibility = ssbc::settings::Visibility::Exact;
+        let f = renderer.render(&scene, &s).expect("render");
+        let eye = scene.camera(None).unwrap().position;
+        let bvh = SceneBvh::new(&scene);
+        let (pos, nrm, alb) = (
+            layer(&f, "gbuffer_position"),
+            layer(&f, "gbuffer_normal"),
+            layer(&f, "gbuffer_albedo"),
+        );
+        let gpu_layer = layer(&f, "indirect_bounded");
+        let (mut gpu, mut cpu) = (Vec::new(), Vec::new());
+        for i in 0..(f.width * f.height) as usize {
+            if pos[i * 4 + 3] == 0.0 {
+                continue;
+            }
+            let (x, n) = (rgb(pos, i), rgb(nrm, i));
+            let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
+            let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
+            let wo = (eye - x).normalize();
+            gpu.push(rgb(gpu_layer, i));
+            // exact_visible() in shaders/include/vpl_gather.glsl: both
+            // ends lifted by 1e-4 of their coordinates' size, the receiver
+            // towards the VPL.
+            let lift = |p: Vec3| 1e-4 * (1.0 + p.abs().max_element());
+            cpu.push(bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |_, v| {
+                let origin = v.position + v.normal * lift(v.position);
+                let toward = if n.dot(origin - x) >= 0.0 { n } else { -n };
+                !bvh.occluded(origin, x + toward * lift(x))
+            }));
+        }
+        // Pixels exactly on an edge between two surfaces (the floor's row
+        // along a wall) are ill-posed: a ray to them grazes the wall, and
+        // the two ray casters' tolerances decide. Every other pixel must
+        // agree to rounding.
+        let sum = |v: &[Vec3]| v.iter().map(|c| c.element_sum() as f64).sum::<f64>();
+        let mean = sum(&cpu) / cpu.len() as f64 / 3.0;
+        let off = gpu
+            .iter()
+            .zip(&cpu)
+            .filter(|(g, c)| {
+                (**g - **c).abs().max_element() as f64 > 1e-3 * (c.max_element() as f64 + mean)
+            })
+            .count();
+        let share = off as f64 / cpu.len() as f64;
+        let ratio = sum(&gpu) / sum(&cpu);
+        eprintln!(
+            "{}: exact visibility: GPU vs CPU sum with ray casts: {:.2}% of pixels differ (by 1e-3), means {ratio:.5}, relative RMSE {:.2e}",
+            scene.name,
+            share * 100.0,
+            relative_rmse(&gpu, &cpu)
+        );
+        assert!(
+            share < 0.01,
+            "{}: {:.2}% of pixels differ",
+            scene.name,
+            share * 100.0
+        );
+        assert!((ratio - 1.0).abs() < 0.005, "{}: means {ratio}", scene.name);
+    }
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+}
+
 /// A 4 m square floor at y = 0 (material 0) and a 4 x 2 m wall at z = -2
 /// (material 1) behind it.
 fn floor_and_wall(scene: &mut ssbc::Scene) {

@@ -181,8 +181,11 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     assert!(worst <= 1, "displayed frame differs by {worst}/255");
 
     // With history (the default) a still view averages its frames: the
-    // screenshot is the mean of as many frames with independent VPL sets.
-    let out = view(&display, &shot, "cornell", &[]);
+    // screenshot is the mean of as many frames with independent VPL sets
+    // (ISMs for both: `auto` gives a still view's later frames exact
+    // visibility where the device has ray queries, an accumulation every
+    // frame).
+    let out = view(&display, &shot, "cornell", &["--visibility", "ism"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "viewer failed:\n{stderr}");
     let accumulated: u32 = stderr
@@ -196,6 +199,7 @@ fn viewer_renders_under_xvfb_and_matches_the_headless_image() {
     let (_, _, shown) = ssbc::output::read_exr_rgb(&shot.with_extension("exr")).unwrap();
     let mut renderer = common::validated_renderer();
     let stop = std::sync::atomic::AtomicBool::new(false);
+    settings.visibility = ssbc::settings::Visibility::Ism;
     let mean = renderer
         .render_accumulated(
             &ssbc::scene::builtin::cornell(),

@@ -22,6 +22,10 @@ float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x, float bias
     return dist <= ism_texel_depth(stored) * pc.far + tolerance ? 1.0 : 0.0;
 }
 
+#ifdef EXACT_VISIBILITY
+#include "exact_visibility.glsl"
+#endif
+
 // What VPLs first, first + stride, ... (below last) send to a receiver at x
 // (shading normal n on a surface of geometric normal ng, BRDF bx, seen from
 // wo): its radiance is brdf_diffuse_color(bx) / pi * irradiance + glossy.
@@ -57,7 +61,12 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
         float cos_x = -dot(n, w);
         if (cos_z <= 0.0 || cos_x <= 0.0) continue;
         float g = min(cos_x * cos_z / d2, pc.bound);
+#ifdef EXACT_VISIBILITY
+        // The VPL leaves its surface along its normal (it lies on it).
+        float v = segment_free(z, n_z.xyz, x, ng) ? 1.0 : 0.0;
+#else
         float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w), bias);
+#endif
         // Hidden from the VPL: neither BRDF is needed.
         if (v == 0.0) continue;
         vec4 power = texelFetch(vpl_texels, at + 2);

@@ -39,6 +39,10 @@ crate::settings::named_choice!(Method, [
     Method::KolligKeller => "kollig-keller",
 ]);
 
+/// The cosine below which a walk's surface point does not see the camera
+/// ([`Reference::emission_reaches_camera`]).
+const GRAZING: f32 = 1e-4;
+
 /// Most bounces of the walk that decides whether an emitter's light can
 /// reach the camera (`Reference::emission_reaches_camera`): with no
 /// absorption a walk finds any opening of a volume long before this.
@@ -390,7 +394,10 @@ impl<'a> Reference<'a> {
                     .bvh
                     .inset(&h, super::enclosure::emission_offset(s.position));
                 let to_camera = self.camera.position - p;
-                if s.geometric_normal.dot(to_camera) > 0.0
+                // A camera in the surface's own plane sees it edge-on: no
+                // light leaves that way (cos 0), and the segment would run
+                // along the surface, where the occlusion test is rounding.
+                if s.geometric_normal.dot(to_camera.normalize_or_zero()) > GRAZING
                     && !self
                         .bvh
                         .occluded_except(p, self.camera.position, h.triangle)

@@ -98,7 +98,7 @@ impl GBuffer {
     pub(crate) fn draw(
         &self,
         rec: &mut Recorder<'_>,
-        SlotScene { scene, objects }: SlotScene<'_>,
+        SlotScene { scene, objects, .. }: SlotScene<'_>,
         pipeline: &Pipeline,
         set: vk::DescriptorSet,
         push: &[u8],

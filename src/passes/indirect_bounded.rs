@@ -28,9 +28,14 @@ use super::{FrameView, Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::settings::Gather;
 use crate::shaders::{
-    indirect_bounded_comp, indirect_creases_comp, indirect_filter_comp, indirect_interleaved_comp,
+    indirect_bounded_comp, indirect_bounded_exact_comp, indirect_creases_comp,
+    indirect_creases_exact_comp, indirect_filter_comp, indirect_filter_exact_comp,
+    indirect_interleaved_comp, indirect_interleaved_exact_comp,
 };
-use crate::vk::{Access, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
+use crate::vk::{
+    Access, AccelerationStructure, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout,
+    Device, Image,
+};
 
 /// Relative depth tolerance of the ISM visibility test. With 32-texel tiles
 /// (the default) 0.12 rather than 0.05: false shadows 5.1 -> 4.4% of
@@ -100,6 +105,42 @@ fn glossy_filter_turn() -> f32 {
         .unwrap_or(GLOSSY_FILTER_TURN)
 }
 
+/// Dispatches with a kernel's ISM or exact twin: the same bindings but for
+/// what visibility reads (the twins' `ism` atlas, or `scene_tlas`); the
+/// exact kernel is looked up only when used.
+macro_rules! with_visibility {
+    ($visibility:expr, (ism: $atlas:expr, $ism:expr, $ism_mod:ident), ($exact:expr, $exact_mod:ident),
+     { $($field:ident $(: $value:expr)?),* $(,)? }, |$kernel:ident, $bindings:ident| $dispatch:expr) => {
+        match $visibility {
+            VplVisibility::Ism => {
+                let ($kernel, $bindings) = (&$ism, $ism_mod::Bindings { ism: $atlas, $($field $(: $value)?),* });
+                $dispatch
+            }
+            VplVisibility::Exact(scene_tlas) => {
+                let ($kernel, $bindings) = ($exact, $exact_mod::Bindings { scene_tlas, $($field $(: $value)?),* });
+                $dispatch
+            }
+        }
+    };
+    ($visibility:expr, ($ism:expr, $ism_mod:ident), ($exact:expr, $exact_mod:ident),
+     { $($field:ident $(: $value:expr)?),* $(,)? }, |$kernel:ident, $bindings:ident| $dispatch:expr) => {
+        match $visibility {
+            VplVisibility::Ism => {
+                let ($kernel, $bindings) = (&$ism, $ism_mod::Bindings { $($field $(: $value)?),* });
+                $dispatch
+            }
+            VplVisibility::Exact(scene_tlas) => {
+                let ($kernel, $bindings) = ($exact, $exact_mod::Bindings { scene_tlas, $($field $(: $value)?),* });
+                $dispatch
+            }
+        }
+    };
+}
+
+/// What the gathers read: the G-buffer, the direct light, the VPLs (with
+/// their ISM atlas) and how visibility is tested.
+pub type Reads<'a> = (&'a GBuffer, &'a DirectLight, &'a Ism, VplVisibility<'a>);
+
 /// A list's header: `VkDispatchIndirectCommand` and the item count.
 const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
 
@@ -154,7 +195,40 @@ pub struct IndirectBoundedPass {
     interleaved: ComputeKernel<indirect_interleaved_comp::Interface, GatherPush>,
     filter: ComputeKernel<indirect_filter_comp::Interface, FilterPush>,
     creases: ComputeKernel<indirect_creases_comp::Interface, GatherPush>,
+    /// The gathers with exact visibility, where the device has ray queries.
+    exact: Option<ExactGathers>,
     layer: u32,
+}
+
+/// The gathers' twins that test visibility with ray queries.
+struct ExactGathers {
+    full: ComputeKernel<indirect_bounded_exact_comp::Interface, GatherPush>,
+    interleaved: ComputeKernel<indirect_interleaved_exact_comp::Interface, GatherPush>,
+    /// The filter, which also checks that nothing separates a pixel from
+    /// the neighbours it averages (a wall thinner than its surface tests).
+    filter: ComputeKernel<indirect_filter_exact_comp::Interface, FilterPush>,
+    creases: ComputeKernel<indirect_creases_exact_comp::Interface, GatherPush>,
+}
+
+/// How the gathers test whether a VPL sees a receiver: its imperfect
+/// shadow map, or a ray query against the frame slot's top-level
+/// acceleration structure.
+#[derive(Clone, Copy)]
+pub enum VplVisibility<'a> {
+    /// The ISM atlas.
+    Ism,
+    /// Ray queries against this structure.
+    Exact(&'a AccelerationStructure),
+}
+
+impl VplVisibility<'_> {
+    /// Declares what the gathers read to test visibility.
+    fn declare(self, rec: &mut crate::vk::Recorder<'_>, ism: &Ism) {
+        match self {
+            VplVisibility::Ism => rec.use_image(&ism.atlas, Access::ComputeRead),
+            VplVisibility::Exact(tlas) => rec.use_buffer(&tlas.buffer, Access::ComputeRayQuery),
+        }
+    }
 }
 
 /// Push constants of the kernels that sum VPLs (`vpl_gather.glsl`); `count`
@@ -215,7 +289,25 @@ impl IndirectBoundedPass {
             interleaved: ComputeKernel::new(device)?.named("indirect_interleaved"),
             filter: ComputeKernel::new(device)?.named("indirect_filter"),
             creases: ComputeKernel::new(device)?.named("indirect_creases"),
+            exact: match device.ray_queries() {
+                Some(_) => Some(ExactGathers {
+                    full: ComputeKernel::new(device)?.named("indirect_bounded_exact"),
+                    interleaved: ComputeKernel::new(device)?.named("indirect_interleaved_exact"),
+                    filter: ComputeKernel::new(device)?.named("indirect_filter_exact"),
+                    creases: ComputeKernel::new(device)?.named("indirect_creases_exact"),
+                }),
+                None => None,
+            },
             layer,
+        })
+    }
+
+    /// The exact gathers, or an error naming why there are none.
+    fn exact(&self) -> Result<&ExactGathers> {
+        self.exact.as_ref().ok_or_else(|| {
+            crate::Error::InvalidParameter(
+                "exact visibility needs ray queries, which this device lacks".into(),
+            )
         })
     }
 
@@ -224,35 +316,39 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, direct, ism): (&GBuffer, &DirectLight, &Ism),
+        (gbuffer, direct, ism, visibility): Reads<'_>,
         out: &BoundedLighting,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
         gbuffer.read_in_compute(rec);
         rec.use_image(&direct.radiance, Access::ComputeRead);
         rec.use_image(&direct.sources, Access::ComputeRead);
-        rec.use_image(&ism.atlas, Access::ComputeRead);
+        visibility.declare(rec, ism);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_image(&out.indirect, Access::ComputeWrite);
         rec.use_image(&out.s0, Access::ComputeWrite);
         rec.use_image(&out.s0_sources, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
-        let bindings = indirect_bounded_comp::Bindings {
-            g_position: &gbuffer.position,
-            g_normal: &gbuffer.normal,
-            g_albedo: &gbuffer.albedo,
-            direct: &direct.radiance,
-            direct_sources: &direct.sources,
-            indirect_bounded: &out.indirect,
-            s0: &out.s0,
-            s0_sources: &out.s0_sources,
-            vpl_texels: &ism.vpl_texels,
-            ism: &ism.atlas,
-            g_emission: &gbuffer.emission,
-        };
-        self.full
-            .dispatch_2d(rec.cmd, pool, &bindings, &push, gbuffer.extent())
+        let extent = gbuffer.extent();
+        with_visibility!(
+            visibility,
+            (ism: &ism.atlas, self.full, indirect_bounded_comp),
+            (&self.exact()?.full, indirect_bounded_exact_comp),
+            {
+                g_position: &gbuffer.position,
+                g_normal: &gbuffer.normal,
+                g_albedo: &gbuffer.albedo,
+                direct: &direct.radiance,
+                direct_sources: &direct.sources,
+                indirect_bounded: &out.indirect,
+                s0: &out.s0,
+                s0_sources: &out.s0_sources,
+                vpl_texels: &ism.vpl_texels,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, extent)
+        )
     }
 
     /// Each pixel's own subset's sum, and its guide.
@@ -260,12 +356,12 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, ism): (&GBuffer, &Ism),
+        (gbuffer, ism, visibility): (&GBuffer, &Ism, VplVisibility<'_>),
         interleaved: &Interleaved,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
         gbuffer.read_in_compute(rec);
-        rec.use_image(&ism.atlas, Access::ComputeRead);
+        visibility.declare(rec, ism);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(&ism.subsets, Access::ComputeRead);
         rec.use_image(&interleaved.sums, Access::ComputeWrite);
@@ -274,18 +370,6 @@ impl IndirectBoundedPass {
         rec.flush_barriers();
         let side = ism.subset_count.isqrt();
         let push = GatherPush::new(gbuffer, ism, view, side);
-        let bindings = indirect_interleaved_comp::Bindings {
-            g_position: &gbuffer.position,
-            g_normal: &gbuffer.normal,
-            g_albedo: &gbuffer.albedo,
-            vpl_texels: &ism.vpl_texels,
-            ism: &ism.atlas,
-            subsets: &ism.subsets,
-            interleaved: &interleaved.sums,
-            interleaved_glossy: &interleaved.glossy,
-            guide: &interleaved.guide,
-            g_emission: &gbuffer.emission,
-        };
         // One work group: 8 x 8 pixels of one subset (z), N pixels apart.
         let (w, h) = gbuffer.extent();
         let groups = [
@@ -293,8 +377,23 @@ impl IndirectBoundedPass {
             h.div_ceil(side).div_ceil(8),
             side * side,
         ];
-        self.interleaved
-            .dispatch(rec.cmd, pool, &bindings, &push, groups)
+        with_visibility!(
+            visibility,
+            (ism: &ism.atlas, self.interleaved, indirect_interleaved_comp),
+            (&self.exact()?.interleaved, indirect_interleaved_exact_comp),
+            {
+                g_position: &gbuffer.position,
+                g_normal: &gbuffer.normal,
+                g_albedo: &gbuffer.albedo,
+                vpl_texels: &ism.vpl_texels,
+                subsets: &ism.subsets,
+                interleaved: &interleaved.sums,
+                interleaved_glossy: &interleaved.glossy,
+                guide: &interleaved.guide,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch(rec.cmd, pool, &bindings, &push, groups)
+        )
     }
 
     /// Sums the subsets back on each surface, then the albedo and S0; lists
@@ -303,11 +402,14 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (gbuffer, direct, side): (&GBuffer, &DirectLight, u32),
+        (gbuffer, direct, side, visibility): (&GBuffer, &DirectLight, u32, VplVisibility<'_>),
         interleaved: &Interleaved,
         out: &BoundedLighting,
     ) -> Result<()> {
         let rec = &mut *cx.rec;
+        if let VplVisibility::Exact(tlas) = visibility {
+            rec.use_buffer(&tlas.buffer, Access::ComputeRayQuery);
+        }
         rec.update_buffer(&interleaved.creases, 0, bytemuck::bytes_of(&LIST_HEADER));
         rec.use_image(&gbuffer.albedo, Access::ComputeRead);
         rec.use_image(&gbuffer.normal, Access::ComputeRead);
@@ -333,22 +435,26 @@ impl IndirectBoundedPass {
             pad: 0,
             camera_position: cx.view.camera.position.extend(1.0).into(),
         };
-        let bindings = indirect_filter_comp::Bindings {
-            guide: &interleaved.guide,
-            g_albedo: &gbuffer.albedo,
-            direct: &direct.radiance,
-            direct_sources: &direct.sources,
-            interleaved: &interleaved.sums,
-            interleaved_glossy: &interleaved.glossy,
-            indirect_bounded: &out.indirect,
-            s0: &out.s0,
-            s0_sources: &out.s0_sources,
-            creases: &interleaved.creases,
-            g_normal: &gbuffer.normal,
-            g_emission: &gbuffer.emission,
-        };
-        self.filter
-            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+        with_visibility!(
+            visibility,
+            (self.filter, indirect_filter_comp),
+            (&self.exact()?.filter, indirect_filter_exact_comp),
+            {
+                guide: &interleaved.guide,
+                g_albedo: &gbuffer.albedo,
+                direct: &direct.radiance,
+                direct_sources: &direct.sources,
+                interleaved: &interleaved.sums,
+                interleaved_glossy: &interleaved.glossy,
+                indirect_bounded: &out.indirect,
+                s0: &out.s0,
+                s0_sources: &out.s0_sources,
+                creases: &interleaved.creases,
+                g_normal: &gbuffer.normal,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+        )
     }
 
     /// Every VPL at the pixels the filter listed beside creases.
@@ -356,16 +462,16 @@ impl IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        reads: (&GBuffer, &DirectLight, &Ism),
+        reads: Reads<'_>,
         creases: &Buffer,
         out: &BoundedLighting,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
-        let (gbuffer, direct, ism) = reads;
+        let (gbuffer, direct, ism, visibility) = reads;
         gbuffer.read_in_compute(rec);
         rec.use_image(&direct.radiance, Access::ComputeRead);
         rec.use_image(&direct.sources, Access::ComputeRead);
-        rec.use_image(&ism.atlas, Access::ComputeRead);
+        visibility.declare(rec, ism);
         rec.use_buffer(&ism.vpls, Access::ComputeSampled);
         rec.use_buffer(creases, Access::IndirectRead);
         rec.use_buffer(creases, Access::ComputeRead);
@@ -374,22 +480,25 @@ impl IndirectBoundedPass {
         rec.use_image(&out.s0_sources, Access::ComputeWrite);
         rec.flush_barriers();
         let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
-        let bindings = indirect_creases_comp::Bindings {
-            g_position: &gbuffer.position,
-            g_normal: &gbuffer.normal,
-            g_albedo: &gbuffer.albedo,
-            direct: &direct.radiance,
-            direct_sources: &direct.sources,
-            indirect_bounded: &out.indirect,
-            s0: &out.s0,
-            s0_sources: &out.s0_sources,
-            vpl_texels: &ism.vpl_texels,
-            ism: &ism.atlas,
-            creases,
-            g_emission: &gbuffer.emission,
-        };
-        self.creases
-            .dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
+        with_visibility!(
+            visibility,
+            (ism: &ism.atlas, self.creases, indirect_creases_comp),
+            (&self.exact()?.creases, indirect_creases_exact_comp),
+            {
+                g_position: &gbuffer.position,
+                g_normal: &gbuffer.normal,
+                g_albedo: &gbuffer.albedo,
+                direct: &direct.radiance,
+                direct_sources: &direct.sources,
+                indirect_bounded: &out.indirect,
+                s0: &out.s0,
+                s0_sources: &out.s0_sources,
+                vpl_texels: &ism.vpl_texels,
+                creases,
+                g_emission: &gbuffer.emission,
+            },
+            |kernel, bindings| kernel.dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
+        )
     }
 }
 
@@ -401,8 +510,9 @@ impl Pass for IndirectBoundedPass {
     /// Width, height and the side of the interleaved pattern (1: full gather).
     type Key = (u32, u32, u32);
     type Resources = BoundedLighting;
-    /// The G-buffer, the direct light, the ISM atlas and its VPLs.
-    type Reads<'a> = (&'a GBuffer, &'a DirectLight, &'a Ism);
+    /// The G-buffer, the direct light, the ISM atlas and its VPLs, and how
+    /// visibility is tested.
+    type Reads<'a> = Reads<'a>;
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let (w, h) = setup.layer_extent(self.layer);
@@ -444,15 +554,28 @@ impl Pass for IndirectBoundedPass {
         })
     }
 
+    /// The ISM gathers' sets, and the exact ones' where the device has
+    /// them (a frame uses one kind or the other).
     fn set_layouts(&self, out: &BoundedLighting) -> Vec<&DescriptorSetLayout> {
-        match out.interleaved {
+        let mut layouts = match out.interleaved {
             None => vec![self.full.set_layout()],
             Some(_) => vec![
                 self.interleaved.set_layout(),
                 self.filter.set_layout(),
                 self.creases.set_layout(),
             ],
+        };
+        if let Some(exact) = &self.exact {
+            match out.interleaved {
+                None => layouts.push(exact.full.set_layout()),
+                Some(_) => {
+                    layouts.push(exact.interleaved.set_layout());
+                    layouts.push(exact.filter.set_layout());
+                    layouts.push(exact.creases.set_layout());
+                }
+            }
         }
+        layouts
     }
 
     /// Writes `indirect_bounded` and `s0 = direct + indirect_bounded`.
@@ -460,21 +583,22 @@ impl Pass for IndirectBoundedPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        reads: (&GBuffer, &DirectLight, &Ism),
+        reads: Reads<'_>,
         out: &BoundedLighting,
     ) -> Result<()> {
         let name = super::layer_name("indirect_bounded", self.layer);
         let scope = cx.profiler.begin(cx.rec.cmd, &name);
-        let (gbuffer, direct, ism) = reads;
+        let (gbuffer, direct, ism, visibility) = reads;
         match &out.interleaved {
             None => self.record_full(cx, pool, reads, out)?,
             Some(interleaved) => {
                 let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/gather"));
-                self.record_interleaved(cx, pool, (gbuffer, ism), interleaved)?;
+                self.record_interleaved(cx, pool, (gbuffer, ism, visibility), interleaved)?;
                 cx.profiler.end(cx.rec.cmd, part);
                 let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/filter"));
                 let side = ism.subset_count.isqrt();
-                self.record_filter(cx, pool, (gbuffer, direct, side), interleaved, out)?;
+                let filter_reads = (gbuffer, direct, side, visibility);
+                self.record_filter(cx, pool, filter_reads, interleaved, out)?;
                 cx.profiler.end(cx.rec.cmd, part);
                 let part = cx.profiler.begin(cx.rec.cmd, &format!("{name}/creases"));
                 self.record_creases(cx, pool, reads, &interleaved.creases, out)?;

@@ -13,6 +13,7 @@ use super::{Pass, Recording, SlotSetup};
 use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
+use crate::settings::Visibility;
 use crate::shaders::{ism_base_comp, ism_points_comp, ism_splat_comp};
 use crate::vk::{
     Access, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
@@ -132,8 +133,9 @@ impl Pass for IsmPass {
     const NAME: &'static str = "ism";
     /// The atlas depends on the VPLs, the points, the far plane and the tile.
     const VIEW_INDEPENDENT: bool = true;
-    /// (VPL version, points version, far plane bits, tile side).
-    type Key = (u64, u64, u32, u32);
+    /// (VPL version, points version, far plane bits, tile side, whether
+    /// visibility is exact: no atlas is drawn then).
+    type Key = (u64, u64, u32, u32, bool);
     /// The atlas and the VPLs and points it is splatted from.
     type Resources = Ism;
     /// The frame slot's objects (points move with them) and their version.
@@ -146,6 +148,7 @@ impl Pass for IsmPass {
             cache.points().version,
             cache.diagonal().to_bits(),
             setup.settings.ism_tile,
+            setup.settings.visibility == Visibility::Exact,
         )
     }
 
@@ -296,7 +299,8 @@ impl Pass for IsmPass {
         (objects, objects_version): (&Buffer, u64),
         ism: &Ism,
     ) -> Result<()> {
-        if ism.vpl_count == 0 {
+        // Exact visibility reads the VPLs, not the atlas.
+        if ism.vpl_count == 0 || cx.settings.visibility == Visibility::Exact {
             return Ok(());
         }
         let Recording {

@@ -271,7 +271,7 @@ impl Pass for ShadowMapPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        SlotScene { scene, objects }: SlotScene<'_>,
+        SlotScene { scene, objects, .. }: SlotScene<'_>,
         maps: &ShadowMaps,
     ) -> Result<()> {
         let Recording { rec, profiler, .. } = cx;

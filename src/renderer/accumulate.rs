@@ -8,7 +8,7 @@
 use crate::error::{Error, Result};
 use crate::resident::ResidentScene;
 use crate::scene::Scene;
-use crate::settings::RenderSettings;
+use crate::settings::{RenderSettings, Visibility};
 
 use super::{Frame, Renderer};
 
@@ -50,6 +50,17 @@ impl Renderer {
         let mut settings = settings.clone();
         // The mean is taken here, of frames that stand alone.
         settings.history.enabled = false;
+        // Independent VPL sets average their noise away but not ISM
+        // visibility's bias: exact visibility where the device and the
+        // scene allow.
+        if settings.visibility == Visibility::Auto {
+            let exact = crate::ray_scene::exact_visibility_possible(self.device(), scene);
+            settings.visibility = if exact {
+                Visibility::Exact
+            } else {
+                Visibility::Ism
+            };
+        }
         let mut sum: Option<Frame> = None;
         for k in 0..frames {
             let frame = self.render_resident(&resident, &settings)?;

@@ -168,20 +168,7 @@ impl IsmReadback {
         normal: glam::Vec3,
         relative_bias: f32,
     ) -> bool {
-        let d = x - vpl.position;
-        let dist = d.length();
-        let w = d / dist;
-        let (t, b) = crate::cpu::sampling::basis(vpl.normal);
-        let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
-        let uv = glam::Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + glam::Vec2::splat(0.5);
-        let tile = self.tile as i64;
-        let origin = (
-            (index as u32 % self.tiles_per_row) as i64 * tile,
-            (index as u32 / self.tiles_per_row) as i64 * tile,
-        );
-        let local = ((uv.x * tile as f32) as i64).clamp(0, tile - 1);
-        let local_y = ((uv.y * tile as f32) as i64).clamp(0, tile - 1);
-        let texel = ((origin.1 + local_y) * self.width as i64 + origin.0 + local) as usize;
+        let (texel, dist, w) = self.lookup(index, vpl, x);
         let stored = self.depth[texel];
         // ism_tolerance() in shaders/include/ism.glsl.
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
@@ -196,6 +183,34 @@ impl IsmReadback {
         }
         let tolerance = relative_bias * dist + footprint * slope + 1e-3;
         dist <= stored * self.far + tolerance
+    }
+
+    /// Whether the distance VPL `index`'s map stores where `x` lands lies
+    /// at or beyond `x` (no occluder there at all, rather than one within
+    /// the test's tolerance).
+    pub fn stored_beyond(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
+        let (texel, dist, _) = self.lookup(index, vpl, x);
+        self.depth[texel] * self.far >= dist
+    }
+
+    /// The atlas texel where `x` lands in VPL `index`'s map, its distance
+    /// from the VPL and the unit direction to it (ism_texel()).
+    fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
+        let d = x - vpl.position;
+        let dist = d.length();
+        let w = d / dist;
+        let (t, b) = crate::cpu::sampling::basis(vpl.normal);
+        let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
+        let uv = glam::Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + glam::Vec2::splat(0.5);
+        let tile = self.tile as i64;
+        let origin = (
+            (index as u32 % self.tiles_per_row) as i64 * tile,
+            (index as u32 / self.tiles_per_row) as i64 * tile,
+        );
+        let local = ((uv.x * tile as f32) as i64).clamp(0, tile - 1);
+        let local_y = ((uv.y * tile as f32) as i64).clamp(0, tile - 1);
+        let texel = ((origin.1 + local_y) * self.width as i64 + origin.0 + local) as usize;
+        (texel, dist, w)
     }
 }
 

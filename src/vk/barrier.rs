@@ -35,6 +35,14 @@ pub enum Access {
     ComputeWrite,
     /// Arguments of an indirect dispatch or draw.
     IndirectRead,
+    /// Geometry or instances an acceleration-structure build reads.
+    AccelerationStructureInput,
+    /// An acceleration structure (or its scratch) a build writes.
+    AccelerationStructureBuild,
+    /// A bottom-level structure a top-level build reads.
+    AccelerationStructureBuildRead,
+    /// An acceleration structure a compute shader's ray queries read.
+    ComputeRayQuery,
     /// Handed to the presentation engine.
     Present,
 }
@@ -119,6 +127,30 @@ impl Access {
             Access::IndirectRead => (
                 S::DRAW_INDIRECT,
                 A::INDIRECT_COMMAND_READ,
+                L::UNDEFINED,
+                false,
+            ),
+            Access::AccelerationStructureInput => (
+                S::ACCELERATION_STRUCTURE_BUILD_KHR,
+                A::SHADER_READ,
+                L::UNDEFINED,
+                false,
+            ),
+            Access::AccelerationStructureBuild => (
+                S::ACCELERATION_STRUCTURE_BUILD_KHR,
+                A::ACCELERATION_STRUCTURE_WRITE_KHR | A::ACCELERATION_STRUCTURE_READ_KHR,
+                L::UNDEFINED,
+                true,
+            ),
+            Access::AccelerationStructureBuildRead => (
+                S::ACCELERATION_STRUCTURE_BUILD_KHR,
+                A::ACCELERATION_STRUCTURE_READ_KHR,
+                L::UNDEFINED,
+                false,
+            ),
+            Access::ComputeRayQuery => (
+                S::COMPUTE_SHADER,
+                A::ACCELERATION_STRUCTURE_READ_KHR,
                 L::UNDEFINED,
                 false,
             ),

@@ -105,6 +105,15 @@ impl Buffer {
         Ok((ptr.as_ptr() as *mut u8, allocation.size() as usize))
     }
 
+    /// The buffer's device address (it was made with
+    /// `SHADER_DEVICE_ADDRESS` usage on a device with bufferDeviceAddress).
+    pub fn device_address(&self) -> vk::DeviceAddress {
+        let info = vk::BufferDeviceAddressInfo::default().buffer(self.raw);
+        // SAFETY: a live buffer of this device; the caller made it with
+        // device-address usage.
+        unsafe { self.device.raw.get_buffer_device_address(&info) }
+    }
+
     /// The device the buffer lives on.
     pub fn device(&self) -> &Arc<Device> {
         &self.device

@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::acceleration::AccelerationStructure;
 use super::buffer::Buffer;
 use super::buffer_view::BufferView;
 use super::device::{Device, Garbage};
@@ -196,27 +197,43 @@ impl DescriptorPool {
                 _ => vk::DescriptorBufferInfo::default(),
             })
             .collect();
-        let writes: Vec<vk::WriteDescriptorSet> = bindings
+        let structures: Vec<[vk::AccelerationStructureKHR; 1]> = bindings
             .iter()
-            .enumerate()
-            .map(|(i, (number, b))| {
-                let w = vk::WriteDescriptorSet::default()
-                    .dst_set(set)
-                    .dst_binding(*number)
-                    .descriptor_type(types[i]);
-                match b {
-                    Binding::StorageImage(_) | Binding::SampledImage(..) => {
-                        w.image_info(std::slice::from_ref(&image_infos[i]))
-                    }
-                    Binding::StorageBuffer(_) | Binding::UniformBuffer(_) => {
-                        w.buffer_info(std::slice::from_ref(&buffer_infos[i]))
-                    }
-                    Binding::UniformTexelBuffer(view) | Binding::StorageTexelBuffer(view) => {
-                        w.texel_buffer_view(std::slice::from_ref(&view.raw))
-                    }
-                }
+            .map(|(_, b)| match *b {
+                Binding::AccelerationStructure(a) => [a.raw],
+                _ => [vk::AccelerationStructureKHR::null()],
             })
             .collect();
+        let mut structure_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> =
+            structures
+                .iter()
+                .map(|a| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(a))
+                .collect();
+        let mut writes = Vec::with_capacity(bindings.len());
+        for (i, ((number, b), structure)) in bindings.iter().zip(&mut structure_writes).enumerate() {
+            let w = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(*number)
+                .descriptor_type(types[i]);
+            writes.push(match b {
+                Binding::StorageImage(_) | Binding::SampledImage(..) => {
+                    w.image_info(std::slice::from_ref(&image_infos[i]))
+                }
+                Binding::StorageBuffer(_) | Binding::UniformBuffer(_) => {
+                    w.buffer_info(std::slice::from_ref(&buffer_infos[i]))
+                }
+                Binding::UniformTexelBuffer(view) | Binding::StorageTexelBuffer(view) => {
+                    w.texel_buffer_view(std::slice::from_ref(&view.raw))
+                }
+                // The structure goes in the write's chain; nothing else
+                // says how many there are.
+                Binding::AccelerationStructure(_) => {
+                    let mut w = w.push_next(structure);
+                    w.descriptor_count = 1;
+                    w
+                }
+            });
+        }
         // SAFETY: the set is not in use by any command buffer yet.
         unsafe { self.device.raw.update_descriptor_sets(&writes, &[]) };
         Ok(set)
@@ -244,6 +261,8 @@ pub enum Binding<'a> {
     UniformTexelBuffer(&'a BufferView),
     /// A buffer read and written as texels (`imageBuffer`).
     StorageTexelBuffer(&'a BufferView),
+    /// A top-level acceleration structure (`accelerationStructureEXT`).
+    AccelerationStructure(&'a AccelerationStructure),
 }
 
 impl<'a> Binding<'a> {

@@ -30,6 +30,7 @@ pub(crate) enum Garbage {
     DescriptorPool(vk::DescriptorPool),
     QueryPool(vk::QueryPool),
     CommandPool(vk::CommandPool),
+    AccelerationStructure(vk::AccelerationStructureKHR),
 }
 
 /// Which physical device to use.
@@ -129,6 +130,48 @@ pub struct Device {
     /// GPU/CPU clock pairs (VK_EXT_calibrated_timestamps with the device and
     /// CLOCK_MONOTONIC domains).
     calibration: Option<ash::ext::calibrated_timestamps::Device>,
+    /// Acceleration structures and ray queries (VK_KHR_ray_query), where
+    /// the device offers them: exact VPL visibility.
+    ray_queries: Option<RayQueries>,
+}
+
+/// What ray queries need on a device: the acceleration-structure entry
+/// points and the scratch alignment.
+pub struct RayQueries {
+    /// VK_KHR_acceleration_structure's device functions.
+    pub functions: ash::khr::acceleration_structure::Device,
+    /// `minAccelerationStructureScratchOffsetAlignment`.
+    pub scratch_alignment: u64,
+}
+
+/// The extensions exact visibility needs.
+const RAY_QUERY_EXTENSIONS: [&CStr; 3] = [
+    ash::khr::acceleration_structure::NAME,
+    ash::khr::ray_query::NAME,
+    ash::khr::deferred_host_operations::NAME,
+];
+
+/// Whether `pd` offers ray queries: the extensions and the features
+/// (accelerationStructure, rayQuery, bufferDeviceAddress).
+fn offers_ray_queries(instance: &ash::Instance, pd: vk::PhysicalDevice) -> bool {
+    if !RAY_QUERY_EXTENSIONS
+        .iter()
+        .all(|e| has_device_extension(instance, pd, e))
+    {
+        return false;
+    }
+    let mut accel = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+    let mut query = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+    let mut v12 = vk::PhysicalDeviceVulkan12Features::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default()
+        .push_next(&mut accel)
+        .push_next(&mut query)
+        .push_next(&mut v12);
+    // SAFETY: a live physical device of this instance.
+    unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+    accel.acceleration_structure == vk::TRUE
+        && query.ray_query == vk::TRUE
+        && v12.buffer_device_address == vk::TRUE
 }
 
 /// What the device offers for profiling (each optional).
@@ -311,19 +354,31 @@ impl Device {
         // SAFETY: valid physical device.
         let offered = unsafe { instance.raw.get_physical_device_features(physical) };
         let statistics = offered.pipeline_statistics_query == vk::TRUE;
+        // Ray queries for exact visibility, enabled when offered.
+        let ray_queries = offers_ray_queries(&instance.raw, physical);
+        if ray_queries {
+            ext_ptrs.extend(RAY_QUERY_EXTENSIONS.iter().map(|e| e.as_ptr()));
+        }
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .timeline_semaphore(true)
-            .host_query_reset(true);
+            .host_query_reset(true)
+            .buffer_device_address(ray_queries);
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .synchronization2(true)
             .dynamic_rendering(true);
+        let mut accel = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+            .acceleration_structure(true);
+        let mut query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
         let base = vk::PhysicalDeviceFeatures::default().pipeline_statistics_query(statistics);
-        let create_info = vk::DeviceCreateInfo::default()
+        let mut create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&ext_ptrs)
             .enabled_features(&base)
             .push_next(&mut f12)
             .push_next(&mut f13);
+        if ray_queries {
+            create_info = create_info.push_next(&mut accel).push_next(&mut query);
+        }
         // SAFETY: the physical device supports every feature requested (checked).
         let raw = unsafe { instance.raw.create_device(physical, &create_info, None) }
             .vk("vkCreateDevice")?;
@@ -340,7 +395,7 @@ impl Device {
             (queue_family, 0),
             properties,
             name,
-            (true, statistics, calibrated),
+            (true, statistics, calibrated, ray_queries),
         )
     }
 
@@ -398,7 +453,7 @@ impl Device {
             (host.queue_family, host.queue_index),
             properties,
             name,
-            (false, false, false),
+            (false, false, false, false),
         )
     }
 
@@ -409,7 +464,7 @@ impl Device {
         (queue_family, queue_index): (u32, u32),
         properties: vk::PhysicalDeviceProperties,
         name: String,
-        (owns_device, pipeline_statistics, calibrated): (bool, bool, bool),
+        (owns_device, pipeline_statistics, calibrated, ray_queries): (bool, bool, bool, bool),
     ) -> Result<Arc<Self>> {
         // SAFETY: the family was created with at least `queue_index + 1` queues.
         let queue = unsafe { raw.get_device_queue(queue_family, queue_index) };
@@ -418,7 +473,7 @@ impl Device {
             device: raw.clone(),
             physical_device: physical,
             debug_settings: Default::default(),
-            buffer_device_address: false,
+            buffer_device_address: ray_queries,
             allocation_sizes: Default::default(),
         })?;
         let mut type_info = vk::SemaphoreTypeCreateInfo::default()
@@ -432,6 +487,22 @@ impl Device {
             .then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
         let calibration =
             calibrated.then(|| ash::ext::calibrated_timestamps::Device::new(&instance.raw, &raw));
+        let ray_queries = ray_queries.then(|| {
+            let mut accel = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+            let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut accel);
+            // SAFETY: a live physical device of this instance.
+            unsafe {
+                instance
+                    .raw
+                    .get_physical_device_properties2(physical, &mut props2)
+            };
+            RayQueries {
+                functions: ash::khr::acceleration_structure::Device::new(&instance.raw, &raw),
+                scratch_alignment: accel
+                    .min_acceleration_structure_scratch_offset_alignment
+                    .max(1) as u64,
+            }
+        });
         // SAFETY: valid instance and physical device.
         let families = unsafe {
             instance
@@ -463,6 +534,7 @@ impl Device {
             resources_created: AtomicU64::new(0),
             resources_destroyed: AtomicU64::new(0),
             bytes_uploaded: AtomicU64::new(0),
+            ray_queries,
         });
         device.set_name(device.timeline, "ssbc.timeline");
         Ok(device)
@@ -562,6 +634,12 @@ impl Device {
     /// Device name as the driver reports it.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// Acceleration structures and ray queries, where the device offers
+    /// them (exact VPL visibility).
+    pub fn ray_queries(&self) -> Option<&RayQueries> {
+        self.ray_queries.as_ref()
     }
 
     /// The driver's name and version (driverName, driverInfo).
@@ -742,6 +820,11 @@ impl Device {
                 }
                 Garbage::QueryPool(p) => self.raw.destroy_query_pool(p, None),
                 Garbage::CommandPool(p) => self.raw.destroy_command_pool(p, None),
+                Garbage::AccelerationStructure(a) => {
+                    if let Some(rq) = &self.ray_queries {
+                        rq.functions.destroy_acceleration_structure(a, None);
+                    }
+                }
             }
         }
     }

@@ -29,6 +29,7 @@ mod device;
 mod driver_libraries;
 mod instance;
 unstable_pub! {
+    mod acceleration;
     mod barrier;
     mod buffer;
     mod buffer_view;
@@ -39,10 +40,13 @@ unstable_pub! {
     mod profiler;
 }
 
-pub use device::{Device, DeviceSelector, HostDevice, ProfilingSupport, RequiredFeatures};
+pub use device::{
+    Device, DeviceSelector, HostDevice, ProfilingSupport, RayQueries, RequiredFeatures,
+};
 pub use instance::{Instance, Validation, ValidationLog};
 pub use profiler::{GpuFrameTimes, PassTiming};
 unstable_pub! {
+    use self::acceleration::{AccelerationStructure, TriangleRange};
     use self::barrier::Access;
     use self::buffer::Buffer;
     use self::buffer_view::BufferView;

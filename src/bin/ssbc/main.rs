@@ -17,7 +17,7 @@ use clap::{Parser, Subcommand};
 use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::settings::{
     Bound, Gather, HistorySettings, Integration, LayerResolution, NamedChoice, RenderSettings,
-    RendererConfig, SsbcSettings, VplSettings, DEFAULT_BOUNCES,
+    RendererConfig, SsbcSettings, Visibility, VplSettings, DEFAULT_BOUNCES,
 };
 use ssbc::vk::DeviceSelector;
 use ssbc::{Layer, Renderer};
@@ -224,6 +224,12 @@ struct SceneOptions {
     /// full (every VPL at every pixel; the reference).
     #[arg(long, value_parser = choice::<Gather>(), default_value_t = RenderSettings::default().gather)]
     gather: Gather,
+    /// How a VPL's visibility is tested: ism (imperfect shadow maps), exact
+    /// (ray queries; devices with VK_KHR_ray_query, scenes without alpha
+    /// masks), or auto (ISMs for a frame, exact for --accumulate where
+    /// possible).
+    #[arg(long, value_parser = choice::<Visibility>(), default_value_t = RenderSettings::default().visibility)]
+    visibility: Visibility,
     /// Side N of the interleaved pattern (N x N subsets of the VPLs).
     #[arg(long, default_value_t = RenderSettings::default().interleave)]
     interleave: u32,
@@ -370,6 +376,7 @@ impl SceneOptions {
             ism_tile: self.ism_res,
             points_per_vpl: self.points_per_vpl,
             gather: self.gather,
+            visibility: self.visibility,
             interleave: self.interleave,
             bound: self.bound,
             ssbc: SsbcSettings {

@@ -1,0 +1,56 @@
+// Bounded VPL lighting T_b L^ by the full gather: every VPL at every pixel,
+// f_r(x) min(G, b) V_ISM f_r(z) Phi summed (the reference of the
+// interleaved gather). Also writes S0 = direct + bounded indirect, the term
+// SSBC compensates, and what each pixel sends as an SSBC source
+// (brdf_source_color).
+#include "common.glsl"
+#include "ism.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
+layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
+layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
+layout(set = 0, binding = 6) uniform textureBuffer vpl_texels;
+layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
+layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
+layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
+layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
+
+layout(push_constant) uniform Push {
+    uvec2 size;
+    uint vpl_count;
+    uint tile;
+    uint tiles_per_row;
+    float far;            // ISM distances are stored divided by this
+    float bound;          // b [1/m^2]; +inf disables clamping
+    float ism_bias;       // relative depth tolerance of the ISM test
+    float point_radius;   // world radius of one splatted point
+    vec4 camera_position; // xyz: the eye (glossy receivers reflect towards it)
+} pc;
+
+#include "vpl_gather.glsl"
+
+void main() {
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
+    vec4 position = imageLoad(g_position, pixel);
+    vec4 direct_radiance = imageLoad(direct, pixel);
+    vec3 radiance = vec3(0.0);
+    vec3 source = vec3(0.0);
+    if (position.w != 0.0) {
+        vec4 n = imageLoad(g_normal, pixel);
+        Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+        vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
+        vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
+        VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, 0u, pc.vpl_count, 1u);
+        radiance = brdf_diffuse_color(b) / PI * light.irradiance + light.glossy;
+        source = brdf_source_color(b) / PI * light.irradiance;
+    }
+    imageStore(indirect_bounded, pixel, vec4(radiance, position.w));
+    imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));
+    imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, position.w));
+}

@@ -1,0 +1,146 @@
+//! VPL visibility through thin walls (tests/scenes/thin-*: boxes of closed
+//! slabs 1 mm to 20 cm thick seen from outside and inside, two rooms
+//! sharing a 1 mm or 20 cm wall with the light in one), against the CPU
+//! path tracer. Exact visibility (ray queries) leaves every surface the
+//! path tracer shows unlit unlit; imperfect shadow maps let light through,
+//! as measured (a known limit, pinned so that it can only get better).
+
+mod common;
+
+use std::sync::atomic::AtomicBool;
+
+use ssbc::reference::{Reference, ReferenceSettings};
+use ssbc::settings::Visibility;
+use ssbc::Scene;
+
+const SIZE: (u32, u32) = (96, 72);
+
+const SCENES: [&str; 6] = [
+    "thin-box-13cm-outside",
+    "thin-box-1mm-outside",
+    "thin-box-20cm-outside",
+    "thin-box-1mm-inside",
+    "thin-two-rooms-1mm",
+    "thin-two-rooms-20cm",
+];
+
+fn load(name: &str) -> Scene {
+    let path = format!("{}/tests/scenes/{name}.gltf", env!("CARGO_MANIFEST_DIR"));
+    let mut scene = ssbc::scene::load(&path).expect("test scene");
+    scene.ensure_light();
+    scene
+}
+
+/// The path tracer's image (`spp` samples at each pixel's centre, as the
+/// GPU samples).
+fn truth(scene: &Scene, spp: u32) -> Vec<f32> {
+    let settings = ReferenceSettings {
+        width: SIZE.0,
+        height: SIZE.1,
+        spp,
+        ..Default::default()
+    };
+    let reference = Reference::new(scene, settings).unwrap();
+    reference.render(&AtomicBool::new(false), |_| {}).0
+}
+
+fn luminance(rgba: &[f32], i: usize) -> f64 {
+    (rgba[i * 4] + rgba[i * 4 + 1] + rgba[i * 4 + 2]) as f64 / 3.0
+}
+
+/// How an image agrees with the truth on light and dark: its mean over the
+/// truth's; and its mean over the pixels the truth leaves unlit (they and
+/// their eight neighbours exactly black: no path reaches them) over its
+/// whole mean.
+fn light_and_dark(image: &[f32], truth: &[f32]) -> (f64, f64, usize) {
+    let (w, h) = (SIZE.0 as i64, SIZE.1 as i64);
+    let n = (w * h) as usize;
+    let mean = |img: &[f32]| (0..n).map(|i| luminance(img, i)).sum::<f64>() / n as f64;
+    let dark: Vec<usize> = (0..n)
+        .filter(|&i| {
+            let (x, y) = (i as i64 % w, i as i64 / w);
+            (-1..=1).all(|dy| {
+                (-1..=1).all(|dx| {
+                    let (u, v) = ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1));
+                    luminance(truth, (v * w + u) as usize) == 0.0
+                })
+            })
+        })
+        .collect();
+    let dark_mean =
+        dark.iter().map(|&i| luminance(image, i)).sum::<f64>() / dark.len().max(1) as f64;
+    let whole = mean(image);
+    (
+        whole / mean(truth),
+        dark_mean / whole.max(1e-30),
+        dark.len(),
+    )
+}
+
+#[test]
+fn exact_visibility_leaks_nothing_through_thin_walls() {
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    if renderer.device().ray_queries().is_none() {
+        common::cannot_check("the device has no ray queries");
+        return;
+    }
+    let mut failures = Vec::new();
+    for name in SCENES {
+        let scene = load(name);
+        let mut settings = common::small(SIZE.0, SIZE.1);
+        settings.visibility = Visibility::Exact;
+        let frame = renderer.render(&scene, &settings).expect("render");
+        let truth = truth(&scene, 128);
+        let (ratio, dark, dark_pixels) = light_and_dark(&frame.image.rgba, &truth);
+        eprintln!(
+            "{name}: exact visibility: mean / path tracer {ratio:.4}; on the {dark_pixels} pixels the path tracer leaves unlit, {:.3}% of the mean",
+            dark * 100.0
+        );
+        // The path tracer's mean is good to about 1% at 128 samples here.
+        if (ratio - 1.0).abs() > 0.03 {
+            failures.push(format!("{name}: mean / path tracer {ratio}"));
+        }
+        if dark > 1e-3 {
+            failures.push(format!("{name}: unlit pixels at {dark} of the mean"));
+        }
+    }
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Imperfect shadow maps (the default for a single frame) let light into
+/// the unlit room through its shared wall, 1 mm or 20 cm thick: measured
+/// 2026-11-28 at 4.2% (1 mm) and 2.6% (20 cm) of the image's mean on the
+/// other room's pixels (means 1.028 and 1.013 of the path tracer's).
+/// Pinned below 1.5 times that, so that it can only get better.
+#[test]
+fn isms_leak_through_a_shared_wall_no_more_than_measured() {
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    // Every thin scene is reported; the rooms' leak is pinned.
+    for name in SCENES {
+        let measured: f64 = match name {
+            "thin-two-rooms-1mm" => 0.042,
+            "thin-two-rooms-20cm" => 0.026,
+            _ => f64::NAN,
+        };
+        let scene = load(name);
+        let mut settings = common::small(SIZE.0, SIZE.1);
+        settings.visibility = Visibility::Ism;
+        let frame = renderer.render(&scene, &settings).expect("render");
+        let truth = truth(&scene, 64);
+        let (ratio, dark, pixels) = light_and_dark(&frame.image.rgba, &truth);
+        eprintln!(
+            "{name}: ISMs: mean / path tracer {ratio:.4}; on the {pixels} unlit pixels {:.2}% of the mean",
+            dark * 100.0
+        );
+        if measured.is_finite() {
+            assert!(pixels > 500, "{name}: only {pixels} unlit pixels");
+            assert!(dark < 1.5 * measured, "{name}: unlit pixels at {dark}");
+        }
+    }
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+}
