@@ -10,10 +10,14 @@
 #  - Xvfb, for the viewer's test;
 #  - Debian's shaderc, glslang and SPIRV-Tools static archives, merged into
 #    the one library the shaderc crate links
-#    (/usr/local/lib/ssbc-shaderc/libshaderc_combined.a, named in
-#    .cargo/config.toml), so that Google's shaderc is not compiled from
-#    source. If that fails, the tools for the source build (cmake, ninja,
-#    python3, git) are installed instead.
+#    (/usr/local/lib/ssbc-shaderc/libshaderc_combined.a), so that Google's
+#    shaderc is not compiled from source, with a pkg-config file naming it
+#    (/usr/local/lib/pkgconfig/shaderc.pc, ahead of Debian's in pkg-config's
+#    search path): shaderc-sys asks pkg-config first, so any crate that
+#    depends on ssbc, in this checkout or outside it, links it with nothing
+#    set by hand. (Debian's own shaderc.pc names a shared libshaderc whose
+#    glslang symbols it does not link.) If the merge fails, the tools for
+#    the source build (cmake, ninja, python3, git) are installed instead.
 # Skips apt entirely when everything is already there, so repeat runs are fast.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -23,7 +27,7 @@ packages=(
   libx11-6 libx11-xcb1 libxcb1 libxcursor1 libxi6 libxkbcommon0 libxkbcommon-x11-0
   libwayland-client0 libwayland-cursor0
   xvfb
-  g++ libshaderc-dev glslang-dev spirv-tools
+  g++ pkg-config libshaderc-dev glslang-dev spirv-tools
 )
 
 install_missing() {
@@ -124,4 +128,25 @@ if [ ! -f "$combined" ] || [ "$lib/libshaderc_combined.a" -nt "$combined" ]; the
     rm -rf "$dir"
     install_missing cmake ninja-build python3 git
   fi
+fi
+# The pkg-config file shaderc-sys finds. Without the merged library it names
+# an empty folder, where shaderc-sys finds nothing and builds from source
+# (rather than linking Debian's shared libshaderc, which fails).
+mkdir -p "$dir" /usr/local/lib/pkgconfig
+pc=$(cat <<PC
+# Written by ssbc's scripts/setup.sh: Debian's shaderc, glslang and
+# SPIRV-Tools static archives merged into one library.
+libdir=$dir
+includedir=/usr/include
+
+Name: shaderc
+Description: shaderc (Debian's static archives, merged)
+Version: $(dpkg-query -W -f='${Version}' libshaderc-dev 2>/dev/null || echo 0)
+Libs: -L\${libdir} -lshaderc_combined -lstdc++
+Cflags: -I\${includedir}
+PC
+)
+if [ "$(cat /usr/local/lib/pkgconfig/shaderc.pc 2>/dev/null)" != "$pc" ]; then
+  echo "setup: writing /usr/local/lib/pkgconfig/shaderc.pc" >&2
+  printf '%s\n' "$pc" >/usr/local/lib/pkgconfig/shaderc.pc
 fi

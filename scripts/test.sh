@@ -25,3 +25,5 @@ export MESA_SHADER_CACHE_DIR="${XDG_CACHE_HOME:-$HOME/.cache}/ssbc-test-mesa-sha
 export SSBC_TEST_COMMAND=1
 echo "test: lavapipe $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers), previous driver $(cat "$(dirname "$SSBC_PREVIOUS_ICD")/version" 2>/dev/null || echo '(none)')" >&2
 cargo test --release --locked "$@"
+# An engine's crate outside this checkout, depending on ssbc, builds and runs.
+bash scripts/check-dependent-crate.sh
