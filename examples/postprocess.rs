@@ -22,7 +22,8 @@ use glam::Vec3;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
 use gpu_allocator::MemoryLocation;
 use ssbc::postprocess::{
-    HostImage, PostOutput, PostProcessInputs, PostProcessLayer, ReceiverBrdf, SsbcPostProcess,
+    HostImage, PostOutput, PostProcessInputs, PostProcessLayer, PostProcessShape, ReceiverBrdf,
+    SsbcPostProcess,
 };
 use ssbc::reference::{BruteForceTwin, GBufferView, TwinCamera};
 use ssbc::settings::{Integration, LayerResolution, SsbcSettings};
@@ -328,6 +329,13 @@ pub struct PostProcessReport {
     pub mean_s0: f64,
     /// Validation messages.
     pub validation_messages: u32,
+    /// Device memory `SsbcPostProcess::memory` said one slot of one layer
+    /// would hold, before anything was created.
+    pub memory_estimate: u64,
+    /// What `prepare` then allocated for it.
+    pub memory_allocated: u64,
+    /// Device memory allocated while recording (record allocates nothing).
+    pub allocated_while_recording: i64,
 }
 
 fn compile(source: &str, name: &str) -> Result<Vec<u32>, Box<dyn std::error::Error>> {
@@ -672,6 +680,9 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
         hidden_pixels: 0,
         mean_s0: 0.0,
         validation_messages: 0,
+        memory_estimate: 0,
+        memory_allocated: 0,
+        allocated_while_recording: 0,
     };
     // One layer, then with the second layer of hidden surfaces.
     let runs = [1, 2].into_iter().flat_map(|layers| {
@@ -683,6 +694,15 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
             integration,
             ..Default::default()
         };
+        // The host budgets and prepares before it records.
+        let shape = PostProcessShape::new((w, h), &settings, (layers == 2).then_some(layer1));
+        let before = device.memory_in_use();
+        post.prepare(shape)?;
+        if layers == 1 && integration == Integration::Brute {
+            report.memory_estimate = SsbcPostProcess::memory(&shape, 1).per_slot;
+            report.memory_allocated = device.memory_in_use() - before;
+        }
+        let before_recording = device.memory_in_use();
         let groups = (w.div_ceil(8), h.div_ceil(8));
         let groups1 = (w1.div_ceil(8), h1.div_ceil(8));
         let all = [&position, &normal, &albedo, &s0, &output];
@@ -756,6 +776,7 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
             &settings,
             PostOutput::Residual(1),
         )?;
+        report.allocated_while_recording += device.memory_in_use() as i64 - before_recording as i64;
 
         // --- The host reads everything back with its own commands. ---
         // SAFETY: as above.

@@ -37,8 +37,15 @@
 //! needs to). Internal resources (the pyramids) belong to one of `slots`
 //! frame slots: the host passes the slot of the frame being recorded and
 //! guarantees the GPU has finished the slot's previous frame, as it does for
-//! its own per-frame resources. Before dropping an [`SsbcPostProcess`], or
-//! recording with a new size in a slot, the host waits for the command
+//! its own per-frame resources.
+//!
+//! Memory is the host's to budget before anything exists:
+//! [`SsbcPostProcess::memory`] says what a [`PostProcessShape`] (size,
+//! steps, second layer) holds per slot, [`SsbcPostProcess::prepare`] creates
+//! it for every slot (at start-up and at a resize, outside any recording),
+//! and [`SsbcPostProcess::record`] allocates nothing: inputs or settings of
+//! another shape are an error that names both. Before `prepare` with a new
+//! shape, or dropping an [`SsbcPostProcess`], the host waits for the command
 //! buffers it recorded into (ssbc cannot see the host's submissions).
 
 use std::sync::Arc;
@@ -52,6 +59,58 @@ use crate::passes::ssbc::{
 use crate::passes::PassSlot;
 use crate::settings::LayerResolution;
 use crate::vk::{DescriptorPool, Device, GpuProfiler, Image, ImageDesc, Recorder};
+
+/// What a post-process's frame slots are made for: the image size, SSBC's
+/// steps and coarsest evaluation level, and the second layer's resolution
+/// (`None`: one layer). [`SsbcPostProcess::prepare`] creates the resources
+/// for one; [`SsbcPostProcess::record`] needs inputs and settings of that
+/// shape.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PostProcessShape {
+    /// Width and height of the host's images (the first layer's).
+    pub extent: (u32, u32),
+    /// Residual steps K ([`SsbcSettings::steps`]).
+    pub steps: u32,
+    /// [`SsbcSettings::max_eval_level`].
+    pub max_eval_level: u32,
+    /// The second layer's resolution, if the host gives one
+    /// ([`PostProcessInputs::hidden`]).
+    pub layer1: Option<LayerResolution>,
+}
+
+impl PostProcessShape {
+    /// The shape for images of `extent` with `settings`, and a second layer
+    /// at `layer1`'s resolution if any.
+    pub fn new(
+        extent: (u32, u32),
+        settings: &SsbcSettings,
+        layer1: Option<LayerResolution>,
+    ) -> Self {
+        Self {
+            extent,
+            steps: settings.steps,
+            max_eval_level: settings.max_eval_level,
+            layer1,
+        }
+    }
+}
+
+/// Device memory a post-process holds ([`SsbcPostProcess::memory`]), in
+/// bytes. Nothing carries over from one frame to the next (no history): the
+/// pyramids, evaluation points, work lists and residuals are all rewritten
+/// every frame, so a host may count them as per-frame scratch, though ssbc
+/// owns them from `prepare` until the next `prepare` or the drop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PostProcessMemory {
+    /// One frame slot's resources.
+    pub per_slot: u64,
+    /// Every slot's.
+    pub total: u64,
+    /// Of `total`, what must survive between frames: none.
+    pub persistent: u64,
+    /// Of `total`, what each frame rewrites before reading: all of it.
+    pub transient: u64,
+}
 
 /// One of the host's images: handle, a 2D view of it, its size and the
 /// layout it will be in when the recorded commands start.
@@ -150,9 +209,8 @@ pub struct PostProcessLayer {
     pub s0: HostImage,
 }
 
-/// One slot's pyramids and images, for (width, height, steps, coarsest
-/// evaluation level, second layer).
-type SsbcSlot = PassSlot<(u32, u32, u32, u32, Option<LayerResolution>), SsbcFrame>;
+/// One slot's pyramids and images, for the shape they were made for.
+type SsbcSlot = PassSlot<PostProcessShape, SsbcFrame>;
 
 /// SSBC on the host's images (see the module documentation). Command
 /// buffers must be submitted in the order they were recorded.
@@ -161,7 +219,18 @@ type SsbcSlot = PassSlot<(u32, u32, u32, u32, Option<LayerResolution>), SsbcFram
 ///
 /// ```no_run
 /// use ash::vk;
-/// use ssbc::postprocess::{HostImage, PostOutput, PostProcessInputs, ReceiverBrdf, SsbcPostProcess};
+/// use ssbc::postprocess::{
+///     HostImage, PostOutput, PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
+/// };
+///
+/// /// At start-up and at a resize (the GPU idle): the budget, then the
+/// /// resources of every frame slot.
+/// fn resize(post: &mut SsbcPostProcess, slots: usize, size: (u32, u32)) -> ssbc::Result<()> {
+///     let settings = ssbc::SsbcSettings { steps: 2, ..Default::default() };
+///     let shape = PostProcessShape::new(size, &settings, None);
+///     println!("SSBC: {} MiB", SsbcPostProcess::memory(&shape, slots).total >> 20);
+///     post.prepare(shape)
+/// }
 ///
 /// /// Records SSBC after the host's G-buffer and clamped-lighting passes.
 /// fn compensate(
@@ -217,6 +286,69 @@ impl SsbcPostProcess {
             profiler: GpuProfiler::new(device, 1024, 1, false, false)?,
             device: device.clone(),
         })
+    }
+
+    /// Device memory `slots` frame slots of `shape` hold, computed before
+    /// anything is created (the allocator may round each resource up to its
+    /// alignment; docs/performance.md compares it with what is allocated).
+    pub fn memory(shape: &PostProcessShape, slots: usize) -> PostProcessMemory {
+        let (w, h) = shape.extent;
+        let per_slot = crate::passes::ssbc::frame_bytes(w, h, shape.steps, shape.layer1);
+        let total = per_slot * slots as u64;
+        PostProcessMemory {
+            per_slot,
+            total,
+            persistent: 0,
+            transient: total,
+        }
+    }
+
+    /// Creates every frame slot's resources for `shape` (at start-up and when
+    /// the host's images change size), outside any recording. Slots already
+    /// of that shape are kept. The host has waited for every command buffer
+    /// it recorded into before a new shape.
+    pub fn prepare(&mut self, shape: PostProcessShape) -> Result<()> {
+        let (w, h) = shape.extent;
+        if shape.steps == 0 {
+            return Err(Error::InvalidParameter(
+                "SSBC post-process with 0 steps has nothing to do".into(),
+            ));
+        }
+        crate::passes::ssbc::check_size(&self.device, w, h, shape.layer1)?;
+        let needed = Self::memory(&shape, self.slots.len()).total;
+        let heap = self.device.device_local_heap();
+        if needed > heap {
+            return Err(Error::InvalidParameter(format!(
+                "SSBC post-process: {w}x{h} with {} steps needs about {} MiB of device memory for {} frame slots; this device's largest heap has {} MiB",
+                shape.steps,
+                needed >> 20,
+                self.slots.len(),
+                heap >> 20
+            )));
+        }
+        let (pass, device) = (&self.pass, &self.device);
+        for (slot, entry) in self.slots.iter_mut().enumerate() {
+            PassSlot::refresh(
+                entry,
+                shape,
+                |_| Ok(false),
+                || {
+                    pass.allocate(
+                        device,
+                        shape.extent,
+                        shape.steps,
+                        shape.max_eval_level,
+                        shape.layer1,
+                    )
+                },
+                |frame| {
+                    let pool = DescriptorPool::new(device, &pass.frame_layouts(frame))?;
+                    pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
+                    Ok(pool)
+                },
+            )?;
+        }
+        Ok(())
     }
 
     /// The image size and the second layer's resolution, if the inputs are
@@ -321,8 +453,10 @@ impl SsbcPostProcess {
     }
 
     /// Records SSBC for the frame in `slot` into the host's command buffer
-    /// `cmd` (recording, outside any render pass). See the module
-    /// documentation for layouts and synchronisation.
+    /// `cmd` (recording, outside any render pass), in the resources
+    /// [`SsbcPostProcess::prepare`] made for the shape of `inputs` and
+    /// `settings`; allocates nothing. See the module documentation for
+    /// layouts and synchronisation.
     pub fn record(
         &mut self,
         cmd: vk::CommandBuffer,
@@ -338,21 +472,15 @@ impl SsbcPostProcess {
             .slots
             .get_mut(slot)
             .ok_or_else(|| Error::InvalidParameter(format!("frame slot {slot} of {slot_count}")))?;
-        crate::passes::ssbc::check_size(&self.device, w, h, layer1)?;
+        let shape = PostProcessShape::new((w, h), settings, layer1);
         // The host finished this slot's previous frame (its promise).
-        let (pass, device) = (&self.pass, &self.device);
-        let steps = settings.steps;
-        let held = PassSlot::refresh(
-            entry,
-            (w, h, steps, settings.max_eval_level, layer1),
-            |_| Ok(false),
-            || pass.allocate(device, (w, h), steps, settings.max_eval_level, layer1),
-            |frame| {
-                let pool = DescriptorPool::new(device, &pass.frame_layouts(frame))?;
-                pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
-                Ok(pool)
-            },
-        )?;
+        let prepared = entry.as_ref().map(|held| *held.key());
+        let Some(held) = PassSlot::reuse(entry, &shape)? else {
+            let prepared = prepared.map_or("nothing".to_string(), |p| format!("{p:?}"));
+            return Err(Error::InvalidParameter(format!(
+                "SSBC post-process: frame slot {slot} holds {prepared}, these inputs and settings need {shape:?}: call prepare() with it first (record() allocates nothing)"
+            )));
+        };
         let (frame, pool) = (&held.resources, &held.pool);
 
         let wrap = |image: &HostImage, usage| {

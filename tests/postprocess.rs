@@ -19,6 +19,21 @@ fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
 
 fn check_report(report: postprocess::PostProcessReport) {
     assert_eq!(report.validation_messages, 0);
+    // Budget first: the estimate made before anything existed is what
+    // prepare allocated (up to the allocator's alignment), and recording
+    // allocated nothing.
+    eprintln!(
+        "one slot: estimated {} bytes, allocated {} bytes",
+        report.memory_estimate, report.memory_allocated
+    );
+    let ratio = report.memory_allocated as f64 / report.memory_estimate as f64;
+    assert!(
+        (1.0..1.01).contains(&ratio),
+        "allocated {} bytes against an estimate of {}",
+        report.memory_allocated,
+        report.memory_estimate
+    );
+    assert_eq!(report.allocated_while_recording, 0);
     // The second layer holds hidden surfaces, and they add light.
     assert!(
         report.hidden_pixels > 30,
@@ -62,7 +77,7 @@ fn check_report(report: postprocess::PostProcessReport) {
 fn bad_host_inputs_are_clear_errors() {
     use ash::vk;
     use ssbc::postprocess::{
-        HostImage, PostOutput, PostProcessInputs, ReceiverBrdf, SsbcPostProcess,
+        HostImage, PostOutput, PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
     };
     use ssbc::settings::SsbcSettings;
     use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
@@ -203,14 +218,51 @@ fn bad_host_inputs_are_clear_errors() {
             "second layer's normal image is (32, 24); it must be (64, 48), the size of the second layer's position image",
         ),
     ];
-    for (inputs, settings, output, slot, expected) in cases {
+    let check = |post: &mut SsbcPostProcess,
+                 case: (PostProcessInputs, SsbcSettings, PostOutput, usize, &str)| {
+        let (inputs, settings, output, slot, expected) = case;
         let err = post
             .record(cmd, slot, &inputs, &settings, output)
             .expect_err(expected);
         let text = err.to_string();
         assert!(text.contains(expected), "{text} (expected: {expected})");
         assert!(!text.contains('\n'), "{text}");
+    };
+    for case in cases {
+        check(&mut post, case);
     }
+    // record() allocates nothing: unprepared slots, or another shape, are
+    // errors naming what prepare() must make.
+    check(
+        &mut post,
+        (
+            inputs,
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "frame slot 0 holds nothing",
+        ),
+    );
+    assert!(post
+        .prepare(PostProcessShape::new(
+            (64, 48),
+            &SsbcSettings {
+                steps: 0,
+                ..one.clone()
+            },
+            None
+        ))
+        .is_err());
+    post.prepare(PostProcessShape::new((64, 48), &one, None))
+        .unwrap();
+    let two = SsbcSettings {
+        steps: 2,
+        ..one.clone()
+    };
+    check(
+        &mut post,
+        (inputs, two, PostOutput::Compensated, 1, "steps: 2"),
+    );
     drop(post);
     drop(device);
     assert_eq!(log.total(), 0, "{:?}", log.messages());

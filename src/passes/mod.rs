@@ -175,6 +175,24 @@ pub struct PassSlot<K, R> {
 }
 
 impl<K: PartialEq, R> PassSlot<K, R> {
+    /// What the resources were made for.
+    pub fn key(&self) -> &K {
+        &self.key
+    }
+
+    /// The slot's resources for a new frame (its previous frame is done),
+    /// kept as they are with the pool reset, if they were made for `key`;
+    /// `None`, making nothing, otherwise.
+    pub fn reuse<'s>(held: &'s mut Option<Self>, key: &K) -> Result<Option<&'s mut Self>> {
+        match held {
+            Some(s) if s.key == *key => {
+                s.pool.reset()?;
+                Ok(Some(s))
+            }
+            _ => Ok(None),
+        }
+    }
+
     /// Brings `held` up to `key` for a new frame in its slot (whose previous
     /// frame is done): kept as it is for the same key, rewritten by
     /// `update` when it can be (true), made anew by `prepare` (and its pool
