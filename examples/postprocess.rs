@@ -336,6 +336,11 @@ pub struct PostProcessReport {
     pub memory_allocated: u64,
     /// Device memory allocated while recording (record allocates nothing).
     pub allocated_while_recording: i64,
+    /// The last frame's passes and GPU ms, timed in the host's command
+    /// buffer (`SsbcPostProcess::timings`).
+    pub passes: Vec<(String, f64)>,
+    /// Its first to last timestamp (ms).
+    pub frame_ms: f64,
 }
 
 fn compile(source: &str, name: &str) -> Result<Vec<u32>, Box<dyn std::error::Error>> {
@@ -683,6 +688,8 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
         memory_estimate: 0,
         memory_allocated: 0,
         allocated_while_recording: 0,
+        passes: Vec::new(),
+        frame_ms: 0.0,
     };
     // One layer, then with the second layer of hidden surfaces.
     let runs = [1, 2].into_iter().flat_map(|layers| {
@@ -844,6 +851,15 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
             )?;
             raw.wait_for_fences(&[fence], true, u64::MAX)?;
             raw.reset_fences(&[fence])?;
+        }
+        // The frame is done (the fence): its GPU times, without waiting.
+        if let Some(times) = post.timings(0)? {
+            report.passes = times
+                .passes
+                .iter()
+                .map(|p| (p.name.clone(), p.gpu_ms))
+                .collect();
+            report.frame_ms = times.frame_ms;
         }
         let read: Vec<Vec<f32>> = readback.iter().map(|b| b.read::<f32>()).collect();
         let g = GBufferView {

@@ -58,7 +58,7 @@ use crate::passes::ssbc::{
 };
 use crate::passes::PassSlot;
 use crate::settings::LayerResolution;
-use crate::vk::{DescriptorPool, Device, GpuProfiler, Image, ImageDesc, Recorder};
+use crate::vk::{DescriptorPool, Device, GpuFrameTimes, GpuProfiler, Image, ImageDesc, Recorder};
 
 /// What a post-process's frame slots are made for: the image size, SSBC's
 /// steps and coarsest evaluation level, and the second layer's resolution
@@ -209,6 +209,11 @@ pub struct PostProcessLayer {
     pub s0: HostImage,
 }
 
+/// Passes timed per frame slot: the post-process's query pools hold
+/// 2 x this + 2 timestamps (and this many pipeline-statistics queries where
+/// the device has them) per slot.
+pub const PROFILED_PASSES: u32 = 1024;
+
 /// One slot's pyramids and images, for the shape they were made for.
 type SsbcSlot = PassSlot<PostProcessShape, SsbcFrame>;
 
@@ -265,7 +270,7 @@ pub struct SsbcPostProcess {
     // Field order is drop order: resources before the device.
     slots: Vec<Option<SsbcSlot>>,
     pass: SsbcPass,
-    /// Labels only (the host times its own command buffer).
+    /// Timestamps per slot, reset and written in the host's command buffer.
     profiler: GpuProfiler,
     device: Arc<Device>,
 }
@@ -283,7 +288,8 @@ impl SsbcPostProcess {
             pass: SsbcPass::new(device)?,
             // Room for 16 steps of up to 31 scopes each (8 evaluation levels
             // of eval, eval/glossy and resolve; the step's own scopes).
-            profiler: GpuProfiler::new(device, 1024, 1, false, false)?,
+            profiler: GpuProfiler::new(device, PROFILED_PASSES, slots, true, true)?
+                .with_recorded_resets(),
             device: device.clone(),
         })
     }
@@ -523,7 +529,8 @@ impl SsbcPostProcess {
         );
 
         let mut rec = Recorder::for_host(&self.device, cmd);
-        self.profiler.begin_frame(cmd, 0, false);
+        // The host finished the slot's previous frame: its queries are free.
+        self.profiler.begin_frame(cmd, slot, true);
         let scope = self.profiler.begin(cmd, "ssbc_postprocess");
         let recorded = self.pass.record_steps(
             &mut rec,
@@ -573,6 +580,28 @@ impl SsbcPostProcess {
         rec.copy_image(result, (0, 0), &out, (w, h));
         rec.flush_barriers();
         self.profiler.end(cmd, scope);
+        self.profiler.end_frame(cmd);
+        // Recorded; the host submits it.
+        self.profiler.submitted(slot);
         Ok(())
+    }
+
+    /// GPU times of the frame last recorded in `slot`, per pass (the same
+    /// names and parts as ssbc's own frames' `ssbc_step_k`, under
+    /// `ssbc_postprocess`), read without waiting once the host knows that
+    /// frame has finished (its fence), e.g. before recording the slot again.
+    /// None: the slot has no recorded frame, the device's queue has no
+    /// timestamps, or the frame's results are not all available yet.
+    pub fn timings(&self, slot: usize) -> Result<Option<GpuFrameTimes>> {
+        if slot >= self.slots.len() {
+            return Err(Error::InvalidParameter(format!(
+                "frame slot {slot} of {}",
+                self.slots.len()
+            )));
+        }
+        if !self.profiler.has_frame(slot) {
+            return Ok(None);
+        }
+        self.profiler.try_resolve(slot)
     }
 }

@@ -34,6 +34,25 @@ fn check_report(report: postprocess::PostProcessReport) {
         report.memory_estimate
     );
     assert_eq!(report.allocated_while_recording, 0);
+    // Timed in the host's command buffer: the post-process and its step,
+    // each inside the frame.
+    for (name, ms) in &report.passes {
+        eprintln!("{name:40} {ms:9.3} ms");
+    }
+    let ms = |name: &str| {
+        report
+            .passes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, ms)| *ms)
+            .unwrap_or_else(|| panic!("no pass {name} in {:?}", report.passes))
+    };
+    let (whole, step) = (ms("ssbc_postprocess"), ms("ssbc_step_1"));
+    assert!(
+        0.0 < step && step <= whole && whole <= report.frame_ms,
+        "step {step} ms, post-process {whole} ms, frame {} ms",
+        report.frame_ms
+    );
     // The second layer holds hidden surfaces, and they add light.
     assert!(
         report.hidden_pixels > 30,

@@ -78,6 +78,10 @@ pub struct GpuProfiler {
     frame_timed: bool,
     period_ns: f64,
     valid_mask: u64,
+    /// Query resets are recorded into the frame's command buffer (a host's,
+    /// whose device need not have hostQueryReset) instead of done on the
+    /// host at `begin_frame`.
+    resets_recorded: bool,
 }
 
 /// An open pass scope; close it with [`GpuProfiler::end`]. `UNTIMED`: a
@@ -160,7 +164,29 @@ impl GpuProfiler {
             frame_timed: true,
             period_ns: support.timestamp_period_ns as f64,
             valid_mask,
+            resets_recorded: false,
         })
+    }
+
+    /// Records each frame's query resets into its command buffer (which must
+    /// then be outside a render pass at `begin_frame`) instead of resetting
+    /// on the host: for frames recorded into a host's command buffer.
+    pub fn with_recorded_resets(mut self) -> Self {
+        self.resets_recorded = true;
+        self
+    }
+
+    /// Resets `count` queries of `pool` from `first`, on the host or in `cmd`.
+    fn reset(&self, cmd: vk::CommandBuffer, pool: vk::QueryPool, first: u32, count: u32) {
+        if self.resets_recorded {
+            // SAFETY: `cmd` is recording outside a render pass (the caller's
+            // contract); the range lies inside the pool.
+            unsafe { self.device.raw.cmd_reset_query_pool(cmd, pool, first, count) };
+        } else {
+            // SAFETY: hostQueryReset is enabled; the caller waited for the
+            // slot's previous submission, so no pending work uses these queries.
+            unsafe { self.device.raw.reset_query_pool(pool, first, count) };
+        }
     }
 
     /// Whether passes are timed (false: timings are absent).
@@ -198,23 +224,12 @@ impl GpuProfiler {
         self.frame_timed = timed;
         let base = self.base(slot);
         if let Some(pool) = self.timestamps.filter(|_| timed) {
-            // SAFETY: hostQueryReset is enabled; the caller waited for the
-            // slot's previous submission, so no pending work uses these queries.
-            unsafe {
-                self.device
-                    .raw
-                    .reset_query_pool(pool, base, self.capacity * 2 + 2)
-            };
+            self.reset(cmd, pool, base, self.capacity * 2 + 2);
+        }
+        if let Some(pool) = self.statistics.filter(|_| timed) {
+            self.reset(cmd, pool, slot as u32 * self.capacity, self.capacity);
         }
         self.timestamp(cmd, base);
-        if let Some(pool) = self.statistics.filter(|_| timed) {
-            // SAFETY: as above.
-            unsafe {
-                self.device
-                    .raw
-                    .reset_query_pool(pool, slot as u32 * self.capacity, self.capacity)
-            };
-        }
     }
 
     /// Opens a pass: a label region and its start timestamp (and, for an
@@ -296,8 +311,25 @@ impl GpuProfiler {
     /// when passes are not timed. Waits if the frame has not finished; once
     /// its submission is known done this returns at once.
     pub fn resolve(&self, slot: usize) -> Result<Option<GpuFrameTimes>> {
+        self.read(slot, true)
+    }
+
+    /// Reads `slot`'s queries if the frame has finished, never waiting: None
+    /// when passes are not timed or its results are not all available yet.
+    /// (A frame recorded but not yet run still shows the slot's previous
+    /// frame: call it once the frame is known done.)
+    pub fn try_resolve(&self, slot: usize) -> Result<Option<GpuFrameTimes>> {
+        self.read(slot, false)
+    }
+
+    fn read(&self, slot: usize, wait: bool) -> Result<Option<GpuFrameTimes>> {
         let Some(pool) = self.timestamps else {
             return Ok(None);
+        };
+        let flags = if wait {
+            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT
+        } else {
+            vk::QueryResultFlags::TYPE_64
         };
         let state = &self.slots[slot];
         if !state.submitted {
@@ -307,20 +339,19 @@ impl GpuProfiler {
         }
         let count = 2 + state.scopes.len() * 2;
         let mut raw = vec![0u64; count];
-        // SAFETY: the queries 0..count were written by the submitted frame.
-        unsafe {
-            self.device.raw.get_query_pool_results(
-                pool,
-                self.base(slot),
-                &mut raw,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-            )
+        // SAFETY: the queries 0..count were written by the submitted frame
+        // (or, not waiting, are reported not ready).
+        let results =
+            unsafe { self.device.raw.get_query_pool_results(pool, self.base(slot), &mut raw, flags) };
+        if results == Err(vk::Result::NOT_READY) && !wait {
+            return Ok(None);
         }
-        .vk("vkGetQueryPoolResults")?;
+        results.vk("vkGetQueryPoolResults")?;
         let mut statistics = vec![[0u64; 2]; state.statistics_used as usize];
         if let (Some(stats_pool), false) = (self.statistics, statistics.is_empty()) {
             // SAFETY: the first `statistics_used` queries of the slot were
-            // begun and ended by the submitted frame.
+            // begun and ended by the submitted frame (before its last
+            // timestamp, so not waiting long once that is available).
             unsafe {
                 self.device.raw.get_query_pool_results(
                     stats_pool,
