@@ -346,6 +346,25 @@ if len(sys.argv) == 3 and sys.argv[1] == "--sweep":
                                        fixture8=fixture8, size=size)
     sys.exit(0)
 
+if len(sys.argv) == 3 and sys.argv[1] == "--convergence":
+    # The path tracer's convergence study (docs/accuracy.md; not committed):
+    # a Cornell box as the nvpro-samples one is published, a small bright
+    # emissive panel under the ceiling and materials that give only a base
+    # colour, which glTF's defaults (metallic 1, roughness 1) make rough metal.
+    OUT_DIR = sys.argv[2]
+    os.makedirs(OUT_DIR, exist_ok=True)
+    walls = cornell_walls()
+    mats = {k: {"pbrMetallicRoughness": {"baseColorFactor": v["pbrMetallicRoughness"]["baseColorFactor"]}}
+            for k, v in WALLS.items()}
+    mats["panel"] = {"emissiveFactor": [1.0, 0.85, 0.6],
+                     "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 17.0}},
+                     "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1], "metallicFactor": 0}}
+    panel = quad([-0.25, 1.99, -0.2], [0.5, 0, 0], [0, 0, 0.4])  # facing down
+    meshes = [(k, g) for k, g in walls.items()] + [("panel", panel)]
+    write("nvpro-like-box", meshes, mats, camera=CORNELL_CAMERA,
+          doc="Cornell box, base colours only (glTF defaults: rough metal), a 0.5 x 0.4 m emissive panel")
+    sys.exit(0)
+
 if len(sys.argv) == 3 and sys.argv[1] == "--independent":
     # Scenes for the check against an independent renderer
     # (scripts/mitsuba-reference.py, docs/accuracy.md; not committed): objects
