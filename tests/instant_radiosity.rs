@@ -10,7 +10,7 @@ use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::vpl::bounded_radiance;
 use ssbc::passes::indirect_bounded::ism_bias_for;
 use ssbc::renderer::{Bound, RenderSettings};
-use ssbc::settings::SsbcSettings;
+use ssbc::settings::{SsbcSettings, Visibility};
 use ssbc::Frame;
 
 /// The full gather: the GPU's sum is compared with the CPU's pixel by pixel
@@ -354,7 +354,7 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
 #[test]
 fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     for (roughness, max_near, max_ratio) in [(0.12, 5.0, 1.5), (0.3, 7.0, 2.5)] {
-        let (near, ratio, by_band) = floor_before_a_plinth(roughness);
+        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Ism);
         eprintln!(
             "metal floor of roughness {roughness} before a plinth: GPU / exact visibility {ratio:.3}, \
              the nearest half metre {near:.2} (by distance from the plinth: {by_band:.2?})"
@@ -370,10 +370,38 @@ fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     }
 }
 
+/// With exact visibility (ray queries) the contact leak is gone: the floor
+/// beside the plinth gets its exact VPL light (issue 61's limit: 1.5x).
+#[test]
+fn with_exact_visibility_a_mirror_like_floor_has_no_contact_leak() {
+    let renderer = common::validated_renderer();
+    if renderer.device().ray_queries().is_none() {
+        common::cannot_check("the device has no ray queries");
+        return;
+    }
+    drop(renderer);
+    for roughness in [0.12, 0.3] {
+        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Exact);
+        eprintln!(
+            "exact visibility, metal floor of roughness {roughness} before a plinth: GPU / exact VPL sum {ratio:.3}, \
+             the nearest half metre {near:.3} (by distance from the plinth: {by_band:.3?})"
+        );
+        for (what, r) in [("nearest half metre", near), ("metre", ratio)]
+            .into_iter()
+            .chain(by_band.iter().map(|&r| ("quarter metre", r)))
+        {
+            assert!(
+                (0.98..1.02).contains(&r),
+                "roughness {roughness}: the floor's {what} gets {r:.3}x its exact VPL light"
+            );
+        }
+    }
+}
+
 /// The metre of a metal floor (`roughness`) in front of a plinth lit from
 /// behind, GPU over the exact-visibility VPL sum: over its nearest half
-/// metre, over all of it, and by quarter metre.
-fn floor_before_a_plinth(roughness: f32) -> (f64, f64, Vec<f64>) {
+/// metre, over all of it, and by quarter metre; the GPU with `visibility`.
+fn floor_before_a_plinth(roughness: f32, visibility: Visibility) -> (f64, f64, Vec<f64>) {
     use ssbc::scene::{Camera, Material, Scene};
     let mut scene = Scene::new("mirror-floor-before-a-plinth");
     scene.materials.push(Material::metallic_roughness(
@@ -400,6 +428,7 @@ fn floor_before_a_plinth(roughness: f32) -> (f64, f64, Vec<f64>) {
     ));
     let mut settings = settings(Bound::Auto);
     settings.vpl.count = 256;
+    settings.visibility = visibility;
     let f = common::render_validated(&scene, &settings);
     // The metre of floor in front of the plinth, as wide as it is, in
     // quarter-metre bands by distance from it.
