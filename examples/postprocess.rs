@@ -27,7 +27,7 @@ use ssbc::postprocess::{
 };
 use ssbc::reference::{BruteForceTwin, GBufferView, TwinCamera};
 use ssbc::settings::{Integration, LayerResolution, SsbcSettings};
-use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
+use ssbc::vk::{Device, HostDevice, Instance, RequiredFeatures, Validation};
 
 type Error = Box<dyn std::error::Error>;
 
@@ -341,6 +341,9 @@ pub struct PostProcessReport {
     pub passes: Vec<(String, f64)>,
     /// Its first to last timestamp (ms).
     pub frame_ms: f64,
+    /// Why `Renderer::with_device` refused the host's post-process-only
+    /// device (None: it did not).
+    pub renderer_refusal: Option<String>,
 }
 
 fn compile(source: &str, name: &str) -> Result<Vec<u32>, Box<dyn std::error::Error>> {
@@ -486,11 +489,54 @@ fn host_barrier(
     };
 }
 
+/// The host's device, with only what the SSBC post-process needs
+/// (`RequiredFeatures::POST_PROCESS`: synchronization2 and timeline
+/// semaphores; no dynamic rendering, no host query reset), handed to ssbc;
+/// and the raw device, which the host destroys.
+fn host_device(instance: &Arc<Instance>) -> Result<(Arc<Device>, ash::Device), Error> {
+    let raw = &instance.raw;
+    // SAFETY: enumeration on a live instance.
+    let physical = *unsafe { raw.enumerate_physical_devices()? }
+        .first()
+        .ok_or("no Vulkan device")?;
+    // SAFETY: valid physical device.
+    let family = unsafe { raw.get_physical_device_queue_family_properties(physical) }
+        .iter()
+        .position(|f| {
+            f.queue_flags
+                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+        })
+        .ok_or("no graphics+compute queue")? as u32;
+    let priorities = [1.0];
+    let queues = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(family)
+        .queue_priorities(&priorities)];
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default().synchronization2(true);
+    let info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queues)
+        .push_next(&mut f12)
+        .push_next(&mut f13);
+    // SAFETY: a Vulkan 1.3 device offers both features.
+    let device = unsafe { raw.create_device(physical, &info, None)? };
+    let ssbc = Device::from_host(
+        instance.clone(),
+        HostDevice {
+            physical,
+            device: device.clone(),
+            queue_family: family,
+            queue_index: 0,
+            enabled_features: RequiredFeatures::POST_PROCESS,
+        },
+    )?;
+    Ok((ssbc, device))
+}
+
 /// Runs the host frame at `w` x `h` with each integration method.
 pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport, Error> {
     let instance = Instance::with_validation(Validation::Synchronization, &[])?;
     let log = instance.validation_log();
-    let device = Device::new(instance, &DeviceSelector::default(), &[])?;
+    let (device, host_raw) = host_device(&instance)?;
     let raw = &device.raw;
     let memory = HostMemory::new(&device)?;
 
@@ -690,6 +736,7 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
         allocated_while_recording: 0,
         passes: Vec::new(),
         frame_ms: 0.0,
+        renderer_refusal: None,
     };
     // One layer, then with the second layer of hidden surfaces.
     let runs = [1, 2].into_iter().flat_map(|layers| {
@@ -929,7 +976,15 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
     drop((gbuffer_kernel, lighting_kernel));
     drop((position, normal, albedo, s0, output, hidden, vpls, readback));
     drop(memory);
+    // The renderer needs more than this device has: refused by name.
+    report.renderer_refusal = ssbc::Renderer::with_device(device.clone())
+        .err()
+        .map(|e| e.to_string());
     drop(device);
+    // SAFETY: ssbc's objects on it are gone (its Device dropped last); the
+    // instance outlives it.
+    unsafe { host_raw.destroy_device(None) };
+    drop(instance);
     report.validation_messages = log.total();
     Ok(report)
 }

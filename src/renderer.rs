@@ -591,6 +591,13 @@ impl Renderer {
         timestamps: bool,
         statistics: bool,
     ) -> Result<Self> {
+        let missing = device.enabled_features().missing();
+        if !missing.is_empty() {
+            return Err(Error::NoDevice(format!(
+                "the renderer needs features this device does not have enabled: {} (the SSBC post-process alone does not)",
+                missing.join(", ")
+            )));
+        }
         if device.profiling().timestamp_valid_bits == 0 && timestamps {
             log::warn!("the device's queue has no timestamps: GPU timings will be absent (null)");
         }

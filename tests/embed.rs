@@ -34,4 +34,17 @@ fn missing_features_are_named() {
     }
     .missing();
     assert_eq!(missing, ["dynamicRendering", "hostQueryReset"]);
+    // The post-process alone needs neither.
+    assert!(ssbc::vk::RequiredFeatures::POST_PROCESS
+        .missing_from(ssbc::vk::RequiredFeatures::POST_PROCESS)
+        .is_empty());
+    assert_eq!(
+        ssbc::vk::RequiredFeatures::POST_PROCESS.missing(),
+        ["dynamicRendering", "hostQueryReset"]
+    );
+    let none = ssbc::vk::RequiredFeatures::default();
+    assert_eq!(
+        none.missing_from(ssbc::vk::RequiredFeatures::POST_PROCESS),
+        ["synchronization2", "timelineSemaphore"]
+    );
 }

@@ -18,7 +18,14 @@ fn ssbc_on_the_hosts_images_matches_the_cpu_twin() {
 }
 
 fn check_report(report: postprocess::PostProcessReport) {
+    // On the host's device with only RequiredFeatures::POST_PROCESS
+    // (validation would report any use of what it lacks).
     assert_eq!(report.validation_messages, 0);
+    let refusal = report.renderer_refusal.as_deref().unwrap_or("none");
+    assert!(
+        refusal.contains("dynamicRendering, hostQueryReset"),
+        "the renderer on a post-process-only device: {refusal}"
+    );
     // Budget first: the estimate made before anything existed is what
     // prepare allocated (up to the allocator's alignment), and recording
     // allocated nothing.

@@ -55,7 +55,7 @@ pub struct RequiredFeatures {
 }
 
 impl RequiredFeatures {
-    /// Every feature ssbc needs.
+    /// Every feature ssbc needs: what the [`crate::Renderer`] uses.
     pub const ALL: Self = Self {
         synchronization2: true,
         dynamic_rendering: true,
@@ -63,19 +63,62 @@ impl RequiredFeatures {
         host_query_reset: true,
     };
 
-    /// Names of the needed features that are not set.
+    /// What [`crate::postprocess::SsbcPostProcess`] alone uses: barriers
+    /// (synchronization2) and the timeline its resources are destroyed on.
+    /// It draws nothing and resets its queries in the host's command buffer.
+    pub const POST_PROCESS: Self = Self {
+        synchronization2: true,
+        dynamic_rendering: false,
+        timeline_semaphore: true,
+        host_query_reset: false,
+    };
+
+    /// Names of the features [`RequiredFeatures::ALL`] needs that are not set.
     pub fn missing(&self) -> Vec<&'static str> {
+        self.missing_from(Self::ALL)
+    }
+
+    /// Names of the features `needed` sets that are not set here.
+    pub fn missing_from(&self, needed: Self) -> Vec<&'static str> {
         [
-            (self.synchronization2, "synchronization2"),
-            (self.dynamic_rendering, "dynamicRendering"),
-            (self.timeline_semaphore, "timelineSemaphore"),
-            (self.host_query_reset, "hostQueryReset"),
+            (
+                self.synchronization2,
+                needed.synchronization2,
+                "synchronization2",
+            ),
+            (
+                self.dynamic_rendering,
+                needed.dynamic_rendering,
+                "dynamicRendering",
+            ),
+            (
+                self.timeline_semaphore,
+                needed.timeline_semaphore,
+                "timelineSemaphore",
+            ),
+            (
+                self.host_query_reset,
+                needed.host_query_reset,
+                "hostQueryReset",
+            ),
         ]
         .iter()
-        .filter(|(on, _)| !on)
-        .map(|(_, name)| *name)
+        .filter(|(on, need, _)| *need && !on)
+        .map(|(.., name)| *name)
         .collect()
     }
+}
+
+/// What a device was created with, for [`Device::from_parts`].
+struct Enabled {
+    features: RequiredFeatures,
+    /// ssbc created it (and destroys it).
+    owns_device: bool,
+    pipeline_statistics: bool,
+    /// VK_EXT_calibrated_timestamps.
+    calibrated: bool,
+    /// VK_KHR_ray_query and what it needs.
+    ray_queries: bool,
 }
 
 /// A device a host engine created and owns, handed to ssbc.
@@ -89,7 +132,9 @@ pub struct HostDevice {
     /// Index of that queue in its family. The host must not use it from
     /// another thread while ssbc records or submits.
     pub queue_index: u32,
-    /// The features the host enabled at device creation.
+    /// The features the host enabled at device creation: at least
+    /// [`RequiredFeatures::POST_PROCESS`]; [`RequiredFeatures::ALL`] for a
+    /// [`crate::Renderer`].
     pub enabled_features: RequiredFeatures,
 }
 
@@ -115,6 +160,8 @@ pub struct Device {
     next_submission: AtomicU64,
     garbage: Mutex<Vec<(u64, Garbage)>>,
     owns_device: bool,
+    /// The features enabled on it (all of them on a device ssbc creates).
+    features: RequiredFeatures,
     /// Object names and command labels (None without VK_EXT_debug_utils:
     /// then naming and labelling cost nothing).
     debug_utils: Option<ash::ext::debug_utils::Device>,
@@ -395,7 +442,13 @@ impl Device {
             (queue_family, 0),
             properties,
             name,
-            (true, statistics, calibrated, ray_queries),
+            Enabled {
+                features: RequiredFeatures::ALL,
+                owns_device: true,
+                pipeline_statistics: statistics,
+                calibrated,
+                ray_queries,
+            },
         )
     }
 
@@ -410,7 +463,9 @@ impl Device {
         if properties.api_version < vk::API_VERSION_1_3 {
             problems.push("the physical device does not support Vulkan 1.3".to_string());
         }
-        let missing = host.enabled_features.missing();
+        let missing = host
+            .enabled_features
+            .missing_from(RequiredFeatures::POST_PROCESS);
         if !missing.is_empty() {
             problems.push(format!("features not enabled: {}", missing.join(", ")));
         }
@@ -444,8 +499,6 @@ impl Device {
             )));
         }
         let name = device_name(&properties);
-        // Pipeline statistics and calibrated timestamps are not used on a
-        // host's device: ssbc cannot know whether the host enabled them.
         Self::from_parts(
             instance,
             host.physical,
@@ -453,7 +506,15 @@ impl Device {
             (host.queue_family, host.queue_index),
             properties,
             name,
-            (false, false, false, false),
+            // Pipeline statistics, calibrated timestamps and ray queries
+            // are not used: ssbc cannot know whether the host enabled them.
+            Enabled {
+                features: host.enabled_features,
+                owns_device: false,
+                pipeline_statistics: false,
+                calibrated: false,
+                ray_queries: false,
+            },
         )
     }
 
@@ -464,8 +525,15 @@ impl Device {
         (queue_family, queue_index): (u32, u32),
         properties: vk::PhysicalDeviceProperties,
         name: String,
-        (owns_device, pipeline_statistics, calibrated, ray_queries): (bool, bool, bool, bool),
+        enabled: Enabled,
     ) -> Result<Arc<Self>> {
+        let Enabled {
+            features,
+            owns_device,
+            pipeline_statistics,
+            calibrated,
+            ray_queries,
+        } = enabled;
         // SAFETY: the family was created with at least `queue_index + 1` queues.
         let queue = unsafe { raw.get_device_queue(queue_family, queue_index) };
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -528,6 +596,7 @@ impl Device {
             next_submission: AtomicU64::new(1),
             garbage: Mutex::new(Vec::new()),
             owns_device,
+            features,
             debug_utils,
             profiling,
             calibration,
@@ -650,6 +719,12 @@ impl Device {
     /// Device limits.
     pub fn limits(&self) -> &vk::PhysicalDeviceLimits {
         &self.properties.limits
+    }
+
+    /// The features enabled on the device ([`RequiredFeatures::ALL`] on one
+    /// ssbc created; what the host said for a host's).
+    pub fn enabled_features(&self) -> RequiredFeatures {
+        self.features
     }
 
     /// Bytes of device memory ssbc's resources on this device take now (its
