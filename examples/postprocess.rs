@@ -757,6 +757,15 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
             report.memory_allocated = device.memory_in_use() - before;
         }
         let before_recording = device.memory_in_use();
+        // The last run asks for its layouts back: the output then ends in
+        // GENERAL, as declared, instead of TRANSFER_DST_OPTIMAL.
+        let restore = layers == 2 && integration == Integration::Hierarchical;
+        post.set_restore_layouts(restore);
+        let output_exit = if restore {
+            vk::ImageLayout::GENERAL
+        } else {
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL
+        };
         let groups = (w.div_ceil(8), h.div_ceil(8));
         let groups1 = (w1.div_ceil(8), h1.div_ceil(8));
         let all = [&position, &normal, &albedo, &s0, &output];
@@ -846,11 +855,7 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
                     )
                 })
                 .collect();
-            layouts.push((
-                &output,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            ));
+            layouts.push((&output, output_exit, vk::ImageLayout::TRANSFER_SRC_OPTIMAL));
             host_barrier(
                 &device,
                 cmd,

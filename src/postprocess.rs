@@ -17,6 +17,10 @@
 //! | output | `R32G32B32A32_SFLOAT` | `TRANSFER_DST` | any (declared) | `TRANSFER_DST_OPTIMAL`, last written by a copy |
 //! | optional second layer ([`PostProcessInputs::hidden`]): position, normal, albedo, S0, all four **the same size as the others or half of it** (rounded up) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
 //!
+//! With [`SsbcPostProcess::set_restore_layouts`], every image instead ends
+//! in the layout it was declared in, ssbc's last access to it made
+//! visible to all later commands.
+//!
 //! The second layer is a deep G-buffer's (Mara et al., HPG 2016): per
 //! pixel `p` (at half resolution covering pixels `2p .. 2p + 1`), the nearest
 //! surface at least a minimum separation farther from the camera than the
@@ -272,6 +276,8 @@ pub struct SsbcPostProcess {
     pass: SsbcPass,
     /// Timestamps per slot, reset and written in the host's command buffer.
     profiler: GpuProfiler,
+    /// Move the host's images back to their declared layouts on exit.
+    restore_layouts: bool,
     device: Arc<Device>,
 }
 
@@ -290,8 +296,18 @@ impl SsbcPostProcess {
             // of eval, eval/glossy and resolve; the step's own scopes).
             profiler: GpuProfiler::new(device, PROFILED_PASSES, slots, true, true)?
                 .with_recorded_resets(),
+            restore_layouts: false,
             device: device.clone(),
         })
+    }
+
+    /// With `on`, each later `record` ends by moving every host image back
+    /// to the layout its [`HostImage::layout`] declared (its last use by
+    /// ssbc made visible to all later commands); images declared
+    /// `UNDEFINED` stay as ssbc left them. Off (the default): the layouts
+    /// on exit are those of the module documentation's table.
+    pub fn set_restore_layouts(&mut self, on: bool) {
+        self.restore_layouts = on;
     }
 
     /// Device memory `slots` frame slots of `shape` hold, computed before
@@ -578,6 +594,27 @@ impl SsbcPostProcess {
             PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
         };
         rec.copy_image(result, (0, 0), &out, (w, h));
+        if self.restore_layouts {
+            let mut host = vec![
+                (&position, inputs.position.layout),
+                (&normal, inputs.normal.layout),
+                (&albedo, inputs.albedo.layout),
+                (&s0, inputs.s0.layout),
+                (&out, inputs.output.layout),
+            ];
+            if let (Some(image), Some(declared)) = (&sources, &inputs.sources) {
+                host.push((image, declared.layout));
+            }
+            if let (Some(images), Some(l)) = (&hidden, &inputs.hidden) {
+                let declared = [l.position, l.normal, l.albedo, l.s0].map(|i| i.layout);
+                host.extend(images.iter().zip(declared));
+            }
+            for (image, layout) in host {
+                if layout != vk::ImageLayout::UNDEFINED {
+                    rec.hand_back(image, layout);
+                }
+            }
+        }
         rec.flush_barriers();
         self.profiler.end(cmd, scope);
         self.profiler.end_frame(cmd);

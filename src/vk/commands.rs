@@ -177,6 +177,37 @@ impl Recorder<'_> {
         }
     }
 
+    /// Hands `image` back to its owner (a host) in `layout`: a barrier from
+    /// its tracked last access that makes ssbc's writes available and
+    /// visible to every later command, in that layout. ssbc does not use it
+    /// again in this recording.
+    pub fn hand_back(&mut self, image: &impl TrackedImage, layout: vk::ImageLayout) {
+        let state = image.tracked_state().get();
+        let (write_stage, write_access) = state
+            .last_write
+            .unwrap_or((vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE));
+        let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+        self.image_barriers.push(
+            vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(write_stage | state.visible_stages)
+                .src_access_mask(write_access)
+                .dst_stage_mask(all)
+                .dst_access_mask(vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE)
+                .old_layout(state.layout)
+                .new_layout(layout)
+                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                .image(image.tracked_raw())
+                .subresource_range(image.tracked_range()),
+        );
+        image.tracked_state().set(ResourceState {
+            layout,
+            last_write: Some((all, vk::AccessFlags2::MEMORY_WRITE)),
+            visible_stages: all,
+            visible_access: vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE,
+        });
+    }
+
     /// Declares the next use of `buffer`; a barrier is queued if needed.
     pub fn use_buffer(&mut self, buffer: &Buffer, access: Access) {
         let (barrier, after) = transition(buffer.state.get(), access, false);
