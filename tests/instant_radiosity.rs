@@ -37,6 +37,42 @@ fn layer<'a>(f: &'a Frame, name: &str) -> &'a [f32] {
     &f.layer(name.parse().expect("a layer name")).unwrap().rgba
 }
 
+/// A G-buffer pixel with a surface, as the gathers see it.
+struct Receiver {
+    /// Pixel index.
+    i: usize,
+    /// Position and shading normal.
+    x: Vec3,
+    n: Vec3,
+    brdf: Brdf,
+    /// Towards the eye.
+    wo: Vec3,
+}
+
+/// Every pixel of `f`'s read-back G-buffer that holds a surface, seen from
+/// `eye`.
+fn receivers(f: &Frame, eye: Vec3) -> Vec<Receiver> {
+    let (pos, nrm, alb) = (
+        layer(f, "gbuffer_position"),
+        layer(f, "gbuffer_normal"),
+        layer(f, "gbuffer_albedo"),
+    );
+    (0..(f.width * f.height) as usize)
+        .filter(|&i| pos[i * 4 + 3] != 0.0)
+        .map(|i| {
+            let x = rgb(pos, i);
+            let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
+            Receiver {
+                i,
+                x,
+                n: rgb(nrm, i),
+                brdf: Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]),
+                wo: (eye - x).normalize(),
+            }
+        })
+        .collect()
+}
+
 /// sqrt(sum |a - b|^2 / sum |b|^2).
 fn relative_rmse(a: &[Vec3], b: &[Vec3]) -> f64 {
     let num: f64 = a
@@ -71,22 +107,17 @@ fn bounded_indirect_equals_cpu_vpl_sum(
     let eye = scene.camera(None).unwrap().position;
     let bvh = SceneBvh::new(scene);
     let ism = f.ism.as_ref().unwrap();
-    let (pos, nrm, alb) = (
-        layer(&f, "gbuffer_position"),
-        layer(&f, "gbuffer_normal"),
-        layer(&f, "gbuffer_albedo"),
-    );
     let gpu_layer = layer(&f, "indirect_bounded");
     let (mut gpu, mut cpu_ism, mut cpu_exact) = (Vec::new(), Vec::new(), Vec::new());
     let (mut agree, mut pairs) = (0usize, 0usize);
-    for i in 0..(f.width * f.height) as usize {
-        if pos[i * 4 + 3] == 0.0 {
-            continue;
-        }
-        let (x, n) = (rgb(pos, i), rgb(nrm, i));
-        let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
-        let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
-        let wo = (eye - x).normalize();
+    for Receiver {
+        i,
+        x,
+        n,
+        brdf: a,
+        wo,
+    } in receivers(&f, eye)
+    {
         gpu.push(rgb(gpu_layer, i));
         cpu_ism.push(bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |k, v| {
             ism.visible(k, v, x, n, ism_bias_for(&a))
@@ -153,21 +184,16 @@ fn exact_visibility_is_the_cpu_sum_with_ray_casts() {
         let f = renderer.render(&scene, &s).expect("render");
         let eye = scene.camera(None).unwrap().position;
         let bvh = SceneBvh::new(&scene);
-        let (pos, nrm, alb) = (
-            layer(&f, "gbuffer_position"),
-            layer(&f, "gbuffer_normal"),
-            layer(&f, "gbuffer_albedo"),
-        );
         let gpu_layer = layer(&f, "indirect_bounded");
         let (mut gpu, mut cpu) = (Vec::new(), Vec::new());
-        for i in 0..(f.width * f.height) as usize {
-            if pos[i * 4 + 3] == 0.0 {
-                continue;
-            }
-            let (x, n) = (rgb(pos, i), rgb(nrm, i));
-            let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
-            let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
-            let wo = (eye - x).normalize();
+        for Receiver {
+            i,
+            x,
+            n,
+            brdf: a,
+            wo,
+        } in receivers(&f, eye)
+        {
             gpu.push(rgb(gpu_layer, i));
             // exact_visible() in shaders/include/vpl_gather.glsl: both
             // ends lifted by 1e-4 of their coordinates' size, the receiver
@@ -243,23 +269,21 @@ fn floor_against_exact(
 ) -> (Vec<(f64, f64)>, usize) {
     let eye = scene.camera(None).unwrap().position;
     let bvh = SceneBvh::new(scene);
-    let (pos, nrm, alb) = (
-        layer(f, "gbuffer_position"),
-        layer(f, "gbuffer_normal"),
-        layer(f, "gbuffer_albedo"),
-    );
     let gpu_layer = layer(f, "indirect_bounded");
     let (mut bands, mut pixels) = (Vec::new(), 0);
-    for i in 0..(f.width * f.height) as usize {
-        let x = rgb(pos, i);
-        if pos[i * 4 + 3] == 0.0 || x.y > 1e-3 {
+    for Receiver {
+        i,
+        x,
+        n,
+        brdf: a,
+        wo,
+    } in receivers(f, eye)
+    {
+        if x.y > 1e-3 {
             continue;
         }
         let Some(k) = band(x) else { continue };
-        let n = rgb(nrm, i);
-        let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
-        let a = Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
-        let exact = bounded_radiance(x, n, &a, (eye - x).normalize(), &f.vpls, f.bound, |_, v| {
+        let exact = bounded_radiance(x, n, &a, wo, &f.vpls, f.bound, |_, v| {
             !bvh.occluded(v.position + v.normal * 1e-4, x + Vec3::Y * 1e-4)
         });
         if bands.len() <= k {
