@@ -5,7 +5,7 @@
 // view-independent, as every source: brdf_source_color).
 #include "ssbc_types.glsl"
 
-layout(push_constant) uniform LayerResidualPush {
+layout(push_constant) uniform IntegralPush {
     SsbcFrame frame;
     ResidualParams residual;
 } pc;

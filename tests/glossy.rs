@@ -17,7 +17,7 @@ use ssbc::reference::{Method, Reference, ReferenceSettings};
 use ssbc::renderer::RenderSettings;
 use ssbc::scene::{Material, Reflectance, Scene};
 use ssbc::shaders::brdf_probe_comp;
-use ssbc::vk::{Access, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device};
+use ssbc::vk::{Access, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device, Work};
 
 /// `ProbeInput` in brdf_probe.comp.
 #[repr(C)]
@@ -78,7 +78,7 @@ fn glsl_brdf_matches_the_cpu_brdf() {
     let log = renderer.validation_log();
     let device: &std::sync::Arc<Device> = renderer.device();
     let gpu: Vec<[f32; 4]> = {
-        let kernel = ComputeKernel::<brdf_probe_comp::Interface, u32>::new(device).unwrap();
+        let kernel = ComputeKernel::<brdf_probe_comp::Interface>::new(device).unwrap();
         let input = Buffer::with_data(
             device,
             "probe.inputs",
@@ -97,22 +97,15 @@ fn glsl_brdf_matches_the_cpu_brdf() {
         let pool = DescriptorPool::new(device, &[kernel.set_layout()]).unwrap();
         let mut commands = CommandPool::new(device).unwrap();
         let mut rec = commands.begin().unwrap();
-        rec.use_buffer(&input, Access::ComputeRead);
-        rec.use_buffer(&output, Access::ComputeWrite);
-        rec.flush_barriers();
         let bindings = brdf_probe_comp::Bindings {
             inputs: &input,
             outputs: &output,
         };
         let count = inputs.len() as u32;
+        let push = brdf_probe_comp::Push { count };
+        let threads = Work::Threads([count, 1, 1]);
         kernel
-            .dispatch(
-                rec.cmd,
-                &pool,
-                &bindings,
-                &count,
-                [count.div_ceil(64), 1, 1],
-            )
+            .dispatch(&mut rec, &pool, &bindings, &push, threads)
             .unwrap();
         rec.use_buffer(&output, Access::HostRead);
         rec.flush_barriers();

@@ -12,8 +12,8 @@ use ssbc::renderer::Bound;
 use ssbc::settings::Integration;
 use ssbc::settings::{Gather, LayerResolution};
 use ssbc::vk::{
-    Binding, Buffer, DescriptorPool, DescriptorSetLayout, Device, Instance, Pipeline, Shader,
-    Validation,
+    Binding, BindingAccess, BindingInfo, Buffer, DescriptorPool, DescriptorSetLayout, Device,
+    Instance, Pipeline, Shader, Validation,
 };
 
 #[test]
@@ -109,8 +109,14 @@ fn gpu_assisted_validation_catches_an_out_of_bounds_write() {
         let shader = Shader {
             name: "oob.comp",
             spirv: spirv.as_binary_u8().to_vec().leak(),
-            bindings: &[(0, vk::DescriptorType::STORAGE_BUFFER, "data")],
+            bindings: &[BindingInfo {
+                number: 0,
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                name: "data",
+                access: BindingAccess::ReadWrite,
+            }],
             push_bytes: 0,
+            local_size: [1, 1, 1],
         };
         let layout = DescriptorSetLayout::for_shaders(&device, &[&shader]).unwrap();
         let pipeline = Pipeline::compute(&device, shader.spirv, &[&layout], 0).unwrap();

@@ -20,17 +20,7 @@ layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
-layout(push_constant) uniform Push {
-    uvec2 size;
-    uint vpl_count;
-    uint tile;
-    uint tiles_per_row;
-    float far;            // ISM distances are stored divided by this
-    float bound;          // b [1/m^2]; +inf disables clamping
-    float ism_bias;       // relative depth tolerance of the ISM test
-    float point_radius;   // world radius of one splatted point
-    vec4 camera_position; // xyz: the eye (glossy receivers reflect towards it)
-} pc;
+#include "gather_push.glsl"
 
 #include "vpl_gather.glsl"
 
@@ -46,7 +36,7 @@ void main() {
         Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
         vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
         vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
-        VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, 0u, pc.vpl_count, 1u);
+        VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, 0u, pc.count, 1u);
         radiance = brdf_diffuse_color(b) / PI * light.irradiance + light.glossy;
         source = brdf_source_color(b) / PI * light.irradiance;
     }

@@ -30,17 +30,7 @@ layout(set = 0, binding = 9, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 10, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
-layout(push_constant) uniform Push {
-    uvec2 size;
-    uint vpl_count;
-    uint tile;
-    uint tiles_per_row;
-    float far;
-    float bound;
-    float ism_bias;
-    float point_radius;
-    vec4 camera_position; // xyz: the eye
-} pc;
+#include "gather_push.glsl"
 
 #include "vpl_gather.glsl"
 
@@ -70,7 +60,7 @@ void main() {
             b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
             vec3 wo = normalize(pc.camera_position.xyz - x);
             vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
-            light = vpl_sum(x, n.xyz, ng, b, wo, lane, pc.vpl_count, LANES);
+            light = vpl_sum(x, n.xyz, ng, b, wo, lane, pc.count, LANES);
         }
         lane_irradiance[lane][px] = light.irradiance;
         lane_glossy[lane][px] = light.glossy;

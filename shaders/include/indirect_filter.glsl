@@ -69,7 +69,7 @@ void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weigh
     imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
 }
 
-layout(push_constant) uniform Push {
+layout(push_constant) uniform FilterPush {
     uvec2 size;
     int side;               // N <= MAX_SIDE
     float min_normal_cos;

@@ -24,24 +24,14 @@ layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D interleaved_glossy;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
-layout(push_constant) uniform Push {
-    uvec2 size;
-    uint side;            // N: the pattern is N x N
-    uint tile;
-    uint tiles_per_row;
-    float far;
-    float bound;
-    float ism_bias;
-    float point_radius;
-    vec4 camera_position; // xyz: the eye
-} pc;
+#include "gather_push.glsl"
 
 #include "vpl_gather.glsl"
 
 void main() {
     uint subset = gl_WorkGroupID.z;
-    uvec2 in_block = uvec2(subset % pc.side, subset / pc.side);
-    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy * pc.side + in_block);
+    uvec2 in_block = uvec2(subset % pc.count, subset / pc.count);
+    ivec2 pixel = ivec2(gl_GlobalInvocationID.xy * pc.count + in_block);
     if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
     vec4 position = imageLoad(g_position, pixel);
     if (position.w == 0.0) {
@@ -55,7 +45,7 @@ void main() {
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
     VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
-    float subsets = float(pc.side * pc.side);
+    float subsets = float(pc.count * pc.count);
     imageStore(interleaved, pixel, vec4(light.irradiance * (subsets / PI), 1.0));
     imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, light.spread2));
     imageStore(guide, pixel, pack_guide(position.xyz, n.xyz));

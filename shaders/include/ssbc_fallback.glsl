@@ -14,7 +14,7 @@
 // ms here with the glossy code behind a per-pixel test removed.
 #include "ssbc_types.glsl"
 
-layout(push_constant) uniform FallbackPush {
+layout(push_constant) uniform IntegralPush {
     SsbcFrame frame;
     ResidualParams residual;
 } pc;

@@ -12,7 +12,7 @@ use super::shadow_maps::ShadowMaps;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::shaders::direct_lighting_comp;
-use crate::vk::{Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler};
+use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler, Work};
 
 /// What the pass writes.
 pub struct DirectLight {
@@ -27,19 +27,9 @@ pub struct DirectLight {
 
 /// The direct-lighting compute kernel, for one G-buffer layer.
 pub struct DirectLightingPass {
-    kernel: ComputeKernel<direct_lighting_comp::Interface, Push>,
+    kernel: ComputeKernel<direct_lighting_comp::Interface>,
     shadow_sampler: Sampler,
     layer: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    size: [u32; 2],
-    light_count: u32,
-    pad: u32,
-    /// xyz: the eye (glossy surfaces reflect towards it).
-    camera_position: [f32; 4],
 }
 
 impl DirectLightingPass {
@@ -47,7 +37,7 @@ impl DirectLightingPass {
     /// surfaces; 1: the deep G-buffer's second layer).
     pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
         Ok(Self {
-            kernel: ComputeKernel::new(device)?.named("direct_lighting"),
+            kernel: ComputeKernel::new(device)?,
             shadow_sampler: Sampler::new(
                 device,
                 vk::Filter::NEAREST,
@@ -101,20 +91,12 @@ impl Pass for DirectLightingPass {
             rec, profiler, view, ..
         } = cx;
         let scope = profiler.begin(rec.cmd, &super::layer_name("direct_lighting", self.layer));
-        gbuffer.read_in_compute(rec);
-        rec.use_image(&gbuffer.emission, Access::ComputeRead);
-        rec.use_image(&shadows.depth, Access::ComputeSampled);
-        rec.use_buffer(&shadows.lights, Access::ComputeRead);
-        rec.use_buffer(&shadows.views, Access::ComputeRead);
-        rec.use_image(&direct.radiance, Access::ComputeWrite);
-        rec.use_image(&direct.sources, Access::ComputeWrite);
-        rec.flush_barriers();
         let (w, h) = gbuffer.extent();
-        let push = Push {
+        let push = direct_lighting_comp::Push {
             size: [w, h],
             light_count: shadows.light_count,
-            pad: 0,
             camera_position: view.camera.position.extend(1.0).into(),
+            ..Default::default()
         };
         let bindings = direct_lighting_comp::Bindings {
             g_position: &gbuffer.position,
@@ -128,7 +110,7 @@ impl Pass for DirectLightingPass {
             g_emission: &gbuffer.emission,
         };
         self.kernel
-            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;
+            .dispatch(rec, pool, &bindings, &push, Work::pixels((w, h)))?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

@@ -22,8 +22,9 @@ use crate::error::{Error, Result};
 use crate::gpu_scene::{GpuScene, SlotScene};
 use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
 use crate::vk::{
-    push_size, Access, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc,
-    Pipeline, Recorder, Shader, ShaderBindings, ShaderInterface,
+    declare_bindings, push_size, Access, BindingAccess, DescriptorPool, DescriptorSetLayout,
+    Device, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder, Shader, ShaderBindings,
+    ShaderInterface,
 };
 
 /// Format of every G-buffer colour target (storage-image compatible).
@@ -80,25 +81,19 @@ impl GBuffer {
         [&self.position, &self.normal, &self.albedo]
     }
 
-    /// Declares that a compute pass reads the three targets.
-    pub fn read_in_compute(&self, rec: &mut Recorder<'_>) {
-        for target in self.targets() {
-            rec.use_image(target, Access::ComputeRead);
-        }
-    }
-
     /// Width and height.
     pub fn extent(&self) -> (u32, u32) {
         (self.position.desc.width, self.position.desc.height)
     }
 
     /// Rasterizes `scene`'s visible objects into the G-buffer with
-    /// `pipeline` (bound with `set` and `push`): declares the accesses,
-    /// begins and ends rendering.
+    /// `pipeline` (bound with `set` and `push`): declares the attachments
+    /// and vertex input (the set's bindings are the caller's), begins and
+    /// ends rendering.
     pub(crate) fn draw(
         &self,
         rec: &mut Recorder<'_>,
-        SlotScene { scene, objects, .. }: SlotScene<'_>,
+        SlotScene { scene, .. }: SlotScene<'_>,
         pipeline: &Pipeline,
         set: vk::DescriptorSet,
         push: &[u8],
@@ -108,10 +103,6 @@ impl GBuffer {
         }
         rec.use_image(&self.emission, Access::ColorAttachmentWrite);
         rec.use_image(&self.depth, Access::DepthAttachmentWrite);
-        rec.use_image(&scene.color_textures, Access::FragmentSampled);
-        rec.use_image(&scene.linear_textures, Access::FragmentSampled);
-        rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
-        rec.use_buffer(objects, Access::GraphicsStorageRead);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
         rec.use_buffer(&scene.indices, Access::VertexInput);
         rec.flush_barriers();
@@ -188,28 +179,25 @@ fn material_bindings(scene: &GpuScene) -> gbuffer_frag::Bindings<'_> {
     }
 }
 
-/// The vertex shader's bindings and the fragment shader's `fragment`.
-pub(crate) fn with_objects<'a>(
+/// The vertex shader's bindings and the fragment shader `F`'s, declared to
+/// `rec` with the accesses the shaders make of them.
+pub(crate) fn with_objects<'a, F: ShaderInterface>(
+    rec: &mut Recorder<'_>,
     objects: &'a crate::vk::Buffer,
-    fragment: &impl ShaderBindings<'a>,
+    fragment: &F::Bindings<'a>,
 ) -> Vec<(u32, crate::vk::Binding<'a>)> {
     let mut all = gbuffer_vert::Bindings { objects }.bindings();
     all.extend(fragment.bindings());
+    let stages = [&gbuffer_vert::SHADER, &F::SHADER];
+    declare_bindings(rec, &stages, &all, BindingAccess::in_graphics);
     all
 }
 
-/// Push constants of the G-buffer shaders.
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub(crate) struct Push {
-    pub view_proj: [f32; 16],
-    /// xyz eye; w the separation behind layer 0 (layer 1 only).
-    pub camera_position: [f32; 4],
-    /// log2 of a layer-1 pixel's side in layer-0 pixels (layer 1 only).
-    pub layer1_shift: u32,
-    /// The object drawn (set per draw).
-    pub object: u32,
-}
+/// Push constants of the G-buffer shaders (the vertex shader's block, of
+/// which the fragment shaders declare a prefix): `camera_position.w` is
+/// the separation behind layer 0 and `layer1_shift` log2 of a layer-1
+/// pixel's side in layer-0 pixels (layer 1 only); `object` is set per draw.
+pub(crate) type Push = gbuffer_vert::Push;
 
 /// The G-buffer pipeline of one layer and its descriptor layout.
 pub struct GBufferPass {
@@ -278,7 +266,8 @@ impl Pass for GBufferPass {
         let materials = material_bindings(scene.scene);
         let (set, push) = match (self.layer, front) {
             (0, _) => {
-                let set = pool.allocate(&self.layout, &with_objects(scene.objects, &materials))?;
+                let all = with_objects::<gbuffer_frag::Interface>(rec, scene.objects, &materials);
+                let set = pool.allocate(&self.layout, &all)?;
                 (set, view.camera.position.extend(1.0))
             }
             (_, Some(front)) => {
@@ -288,8 +277,9 @@ impl Pass for GBufferPass {
                     linear_textures: materials.linear_textures,
                     layer0_position: &front.position,
                 };
-                rec.use_image(&front.position, Access::GraphicsStorageRead);
-                let set = pool.allocate(&self.layout, &with_objects(scene.objects, &bindings))?;
+                let all =
+                    with_objects::<gbuffer_peel_frag::Interface>(rec, scene.objects, &bindings);
+                let set = pool.allocate(&self.layout, &all)?;
                 let separation = settings.ssbc.layer_separation * view.diagonal;
                 (set, view.camera.position.extend(separation))
             }
@@ -302,7 +292,7 @@ impl Pass for GBufferPass {
         let name = super::layer_name("gbuffer", self.layer);
         let scope = profiler.begin(rec.cmd, &name);
         let push = Push {
-            view_proj: view.view_proj.to_cols_array(),
+            view_proj: view.view_proj.to_cols_array_2d(),
             camera_position: push.into(),
             layer1_shift: match self.layer {
                 0 => 0,

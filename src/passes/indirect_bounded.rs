@@ -32,9 +32,10 @@ use crate::shaders::{
     indirect_creases_exact_comp, indirect_filter_comp, indirect_filter_exact_comp,
     indirect_interleaved_comp, indirect_interleaved_exact_comp,
 };
+use crate::shaders::blocks::{FilterPush, GatherPush};
 use crate::vk::{
-    Access, AccelerationStructure, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout,
-    Device, Image,
+    AccelerationStructure, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout,
+    Device, Image, Work,
 };
 
 /// Relative depth tolerance of the ISM visibility test. With 32-texel tiles
@@ -191,10 +192,10 @@ pub struct Interleaved {
 /// The gathers, the reconstruction filter and the crease kernel, for one
 /// G-buffer layer.
 pub struct IndirectBoundedPass {
-    full: ComputeKernel<indirect_bounded_comp::Interface, GatherPush>,
-    interleaved: ComputeKernel<indirect_interleaved_comp::Interface, GatherPush>,
-    filter: ComputeKernel<indirect_filter_comp::Interface, FilterPush>,
-    creases: ComputeKernel<indirect_creases_comp::Interface, GatherPush>,
+    full: ComputeKernel<indirect_bounded_comp::Interface>,
+    interleaved: ComputeKernel<indirect_interleaved_comp::Interface>,
+    filter: ComputeKernel<indirect_filter_comp::Interface>,
+    creases: ComputeKernel<indirect_creases_comp::Interface>,
     /// The gathers with exact visibility, where the device has ray queries.
     exact: Option<ExactGathers>,
     layer: u32,
@@ -202,12 +203,12 @@ pub struct IndirectBoundedPass {
 
 /// The gathers' twins that test visibility with ray queries.
 struct ExactGathers {
-    full: ComputeKernel<indirect_bounded_exact_comp::Interface, GatherPush>,
-    interleaved: ComputeKernel<indirect_interleaved_exact_comp::Interface, GatherPush>,
+    full: ComputeKernel<indirect_bounded_exact_comp::Interface>,
+    interleaved: ComputeKernel<indirect_interleaved_exact_comp::Interface>,
     /// The filter, which also checks that nothing separates a pixel from
     /// the neighbours it averages (a wall thinner than its surface tests).
-    filter: ComputeKernel<indirect_filter_exact_comp::Interface, FilterPush>,
-    creases: ComputeKernel<indirect_creases_exact_comp::Interface, GatherPush>,
+    filter: ComputeKernel<indirect_filter_exact_comp::Interface>,
+    creases: ComputeKernel<indirect_creases_exact_comp::Interface>,
 }
 
 /// How the gathers test whether a VPL sees a receiver: its imperfect
@@ -221,38 +222,11 @@ pub enum VplVisibility<'a> {
     Exact(&'a AccelerationStructure),
 }
 
-impl VplVisibility<'_> {
-    /// Declares what the gathers read to test visibility.
-    fn declare(self, rec: &mut crate::vk::Recorder<'_>, ism: &Ism) {
-        match self {
-            VplVisibility::Ism => rec.use_image(&ism.atlas, Access::ComputeRead),
-            VplVisibility::Exact(tlas) => rec.use_buffer(&tlas.buffer, Access::ComputeRayQuery),
-        }
-    }
-}
-
-/// Push constants of the kernels that sum VPLs (`vpl_gather.glsl`); `count`
-/// is the VPL count, or the pattern side N for the interleaved gather.
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct GatherPush {
-    size: [u32; 2],
-    count: u32,
-    tile: u32,
-    tiles_per_row: u32,
-    far: f32,
-    bound: f32,
-    ism_bias: f32,
-    point_radius: f32,
-    pad: [u32; 3],
-    /// xyz: the eye (glossy receivers reflect towards it).
-    camera_position: [f32; 4],
-}
-
-impl GatherPush {
-    fn new(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> Self {
+/// The gathers' push block (`count`: the VPL count, or the pattern side N
+/// for the interleaved gather).
+fn gather_push(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> GatherPush {
         let (w, h) = gbuffer.extent();
-        Self {
+        GatherPush {
             size: [w, h],
             count,
             tile: ism.tile,
@@ -261,23 +235,9 @@ impl GatherPush {
             bound: view.bound,
             ism_bias: ISM_BIAS,
             point_radius: ism.point_radius,
-            pad: [0; 3],
             camera_position: view.camera.position.extend(1.0).into(),
+            ..Default::default()
         }
-    }
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct FilterPush {
-    size: [u32; 2],
-    side: i32,
-    min_normal_cos: f32,
-    max_plane_slope: f32,
-    crease_footprints: f32,
-    lobe_turn: f32,
-    pad: u32,
-    camera_position: [f32; 4],
 }
 
 impl IndirectBoundedPass {
@@ -285,16 +245,16 @@ impl IndirectBoundedPass {
     /// surfaces; 1: the deep G-buffer's second layer).
     pub fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
         Ok(Self {
-            full: ComputeKernel::new(device)?.named("indirect_bounded"),
-            interleaved: ComputeKernel::new(device)?.named("indirect_interleaved"),
-            filter: ComputeKernel::new(device)?.named("indirect_filter"),
-            creases: ComputeKernel::new(device)?.named("indirect_creases"),
+            full: ComputeKernel::new(device)?,
+            interleaved: ComputeKernel::new(device)?,
+            filter: ComputeKernel::new(device)?,
+            creases: ComputeKernel::new(device)?,
             exact: match device.ray_queries() {
                 Some(_) => Some(ExactGathers {
-                    full: ComputeKernel::new(device)?.named("indirect_bounded_exact"),
-                    interleaved: ComputeKernel::new(device)?.named("indirect_interleaved_exact"),
-                    filter: ComputeKernel::new(device)?.named("indirect_filter_exact"),
-                    creases: ComputeKernel::new(device)?.named("indirect_creases_exact"),
+                    full: ComputeKernel::new(device)?,
+                    interleaved: ComputeKernel::new(device)?,
+                    filter: ComputeKernel::new(device)?,
+                    creases: ComputeKernel::new(device)?,
                 }),
                 None => None,
             },
@@ -320,17 +280,8 @@ impl IndirectBoundedPass {
         out: &BoundedLighting,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
-        gbuffer.read_in_compute(rec);
-        rec.use_image(&direct.radiance, Access::ComputeRead);
-        rec.use_image(&direct.sources, Access::ComputeRead);
-        visibility.declare(rec, ism);
-        rec.use_buffer(&ism.vpls, Access::ComputeSampled);
-        rec.use_image(&out.indirect, Access::ComputeWrite);
-        rec.use_image(&out.s0, Access::ComputeWrite);
-        rec.use_image(&out.s0_sources, Access::ComputeWrite);
-        rec.flush_barriers();
-        let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
-        let extent = gbuffer.extent();
+        let push = gather_push(gbuffer, ism, view, ism.vpl_count);
+        let pixels = Work::pixels(gbuffer.extent());
         with_visibility!(
             visibility,
             (ism: &ism.atlas, self.full, indirect_bounded_comp),
@@ -344,10 +295,10 @@ impl IndirectBoundedPass {
                 indirect_bounded: &out.indirect,
                 s0: &out.s0,
                 s0_sources: &out.s0_sources,
-                vpl_texels: &ism.vpl_texels,
+                vpl_texels: &ism.vpls,
                 g_emission: &gbuffer.emission,
             },
-            |kernel, bindings| kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, extent)
+            |kernel, bindings| kernel.dispatch(rec, pool, &bindings, &push, pixels)
         )
     }
 
@@ -360,23 +311,11 @@ impl IndirectBoundedPass {
         interleaved: &Interleaved,
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
-        gbuffer.read_in_compute(rec);
-        visibility.declare(rec, ism);
-        rec.use_buffer(&ism.vpls, Access::ComputeSampled);
-        rec.use_buffer(&ism.subsets, Access::ComputeRead);
-        rec.use_image(&interleaved.sums, Access::ComputeWrite);
-        rec.use_image(&interleaved.glossy, Access::ComputeWrite);
-        rec.use_image(&interleaved.guide, Access::ComputeWrite);
-        rec.flush_barriers();
         let side = ism.subset_count.isqrt();
-        let push = GatherPush::new(gbuffer, ism, view, side);
-        // One work group: 8 x 8 pixels of one subset (z), N pixels apart.
+        let push = gather_push(gbuffer, ism, view, side);
+        // One work group: pixels of one subset (z), N pixels apart.
         let (w, h) = gbuffer.extent();
-        let groups = [
-            w.div_ceil(side).div_ceil(8),
-            h.div_ceil(side).div_ceil(8),
-            side * side,
-        ];
+        let subsets = Work::Threads([w.div_ceil(side), h.div_ceil(side), side * side]);
         with_visibility!(
             visibility,
             (ism: &ism.atlas, self.interleaved, indirect_interleaved_comp),
@@ -385,14 +324,14 @@ impl IndirectBoundedPass {
                 g_position: &gbuffer.position,
                 g_normal: &gbuffer.normal,
                 g_albedo: &gbuffer.albedo,
-                vpl_texels: &ism.vpl_texels,
+                vpl_texels: &ism.vpls,
                 subsets: &ism.subsets,
                 interleaved: &interleaved.sums,
                 interleaved_glossy: &interleaved.glossy,
                 guide: &interleaved.guide,
                 g_emission: &gbuffer.emission,
             },
-            |kernel, bindings| kernel.dispatch(rec.cmd, pool, &bindings, &push, groups)
+            |kernel, bindings| kernel.dispatch(rec, pool, &bindings, &push, subsets)
         )
     }
 
@@ -407,23 +346,7 @@ impl IndirectBoundedPass {
         out: &BoundedLighting,
     ) -> Result<()> {
         let rec = &mut *cx.rec;
-        if let VplVisibility::Exact(tlas) = visibility {
-            rec.use_buffer(&tlas.buffer, Access::ComputeRayQuery);
-        }
         rec.update_buffer(&interleaved.creases, 0, bytemuck::bytes_of(&LIST_HEADER));
-        rec.use_image(&gbuffer.albedo, Access::ComputeRead);
-        rec.use_image(&gbuffer.normal, Access::ComputeRead);
-        rec.use_image(&gbuffer.emission, Access::ComputeRead);
-        rec.use_image(&direct.radiance, Access::ComputeRead);
-        rec.use_image(&direct.sources, Access::ComputeRead);
-        rec.use_image(&interleaved.sums, Access::ComputeRead);
-        rec.use_image(&interleaved.glossy, Access::ComputeRead);
-        rec.use_image(&interleaved.guide, Access::ComputeRead);
-        rec.use_buffer(&interleaved.creases, Access::ComputeWrite);
-        rec.use_image(&out.indirect, Access::ComputeWrite);
-        rec.use_image(&out.s0, Access::ComputeWrite);
-        rec.use_image(&out.s0_sources, Access::ComputeWrite);
-        rec.flush_barriers();
         let (w, h) = gbuffer.extent();
         let push = FilterPush {
             size: [w, h],
@@ -432,8 +355,8 @@ impl IndirectBoundedPass {
             max_plane_slope: FILTER_PLANE_SLOPE,
             crease_footprints: CREASE_FOOTPRINTS,
             lobe_turn: glossy_filter_turn(),
-            pad: 0,
             camera_position: cx.view.camera.position.extend(1.0).into(),
+            ..Default::default()
         };
         with_visibility!(
             visibility,
@@ -453,7 +376,7 @@ impl IndirectBoundedPass {
                 g_normal: &gbuffer.normal,
                 g_emission: &gbuffer.emission,
             },
-            |kernel, bindings| kernel.dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))
+            |kernel, bindings| kernel.dispatch(rec, pool, &bindings, &push, Work::pixels((w, h)))
         )
     }
 
@@ -468,18 +391,7 @@ impl IndirectBoundedPass {
     ) -> Result<()> {
         let Recording { rec, view, .. } = cx;
         let (gbuffer, direct, ism, visibility) = reads;
-        gbuffer.read_in_compute(rec);
-        rec.use_image(&direct.radiance, Access::ComputeRead);
-        rec.use_image(&direct.sources, Access::ComputeRead);
-        visibility.declare(rec, ism);
-        rec.use_buffer(&ism.vpls, Access::ComputeSampled);
-        rec.use_buffer(creases, Access::IndirectRead);
-        rec.use_buffer(creases, Access::ComputeRead);
-        rec.use_image(&out.indirect, Access::ComputeWrite);
-        rec.use_image(&out.s0, Access::ComputeWrite);
-        rec.use_image(&out.s0_sources, Access::ComputeWrite);
-        rec.flush_barriers();
-        let push = GatherPush::new(gbuffer, ism, view, ism.vpl_count);
+        let push = gather_push(gbuffer, ism, view, ism.vpl_count);
         with_visibility!(
             visibility,
             (ism: &ism.atlas, self.creases, indirect_creases_comp),
@@ -493,11 +405,11 @@ impl IndirectBoundedPass {
                 indirect_bounded: &out.indirect,
                 s0: &out.s0,
                 s0_sources: &out.s0_sources,
-                vpl_texels: &ism.vpl_texels,
+                vpl_texels: &ism.vpls,
                 creases,
                 g_emission: &gbuffer.emission,
             },
-            |kernel, bindings| kernel.dispatch_indirect(rec.cmd, pool, &bindings, &push, creases, 0)
+            |kernel, bindings| kernel.dispatch(rec, pool, &bindings, &push, Work::Indirect(creases, 0))
         )
     }
 }

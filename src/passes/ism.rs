@@ -16,28 +16,26 @@ use crate::gpu_types::GpuVpl;
 use crate::settings::Visibility;
 use crate::shaders::{ism_base_comp, ism_points_comp, ism_splat_comp};
 use crate::vk::{
-    Access, Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
-    ImageDesc,
+    Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
+    ImageDesc, Work,
 };
 
 /// The ISM pipelines.
 pub struct IsmPass {
-    place: ComputeKernel<ism_points_comp::Interface, PlacePush>,
-    base: ComputeKernel<ism_base_comp::Interface, BasePush>,
-    splat: ComputeKernel<ism_splat_comp::Interface, SplatPush>,
+    place: ComputeKernel<ism_points_comp::Interface>,
+    base: ComputeKernel<ism_base_comp::Interface>,
+    splat: ComputeKernel<ism_splat_comp::Interface>,
 }
 
 /// One frame's ISM atlas and inputs.
 pub struct Ism {
-    /// `vpls` as RGBA32F texels (three per VPL), for the gathers. Declared
-    /// before the buffer so that it is dropped first.
-    pub vpl_texels: BufferView,
     /// The atlas: per texel the nearest distance divided by `far` and how
     /// squarely its surface faces the VPL (r32ui, `ism_pack` in
     /// shaders/include/ism.glsl), what lighting reads.
     pub atlas: Image,
-    /// The VPLs (`GpuVpl`), in the order of their interleaving subsets.
-    pub vpls: Buffer,
+    /// The VPLs (`GpuVpl`), in the order of their interleaving subsets;
+    /// viewed as RGBA32F texels (three per VPL) by the gathers.
+    pub vpls: BufferView,
     /// Where each interleaving subset starts in `vpls`, and where the last
     /// ends (`u32`).
     pub subsets: Buffer,
@@ -73,32 +71,6 @@ pub struct Ism {
     pub point_radius: f32,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct SplatPush {
-    vpl_count: u32,
-    points_per_vpl: u32,
-    tile: u32,
-    tiles_per_row: u32,
-    depth_scale: f32,
-    point_radius: f32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct PlacePush {
-    count: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct BasePush {
-    vpl_count: u32,
-    tile: u32,
-    grid: u32,
-    depth_scale: f32,
-}
-
 /// The extent of the ISM atlas for `vpl_count` tiles of `tile` texels;
 /// an error if the device cannot make an image that large.
 pub(crate) fn check_atlas(device: &Device, vpl_count: u32, tile: u32) -> Result<(u32, u32)> {
@@ -122,9 +94,9 @@ impl IsmPass {
     /// Creates the kernels.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         Ok(Self {
-            place: ComputeKernel::new(device)?.named("ism_points"),
-            base: ComputeKernel::new(device)?.named("ism_base"),
-            splat: ComputeKernel::new(device)?.named("ism_splat"),
+            place: ComputeKernel::new(device)?,
+            base: ComputeKernel::new(device)?,
+            splat: ComputeKernel::new(device)?,
         })
     }
 }
@@ -196,15 +168,8 @@ impl Pass for IsmPass {
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
         )?;
         Ok(Ism {
-            vpl_texels: BufferView::new(
-                device,
-                &vpls,
-                vk::Format::R32G32B32A32_SFLOAT,
-                16,
-                "vpls texels",
-            )?,
+            vpls: BufferView::new(device, vpls, vk::Format::R32G32B32A32_SFLOAT, 16, "vpls texels")?,
             atlas,
-            vpls,
             subsets: Buffer::with_data(
                 device,
                 "vpls.subsets",
@@ -264,7 +229,7 @@ impl Pass for IsmPass {
             return Ok(false);
         }
         if !vpls.is_empty() && ism.versions.0 != cached_vpls.version {
-            ism.vpls.write(0, bytemuck::cast_slice(vpls))?;
+            ism.vpls.buffer.write(0, bytemuck::cast_slice(vpls))?;
             ism.subsets
                 .write(0, bytemuck::cast_slice(&cached_vpls.subsets))?;
             ism.base_depths
@@ -314,11 +279,6 @@ impl Pass for IsmPass {
         let placing = (ism.versions.1, objects_version);
         if !(*reuse && ism.placed.get() == Some(placing)) {
             let scope = profiler.begin(rec.cmd, "ism_points");
-            rec.use_buffer(&ism.points, Access::ComputeRead);
-            rec.use_buffer(&ism.point_normals, Access::ComputeRead);
-            rec.use_buffer(objects, Access::ComputeRead);
-            rec.use_buffer(&ism.world_points, Access::ComputeWrite);
-            rec.flush_barriers();
             let count = (ism.points.size / 16) as u32;
             let bindings = ism_points_comp::Bindings {
                 points: &ism.points,
@@ -326,9 +286,9 @@ impl Pass for IsmPass {
                 world_points: &ism.world_points,
                 normals: &ism.point_normals,
             };
-            let push = PlacePush { count };
+            let push = ism_points_comp::Push { count };
             self.place
-                .dispatch(rec.cmd, pool, &bindings, &push, [count.div_ceil(64), 1, 1])?;
+                .dispatch(rec, pool, &bindings, &push, Work::Threads([count, 1, 1]))?;
             profiler.end(rec.cmd, scope);
             // A host's command buffer may never run: nothing it places is kept.
             ism.placed.set(reuse.then_some(placing));
@@ -336,11 +296,7 @@ impl Pass for IsmPass {
         // Splat: start every VPL's tile from its ray-cast layer (tiles past
         // the last VPL are never read) and atomicMin every point's distance.
         let scope = profiler.begin(rec.cmd, "ism_splat");
-        rec.use_image(&ism.atlas, Access::ComputeWrite);
-        rec.use_buffer(&ism.vpls, Access::ComputeRead);
-        rec.use_buffer(&ism.base_depths, Access::ComputeRead);
-        rec.flush_barriers();
-        let push = BasePush {
+        let push = ism_base_comp::Push {
             vpl_count: ism.vpl_count,
             tile: ism.tile,
             grid: ism_rays::BASE_GRID,
@@ -348,16 +304,13 @@ impl Pass for IsmPass {
         };
         let bindings = ism_base_comp::Bindings {
             ism_depth: &ism.atlas,
-            vpls: &ism.vpls,
+            vpls: &ism.vpls.buffer,
             base: &ism.base_depths,
         };
-        let groups = [(ism.tile * ism.tile).div_ceil(64), ism.vpl_count, 1];
-        self.base.dispatch(rec.cmd, pool, &bindings, &push, groups)?;
-        rec.use_image(&ism.atlas, Access::ComputeWrite);
-        rec.use_buffer(&ism.vpls, Access::ComputeRead);
-        rec.use_buffer(&ism.world_points, Access::ComputeRead);
-        rec.flush_barriers();
-        let push = SplatPush {
+        // One invocation per (texel, VPL).
+        let texels = Work::Threads([ism.tile * ism.tile, ism.vpl_count, 1]);
+        self.base.dispatch(rec, pool, &bindings, &push, texels)?;
+        let push = ism_splat_comp::Push {
             vpl_count: ism.vpl_count,
             points_per_vpl: ism.points_per_vpl,
             tile: ism.tile,
@@ -367,12 +320,12 @@ impl Pass for IsmPass {
         };
         let bindings = ism_splat_comp::Bindings {
             ism_depth: &ism.atlas,
-            vpls: &ism.vpls,
+            vpls: &ism.vpls.buffer,
             points: &ism.world_points,
         };
         // One invocation per (point, VPL).
-        let groups = [ism.points_per_vpl.div_ceil(64), ism.vpl_count, 1];
-        self.splat.dispatch(rec.cmd, pool, &bindings, &push, groups)?;
+        let points = Work::Threads([ism.points_per_vpl, ism.vpl_count, 1]);
+        self.splat.dispatch(rec, pool, &bindings, &push, points)?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

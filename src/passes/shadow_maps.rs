@@ -16,9 +16,8 @@ use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
 use crate::shaders::{shadow_map_frag, shadow_map_vert};
 use crate::vk::{
-    push_size, Access, Buffer, DescriptorPool, DescriptorSetLayout, Device, GraphicsDesc, Image,
-    ShaderBindings,
-    ImageDesc, Pipeline,
+    declare_bindings, push_size, Access, BindingAccess, Buffer, DescriptorPool,
+    DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc, Pipeline, ShaderBindings,
 };
 
 use super::{Pass, Recording, SlotSetup};
@@ -117,15 +116,9 @@ pub fn light_views(light: &Light, bounds: &Bounds, resolution: u32) -> Vec<(Mat4
     }
 }
 
-/// Push constants of the shadow-map shaders.
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ShadowPush {
-    /// World to the layer's clip space.
-    view_proj: [f32; 16],
-    /// The object drawn (set per draw).
-    object: u32,
-}
+/// Push constants of the shadow-map shaders: world to the layer's clip
+/// space, and the object drawn (set per draw).
+type ShadowPush = shadow_map_vert::Push;
 
 impl ShadowMapPass {
     /// Creates the depth pipeline.
@@ -283,10 +276,9 @@ impl Pass for ShadowMapPass {
         all.extend(bindings.bindings());
         let set = pool.allocate(&self.layout, &all)?;
         let scope = profiler.begin(rec.cmd, "shadow_maps");
+        let stages = [&shadow_map_vert::SHADER, &shadow_map_frag::SHADER];
+        declare_bindings(rec, &stages, &all, BindingAccess::in_graphics);
         rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
-        rec.use_image(&scene.color_textures, Access::FragmentSampled);
-        rec.use_buffer(&scene.materials, Access::GraphicsStorageRead);
-        rec.use_buffer(objects, Access::GraphicsStorageRead);
         rec.use_buffer(&scene.vertices, Access::VertexInput);
         rec.use_buffer(&scene.indices, Access::VertexInput);
         rec.flush_barriers();
@@ -301,8 +293,8 @@ impl Pass for ShadowMapPass {
                 1.0,
             );
             let push = ShadowPush {
-                view_proj: view_proj.to_cols_array(),
-                object: 0,
+                view_proj: view_proj.to_cols_array_2d(),
+                ..Default::default()
             };
             let object_offset = std::mem::offset_of!(ShadowPush, object) as u32;
             // Opaque triangles depth-only, alpha-masked ones with the test.

@@ -18,7 +18,7 @@ use super::gbuffer::GBuffer;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::shaders::{temporal_blend_comp, temporal_reproject_comp};
-use crate::vk::{Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
+use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Work};
 
 /// What the pass writes.
 pub struct Temporal {
@@ -64,35 +64,16 @@ pub struct TemporalReads<'a> {
 
 /// The reprojection and blending kernels.
 pub struct TemporalPass {
-    reproject: ComputeKernel<temporal_reproject_comp::Interface, ReprojectPush>,
-    blend: ComputeKernel<temporal_blend_comp::Interface, BlendPush>,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ReprojectPush {
-    previous_view_proj: [f32; 16],
-    camera_position: [f32; 4],
-    previous_camera: [f32; 4],
-    size: [u32; 2],
-    has_history: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct BlendPush {
-    size: [u32; 2],
-    max_frames: f32,
-    lights_changed: u32,
-    light_change: f32,
+    reproject: ComputeKernel<temporal_reproject_comp::Interface>,
+    blend: ComputeKernel<temporal_blend_comp::Interface>,
 }
 
 impl TemporalPass {
     /// Creates both kernels.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         Ok(Self {
-            reproject: ComputeKernel::new(device)?.named("temporal_reproject"),
-            blend: ComputeKernel::new(device)?.named("temporal_blend"),
+            reproject: ComputeKernel::new(device)?,
+            blend: ComputeKernel::new(device)?,
         })
     }
 }
@@ -140,22 +121,8 @@ impl Pass for TemporalPass {
             Some((gbuffer, temporal)) => (gbuffer, &temporal.history),
             None => (reads.gbuffer, &out.history),
         };
-        let reads_images = [
-            &reads.gbuffer.position,
-            &reads.gbuffer.normal,
-            &reads.gbuffer.albedo,
-            &previous_gbuffer.position,
-            &previous_gbuffer.normal,
-            &previous_gbuffer.albedo,
-            previous_history,
-        ];
-        for image in reads_images {
-            rec.use_image(image, Access::ComputeRead);
-        }
-        rec.use_image(&out.reprojected, Access::ComputeWrite);
-        rec.flush_barriers();
-        let push = ReprojectPush {
-            previous_view_proj: step.previous_view_proj.to_cols_array(),
+        let push = temporal_reproject_comp::Push {
+            previous_view_proj: step.previous_view_proj.to_cols_array_2d(),
             camera_position: view.camera.position.extend(1.0).into(),
             previous_camera: step.previous_camera.extend(1.0).into(),
             size: [w, h],
@@ -172,14 +139,8 @@ impl Pass for TemporalPass {
             previous_albedo: &previous_gbuffer.albedo,
         };
         self.reproject
-            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;
-        rec.use_image(&out.reprojected, Access::ComputeRead);
-        rec.use_image(reads.final_image, Access::ComputeRead);
-        rec.use_image(reads.direct, Access::ComputeRead);
-        rec.use_image(&out.history, Access::ComputeWrite);
-        rec.use_image(&out.output, Access::ComputeWrite);
-        rec.flush_barriers();
-        let push = BlendPush {
+            .dispatch(rec, pool, &bindings, &push, Work::pixels((w, h)))?;
+        let push = temporal_blend_comp::Push {
             size: [w, h],
             max_frames: step.max_frames as f32,
             lights_changed: step.light_change.is_some() as u32,
@@ -193,7 +154,7 @@ impl Pass for TemporalPass {
             temporal_final: &out.output,
         };
         self.blend
-            .dispatch_2d(rec.cmd, pool, &bindings, &push, (w, h))?;
+            .dispatch(rec, pool, &bindings, &push, Work::pixels((w, h)))?;
         profiler.end(rec.cmd, scope);
         Ok(())
     }

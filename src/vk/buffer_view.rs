@@ -15,13 +15,16 @@ use super::buffer::Buffer;
 use super::device::{Device, Garbage};
 use crate::error::{Error, Result, VkResultExt};
 
-/// A view of a whole buffer as texels of one format. The buffer must have
-/// been created with `UNIFORM_TEXEL_BUFFER` usage and must outlive the view's
-/// use by the GPU (both are destroyed through the same deferred queue).
+/// A buffer with a view of all of it as texels of one format. The buffer
+/// must have been created with texel-buffer usage; the view owns it, so
+/// that barriers reach it through the view (both are destroyed through the
+/// same deferred queue, the view first).
 pub struct BufferView {
     device: Arc<Device>,
     /// The raw handle.
     pub raw: vk::BufferView,
+    /// The buffer viewed.
+    pub buffer: Buffer,
 }
 
 impl BufferView {
@@ -30,7 +33,7 @@ impl BufferView {
     /// (`maxTexelBufferElements`).
     pub fn new(
         device: &Arc<Device>,
-        buffer: &Buffer,
+        buffer: Buffer,
         format: vk::Format,
         texel_bytes: u64,
         name: &str,
@@ -55,6 +58,7 @@ impl BufferView {
         Ok(Self {
             device: device.clone(),
             raw,
+            buffer,
         })
     }
 }

@@ -32,7 +32,10 @@ impl DescriptorSetLayout {
     pub fn for_shaders(device: &Arc<Device>, shaders: &[&Shader]) -> Result<Self> {
         let mut bindings: Vec<(u32, vk::DescriptorType)> = Vec::new();
         for shader in shaders {
-            for &(number, ty, name) in shader.bindings {
+            for &super::pipeline::BindingInfo {
+                number, ty, name, ..
+            } in shader.bindings
+            {
                 match bindings.iter().find(|(n, _)| *n == number) {
                     Some((_, t)) if *t != ty => {
                         return Err(Error::InvalidParameter(format!(
@@ -175,11 +178,11 @@ impl DescriptorPool {
         let image_infos: Vec<vk::DescriptorImageInfo> = bindings
             .iter()
             .map(|(_, b)| match *b {
-                Binding::StorageImage(view) => vk::DescriptorImageInfo::default()
-                    .image_view(view)
+                Binding::StorageImage(image) => vk::DescriptorImageInfo::default()
+                    .image_view(image.view)
                     .image_layout(vk::ImageLayout::GENERAL),
-                Binding::SampledImage(view, sampler) => vk::DescriptorImageInfo::default()
-                    .image_view(view)
+                Binding::SampledImage(image, sampler) => vk::DescriptorImageInfo::default()
+                    .image_view(image.view)
                     .sampler(sampler.raw)
                     .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL),
                 _ => vk::DescriptorImageInfo::default(),
@@ -249,10 +252,10 @@ impl Drop for DescriptorPool {
 /// The resource for one binding.
 #[derive(Clone, Copy)]
 pub enum Binding<'a> {
-    /// A storage image view (GENERAL layout).
-    StorageImage(vk::ImageView),
-    /// A sampled image view with its sampler (SHADER_READ_ONLY layout).
-    SampledImage(vk::ImageView, &'a Sampler),
+    /// A storage image's full view (GENERAL layout).
+    StorageImage(&'a Image),
+    /// A sampled image's full view with its sampler (SHADER_READ_ONLY layout).
+    SampledImage(&'a Image, &'a Sampler),
     /// A whole storage buffer.
     StorageBuffer(&'a Buffer),
     /// A whole uniform buffer.
@@ -268,10 +271,45 @@ pub enum Binding<'a> {
 impl<'a> Binding<'a> {
     /// The full view of `image` as storage.
     pub fn storage(image: &'a Image) -> Self {
-        Binding::StorageImage(image.view)
+        Binding::StorageImage(image)
     }
     /// The full view of `image`, sampled with `sampler`.
     pub fn sampled(image: &'a Image, sampler: &'a Sampler) -> Self {
-        Binding::SampledImage(image.view, sampler)
+        Binding::SampledImage(image, sampler)
+    }
+
+    /// The resource whose last access the barriers track (a texel view's
+    /// buffer, an acceleration structure's).
+    pub fn tracked(self) -> Tracked<'a> {
+        match self {
+            Binding::StorageImage(image) | Binding::SampledImage(image, _) => Tracked::Image(image),
+            Binding::StorageBuffer(buffer) | Binding::UniformBuffer(buffer) => {
+                Tracked::Buffer(buffer)
+            }
+            Binding::UniformTexelBuffer(view) | Binding::StorageTexelBuffer(view) => {
+                Tracked::Buffer(&view.buffer)
+            }
+            Binding::AccelerationStructure(structure) => Tracked::Buffer(&structure.buffer),
+        }
+    }
+}
+
+/// A resource with tracked last access.
+#[derive(Clone, Copy)]
+pub enum Tracked<'a> {
+    /// An image.
+    Image(&'a Image),
+    /// A buffer.
+    Buffer(&'a Buffer),
+}
+
+impl Tracked<'_> {
+    /// Whether both are the same resource.
+    pub fn same(&self, other: &Tracked<'_>) -> bool {
+        match (self, other) {
+            (Tracked::Image(a), Tracked::Image(b)) => a.raw == b.raw,
+            (Tracked::Buffer(a), Tracked::Buffer(b)) => a.raw == b.raw,
+            _ => false,
+        }
     }
 }

@@ -51,10 +51,11 @@ unstable_pub! {
     use self::buffer::Buffer;
     use self::buffer_view::BufferView;
     use self::commands::{CommandPool, Recorder, TrackedImage};
-    use self::descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
+    use self::descriptor::{Binding, DescriptorPool, DescriptorSetLayout, Tracked};
     use self::image::{Image, ImageDesc, Sampler};
     use self::pipeline::{
-        push_size, ComputeKernel, GraphicsDesc, Pipeline, Shader, ShaderBindings, ShaderInterface,
+        declare_bindings, push_size, BindingAccess, BindingInfo, ComputeKernel, GraphicsDesc,
+        Pipeline, Shader, ShaderBindings, ShaderInterface, Work,
     };
     use self::profiler::GpuProfiler;
 }

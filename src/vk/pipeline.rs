@@ -5,7 +5,10 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::descriptor::{Binding, DescriptorPool, DescriptorSetLayout};
+use super::barrier::Access;
+use super::buffer::Buffer;
+use super::commands::Recorder;
+use super::descriptor::{Binding, DescriptorPool, DescriptorSetLayout, Tracked};
 use super::device::{Device, Garbage};
 use crate::error::{Error, Result, VkResultExt};
 
@@ -17,11 +20,63 @@ pub struct Shader {
     pub name: &'static str,
     /// SPIR-V (entry point `main`).
     pub spirv: &'static [u8],
-    /// Its descriptor bindings in set 0: number, type, name in the GLSL
-    /// (those the optimised SPIR-V still uses).
-    pub bindings: &'static [(u32, vk::DescriptorType, &'static str)],
+    /// Its descriptor bindings in set 0 (those the optimised SPIR-V still
+    /// uses).
+    pub bindings: &'static [BindingInfo],
     /// Bytes of its push-constant block (0: none).
     pub push_bytes: u32,
+    /// Its local workgroup size (compute; `[1, 1, 1]` for other stages).
+    pub local_size: [u32; 3],
+}
+
+/// One reflected binding of a shader.
+#[derive(Clone, Copy, Debug)]
+pub struct BindingInfo {
+    /// Binding number in set 0.
+    pub number: u32,
+    /// Descriptor type.
+    pub ty: vk::DescriptorType,
+    /// Name in the GLSL.
+    pub name: &'static str,
+    /// How the shader accesses it.
+    pub access: BindingAccess,
+}
+
+/// How a shader accesses a binding, from its SPIR-V decorations
+/// (`readonly`: `NonWritable`; `writeonly`: `NonReadable`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BindingAccess {
+    /// A storage image or buffer read only.
+    Read,
+    /// A storage image or buffer written only.
+    Write,
+    /// A storage image or buffer read and written.
+    ReadWrite,
+    /// A sampled image or texel buffer.
+    Sampled,
+    /// An acceleration structure traced by ray queries.
+    RayQuery,
+}
+
+impl BindingAccess {
+    /// The barrier tracker's access from a compute shader.
+    pub fn in_compute(self) -> Access {
+        match self {
+            BindingAccess::Read => Access::ComputeRead,
+            BindingAccess::Write | BindingAccess::ReadWrite => Access::ComputeWrite,
+            BindingAccess::Sampled => Access::ComputeSampled,
+            BindingAccess::RayQuery => Access::ComputeRayQuery,
+        }
+    }
+
+    /// The barrier tracker's access from a vertex or fragment shader (which
+    /// only read in ssbc).
+    pub fn in_graphics(self) -> Access {
+        match self {
+            BindingAccess::Sampled => Access::FragmentSampled,
+            _ => Access::GraphicsStorageRead,
+        }
+    }
 }
 
 /// The resources for a shader's bindings: `build.rs` generates one struct
@@ -34,12 +89,49 @@ pub trait ShaderBindings<'a> {
 }
 
 /// A shader as a type (`crate::shaders::<file>::Interface`): what kernels
-/// and pipelines are made of, tying the shader to its bindings.
+/// and pipelines are made of, tying the shader to its bindings and its
+/// push block.
 pub trait ShaderInterface {
     /// The shader.
     const SHADER: Shader;
     /// Its bindings.
     type Bindings<'a>: ShaderBindings<'a>;
+    /// Its push block (`()` for none), generated from the SPIR-V.
+    type Push: bytemuck::Pod;
+}
+
+/// Declares to `rec` every resource of `bindings` with the access the
+/// `stages` that bind it make of it (`access` maps it to the pipeline's
+/// stage), for the barriers before the next command. A resource bound twice
+/// is declared once, written if either binding writes it.
+pub fn declare_bindings(
+    rec: &mut Recorder<'_>,
+    stages: &[&Shader],
+    bindings: &[(u32, Binding<'_>)],
+    access: fn(BindingAccess) -> Access,
+) {
+    let access_of = |number: u32| {
+        let info = stages
+            .iter()
+            .flat_map(|s| s.bindings)
+            .find(|b| b.number == number);
+        access(info.map_or(BindingAccess::ReadWrite, |b| b.access))
+    };
+    let mut uses: Vec<(Tracked<'_>, Access)> = Vec::with_capacity(bindings.len());
+    for &(number, binding) in bindings {
+        let (resource, access) = (binding.tracked(), access_of(number));
+        match uses.iter_mut().find(|(r, _)| r.same(&resource)) {
+            Some((_, a)) if access.info().writes => *a = access,
+            Some(_) => {}
+            None => uses.push((resource, access)),
+        }
+    }
+    for (resource, access) in uses {
+        match resource {
+            Tracked::Image(image) => rec.use_image(image, access),
+            Tracked::Buffer(buffer) => rec.use_buffer(buffer, access),
+        }
+    }
 }
 
 /// The size of the push block `P`, which the stages `shaders` share (each
@@ -389,34 +481,63 @@ impl Drop for Pipeline {
 }
 
 /// A compute shader with the one descriptor set layout it uses, made from
-/// its reflection: the unit most passes are made of. `I` is the shader
-/// (its bindings come with it), `P` its push block (`()` for none).
-pub struct ComputeKernel<I: ShaderInterface, P: bytemuck::Pod = ()> {
+/// its reflection: the unit most passes are made of. `I` is the shader:
+/// its bindings, push block, accesses and workgroup size come with it.
+pub struct ComputeKernel<I: ShaderInterface> {
     layout: DescriptorSetLayout,
     pipeline: Pipeline,
-    shader: PhantomData<fn(&P) -> I>,
+    name: String,
+    shader: PhantomData<fn() -> I>,
 }
 
-impl<I: ShaderInterface, P: bytemuck::Pod> ComputeKernel<I, P> {
-    /// Creates the layout (from the shader's bindings) and the pipeline;
-    /// fails if `P` is not the size of the shader's push block.
+/// What a kernel runs over.
+#[derive(Clone, Copy)]
+pub enum Work<'a> {
+    /// One invocation per element of an extent (x, y, z), in as many work
+    /// groups of the shader's size as cover it.
+    Threads([u32; 3]),
+    /// This many work groups.
+    Groups([u32; 3]),
+    /// Work groups read by the GPU from a `VkDispatchIndirectCommand` in
+    /// the buffer at the offset (declared as an indirect read).
+    Indirect(&'a Buffer, u64),
+}
+
+impl Work<'_> {
+    /// One invocation per pixel of a `width` x `height` image.
+    pub fn pixels((width, height): (u32, u32)) -> Self {
+        Work::Threads([width, height, 1])
+    }
+}
+
+impl<I: ShaderInterface> ComputeKernel<I> {
+    /// Creates the layout (from the shader's bindings) and the pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         let shader = I::SHADER;
-        let push_size = push_size::<P>(&[&shader])?;
+        let push_size = push_size::<I::Push>(&[&shader])?;
         let layout = DescriptorSetLayout::for_shaders(device, &[&shader])?;
         let pipeline = Pipeline::compute(device, shader.spirv, &[&layout], push_size)?;
-        Ok(Self {
+        let name = shader.name.trim_end_matches(".comp").to_string();
+        let kernel = Self {
             layout,
             pipeline,
+            name,
             shader: PhantomData,
-        })
+        };
+        Ok(kernel.named_objects())
     }
 
-    /// Names the pipeline `<name> pipeline`, its layout and its descriptor
-    /// set layout (see [`Device::set_name`]).
-    pub fn named(self, name: &str) -> Self {
-        self.layout.name(&format!("{name} set layout"));
-        self.pipeline.name(name);
+    /// Names the kernel (its debug label) and so its pipeline `<name>
+    /// pipeline`, its layout and its descriptor set layout (see
+    /// [`Device::set_name`]). By default it is named after its shader.
+    pub fn named(mut self, name: &str) -> Self {
+        self.name = name.to_string();
+        self.named_objects()
+    }
+
+    fn named_objects(self) -> Self {
+        self.layout.name(&format!("{} set layout", self.name));
+        self.pipeline.name(&self.name);
         self
     }
 
@@ -425,74 +546,53 @@ impl<I: ShaderInterface, P: bytemuck::Pod> ComputeKernel<I, P> {
         &self.layout
     }
 
-    /// Writes a set for `bindings`, binds it with the pipeline, pushes `push`
-    /// and dispatches `groups`. Barriers must already be flushed.
+    /// Runs the kernel: declares every binding with the access the shader
+    /// makes of it (and indirect arguments), flushes the barriers, writes a
+    /// set for `bindings`, binds it with the pipeline, pushes `push` and
+    /// dispatches `work` with the shader's workgroup size, in a debug label
+    /// named after the kernel.
     pub fn dispatch(
         &self,
-        cmd: vk::CommandBuffer,
+        rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
         bindings: &I::Bindings<'_>,
-        push: &P,
-        groups: [u32; 3],
+        push: &I::Push,
+        work: Work<'_>,
     ) -> Result<()> {
-        self.bind(cmd, pool, bindings, push)?;
-        // SAFETY: recording with this compute pipeline and its set bound.
-        unsafe {
-            self.pipeline
-                .device
-                .raw
-                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
-        };
-        Ok(())
-    }
-
-    /// Like [`ComputeKernel::dispatch`], with the group counts read by the GPU
-    /// from `args` at `offset` (a `VkDispatchIndirectCommand`). The caller
-    /// declares `args` as [`crate::vk::Access::IndirectRead`].
-    pub fn dispatch_indirect(
-        &self,
-        cmd: vk::CommandBuffer,
-        pool: &DescriptorPool,
-        bindings: &I::Bindings<'_>,
-        push: &P,
-        args: &crate::vk::Buffer,
-        offset: u64,
-    ) -> Result<()> {
-        self.bind(cmd, pool, bindings, push)?;
+        let bindings = bindings.bindings();
+        declare_bindings(rec, &[&I::SHADER], &bindings, BindingAccess::in_compute);
+        if let Work::Indirect(args, _) = work {
+            rec.use_buffer(args, Access::IndirectRead);
+        }
+        rec.flush_barriers();
+        let set = pool.allocate(&self.layout, &bindings)?;
+        let device = &self.pipeline.device;
+        device.begin_label(rec.cmd, &self.name);
+        self.pipeline.bind(rec.cmd, set, bytemuck::bytes_of(push));
+        let size = I::SHADER.local_size;
         // SAFETY: recording with this compute pipeline and its set bound;
-        // `args` holds a dispatch command at `offset` (usage INDIRECT_BUFFER).
+        // indirect arguments come from a buffer with INDIRECT_BUFFER usage
+        // (the caller's) holding a dispatch command at the offset.
         unsafe {
-            self.pipeline
-                .device
-                .raw
-                .cmd_dispatch_indirect(cmd, args.raw, offset)
-        };
+            match work {
+                Work::Threads(n) => device.raw.cmd_dispatch(
+                    rec.cmd,
+                    n[0].div_ceil(size[0]),
+                    n[1].div_ceil(size[1]),
+                    n[2].div_ceil(size[2]),
+                ),
+                Work::Groups(g) => device.raw.cmd_dispatch(rec.cmd, g[0], g[1], g[2]),
+                Work::Indirect(args, offset) => {
+                    device.raw.cmd_dispatch_indirect(rec.cmd, args.raw, offset)
+                }
+            }
+        }
+        device.end_label(rec.cmd);
         Ok(())
     }
 
-    /// [`ComputeKernel::dispatch`] over `extent` with 8x8 work groups.
-    pub fn dispatch_2d(
-        &self,
-        cmd: vk::CommandBuffer,
-        pool: &DescriptorPool,
-        bindings: &I::Bindings<'_>,
-        push: &P,
-        extent: (u32, u32),
-    ) -> Result<()> {
-        let groups = [extent.0.div_ceil(8), extent.1.div_ceil(8), 1];
-        self.dispatch(cmd, pool, bindings, push, groups)
-    }
-
-    fn bind(
-        &self,
-        cmd: vk::CommandBuffer,
-        pool: &DescriptorPool,
-        bindings: &I::Bindings<'_>,
-        push: &P,
-    ) -> Result<()> {
-        use super::pipeline::ShaderBindings as _;
-        let set = pool.allocate(&self.layout, &bindings.bindings())?;
-        self.pipeline.bind(cmd, set, bytemuck::bytes_of(push));
-        Ok(())
+    /// The shader's local workgroup size.
+    pub fn local_size(&self) -> [u32; 3] {
+        I::SHADER.local_size
     }
 }

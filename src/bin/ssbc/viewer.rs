@@ -34,7 +34,7 @@ use ssbc::scene::{Camera, Scene};
 use ssbc::shaders::present_comp;
 use ssbc::vk::{
     Access, Buffer, CommandPool, ComputeKernel, DescriptorPool, Device, DeviceSelector, Image,
-    Instance, ValidationLog,
+    Instance, ValidationLog, Work,
 };
 use ssbc::{Error, Result};
 
@@ -131,7 +131,7 @@ struct FrameSlot {
 struct Gpu {
     // Drop order: these before the window (the surface needs it).
     slots: Vec<FrameSlot>,
-    present: ComputeKernel<present_comp::Interface, PresentPush>,
+    present: ComputeKernel<present_comp::Interface>,
     staging: Option<Buffer>,
     swapchain: Swapchain,
     renderer: Renderer,
@@ -184,7 +184,7 @@ impl Gpu {
         &mut self,
         slot_index: usize,
         shown: Shown,
-        push: PresentPush,
+        push: present_comp::Push,
     ) -> Result<Option<usize>> {
         let [width, height] = push.size;
         let slot = &mut self.slots[slot_index];
@@ -227,15 +227,13 @@ impl Gpu {
                 rec.copy_buffer_to_image(staging, image, (width, height), 1);
             }
             (_, Some(output)) => {
-                rec.use_image(output, Access::ComputeRead);
-                rec.use_image(display, Access::ComputeWrite);
-                rec.flush_barriers();
                 let bindings = present_comp::Bindings {
                     radiance: output,
                     display,
                 };
+                let pixels = Work::pixels((width, height));
                 self.present
-                    .dispatch_2d(rec.cmd, pool, &bindings, &push, (width, height))?;
+                    .dispatch(&mut rec, pool, &bindings, &push, pixels)?;
                 rec.copy_image(display, (0, 0), image, (width, height));
             }
         }
@@ -254,14 +252,6 @@ impl Drop for Gpu {
         // Semaphores and images below may still be in use by queued frames.
         let _ = self.device.wait_idle();
     }
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct PresentPush {
-    size: [u32; 2],
-    exposure: f32,
-    swap_red_blue: u32,
 }
 
 struct Viewer {
@@ -614,7 +604,7 @@ impl Viewer {
                     start_monotonic_ns: frame.timings.gpu_start_ns,
                 })
         };
-        let push = PresentPush {
+        let push = present_comp::Push {
             size: [extent.width, extent.height],
             exposure,
             swap_red_blue: bgra as u32,

@@ -16,30 +16,23 @@ use crate::vk::{Buffer, BufferView, Device, Image};
 /// One frame's SSBC resources. The pyramids and the evaluation points are
 /// read and written through texel views (their size is then capped by
 /// maxTexelBufferElements, 2^27 texels on lavapipe, not by the 128 MiB of
-/// maxStorageBufferRange). Views are declared before their buffers so that
-/// they are dropped first.
+/// maxStorageBufferRange).
 pub struct SsbcFrame {
-    /// `geo` as `R32G32B32A32_UINT` texels (four per `GeoTexel`).
-    pub(super) geo_view: BufferView,
-    /// `aux` as `R32G32B32A32_UINT` texels (one per `GeoAux`).
-    pub(super) aux_view: BufferView,
-    /// `radiance` as `R32G32B32A32_SFLOAT` texels (two per texel).
-    pub(super) radiance_view: BufferView,
-    /// `points` as `R32G32B32A32_UINT` texels (four per `EvalPoint`).
-    pub(super) point_view: BufferView,
-    /// `point_glossy` as `R32G32B32A32_SFLOAT` texels (one per point).
-    pub(super) point_glossy_view: BufferView,
-    /// Geometry pyramid, every level in one buffer (`GeoTexel` in ssbc_types.glsl).
-    pub geo: Buffer,
-    /// Summed area, pixel count and continuity per texel (`GeoAux`).
-    pub aux: Buffer,
-    /// Sum of `A_y S_{k-1}(y)` per texel.
-    pub radiance: Buffer,
-    /// Evaluation points, one per texel of every level (`EvalPoint`).
-    pub points: Buffer,
+    /// Geometry pyramid, every level in one buffer (`GeoTexel` in
+    /// ssbc_types.glsl), as `R32G32B32A32_UINT` texels (four per texel).
+    pub geo: BufferView,
+    /// Summed area, pixel count and continuity per texel (`GeoAux`), as
+    /// `R32G32B32A32_UINT` texels.
+    pub aux: BufferView,
+    /// Sum of `A_y S_{k-1}(y)` per texel, as `R32G32B32A32_SFLOAT` texels
+    /// (two per texel).
+    pub radiance: BufferView,
+    /// Evaluation points, one per texel of every level (`EvalPoint`), as
+    /// `R32G32B32A32_UINT` texels (four per point).
+    pub points: BufferView,
     /// Per evaluation point at a glossy receiver, the glossy rest of its
-    /// BRDF (ssbc_eval.comp).
-    pub point_glossy: Buffer,
+    /// BRDF (ssbc_eval.comp), as `R32G32B32A32_SFLOAT` texels.
+    pub point_glossy: BufferView,
     /// Per evaluation point, the generation of the step that last asked for
     /// it (the resolve claims each point once per step).
     pub claims: Buffer,
@@ -213,7 +206,7 @@ impl SsbcPass {
                 .collect::<Result<_>>()?,
             None => Vec::new(),
         };
-        let view = |buffer: &Buffer, format, bytes, name: &str| {
+        let view = |buffer: Buffer, format, bytes, name: &str| {
             BufferView::new(device, buffer, format, bytes, name)
         };
         let (uint4, float4) = (
@@ -221,16 +214,11 @@ impl SsbcPass {
             vk::Format::R32G32B32A32_SFLOAT,
         );
         Ok(SsbcFrame {
-            geo_view: view(&geo, uint4, 16, "ssbc.pyramid.geometry texels")?,
-            aux_view: view(&aux, uint4, 16, "ssbc.pyramid.aux texels")?,
-            radiance_view: view(&radiance, float4, 16, "ssbc.pyramid.radiance texels")?,
-            point_view: view(&points, uint4, 16, "ssbc.eval_points texels")?,
-            point_glossy_view: view(&point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
-            geo,
-            aux,
-            radiance,
-            points,
-            point_glossy,
+            geo: view(geo, uint4, 16, "ssbc.pyramid.geometry texels")?,
+            aux: view(aux, uint4, 16, "ssbc.pyramid.aux texels")?,
+            radiance: view(radiance, float4, 16, "ssbc.pyramid.radiance texels")?,
+            points: view(points, uint4, 16, "ssbc.eval_points texels")?,
+            point_glossy: view(point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
             claims,
             pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
             requests: list("ssbc.requests")?,

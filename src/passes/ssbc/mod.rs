@@ -25,17 +25,10 @@ use crate::shaders::{
     ssbc_layer_residual_comp, ssbc_list_points_comp, ssbc_radiance_mips_comp, ssbc_resolve_comp,
     ssbc_samples_comp,
 };
-use crate::vk::{
-    Access, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
-    Recorder,
-};
+use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
 pub use pyramids::{check_size, frame_bytes, pyramid_levels};
 pub use push::GLOSSY_RECEIVERS;
-use push::{
-    EvalPush, GeometryBasePush, GeometryMipsPush, IntegralPush, ListPointsPush, RadiancePush,
-    ResolvePush, SamplesPush,
-};
 
 /// Camera quantities the SSBC shaders need.
 #[derive(Clone, Copy, Debug)]
@@ -53,20 +46,20 @@ pub struct SsbcCamera {
 
 /// The SSBC pipelines, one per kernel.
 pub struct SsbcPass {
-    geometry_base: ComputeKernel<ssbc_geometry_base_comp::Interface, GeometryBasePush>,
-    geometry: ComputeKernel<ssbc_geometry_mips_comp::Interface, GeometryMipsPush>,
-    radiance: ComputeKernel<ssbc_radiance_mips_comp::Interface, RadiancePush>,
+    geometry_base: ComputeKernel<ssbc_geometry_base_comp::Interface>,
+    geometry: ComputeKernel<ssbc_geometry_mips_comp::Interface>,
+    radiance: ComputeKernel<ssbc_radiance_mips_comp::Interface>,
     /// The coarsest level's points as a list, in frames with glossy receivers.
-    list_points: ComputeKernel<ssbc_list_points_comp::Interface, ListPointsPush>,
-    eval: ComputeKernel<ssbc_eval_comp::Interface, EvalPush>,
+    list_points: ComputeKernel<ssbc_list_points_comp::Interface>,
+    eval: ComputeKernel<ssbc_eval_comp::Interface>,
     /// The evaluation points at glossy receivers (with `one_dispatch`, all).
-    eval_glossy: ComputeKernel<ssbc_eval_glossy_comp::Interface, EvalPush>,
-    resolve: ComputeKernel<ssbc_resolve_comp::Interface, ResolvePush>,
-    fallback: ComputeKernel<ssbc_fallback_comp::Interface, IntegralPush>,
+    eval_glossy: ComputeKernel<ssbc_eval_glossy_comp::Interface>,
+    resolve: ComputeKernel<ssbc_resolve_comp::Interface>,
+    fallback: ComputeKernel<ssbc_fallback_comp::Interface>,
     /// The fallback pixels at glossy receivers (with `one_dispatch`, all).
-    fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface, IntegralPush>,
-    samples: ComputeKernel<ssbc_samples_comp::Interface, SamplesPush>,
-    layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface, IntegralPush>,
+    fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface>,
+    samples: ComputeKernel<ssbc_samples_comp::Interface>,
+    layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface>,
     /// In frames with glossy receivers, evaluate the points and fallback
     /// pixels at glossy receivers and at the others in one dispatch (the
     /// glossy kernels), not one kernel after the other. A GPU's level takes
@@ -106,17 +99,17 @@ impl SsbcPass {
             // Level 0 of the geometry pyramid, from the G-buffer position and
             // normal; its own kernel because lavapipe ran it 3x slower inside
             // the coarser levels' (45 -> 14 ms at 1024x768).
-            geometry_base: ComputeKernel::new(device)?.named("ssbc_geometry_base"),
-            geometry: ComputeKernel::new(device)?.named("ssbc_geometry_mips"),
-            radiance: ComputeKernel::new(device)?.named("ssbc_radiance_mips"),
-            list_points: ComputeKernel::new(device)?.named("ssbc_list_points"),
-            eval: ComputeKernel::new(device)?.named("ssbc_residual_eval"),
-            eval_glossy: ComputeKernel::new(device)?.named("ssbc_residual_eval_glossy"),
-            resolve: ComputeKernel::new(device)?.named("ssbc_residual_resolve"),
-            fallback: ComputeKernel::new(device)?.named("ssbc_residual_fallback"),
-            fallback_glossy: ComputeKernel::new(device)?.named("ssbc_residual_fallback_glossy"),
-            samples: ComputeKernel::new(device)?.named("ssbc_samples"),
-            layer_residual: ComputeKernel::new(device)?.named("ssbc_layer1_residual"),
+            geometry_base: ComputeKernel::new(device)?,
+            geometry: ComputeKernel::new(device)?,
+            radiance: ComputeKernel::new(device)?,
+            list_points: ComputeKernel::new(device)?,
+            eval: ComputeKernel::new(device)?,
+            eval_glossy: ComputeKernel::new(device)?,
+            resolve: ComputeKernel::new(device)?,
+            fallback: ComputeKernel::new(device)?,
+            fallback_glossy: ComputeKernel::new(device)?,
+            samples: ComputeKernel::new(device)?,
+            layer_residual: ComputeKernel::new(device)?,
             one_dispatch: match std::env::var("SSBC_ONE_DISPATCH").as_deref() {
                 Ok("1") => true,
                 Ok("0") => false,
@@ -184,12 +177,6 @@ impl SsbcPass {
             .min(levels - 1)
     }
 
-    /// Declares the pyramids as read through their texel views.
-    fn read_pyramids(rec: &mut Recorder<'_>, frame: &SsbcFrame) {
-        rec.use_buffer(&frame.geo, Access::ComputeSampled);
-        rec.use_buffer(&frame.aux, Access::ComputeSampled);
-        rec.use_buffer(&frame.radiance, Access::ComputeSampled);
-    }
 }
 
 /// The G-buffer images SSBC reads, ssbc's own or a host's: world-space
@@ -222,17 +209,6 @@ impl<'a> From<&'a GBuffer> for SsbcGBuffer<'a> {
 }
 
 impl SsbcGBuffer<'_> {
-    fn targets(&self) -> impl Iterator<Item = &Image> {
-        [self.position, self.normal, self.albedo]
-            .into_iter()
-            .chain(self.geometric)
-    }
-
-    fn read_in_compute(&self, rec: &mut Recorder<'_>) {
-        for target in self.targets() {
-            rec.use_image(target, Access::ComputeRead);
-        }
-    }
 
 
     /// Width and height.

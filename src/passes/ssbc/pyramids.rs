@@ -12,7 +12,7 @@ use super::frame::{
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
 use crate::shaders::{ssbc_geometry_base_comp, ssbc_geometry_mips_comp, ssbc_radiance_mips_comp};
-use crate::vk::{Access, DescriptorPool, Device, Image, Recorder};
+use crate::vk::{DescriptorPool, Device, Image, Recorder, Work};
 
 /// Level 0 of the pyramids for an image (padded so that every level halves
 /// exactly) and the number of levels.
@@ -155,18 +155,11 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         for level in 0..frame.levels - Self::layer_shift(frame, layer) {
-            if level == 0 {
-                gbuffer.read_in_compute(rec);
-            }
-            // Written, and the level below read (as storage texels).
-            rec.use_buffer(&frame.geo, Access::ComputeWrite);
-            rec.use_buffer(&frame.aux, Access::ComputeWrite);
-            rec.flush_barriers();
-            let extent = Self::level_extent(frame, layer, level);
+            let texels = Work::pixels(Self::level_extent(frame, layer, level));
             if level == 0 {
                 let bindings = ssbc_geometry_base_comp::Bindings {
-                    geo_words: &frame.geo_view,
-                    aux_words: &frame.aux_view,
+                    geo_words: &frame.geo,
+                    aux_words: &frame.aux,
                     g_position: gbuffer.position,
                     g_normal: gbuffer.normal,
                     g_albedo: gbuffer.albedo,
@@ -179,19 +172,18 @@ impl SsbcPass {
                     geometric: u32::from(gbuffer.geometric.is_some()),
                 };
                 self.geometry_base
-                    .dispatch_2d(rec.cmd, pool, &bindings, &push, extent)?;
+                    .dispatch(rec, pool, &bindings, &push, texels)?;
             } else {
                 let bindings = ssbc_geometry_mips_comp::Bindings {
-                    geo_words: &frame.geo_view,
-                    aux_words: &frame.aux_view,
+                    geo_words: &frame.geo,
+                    aux_words: &frame.aux,
                 };
                 let push = GeometryMipsPush {
                     layer,
                     level,
                     ..mips
                 };
-                self.geometry
-                    .dispatch_2d(rec.cmd, pool, &bindings, &push, extent)?;
+                self.geometry.dispatch(rec, pool, &bindings, &push, texels)?;
             }
         }
         Ok(())
@@ -209,13 +201,9 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         for level in 0..frame.levels - Self::layer_shift(frame, layer) {
-            rec.use_image(term, Access::ComputeRead);
-            rec.use_buffer(&frame.aux, Access::ComputeRead);
-            rec.use_buffer(&frame.radiance, Access::ComputeWrite);
-            rec.flush_barriers();
             let bindings = ssbc_radiance_mips_comp::Bindings {
-                aux_words: &frame.aux_view,
-                radiance_sums: &frame.radiance_view,
+                aux_words: &frame.aux,
+                radiance_sums: &frame.radiance,
                 term,
             };
             let push = RadiancePush {
@@ -223,13 +211,8 @@ impl SsbcPass {
                 layer,
                 level,
             };
-            self.radiance.dispatch_2d(
-                rec.cmd,
-                pool,
-                &bindings,
-                &push,
-                Self::level_extent(frame, layer, level),
-            )?;
+            let texels = Work::pixels(Self::level_extent(frame, layer, level));
+            self.radiance.dispatch(rec, pool, &bindings, &push, texels)?;
         }
         Ok(())
     }

@@ -14,9 +14,7 @@ use crate::shaders::{
     ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_layer_residual_comp,
     ssbc_list_points_comp, ssbc_resolve_comp, ssbc_samples_comp,
 };
-use crate::vk::{
-    Access, Buffer, ComputeKernel, DescriptorPool, GpuProfiler, Image, Recorder, ShaderInterface,
-};
+use crate::vk::{Buffer, DescriptorPool, GpuProfiler, Image, Recorder, Work};
 
 /// A list's header (`ListHeader` in shaders/include/ssbc_types.glsl): a
 /// `VkDispatchIndirectCommand` over both ends and the front's count, one
@@ -56,22 +54,6 @@ struct StepOutput<'a> {
     residual: &'a Image,
     residual_sources: &'a Image,
     samples: &'a Image,
-}
-
-impl StepOutput<'_> {
-    /// Declares the images of ssbc_output.glsl.
-    fn declare(&self, rec: &mut Recorder<'_>) {
-        self.gbuffer.read_in_compute(rec);
-        // After the first step `previous` is the final image itself (read and
-        // written by the same invocation).
-        if !std::ptr::eq(self.previous, self.final_image) {
-            rec.use_image(self.previous, Access::ComputeRead);
-        }
-        rec.use_image(self.final_image, Access::ComputeWrite);
-        rec.use_image(self.residual, Access::ComputeWrite);
-        rec.use_image(self.residual_sources, Access::ComputeWrite);
-        rec.use_image(self.samples, Access::ComputeWrite);
-    }
 }
 
 /// The push constants of one step, its kernels' blocks built from these.
@@ -149,8 +131,8 @@ impl SsbcPass {
             self.record_geometry(rec, pool, source.gbuffer, layer as u32, mips, frame)?;
         }
         // Evaluation points are stamped with the step's generation (1, 2, ...).
-        rec.fill_buffer(&frame.points, 0);
-        rec.fill_buffer(&frame.point_glossy, 0);
+        rec.fill_buffer(&frame.points.buffer, 0);
+        rec.fill_buffer(&frame.point_glossy.buffer, 0);
         rec.fill_buffer(&frame.claims, 0);
         if frame_block.glossy_receivers() {
             self.record_list_points(rec, pool, frame_block, inputs.eval_level, frame)?;
@@ -222,11 +204,8 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         rec.update_buffer(&frame.top_points, 0, bytemuck::bytes_of(&LIST_HEADER));
-        Self::read_pyramids(rec, frame);
-        rec.use_buffer(&frame.top_points, Access::ComputeWrite);
-        rec.flush_barriers();
         let bindings = ssbc_list_points_comp::Bindings {
-            aux_texels: &frame.aux_view,
+            aux_texels: &frame.aux,
             points: &frame.top_points,
         };
         let (w, h) = Self::level_extent(frame, 0, level);
@@ -234,8 +213,8 @@ impl SsbcPass {
             frame: frame_block,
             level,
         };
-        self.list_points
-            .dispatch(rec.cmd, pool, &bindings, &push, [w.div_ceil(64), h, 1])
+        let texels = Work::Threads([w, h, 1]);
+        self.list_points.dispatch(rec, pool, &bindings, &push, texels)
     }
 
     /// Layer 1's residual of step `step` (its sources in the next step).
@@ -249,25 +228,17 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         let out = &frame.layer1_residuals[step];
-        Self::read_pyramids(rec, frame);
-        gbuffer.read_in_compute(rec);
-        rec.use_image(out, Access::ComputeWrite);
-        rec.flush_barriers();
         let bindings = ssbc_layer_residual_comp::Bindings {
-            geo_texels: &frame.geo_view,
-            radiance_texels: &frame.radiance_view,
+            geo_texels: &frame.geo,
+            radiance_texels: &frame.radiance,
             g_position: gbuffer.position,
             g_normal: gbuffer.normal,
             g_albedo: gbuffer.albedo,
             residual: out,
         };
-        self.layer_residual.dispatch_2d(
-            rec.cmd,
-            pool,
-            &bindings,
-            &push.integral(),
-            gbuffer.extent(),
-        )
+        let pixels = Work::pixels(gbuffer.extent());
+        self.layer_residual
+            .dispatch(rec, pool, &bindings, &push.integral(), pixels)
     }
 
     /// One step's residual, coarse to fine: the evaluation points of the
@@ -293,7 +264,7 @@ impl SsbcPass {
         let timed = (&mut *profiler, format!("{step_name}/eval_{top}"));
         let top_list = push.frame.glossy_receivers().then_some(&frame.top_points);
         let eval = push.eval(top, top_list.is_some());
-        self.record_eval(rec, timed, pool, &eval, (frame, &out.gbuffer), (top_list, [w.div_ceil(64), h, 1]))?;
+        self.record_eval(rec, timed, pool, &eval, (frame, &out.gbuffer), (top_list, [w, h, 1]))?;
         let mut pending_in = &frame.fallback; // unused while not from a list
         let mut pending_out = if top >= 2 {
             &frame.pending[0]
@@ -308,7 +279,7 @@ impl SsbcPass {
             frame,
             out,
             (pending_in, pending_out),
-            Some([pixels.0.div_ceil(64), pixels.1, 1]),
+            Some([pixels.0, pixels.1, 1]),
         )?;
         profiler.end(rec.cmd, sub);
         // Finer levels: the points asked for, the pixels still pending.
@@ -335,33 +306,24 @@ impl SsbcPass {
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
         let one = push.frame.one_dispatch();
         if !one {
-            Self::read_pyramids(rec, frame);
-            out.declare(rec);
-            read_list(rec, &frame.fallback);
-            rec.flush_barriers();
             let bindings = with_output_images!(ssbc_fallback_comp, out, {
-                geo_texels: &frame.geo_view,
-                radiance_texels: &frame.radiance_view,
+                geo_texels: &frame.geo,
+                radiance_texels: &frame.radiance,
                 pending_in: &frame.fallback,
             });
-            let push = push.integral();
-            self.fallback.dispatch_indirect(rec.cmd, pool, &bindings, &push, &frame.fallback, FRONT)?;
+            let front = Work::Indirect(&frame.fallback, FRONT);
+            self.fallback.dispatch(rec, pool, &bindings, &push.integral(), front)?;
         }
         if push.frame.glossy_receivers() {
             // Timed on its own only where it follows the other kernel.
             let sub = (!one).then(|| profiler.begin(rec.cmd, &format!("{step_name}/fallback/glossy")));
-            Self::read_pyramids(rec, frame);
-            out.declare(rec);
-            read_list(rec, &frame.fallback);
-            rec.flush_barriers();
             let bindings = with_output_images!(ssbc_fallback_glossy_comp, out, {
-                geo_texels: &frame.geo_view,
-                radiance_texels: &frame.radiance_view,
+                geo_texels: &frame.geo,
+                radiance_texels: &frame.radiance,
                 pending_in: &frame.fallback,
             });
-            let ends = if one { BOTH_ENDS } else { BACK };
-            let push = push.integral();
-            self.fallback_glossy.dispatch_indirect(rec.cmd, pool, &bindings, &push, &frame.fallback, ends)?;
+            let ends = Work::Indirect(&frame.fallback, if one { BOTH_ENDS } else { BACK });
+            self.fallback_glossy.dispatch(rec, pool, &bindings, &push.integral(), ends)?;
             if let Some(sub) = sub {
                 profiler.end(rec.cmd, sub);
             }
@@ -369,13 +331,9 @@ impl SsbcPass {
         profiler.end(rec.cmd, sub);
         // Texels read per pixel.
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
-        Self::read_pyramids(rec, frame);
-        rec.use_buffer(&frame.points, Access::ComputeSampled);
-        rec.use_image(out.samples, Access::ComputeWrite);
-        rec.flush_barriers();
         let bindings = ssbc_samples_comp::Bindings {
-            aux_texels: &frame.aux_view,
-            point_texels: &frame.point_view,
+            aux_texels: &frame.aux,
+            point_texels: &frame.points,
             samples: out.samples,
         };
         let samples_push = SamplesPush {
@@ -384,7 +342,7 @@ impl SsbcPass {
             generation: push.generation,
         };
         self.samples
-            .dispatch_2d(rec.cmd, pool, &bindings, &samples_push, pixels)?;
+            .dispatch(rec, pool, &bindings, &samples_push, Work::pixels(pixels))?;
         profiler.end(rec.cmd, sub);
         Ok(())
     }
@@ -409,46 +367,33 @@ impl SsbcPass {
         let requests = list.unwrap_or(&frame.requests);
         let one = push.frame.one_dispatch();
         if !one {
-            Self::read_pyramids(rec, frame);
-            rec.use_buffer(&frame.points, Access::ComputeWrite);
-            if list.is_some() {
-                rec.use_buffer(requests, Access::IndirectRead);
-            }
-            rec.use_buffer(requests, Access::ComputeRead);
-            rec.flush_barriers();
             let bindings = ssbc_eval_comp::Bindings {
-                geo_texels: &frame.geo_view,
-                aux_texels: &frame.aux_view,
-                radiance_texels: &frame.radiance_view,
-                eval_points: &frame.point_view,
+                geo_texels: &frame.geo,
+                aux_texels: &frame.aux,
+                radiance_texels: &frame.radiance,
+                eval_points: &frame.points,
                 requests,
                 g_normal: gbuffer.normal,
             };
-            let groups = list.is_none().then_some(groups);
             let ends = if push.frame.glossy_receivers() { FRONT } else { BOTH_ENDS };
-            dispatch_or_indirect(&self.eval, rec, pool, &bindings, push, groups, (requests, ends))?;
+            let work = threads_or_list(list.is_none().then_some(groups), (requests, ends));
+            self.eval.dispatch(rec, pool, &bindings, push, work)?;
         }
         if push.frame.glossy_receivers() {
             // Timed on its own only where it follows the other kernel.
             let sub = (!one).then(|| profiler.begin(rec.cmd, &format!("{name}/glossy")));
-            Self::read_pyramids(rec, frame);
-            gbuffer.read_in_compute(rec);
-            rec.use_buffer(&frame.points, Access::ComputeWrite);
-            rec.use_buffer(&frame.point_glossy, Access::ComputeWrite);
-            read_list(rec, requests);
-            rec.flush_barriers();
             let bindings = ssbc_eval_glossy_comp::Bindings {
-                geo_texels: &frame.geo_view,
-                aux_texels: &frame.aux_view,
-                radiance_texels: &frame.radiance_view,
-                eval_points: &frame.point_view,
+                geo_texels: &frame.geo,
+                aux_texels: &frame.aux,
+                radiance_texels: &frame.radiance,
+                eval_points: &frame.points,
                 requests,
                 g_normal: gbuffer.normal,
                 g_albedo: gbuffer.albedo,
-                point_glossy: &frame.point_glossy_view,
+                point_glossy: &frame.point_glossy,
             };
-            let ends = if one { BOTH_ENDS } else { BACK };
-            dispatch_or_indirect(&self.eval_glossy, rec, pool, &bindings, push, None, (requests, ends))?;
+            let ends = Work::Indirect(requests, if one { BOTH_ENDS } else { BACK });
+            self.eval_glossy.dispatch(rec, pool, &bindings, push, ends)?;
             if let Some(sub) = sub {
                 profiler.end(rec.cmd, sub);
             }
@@ -473,55 +418,28 @@ impl SsbcPass {
         let (pending_in, pending_out) = lists;
         rec.update_buffer(pending_out, 0, bytemuck::bytes_of(&LIST_HEADER));
         rec.update_buffer(&frame.requests, 0, bytemuck::bytes_of(&LIST_HEADER));
-        Self::read_pyramids(rec, frame);
-        out.declare(rec);
         // Points of this level are read as texels; the next finer level's
         // are claimed.
-        rec.use_buffer(&frame.points, Access::ComputeSampled);
-        rec.use_buffer(&frame.point_glossy, Access::ComputeSampled);
-        rec.use_buffer(&frame.claims, Access::ComputeWrite);
-        if groups.is_none() {
-            rec.use_buffer(pending_in, Access::IndirectRead);
-        }
-        // Bound (and so, for synchronization, read) even when unused.
-        rec.use_buffer(pending_in, Access::ComputeRead);
-        rec.use_buffer(pending_out, Access::ComputeWrite);
-        rec.use_buffer(&frame.requests, Access::ComputeWrite);
-        rec.flush_barriers();
         let bindings = with_output_images!(ssbc_resolve_comp, out, {
-            geo_texels: &frame.geo_view,
-            aux_texels: &frame.aux_view,
+            geo_texels: &frame.geo,
+            aux_texels: &frame.aux,
             claims: &frame.claims,
             pending_in,
             pending_out,
             requests: &frame.requests,
-            point_texels: &frame.point_view,
-            point_glossy: &frame.point_glossy_view,
+            point_texels: &frame.points,
+            point_glossy: &frame.point_glossy,
         });
-        dispatch_or_indirect(&self.resolve, rec, pool, &bindings, push, groups, (pending_in, FRONT))
+        let work = threads_or_list(groups, (pending_in, FRONT));
+        self.resolve.dispatch(rec, pool, &bindings, push, work)
     }
 }
 
-/// Dispatches `groups`, or (None) the work groups a list's header in `args`
-/// holds.
-fn dispatch_or_indirect<I: ShaderInterface, P: bytemuck::Pod>(
-    kernel: &ComputeKernel<I, P>,
-    rec: &mut Recorder<'_>,
-    pool: &DescriptorPool,
-    bindings: &I::Bindings<'_>,
-    push: &P,
-    groups: Option<[u32; 3]>,
-    (args, offset): (&Buffer, u64),
-) -> Result<()> {
-    match groups {
-        Some(groups) => kernel.dispatch(rec.cmd, pool, bindings, push, groups),
-        None => kernel.dispatch_indirect(rec.cmd, pool, bindings, push, args, offset),
+/// `threads` invocations, or (None) the work groups a list's header in
+/// `args` holds at the offset.
+fn threads_or_list<'a>(threads: Option<[u32; 3]>, (args, offset): (&'a Buffer, u64)) -> Work<'a> {
+    match threads {
+        Some(threads) => Work::Threads(threads),
+        None => Work::Indirect(args, offset),
     }
-}
-
-/// Declares a work list read by an indirect dispatch over it: its header as
-/// the dispatch's arguments, its items by the kernel.
-fn read_list(rec: &mut Recorder<'_>, list: &Buffer) {
-    rec.use_buffer(list, Access::IndirectRead);
-    rec.use_buffer(list, Access::ComputeRead);
 }
