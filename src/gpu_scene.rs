@@ -13,7 +13,7 @@ use crate::gpu_types::{GpuMaterial, GpuObject};
 use crate::ray_scene::RayScene;
 use crate::scene::{AlphaMode, Scene};
 use crate::texture_mips::{self, Texels};
-use crate::vk::{Buffer, Device, Image, ImageDesc, Pipeline, Recorder, Sampler};
+use crate::vk::{Buffer, Device, Image, ImageDesc, Pipeline, Recorder, Sampler, TriangleRange};
 
 /// Largest side of the texture array; bigger textures are downsampled.
 const MAX_TEXTURE_SIDE: u32 = 2048;
@@ -30,6 +30,23 @@ pub struct GpuMesh {
     pub opaque_count: u32,
     /// Indices of alpha-masked triangles (after the opaque ones).
     pub masked_count: u32,
+}
+
+/// Frames that may be in flight at once: each has its command pool,
+/// timestamp queries and resources, and its copy of the objects here.
+pub const FRAME_SLOTS: usize = 2;
+
+impl GpuMesh {
+    /// Its opaque triangles, for a bottom-level acceleration structure
+    /// (`vertex_count`: the mesh's vertices).
+    pub fn opaque_triangles(&self, vertex_count: u32) -> TriangleRange {
+        TriangleRange {
+            first_index: self.first_index,
+            triangles: self.opaque_count / 3,
+            vertex_offset: self.vertex_offset as u32,
+            max_vertex: self.vertex_offset as u32 + vertex_count.saturating_sub(1),
+        }
+    }
 }
 
 /// One indexed draw of a range of a mesh for one object (its index goes in
@@ -377,8 +394,8 @@ impl GpuScene {
             let meshes: Vec<_> = self
                 .meshes
                 .iter()
-                .copied()
-                .zip(self.vertex_counts.iter().copied())
+                .zip(&self.vertex_counts)
+                .map(|(mesh, &vertices)| mesh.opaque_triangles(vertices))
                 .collect();
             let inputs = (&self.vertices, &self.indices);
             rays.record_bottom_levels(rec, inputs, &meshes, &mut self.recorded)?;

@@ -116,21 +116,7 @@ pub struct PostProcessMemory {
     pub transient: u64,
 }
 
-/// One of the host's images: handle, a 2D view of it, its size and the
-/// layout it will be in when the recorded commands start.
-#[derive(Clone, Copy, Debug)]
-pub struct HostImage {
-    /// The image (owned by the host).
-    pub image: vk::Image,
-    /// A 2D view of its only mip and layer (owned by the host).
-    pub view: vk::ImageView,
-    /// Its format (must be `R32G32B32A32_SFLOAT`).
-    pub format: vk::Format,
-    /// Width and height.
-    pub extent: (u32, u32),
-    /// Its layout when the commands ssbc records begin.
-    pub layout: vk::ImageLayout,
-}
+pub use crate::vk::HostImage;
 
 /// What the host wants in its output image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -13,7 +13,6 @@ use bytemuck::Zeroable as _;
 use glam::Mat4;
 
 use crate::error::Result;
-use crate::gpu_scene::GpuMesh;
 use crate::scene::{AlphaMode, Scene};
 use crate::vk::{Access, AccelerationStructure, Buffer, Device, Recorder, TriangleRange};
 
@@ -86,14 +85,15 @@ impl RayScene {
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
     );
 
-    /// Records the bottom levels' builds, once after the upload; their
+    /// Records the bottom levels' builds (one per mesh: its opaque
+    /// triangles), once after the upload; their
     /// scratch buffers go to `scratch` (freed once the recording's
     /// submission finishes).
     pub fn record_bottom_levels(
         &mut self,
         rec: &mut Recorder<'_>,
         (vertices, indices): (&Buffer, &Buffer),
-        meshes: &[(GpuMesh, u32)],
+        meshes: &[TriangleRange],
         scratch: &mut Vec<Buffer>,
     ) -> Result<()> {
         if self.built {
@@ -101,18 +101,11 @@ impl RayScene {
         }
         let stride = std::mem::size_of::<crate::scene::Vertex>() as u64;
         self.bottom.clear();
-        for (i, (mesh, vertex_count)) in meshes.iter().enumerate() {
-            let triangles = mesh.opaque_count / 3;
-            if triangles == 0 {
+        for (i, &range) in meshes.iter().enumerate() {
+            if range.triangles == 0 {
                 self.bottom.push(None);
                 continue;
             }
-            let range = TriangleRange {
-                first_index: mesh.first_index,
-                triangles,
-                vertex_offset: mesh.vertex_offset as u32,
-                max_vertex: mesh.vertex_offset as u32 + vertex_count.saturating_sub(1),
-            };
             let name = format!("scene.mesh{i}.blas");
             let (blas, s) = AccelerationStructure::bottom_level(
                 rec,

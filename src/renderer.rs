@@ -32,7 +32,6 @@ use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
 use crate::passes::ssbc::{SsbcCamera, SsbcPass};
 use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
 use crate::passes::{FrameView, Recording, SlotSetup, Stage};
-use crate::postprocess::HostImage;
 use crate::resident::{ResidentScene, SceneVersions};
 use crate::scene::Scene;
 use crate::scene_cache::SceneCache;
@@ -40,6 +39,7 @@ use crate::settings::Visibility;
 pub use crate::settings::{Bound, RenderSettings, RendererConfig};
 use crate::timings::{monotonic_ns, CpuSpan};
 pub use crate::timings::{CpuTimings, SsbcStepTiming, Timings};
+use crate::vk::HostImage;
 use crate::vk::{
     Access, CommandPool, Device, GpuFrameTimes, GpuProfiler, Image, Instance, Recorder, Validation,
     ValidationLog,
@@ -325,9 +325,7 @@ pub struct GpuImage {
     pub value: u64,
 }
 
-/// Frames that may be in flight at once (each has its command pool and
-/// timestamp queries).
-pub const FRAME_SLOTS: usize = 2;
+pub use crate::gpu_scene::FRAME_SLOTS;
 
 /// A frame submitted by [`Renderer::render_to_gpu`].
 #[derive(Clone, Debug)]

@@ -122,7 +122,7 @@ impl SceneCache {
             *cache = None;
             let bvh = CpuSpan::time(spans, "bvh_build", || SceneBvh::new(scene));
             let gpu_scene = CpuSpan::time(spans, "scene_upload", || {
-                GpuScene::upload(device, scene, crate::renderer::FRAME_SLOTS)
+                GpuScene::upload(device, scene, crate::gpu_scene::FRAME_SLOTS)
             })?;
             let mut built = SceneCache {
                 versions,

@@ -375,6 +375,24 @@ pub enum Integration {
     Brute,
 }
 
+/// How SSBC runs the evaluation points and fallback pixels at glossy
+/// receivers and at the others, in frames with glossy receivers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReceiverDispatch {
+    /// One dispatch on GPUs, two kernels on CPU devices (lavapipe).
+    #[default]
+    Auto,
+    /// One dispatch for both kinds (the glossy kernels): a GPU's level
+    /// takes as long as its slowest walk, so a second kernel adds its whole
+    /// time.
+    One,
+    /// The kernel without the glossy code for the others, then the glossy
+    /// kernel: a CPU device runs every side of a branch, so Lambertian
+    /// receivers are cheaper without the glossy code.
+    Two,
+}
+
 /// The resolution of the deep G-buffer's second layer (`ssbc.layers` 2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -472,6 +490,8 @@ pub struct SsbcSettings {
     /// box 0-0.2% of the true residual comes from there, for up to 4x the
     /// pixels (docs/ssbc-implementation.md). Not in the viewer.
     pub guard_band: bool,
+    /// How receivers of both kinds are dispatched (the same image either way).
+    pub receiver_dispatch: ReceiverDispatch,
 }
 
 impl Default for SsbcSettings {
@@ -491,6 +511,7 @@ impl Default for SsbcSettings {
             layer1_resolution: LayerResolution::Full,
             layer_separation: 0.002,
             guard_band: false,
+            receiver_dispatch: ReceiverDispatch::Auto,
         }
     }
 }

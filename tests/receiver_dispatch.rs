@@ -1,16 +1,15 @@
 //! In frames with glossy receivers, SSBC evaluates the points and fallback
 //! pixels at glossy receivers and at the others in one dispatch on a GPU
 //! and in two kernels, one after the other, on a CPU device (lavapipe);
-//! `SSBC_ONE_DISPATCH` overrides the choice. CI has only lavapipe, so the
-//! GPU's way is run here by the override: both ways give the same image,
-//! validation and synchronization validation clean, and the one dispatch
-//! stays in bounds under GPU-assisted validation. This binary's only test:
-//! it sets the variable before each renderer reads it.
+//! `ssbc.receiver_dispatch` overrides the choice. CI has only lavapipe, so
+//! the GPU's way is run here by the override: both ways give the same
+//! image, validation and synchronization validation clean, and the one
+//! dispatch stays in bounds under GPU-assisted validation.
 
 mod common;
 
 use ssbc::renderer::Layer;
-use ssbc::settings::{Integration, LayerResolution};
+use ssbc::settings::{Integration, LayerResolution, ReceiverDispatch};
 
 #[test]
 fn one_dispatch_and_two_kernels_give_the_same_image() {
@@ -23,11 +22,10 @@ fn one_dispatch_and_two_kernels_give_the_same_image() {
         s.ssbc.layers = layers;
         s.ssbc.integration = integration;
         let mut frames = Vec::new();
-        for one in ["1", "0"] {
-            std::env::set_var("SSBC_ONE_DISPATCH", one);
+        for dispatch in [ReceiverDispatch::One, ReceiverDispatch::Two] {
+            s.ssbc.receiver_dispatch = dispatch;
             frames.push(common::render_validated(&scene, &s));
         }
-        std::env::remove_var("SSBC_ONE_DISPATCH");
         let (one, two) = (&frames[0], &frames[1]);
         // The glossy kernel is timed apart only where it follows the other.
         let has = |f: &ssbc::renderer::Frame, name: &str| {
@@ -47,9 +45,7 @@ fn one_dispatch_and_two_kernels_give_the_same_image() {
     }
     // The one dispatch under GPU-assisted validation (an odd size with a
     // half-resolution second layer, and a full-resolution one).
-    std::env::set_var("SSBC_ONE_DISPATCH", "1");
     let mut renderer = common::gpu_assisted_renderer();
-    std::env::remove_var("SSBC_ONE_DISPATCH");
     for (size, layer1) in [
         ((130, 98), LayerResolution::Half),
         ((64, 48), LayerResolution::Full),
@@ -62,6 +58,7 @@ fn one_dispatch_and_two_kernels_give_the_same_image() {
         s.ssbc.steps = 2;
         s.ssbc.layers = 2;
         s.ssbc.layer1_resolution = layer1;
+        s.ssbc.receiver_dispatch = ReceiverDispatch::One;
         let frame = renderer.render(&scene, &s).expect("render");
         let has_both = frame
             .timings

@@ -98,14 +98,6 @@ pub const CREASE_FOOTPRINTS: f32 = 4.0;
 /// elsewhere smeared VPL highlights over the box.
 pub const GLOSSY_FILTER_TURN: f32 = 4.0;
 
-/// [`GLOSSY_FILTER_TURN`], or `SSBC_GLOSSY_FILTER_TURN` (tuning).
-fn glossy_filter_turn() -> f32 {
-    std::env::var("SSBC_GLOSSY_FILTER_TURN")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(GLOSSY_FILTER_TURN)
-}
-
 /// Dispatches with a kernel's ISM or exact twin: the same bindings but for
 /// what visibility reads (the twins' `ism` atlas, or `scene_tlas`); the
 /// exact kernel is looked up only when used.
@@ -354,7 +346,7 @@ impl IndirectBoundedPass {
             min_normal_cos: FILTER_NORMAL_COS,
             max_plane_slope: FILTER_PLANE_SLOPE,
             crease_footprints: CREASE_FOOTPRINTS,
-            lobe_turn: glossy_filter_turn(),
+            lobe_turn: GLOSSY_FILTER_TURN,
             camera_position: cx.view.camera.position.extend(1.0).into(),
             ..Default::default()
         };

@@ -14,10 +14,10 @@ use crate::passes::ism::Ism;
 use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
 use crate::passes::temporal::Temporal;
 use crate::passes::FrameView;
-use crate::postprocess::HostImage;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
 use crate::timings::{CpuSpan, CpuTimings, SsbcStepTiming, Timings};
+use crate::vk::HostImage;
 use crate::vk::{Buffer, Device, GpuFrameTimes, Image, Recorder};
 
 use super::guard_band::GuardBand;

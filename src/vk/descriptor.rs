@@ -13,7 +13,7 @@ use super::buffer::Buffer;
 use super::buffer_view::BufferView;
 use super::device::{Device, Garbage};
 use super::image::{Image, Sampler};
-use super::pipeline::Shader;
+use super::shader::{BindingInfo, Shader};
 use crate::error::{Error, Result, VkResultExt};
 
 /// A descriptor set layout: its bindings' numbers and types, visible to
@@ -32,7 +32,7 @@ impl DescriptorSetLayout {
     pub fn for_shaders(device: &Arc<Device>, shaders: &[&Shader]) -> Result<Self> {
         let mut bindings: Vec<(u32, vk::DescriptorType)> = Vec::new();
         for shader in shaders {
-            for &super::pipeline::BindingInfo {
+            for &BindingInfo {
                 number, ty, name, ..
             } in shader.bindings
             {

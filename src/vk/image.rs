@@ -329,3 +329,19 @@ impl Drop for Sampler {
         self.device.defer_destroy(Garbage::Sampler(self.raw));
     }
 }
+
+/// One of the host's images: handle, a 2D view of it, its size and the
+/// layout it will be in when the recorded commands start.
+#[derive(Clone, Copy, Debug)]
+pub struct HostImage {
+    /// The image (owned by the host).
+    pub image: vk::Image,
+    /// A 2D view of its only mip and layer (owned by the host).
+    pub view: vk::ImageView,
+    /// Its format (must be `R32G32B32A32_SFLOAT`).
+    pub format: vk::Format,
+    /// Width and height.
+    pub extent: (u32, u32),
+    /// Its layout when the commands ssbc records begin.
+    pub layout: vk::ImageLayout,
+}

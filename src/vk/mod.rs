@@ -38,8 +38,10 @@ unstable_pub! {
     mod image;
     mod pipeline;
     mod profiler;
+    mod shader;
 }
 
+pub use self::image::HostImage;
 pub use device::{
     Device, DeviceSelector, HostDevice, ProfilingSupport, RayQueries, RequiredFeatures,
 };
@@ -54,8 +56,9 @@ unstable_pub! {
     use self::descriptor::{Binding, DescriptorPool, DescriptorSetLayout, Tracked};
     use self::image::{Image, ImageDesc, Sampler};
     use self::pipeline::{
-        declare_bindings, push_size, BindingAccess, BindingInfo, ComputeKernel, GraphicsDesc,
-        Pipeline, Shader, ShaderBindings, ShaderInterface, Work,
+        declare_bindings, push_size, ComputeKernel, GraphicsDesc, Pipeline, ShaderBindings,
+        ShaderInterface, Work,
     };
+    use self::shader::{BindingAccess, BindingInfo, Shader};
     use self::profiler::GpuProfiler;
 }

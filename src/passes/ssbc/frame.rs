@@ -7,7 +7,10 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::pyramids::{all_layers_texels, effective_layer1, pyramid_layout, pyramid_texels};
+use super::layout::{
+    all_layers_texels, effective_layer1, pyramid_layout, pyramid_texels, AUX_BYTES,
+    EVAL_POINT_BYTES, GEO_TEXEL_BYTES, LIST_HEADER_BYTES, POINT_GLOSSY_BYTES, RADIANCE_BYTES,
+};
 use super::SsbcPass;
 use crate::error::Result;
 use crate::settings::LayerResolution;
@@ -101,16 +104,6 @@ impl SsbcFrame {
         Ok(words.chunks_exact(12).map(|h| h[3] + h[7]).collect())
     }
 }
-
-/// Sizes of the GLSL structs, in bytes.
-/// `ListHeader` (ssbc_types.glsl).
-pub(super) const LIST_HEADER_BYTES: u64 = 48;
-pub(super) const GEO_TEXEL_BYTES: u64 = 64;
-pub(super) const AUX_BYTES: u64 = 16;
-pub(super) const RADIANCE_BYTES: u64 = 32;
-pub(super) const EVAL_POINT_BYTES: u64 = 64;
-/// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
-pub(super) const POINT_GLOSSY_BYTES: u64 = 16;
 
 impl SsbcPass {
     /// Allocates one frame's resources for `steps` steps, with descriptor

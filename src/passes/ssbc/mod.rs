@@ -10,6 +10,7 @@
 //! gives them (`crate::shaders::<kernel>::Bindings`).
 
 mod frame;
+mod layout;
 mod push;
 mod pyramids;
 mod step;
@@ -19,7 +20,7 @@ use std::sync::Arc;
 use super::gbuffer::GBuffer;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
-pub use crate::settings::{Integration, LayerResolution, SsbcSettings};
+pub use crate::settings::{Integration, LayerResolution, ReceiverDispatch, SsbcSettings};
 use crate::shaders::{
     ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
     ssbc_layer_residual_comp, ssbc_list_points_comp, ssbc_radiance_mips_comp, ssbc_resolve_comp,
@@ -27,7 +28,7 @@ use crate::shaders::{
 };
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
-pub use pyramids::{check_size, frame_bytes, pyramid_levels};
+pub use layout::{check_size, frame_bytes, pyramid_levels};
 pub use push::GLOSSY_RECEIVERS;
 
 /// Camera quantities the SSBC shaders need.
@@ -60,16 +61,9 @@ pub struct SsbcPass {
     fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface>,
     samples: ComputeKernel<ssbc_samples_comp::Interface>,
     layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface>,
-    /// In frames with glossy receivers, evaluate the points and fallback
-    /// pixels at glossy receivers and at the others in one dispatch (the
-    /// glossy kernels), not one kernel after the other. A GPU's level takes
-    /// as long as its slowest walk, so the second kernel added its whole
-    /// time (H100, spheres 1024x768: 0.42 + 0.67 ms a level); a CPU device
-    /// (lavapipe) runs every side of a branch, so there the Lambertian
-    /// points keep a kernel without the glossy code. `SSBC_ONE_DISPATCH=0`
-    /// or `1` in the environment overrides the choice (for tests and
-    /// benchmarks).
-    one_dispatch: bool,
+    /// Whether [`ReceiverDispatch::Auto`] means one dispatch: on GPUs, not
+    /// on CPU devices.
+    one_dispatch_by_default: bool,
 }
 
 /// A texels-read count at least this (`CUT_SHORT` in ssbc.glsl) marks a
@@ -110,12 +104,18 @@ impl SsbcPass {
             fallback_glossy: ComputeKernel::new(device)?,
             samples: ComputeKernel::new(device)?,
             layer_residual: ComputeKernel::new(device)?,
-            one_dispatch: match std::env::var("SSBC_ONE_DISPATCH").as_deref() {
-                Ok("1") => true,
-                Ok("0") => false,
-                _ => device.properties.device_type != ash::vk::PhysicalDeviceType::CPU,
-            },
+            one_dispatch_by_default: device.properties.device_type
+                != ash::vk::PhysicalDeviceType::CPU,
         })
+    }
+
+    /// Whether receivers of both kinds run in one dispatch at `settings`.
+    fn one_dispatch(&self, settings: &SsbcSettings) -> bool {
+        match settings.receiver_dispatch {
+            ReceiverDispatch::Auto => self.one_dispatch_by_default,
+            ReceiverDispatch::One => true,
+            ReceiverDispatch::Two => false,
+        }
     }
 
     /// Layouts of every set one frame of `frame` allocates.

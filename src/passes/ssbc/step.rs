@@ -7,7 +7,7 @@ use super::push::{
     EvalPush, FrameBlock, GeometryMipsPush, IntegralPush, ListPointsPush, ResidualParams,
     ResolvePush, SamplesPush,
 };
-use super::frame::LIST_HEADER_BYTES;
+use super::layout::LIST_HEADER_BYTES;
 use super::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass};
 use crate::error::Result;
 use crate::shaders::{
@@ -117,7 +117,7 @@ impl SsbcPass {
         let extent = visible.gbuffer.extent();
         let hidden = hidden.filter(|_| frame.layer1.is_some());
         let frame_block = FrameBlock::new(inputs, extent, frame, hidden.is_some())
-            .with_one_dispatch(self.one_dispatch);
+            .with_one_dispatch(self.one_dispatch(inputs.settings));
 
         let scope = profiler.begin(rec.cmd, "ssbc_geometry_mips");
         let mips = GeometryMipsPush {

@@ -1,0 +1,158 @@
+//! The SSBC pyramids' layout: levels, padding, where each layer's pyramid
+//! starts, the sizes of their texels and lists, what a frame's resources
+//! take and what a size needs of the device.
+
+use crate::error::{Error, Result};
+use crate::settings::{LayerResolution, SsbcSettings};
+use crate::vk::Device;
+
+/// Sizes of the GLSL structs, in bytes.
+/// `ListHeader` (ssbc_types.glsl).
+pub(super) const LIST_HEADER_BYTES: u64 = 48;
+pub(super) const GEO_TEXEL_BYTES: u64 = 64;
+pub(super) const AUX_BYTES: u64 = 16;
+pub(super) const RADIANCE_BYTES: u64 = 32;
+pub(super) const EVAL_POINT_BYTES: u64 = 64;
+/// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
+pub(super) const POINT_GLOSSY_BYTES: u64 = 16;
+
+/// Level 0 of the pyramids for an image (padded so that every level halves
+/// exactly) and the number of levels.
+pub(super) fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
+    let levels = pyramid_levels(width, height);
+    let align = 1u32 << (levels - 1);
+    (
+        (
+            width.div_ceil(align) * align,
+            height.div_ceil(align) * align,
+        ),
+        levels,
+    )
+}
+
+/// Pyramid levels for an image: down to about 2 texels on the short side.
+pub fn pyramid_levels(width: u32, height: u32) -> u32 {
+    (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
+}
+
+/// Texels of all `levels` levels of a pyramid whose level 0 is `size`
+/// (padded so every level halves exactly; `texel_index_in` in
+/// ssbc_types.glsl).
+pub(super) fn pyramid_texels(size: (u32, u32), levels: u32) -> u64 {
+    let n = size.0 as u64 * size.1 as u64;
+    (4 * n - 4 * (n >> (2 * levels))) / 3
+}
+
+/// Texels of layer 0's pyramid and, with a second layer, layer 1's after it
+/// (at half resolution half the size, one level fewer: `pyramid_of` in
+/// ssbc_pyramid.glsl).
+pub(super) fn all_layers_texels(
+    size: (u32, u32),
+    levels: u32,
+    layer1: Option<LayerResolution>,
+) -> u64 {
+    let first = pyramid_texels(size, levels);
+    match layer1 {
+        None => first,
+        Some(r) => {
+            let shift = r.shift();
+            first + pyramid_texels((size.0 >> shift, size.1 >> shift), levels - shift)
+        }
+    }
+}
+
+/// The second layer a pyramid of `levels` levels can hold: at half
+/// resolution it needs a level to spare (images of at least 2 pixels on the
+/// short side).
+pub(super) fn effective_layer1(
+    layer1: Option<LayerResolution>,
+    levels: u32,
+) -> Option<LayerResolution> {
+    layer1.filter(|r| levels > r.shift())
+}
+
+/// Bytes of device memory one frame slot's SSBC resources take at
+/// `width` x `height` with `steps` steps (the pyramids, the evaluation
+/// points and their claims, the work lists, and the per-step images).
+pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerResolution>) -> u64 {
+    let (size, levels) = pyramid_layout(width, height);
+    let layer1 = effective_layer1(layer1, levels);
+    let all = all_layers_texels(size, levels, layer1);
+    let points = pyramid_texels(size, levels);
+    // Pending (two), requests, the coarsest level's points, the fallback.
+    let lists = 5 * (LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64);
+    let pixels = width as u64 * height as u64;
+    // Final image, and per step its residual and what it sends (16
+    // bytes each) and samples (4).
+    let images = pixels * (16 + 36 * steps as u64);
+    let layer1_images = layer1.map_or(0, |r| {
+        let (w, h) = r.extent((width, height));
+        16 * w as u64 * h as u64 * steps.saturating_sub(1) as u64
+    });
+    all * (GEO_TEXEL_BYTES + AUX_BYTES + RADIANCE_BYTES)
+        + points * (EVAL_POINT_BYTES + POINT_GLOSSY_BYTES + 4)
+        + lists
+        + images
+        + layer1_images
+}
+
+/// Largest image the SSBC lists can address: an item packs a pixel's x in
+/// 16 bits and its y in 15, the top bit marking a fallback pixel whose
+/// points stood for its Lambertian part (`REST_ONLY` in ssbc_types.glsl).
+const MAX_LIST_SIZE: (u32, u32) = (1 << 16, 1 << 15);
+
+fn check_list_coordinates(width: u32, height: u32) -> Result<()> {
+    if width <= MAX_LIST_SIZE.0 && height <= MAX_LIST_SIZE.1 {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter(format!(
+        "SSBC at {width}x{height}: its lists address at most {}x{} pixels; render smaller \
+         or with ssbc.steps 0",
+        MAX_LIST_SIZE.0, MAX_LIST_SIZE.1
+    )))
+}
+
+/// Fails with a clear message if SSBC's largest texel view (the geometry
+/// pyramid, four texels per texel of every pyramid) or work list exceeds
+/// what the device can view or bind (maxTexelBufferElements, 2^27 texels on
+/// lavapipe; maxStorageBufferRange for the lists, 128 MiB there).
+/// Or if the image is larger than the lists can address.
+pub fn check_size(
+    device: &Device,
+    width: u32,
+    height: u32,
+    layer1: Option<LayerResolution>,
+) -> Result<()> {
+    check_list_coordinates(width, height)?;
+    let (size, levels) = pyramid_layout(width, height);
+    let layer1 = effective_layer1(layer1, levels);
+    let texels = 4 * all_layers_texels(size, levels, layer1);
+    let limits = device.limits();
+    let max_texels = limits.max_texel_buffer_elements as u64;
+    let list_bytes = LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64;
+    let max_range = limits.max_storage_buffer_range as u64;
+    if texels <= max_texels && list_bytes <= max_range {
+        return Ok(());
+    }
+    Err(Error::InvalidParameter(format!(
+        "SSBC at {width}x{height} needs texel views of {texels} texels and lists of {} MiB; \
+         this device views at most {max_texels} texels (maxTexelBufferElements) and binds \
+         {} MiB (maxStorageBufferRange): render smaller{} or with ssbc.steps 0",
+        list_bytes >> 20,
+        max_range >> 20,
+        SsbcSettings::lighter_second_layer(layer1)
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_list_coordinates;
+
+    #[test]
+    fn lists_refuse_images_their_items_cannot_address() {
+        assert!(check_list_coordinates(65536, 32768).is_ok());
+        assert!(check_list_coordinates(40000, 1).is_ok());
+        assert!(check_list_coordinates(1, 32769).is_err());
+        assert!(check_list_coordinates(65537, 1).is_err());
+    }
+}
