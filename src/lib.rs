@@ -82,6 +82,11 @@ macro_rules! unstable_pub {
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
 
+/// docs/embedding.md's Rust examples, compiled as doc-tests.
+#[cfg(doctest)]
+#[doc = include_str!("../docs/embedding.md")]
+pub struct EmbeddingDoctests;
+
 pub mod compare;
 pub mod error;
 pub mod output;

@@ -1,0 +1,342 @@
+//! Recording one frame: its slot, settings, scene cache, view, the passes
+//! and where it goes.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::frame_passes::{HistoryFrame, Passes};
+use super::guard_band::GuardBand;
+use super::history::{HistoryPlan, Motion};
+use super::sink::{Finish, FrameSink};
+use super::{limits, Renderer, FRAME_SLOTS};
+use crate::error::{Error, Result};
+use crate::gpu_scene::SlotScene;
+use crate::passes::ssbc::SsbcCamera;
+use crate::passes::{FrameView, Recording, SlotSetup};
+use crate::resident::SceneVersions;
+use crate::scene::Scene;
+use crate::scene_cache::SceneCache;
+use crate::settings::{RenderSettings, Visibility};
+use crate::timings::monotonic_ns;
+use crate::vk::{Access, CommandPool, Device, GpuFrameTimes, GpuProfiler, Recorder};
+
+/// The camera and bound of a frame: near and far planes enclose the
+/// scene's bounding sphere.
+/// With a guard band, `settings` are the wider frame's.
+fn frame_view(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cache: &SceneCache,
+    band: Option<GuardBand>,
+) -> Result<FrameView> {
+    let mut camera = scene.camera(settings.camera)?;
+    let (w, h) = (settings.width, settings.height);
+    if let Some(band) = band {
+        camera.yfov = band.widen_yfov(camera.yfov, h - 2 * band.margin);
+    }
+    let bounds = cache.bounds;
+    let far = (camera.position - bounds.center()).length() + bounds.radius() * 1.05;
+    let near = (far * 1e-4).max(1e-4);
+    Ok(FrameView {
+        camera: SsbcCamera {
+            position: camera.position,
+            forward: camera.forward,
+            up: camera.up,
+            pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
+        },
+        view_proj: camera.projection(w as f32 / h as f32, near, far) * camera.view(),
+        centre_depth: (bounds.center() - camera.position).dot(camera.forward),
+        bound: settings.bound.resolve(cache.diagonal()),
+        diagonal: cache.diagonal(),
+        glossy: scene
+            .materials
+            .iter()
+            .any(|m| m.reflectance != crate::scene::Reflectance::Lambertian),
+        normal_maps: scene.materials.iter().any(|m| m.normal_texture.is_some()),
+    })
+}
+
+/// Whether the frame tests VPL visibility exactly (ray queries): asked
+/// for, and possible on this device and scene (an error naming why not).
+/// [`Visibility::Auto`] is resolved before (accumulated frames).
+fn exact_visibility(settings: &RenderSettings, cache: &SceneCache) -> Result<bool> {
+    match settings.visibility {
+        Visibility::Auto | Visibility::Ism => Ok(false),
+        Visibility::Exact if cache.gpu_scene.rays.is_some() => Ok(true),
+        Visibility::Exact => Err(Error::InvalidParameter(
+            "exact visibility (ssbc.visibility) needs a device with ray queries \
+             (VK_KHR_ray_query) and a scene without alpha-masked materials"
+                .into(),
+        )),
+    }
+}
+
+/// Records what the scene's GPU copy needs before the passes (the first
+/// frame after an upload copies its textures and builds its meshes'
+/// acceleration structures; exact visibility builds the slot's top level)
+/// and returns the slot's view of it.
+fn record_scene<'c>(
+    rec: &mut Recorder<'_>,
+    cache: &'c mut SceneCache,
+    (scene, versions): (&Scene, SceneVersions),
+    settings: &RenderSettings,
+    slot: usize,
+) -> Result<(&'c SceneCache, SlotScene<'c>)> {
+    cache.gpu_scene.record_uploads(rec)?;
+    let exact = exact_visibility(settings, cache)?;
+    if exact {
+        let rays = cache.gpu_scene.rays.as_mut().expect("checked");
+        rays.record_top_level(rec, slot, scene, versions.objects)?;
+    }
+    let cache = &*cache;
+    let mut slot_scene = cache.gpu_scene.for_slot(slot);
+    if exact {
+        slot_scene.top_level = cache
+            .gpu_scene
+            .rays
+            .as_ref()
+            .and_then(|r| r.top_level(slot));
+    }
+    Ok((cache, slot_scene))
+}
+
+/// Records the passes of the frame `setup` in `rec`, timed unless it goes
+/// into a host's command buffer (ssbc cannot know when the host's
+/// submission finishes, nor whether it runs: nothing it records is then
+/// kept for a later frame). Returns the passes that kept the slot's
+/// previous output.
+fn record_passes(
+    rec: &mut Recorder<'_>,
+    (passes, profiler, fault): (&mut Passes, &mut GpuProfiler, &mut Option<String>),
+    setup: &SlotSetup<'_>,
+    (view, scene): (&FrameView, SlotScene<'_>),
+    history: Option<HistoryFrame>,
+    timed: bool,
+) -> Result<Vec<String>> {
+    profiler.begin_frame(rec.cmd, setup.slot, timed);
+    let mut reused = Vec::new();
+    let mut cx = Recording {
+        rec,
+        profiler,
+        view,
+        settings: setup.settings,
+        fault,
+        reuse: setup.settings.reuse_unchanged && timed,
+        reused: &mut reused,
+    };
+    passes.record(&mut cx, setup, scene, history)?;
+    profiler.end_frame(rec.cmd);
+    Ok(reused)
+}
+
+/// The frame's recorder: ssbc's command buffer, or the host's `host`.
+fn begin_recording<'a>(
+    commands: &'a mut CommandPool,
+    device: &'a Arc<Device>,
+    host: Option<vk::CommandBuffer>,
+    cache: &mut SceneCache,
+) -> Result<Recorder<'a>> {
+    let Some(cmd) = host else {
+        return commands.begin();
+    };
+    if cache.gpu_scene.has_pending_uploads() {
+        // Texture copies go through ssbc's own submission here (ssbc's
+        // timeline cannot see when the host's command buffer finishes, so
+        // staging could not be freed safely).
+        let mut upload = commands.begin()?;
+        cache.gpu_scene.record_uploads(&mut upload)?;
+        device.wait(upload.submit()?)?;
+        cache.gpu_scene.release_staging();
+    }
+    Ok(Recorder::for_host(device, cmd))
+}
+
+impl Renderer {
+    /// Records a frame in `slot` (the host's, or the next of ssbc's own,
+    /// waiting for the frame that used it last) and sends it where `sink`
+    /// says; after a failure the slot's resources are dropped. `resident`
+    /// frames of ssbc's own keep temporal history; any other cuts it.
+    pub(super) fn run<S: FrameSink>(
+        &mut self,
+        scene: &Scene,
+        versions: SceneVersions,
+        settings: &RenderSettings,
+        sink: S,
+        host_slot: Option<usize>,
+        resident: bool,
+    ) -> Result<S::Output> {
+        limits::check_settings(&self.device, settings, scene.lights.len())?;
+        let (slot, previous_timings) = match host_slot {
+            Some(slot) => (slot, None),
+            None => {
+                let slot = (self.frame_index % FRAME_SLOTS as u64) as usize;
+                self.frame_index += 1;
+                self.device.wait(self.slot_done[slot])?;
+                let previous = if self.profiler.has_frame(slot) {
+                    self.profiler.resolve(slot)?
+                } else {
+                    None
+                };
+                (slot, previous)
+            }
+        };
+        let history = (resident && host_slot.is_none() && settings.history.enabled)
+            .then(|| self.history.plan(slot, (scene, versions), settings));
+        if history.is_none() {
+            self.history.reset();
+        }
+        let frame = FrameRequest {
+            versions,
+            slot,
+            previous_timings,
+            history,
+        };
+        let result = self.frame(scene, settings, sink, frame);
+        if result.is_err() {
+            self.history.reset();
+            // Whatever was recorded was never submitted, but the resources'
+            // tracked states say otherwise: forget them, and the scene's
+            // GPU copy, so the next frame starts from known states.
+            self.passes.forget(slot);
+            self.readback[slot] = None;
+            self.scene_cache = None;
+            if self.output.as_ref().is_some_and(|o| o.slot == slot) {
+                self.output = None;
+            }
+        }
+        result
+    }
+
+    /// The settings of a frame that uses temporal history, where they
+    /// differ from the host's: a still view's frame continues the light
+    /// paths after its history's (an independent VPL set), and it converges
+    /// to the truth only with exact visibility (where possible, by default).
+    fn history_settings(
+        &self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        history: Option<HistoryPlan>,
+    ) -> Option<RenderSettings> {
+        let plan = history?;
+        let exact_when_still = plan.motion == Motion::Still
+            && settings.visibility == Visibility::Auto
+            && crate::ray_scene::exact_visibility_possible(&self.device, scene);
+        if plan.path_offset == 0 && !exact_when_still {
+            return None;
+        }
+        let mut s = settings.clone();
+        s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
+        if exact_when_still {
+            s.visibility = Visibility::Exact;
+        }
+        Some(s)
+    }
+
+    /// Records one frame and sends it where `sink` says.
+    fn frame<S: FrameSink>(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        sink: S,
+        request: FrameRequest,
+    ) -> Result<S::Output> {
+        let FrameRequest {
+            versions,
+            slot,
+            previous_timings,
+            history,
+        } = request;
+        let host_settings = settings;
+        let shifted = self.history_settings(scene, settings, history);
+        let settings = shifted.as_ref().unwrap_or(settings);
+        let device = self.device.clone();
+        let mut spans = Vec::new();
+        let cache = SceneCache::update(
+            &mut self.scene_cache,
+            &device,
+            scene,
+            versions,
+            settings,
+            &mut spans,
+        )?;
+        // The slot's previous frame is done: its copy of the objects'
+        // transforms can be rewritten.
+        cache
+            .gpu_scene
+            .write_objects(slot, scene, versions.objects)?;
+        // With a guard band every pass renders the wider frame (`settings`).
+        let (band, wide) = GuardBand::widen_frame(&device, scene, settings, cache)?;
+        let (inner, settings) = (settings, wide.as_ref().unwrap_or(settings));
+        let view = frame_view(scene, settings, cache, band)?;
+
+        let record_start = monotonic_ns();
+        let host = sink.host_command_buffer();
+        let mut rec = begin_recording(&mut self.commands[slot], &device, host, cache)?;
+        let (cache, slot_scene) = record_scene(&mut rec, cache, (scene, versions), settings, slot)?;
+        let setup = SlotSetup {
+            device: &device,
+            slot,
+            settings,
+            scene,
+            cache,
+        };
+        let timed = host.is_none();
+        let history_frame = history.map(|plan| HistoryFrame {
+            step: self
+                .history
+                .step(&plan, settings, (view.view_proj, view.camera.position)),
+            previous_slot: plan.previous_slot,
+        });
+        let renderer = (&mut self.passes, &mut self.profiler, &mut self.fault);
+        let scene_view = (&view, slot_scene);
+        let reused = record_passes(&mut rec, renderer, &setup, scene_view, history_frame, timed)?;
+        let light_paths = cache.vpls().set.paths;
+
+        let images = self.passes.images(slot).expect("recorded above");
+        rec.use_buffer(&images.ssbc.stats, Access::HostRead);
+        let output = sink.finish(
+            rec,
+            Finish {
+                images,
+                device: &device,
+                slot,
+                inner,
+                settings,
+                band,
+                view: &view,
+                cache,
+                spans,
+                reused,
+                record_start,
+                submit_ns: 0,
+                previous_timings,
+                readback: &mut self.readback[slot],
+                profiler: &mut self.profiler,
+                slot_done: &mut self.slot_done[slot],
+                output: &mut self.output,
+            },
+        )?;
+        if let Some(plan) = history {
+            let eye = (view.view_proj, view.camera.position);
+            self.history.commit(
+                &plan,
+                slot,
+                (scene, versions),
+                host_settings,
+                eye,
+                light_paths,
+            );
+        }
+        Ok(output)
+    }
+}
+
+/// A frame to record: the scene's versions, its slot, and how it uses
+/// temporal history.
+struct FrameRequest {
+    versions: SceneVersions,
+    slot: usize,
+    previous_timings: Option<GpuFrameTimes>,
+    history: Option<HistoryPlan>,
+}

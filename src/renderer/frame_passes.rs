@@ -1,0 +1,219 @@
+//! The frame's passes in the paper's order (`Passes::record`), each with
+//! its resources in every frame slot.
+
+use std::sync::Arc;
+
+use super::readback::{self, FrameImages};
+use super::FRAME_SLOTS;
+use crate::error::Result;
+use crate::gpu_scene::SlotScene;
+use crate::passes::direct_lighting::{DirectLight, DirectLightingPass};
+use crate::passes::gbuffer::{GBuffer, GBufferPass};
+use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass, VplVisibility};
+use crate::passes::ism::{Ism, IsmPass};
+use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
+use crate::passes::ssbc::SsbcPass;
+use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
+use crate::passes::{Recording, SlotSetup, Stage};
+use crate::vk::Device;
+
+/// The passes that run once per G-buffer layer: its G-buffer and its
+/// clamped lighting `S0`.
+struct LayerStages {
+    gbuffer: Stage<GBufferPass>,
+    direct_lighting: Stage<DirectLightingPass>,
+    indirect_bounded: Stage<IndirectBoundedPass>,
+}
+
+/// What one layer's stages wrote in a slot.
+type LayerImages<'a> = (&'a GBuffer, &'a DirectLight, &'a BoundedLighting);
+
+impl LayerStages {
+    fn new(device: &Arc<Device>, layer: u32) -> Result<Self> {
+        Ok(Self {
+            gbuffer: Stage::new(GBufferPass::new(device, layer)?, FRAME_SLOTS),
+            direct_lighting: Stage::new(DirectLightingPass::new(device, layer)?, FRAME_SLOTS),
+            indirect_bounded: Stage::new(IndirectBoundedPass::new(device, layer)?, FRAME_SLOTS),
+        })
+    }
+
+    /// The layer's G-buffer (peeled behind `front` on layer 1), direct
+    /// lighting and bounded indirect lighting: its G-buffer and `S0` (and
+    /// what it sends as SSBC sources).
+    fn run(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        (scene, front): (SlotScene<'_>, Option<&GBuffer>),
+        (shadows, ism): (&ShadowMaps, &Ism),
+    ) -> Result<(&GBuffer, &BoundedLighting)> {
+        let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
+        let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
+        let visibility = match scene.top_level {
+            Some(tlas) => VplVisibility::Exact(tlas),
+            None => VplVisibility::Ism,
+        };
+        let bounded = self
+            .indirect_bounded
+            .run(cx, setup, (gbuffer, direct, ism, visibility))?;
+        Ok((gbuffer, bounded))
+    }
+
+    fn images(&self, slot: usize) -> Option<LayerImages<'_>> {
+        Some((
+            self.gbuffer.resources(slot)?,
+            self.direct_lighting.resources(slot)?,
+            self.indirect_bounded.resources(slot)?,
+        ))
+    }
+
+    fn forget(&mut self, slot: usize) {
+        self.gbuffer.forget(slot);
+        self.direct_lighting.forget(slot);
+        self.indirect_bounded.forget(slot);
+    }
+}
+
+/// The technique passes, each with its resources in every frame slot.
+pub(super) struct Passes {
+    shadow_maps: Stage<ShadowMapPass>,
+    ism: Stage<IsmPass>,
+    /// Layer 0, the visible surfaces; layer 1, the deep G-buffer's second
+    /// layer (`ssbc.layers` 2).
+    layers: [LayerStages; 2],
+    ssbc: Stage<SsbcPass>,
+    /// Temporal history (resident frames).
+    temporal: Stage<TemporalPass>,
+    /// Whether each slot's last frame ran `temporal` (its output is then
+    /// the final image).
+    temporal_ran: [bool; FRAME_SLOTS],
+}
+
+/// How a frame uses temporal history: its fold, and the slot it reads.
+#[derive(Clone, Copy)]
+pub(super) struct HistoryFrame {
+    pub step: HistoryStep,
+    pub previous_slot: Option<usize>,
+}
+
+impl Passes {
+    pub fn new(device: &Arc<Device>) -> Result<Self> {
+        Ok(Self {
+            shadow_maps: Stage::new(ShadowMapPass::new(device)?, FRAME_SLOTS),
+            ism: Stage::new(IsmPass::new(device)?, FRAME_SLOTS),
+            layers: [LayerStages::new(device, 0)?, LayerStages::new(device, 1)?],
+            ssbc: Stage::new(SsbcPass::new(device)?, FRAME_SLOTS),
+            temporal: Stage::new(TemporalPass::new(device)?, FRAME_SLOTS),
+            temporal_ran: [false; FRAME_SLOTS],
+        })
+    }
+
+    /// The frame: every pass in order, each given what it reads from the
+    /// passes before it (its resources are brought up to `setup` first).
+    pub fn record(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        scene: SlotScene<'_>,
+        history: Option<HistoryFrame>,
+    ) -> Result<()> {
+        self.temporal_ran[setup.slot] = false;
+        let shadows = self.shadow_maps.run(cx, setup, scene)?;
+        let objects = (scene.objects, setup.cache.versions.objects);
+        let ism = self.ism.run(cx, setup, objects)?;
+        let [layer0, layer1] = &mut self.layers;
+        let (front, bounded) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
+        let normal_maps = cx.view.normal_maps;
+        let visible = bounded.ssbc_layer(front, normal_maps);
+        let ssbc = &setup.settings.ssbc;
+        let hidden = if ssbc.layers == 2 && ssbc.steps > 0 {
+            let (gbuffer, bounded) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
+            Some(bounded.ssbc_layer(gbuffer, normal_maps))
+        } else {
+            // Not drawn this frame: free what an earlier frame held.
+            layer1.forget(setup.slot);
+            None
+        };
+        self.ssbc.run(cx, setup, (visible, hidden))?;
+        if let Some(history) = history {
+            self.temporal(cx, setup, history)?;
+        }
+        Ok(())
+    }
+
+    /// Folds the frame into the history the previous frame left in its
+    /// slot (taken out of its stage while this slot's pass records).
+    fn temporal(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        history: HistoryFrame,
+    ) -> Result<()> {
+        let slot = setup.slot;
+        let (gbuffer, direct, bounded) = self.layers[0].images(slot).expect("recorded above");
+        let ssbc = self.ssbc.resources(slot).expect("recorded above");
+        let final_image = readback::frame_final(ssbc, bounded);
+        let previous_slot = history.previous_slot.filter(|&s| s != slot);
+        let previous = previous_slot.and_then(|s| self.temporal.take(s));
+        let previous_gbuffer = previous_slot.and_then(|s| self.layers[0].gbuffer.resources(s));
+        let reads = TemporalReads {
+            gbuffer,
+            final_image,
+            direct: &direct.radiance,
+            previous: previous_gbuffer.zip(previous.as_ref().map(|p| &p.resources)),
+            step: history.step,
+        };
+        let result = self.temporal.run(cx, setup, reads).map(|_| ());
+        if let Some(s) = previous_slot {
+            self.temporal.restore(s, previous);
+        }
+        self.temporal_ran[slot] = result.is_ok();
+        result
+    }
+
+    /// The images the slot's last recorded frame wrote.
+    pub fn images(&self, slot: usize) -> Option<FrameImages<'_>> {
+        let ssbc = self.ssbc.resources(slot)?;
+        let (gbuffer, direct, bounded) = self.layers[0].images(slot)?;
+        // Stale resources of an earlier two-layer frame are not this frame's.
+        let layer1 = ssbc
+            .layer1()
+            .and_then(|_| self.layers[1].images(slot))
+            .map(|(gbuffer, _, bounded)| (gbuffer, bounded));
+        let temporal = self.temporal_ran[slot]
+            .then(|| self.temporal.resources(slot))
+            .flatten();
+        Some(FrameImages {
+            gbuffer,
+            direct,
+            bounded,
+            ssbc,
+            ism: self.ism.resources(slot)?,
+            layer1,
+            temporal,
+        })
+    }
+
+    /// Drops the slot's resources (after a frame that was not submitted).
+    pub fn forget(&mut self, slot: usize) {
+        self.shadow_maps.forget(slot);
+        self.ism.forget(slot);
+        for layer in &mut self.layers {
+            layer.forget(slot);
+        }
+        self.ssbc.forget(slot);
+        self.temporal.forget(slot);
+        self.temporal_ran[slot] = false;
+    }
+
+    /// Device memory the temporal history's images take in every slot.
+    pub fn history_bytes(&self) -> u64 {
+        (0..FRAME_SLOTS)
+            .filter_map(|slot| self.temporal.resources(slot))
+            .map(|t| {
+                let (w, h) = (t.output.desc.width, t.output.desc.height);
+                crate::passes::temporal::slot_bytes((w, h))
+            })
+            .sum()
+    }
+}
