@@ -329,7 +329,7 @@ pub struct PostProcessReport {
     pub mean_s0: f64,
     /// Validation messages.
     pub validation_messages: u32,
-    /// Device memory `SsbcPostProcess::memory` said one slot of one layer
+    /// Device memory `SsbcPostProcess::memory_on` said one slot of one layer
     /// would hold, before anything was created.
     pub memory_estimate: u64,
     /// What `prepare` then allocated for it.
@@ -753,7 +753,7 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
         let before = device.memory_in_use();
         post.prepare(shape)?;
         if layers == 1 && integration == Integration::Brute {
-            report.memory_estimate = SsbcPostProcess::memory(&shape, 1).per_slot;
+            report.memory_estimate = SsbcPostProcess::memory_on(&device, &shape, 1).per_slot;
             report.memory_allocated = device.memory_in_use() - before;
         }
         let before_recording = device.memory_in_use();

@@ -22,6 +22,25 @@ pub struct Buffer {
     pub(crate) state: Cell<ResourceState>,
 }
 
+/// Bytes of device memory a buffer of `size` bytes with `usage` takes on
+/// `device`, as [`Buffer::new`] makes it (its memory requirements, asked
+/// before it exists: Vulkan 1.3).
+pub fn buffer_memory_bytes(device: &Device, size: u64, usage: vk::BufferUsageFlags) -> u64 {
+    let info = vk::BufferCreateInfo::default()
+        .size(size.max(4))
+        .usage(usage)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE);
+    let query = vk::DeviceBufferMemoryRequirements::default().create_info(&info);
+    let mut requirements = vk::MemoryRequirements2::default();
+    // SAFETY: a valid create info on a live Vulkan 1.3 device.
+    unsafe {
+        device
+            .raw
+            .get_device_buffer_memory_requirements(&query, &mut requirements)
+    };
+    requirements.memory_requirements.size
+}
+
 impl Buffer {
     /// Creates a buffer of `size` bytes (at least 4) in `location`.
     pub fn new(

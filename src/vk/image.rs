@@ -31,6 +31,40 @@ pub struct ImageDesc {
 }
 
 impl ImageDesc {
+    /// How [`Image::new`] creates it.
+    pub fn create_info(&self) -> vk::ImageCreateInfo<'static> {
+        vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(self.format)
+            .extent(vk::Extent3D {
+                width: self.width,
+                height: self.height,
+                depth: 1,
+            })
+            .mip_levels(self.mip_levels)
+            .array_layers(self.layers)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(self.usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .initial_layout(vk::ImageLayout::UNDEFINED)
+    }
+
+    /// Bytes of device memory such an image takes on `device` (its memory
+    /// requirements, asked before it exists: Vulkan 1.3).
+    pub fn memory_bytes(&self, device: &Device) -> u64 {
+        let info = self.create_info();
+        let query = vk::DeviceImageMemoryRequirements::default().create_info(&info);
+        let mut requirements = vk::MemoryRequirements2::default();
+        // SAFETY: a valid create info on a live Vulkan 1.3 device.
+        unsafe {
+            device
+                .raw
+                .get_device_image_memory_requirements(&query, &mut requirements)
+        };
+        requirements.memory_requirements.size
+    }
+
     /// A single-layer, single-mip 2D image.
     pub fn new_2d(format: vk::Format, width: u32, height: u32, usage: vk::ImageUsageFlags) -> Self {
         Self {
@@ -134,21 +168,7 @@ impl Image {
                 desc.layers, limits.max_image_array_layers
             )));
         }
-        let info = vk::ImageCreateInfo::default()
-            .image_type(vk::ImageType::TYPE_2D)
-            .format(desc.format)
-            .extent(vk::Extent3D {
-                width: desc.width,
-                height: desc.height,
-                depth: 1,
-            })
-            .mip_levels(desc.mip_levels)
-            .array_layers(desc.layers)
-            .samples(vk::SampleCountFlags::TYPE_1)
-            .tiling(vk::ImageTiling::OPTIMAL)
-            .usage(desc.usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE)
-            .initial_layout(vk::ImageLayout::UNDEFINED);
+        let info = desc.create_info();
         // SAFETY: valid create info; sizes checked against the limits.
         let raw =
             unsafe { device.raw.create_image(&info, None) }.map_err(|result| match result {

@@ -5,16 +5,12 @@
 use std::sync::Arc;
 
 use ash::vk;
-use gpu_allocator::MemoryLocation;
 
-use super::layout::{
-    all_layers_texels, effective_layer1, pyramid_layout, pyramid_texels, AUX_BYTES,
-    EVAL_POINT_BYTES, GEO_TEXEL_BYTES, LIST_HEADER_BYTES, POINT_GLOSSY_BYTES, RADIANCE_BYTES,
-};
+use super::layout::{BufferPlan, FramePlan};
 use super::SsbcPass;
 use crate::error::Result;
 use crate::settings::LayerResolution;
-use crate::vk::{Buffer, BufferView, Device, Image};
+use crate::vk::{Buffer, BufferView, Device, Image, ImageDesc};
 
 /// One frame's SSBC resources. The pyramids and the evaluation points are
 /// read and written through texel views (their size is then capped by
@@ -117,85 +113,26 @@ impl SsbcPass {
         max_eval_level: u32,
         layer1: Option<LayerResolution>,
     ) -> Result<SsbcFrame> {
-        // Level 0 padded so every level halves exactly (padding has no geometry).
-        let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
-        let layer1 = effective_layer1(layer1, levels);
-        // Evaluation points exist for layer 0's texels only.
-        let texels = pyramid_texels(pyramid_size, levels);
-        let all_texels = all_layers_texels(pyramid_size, levels, layer1);
-        let texel_buffer = |name: &str, size: u64, extra: vk::BufferUsageFlags| {
-            Buffer::new(
-                device,
-                name,
-                size,
-                vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
-                    | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER
-                    | extra,
-                MemoryLocation::GpuOnly,
-            )
+        let plan = FramePlan::new(extent, steps, layer1);
+        let buffer = |name: &str, b: &BufferPlan| Buffer::new(device, name, b.bytes, b.usage, b.location);
+        let image = |name: String, desc: &ImageDesc| Image::new(device, &name, *desc);
+        let per_step = |name: &str, desc: &ImageDesc| {
+            (1..=steps)
+                .map(|k| image(format!("{name}_{k}"), desc))
+                .collect::<Result<Vec<_>>>()
         };
-        let list_bytes = LIST_HEADER_BYTES + 4 * pyramid_size.0 as u64 * pyramid_size.1 as u64;
-        let list = |name: &str| {
-            Buffer::new(
-                device,
-                name,
-                list_bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::INDIRECT_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::GpuOnly,
-            )
-        };
-        let image = |name: String, format| {
-            crate::passes::storage_image(device, &name, format, extent, vk::ImageUsageFlags::empty())
-        };
-        let residuals = (1..=steps)
-            .map(|k| {
-                image(
-                    format!("ssbc.residual_{k}"),
-                    vk::Format::R32G32B32A32_SFLOAT,
-                )
-            })
-            .collect::<Result<_>>()?;
-        let residual_sources = (1..=steps)
-            .map(|k| {
-                image(
-                    format!("ssbc.residual_sources_{k}"),
-                    vk::Format::R32G32B32A32_SFLOAT,
-                )
-            })
-            .collect::<Result<_>>()?;
-        let samples = (1..=steps)
-            .map(|k| image(format!("ssbc.samples_{k}"), vk::Format::R32_SFLOAT))
-            .collect::<Result<_>>()?;
-        let none = vk::BufferUsageFlags::empty();
-        let geo = texel_buffer("ssbc.pyramid.geometry", all_texels * GEO_TEXEL_BYTES, none)?;
-        let aux = texel_buffer("ssbc.pyramid.aux", all_texels * AUX_BYTES, none)?;
-        let radiance = texel_buffer("ssbc.pyramid.radiance", all_texels * RADIANCE_BYTES, none)?;
-        let points = texel_buffer(
-            "ssbc.eval_points",
-            texels * EVAL_POINT_BYTES,
-            vk::BufferUsageFlags::TRANSFER_DST,
-        )?;
-        let point_glossy = texel_buffer(
-            "ssbc.eval_points.glossy",
-            texels * POINT_GLOSSY_BYTES,
-            vk::BufferUsageFlags::TRANSFER_DST,
-        )?;
-        let claims = Buffer::new(
-            device,
-            "ssbc.eval_points.claims",
-            texels * 4,
-            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
-        let layer1_residuals = match layer1 {
-            Some(r) => (1..steps)
-                .map(|k| {
-                    let name = format!("ssbc.layer1_residual_{k}");
-                    crate::passes::radiance_image(device, &name, r.extent(extent))
-                })
+        let residuals = per_step("ssbc.residual", &plan.radiance_image)?;
+        let residual_sources = per_step("ssbc.residual_sources", &plan.radiance_image)?;
+        let samples = per_step("ssbc.samples", &plan.samples_image)?;
+        let geo = buffer("ssbc.pyramid.geometry", &plan.geo)?;
+        let aux = buffer("ssbc.pyramid.aux", &plan.aux)?;
+        let radiance = buffer("ssbc.pyramid.radiance", &plan.radiance)?;
+        let points = buffer("ssbc.eval_points", &plan.points)?;
+        let point_glossy = buffer("ssbc.eval_points.glossy", &plan.point_glossy)?;
+        let claims = buffer("ssbc.eval_points.claims", &plan.claims)?;
+        let layer1_residuals = match &plan.layer1_image {
+            Some(desc) => (1..steps)
+                .map(|k| image(format!("ssbc.layer1_residual_{k}"), desc))
                 .collect::<Result<_>>()?,
             None => Vec::new(),
         };
@@ -213,26 +150,23 @@ impl SsbcPass {
             points: view(points, uint4, 16, "ssbc.eval_points texels")?,
             point_glossy: view(point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
             claims,
-            pending: [list("ssbc.pending_a")?, list("ssbc.pending_b")?],
-            requests: list("ssbc.requests")?,
-            top_points: list("ssbc.top_points")?,
-            fallback: list("ssbc.fallback")?,
-            stats: Buffer::new(
-                device,
-                "ssbc.stats",
-                LIST_HEADER_BYTES * steps.max(1) as u64,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuToCpu,
-            )?,
+            pending: [
+                buffer("ssbc.pending_a", &plan.list)?,
+                buffer("ssbc.pending_b", &plan.list)?,
+            ],
+            requests: buffer("ssbc.requests", &plan.list)?,
+            top_points: buffer("ssbc.top_points", &plan.list)?,
+            fallback: buffer("ssbc.fallback", &plan.list)?,
+            stats: buffer("ssbc.stats", &plan.stats)?,
             residuals,
             residual_sources,
             samples,
-            final_image: image("ssbc.final".into(), vk::Format::R32G32B32A32_SFLOAT)?,
+            final_image: image("ssbc.final".into(), &plan.radiance_image)?,
             layer1_residuals,
-            layer1,
-            levels,
-            pyramid_size,
-            max_eval_level: max_eval_level.min(levels - 1),
+            layer1: plan.layer1,
+            levels: plan.levels,
+            pyramid_size: plan.pyramid_size,
+            max_eval_level: max_eval_level.min(plan.levels - 1),
         })
     }
 }

@@ -2,9 +2,12 @@
 //! starts, the sizes of their texels and lists, what a frame's resources
 //! take and what a size needs of the device.
 
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
-use crate::vk::Device;
+use crate::vk::{buffer_memory_bytes, Device, ImageDesc};
 
 /// Sizes of the GLSL structs, in bytes.
 /// `ListHeader` (ssbc_types.glsl).
@@ -71,29 +74,153 @@ pub(super) fn effective_layer1(
     layer1.filter(|r| levels > r.shift())
 }
 
+/// A buffer of a frame slot: its size, usage and memory.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BufferPlan {
+    pub bytes: u64,
+    pub usage: vk::BufferUsageFlags,
+    pub location: MemoryLocation,
+}
+
+/// What one frame slot's SSBC resources are, before any exists: what
+/// [`super::SsbcPass::allocate`] creates and what the estimates count.
+#[derive(Clone, Debug)]
+pub(super) struct FramePlan {
+    pub pyramid_size: (u32, u32),
+    pub levels: u32,
+    pub layer1: Option<LayerResolution>,
+    pub steps: u32,
+    /// The pyramids (every layer's), as texel buffers.
+    pub geo: BufferPlan,
+    pub aux: BufferPlan,
+    pub radiance: BufferPlan,
+    /// Layer 0's evaluation points, their glossy rests and claims.
+    pub points: BufferPlan,
+    pub point_glossy: BufferPlan,
+    pub claims: BufferPlan,
+    /// Each of the five work lists (pending two, requests, the coarsest
+    /// level's points, the fallback).
+    pub list: BufferPlan,
+    /// The fallback lists' headers, read back.
+    pub stats: BufferPlan,
+    /// The final image, and per step its residual and what it sends.
+    pub radiance_image: ImageDesc,
+    /// Per step, the texels read per pixel.
+    pub samples_image: ImageDesc,
+    /// Per step but the last, layer 1's residual.
+    pub layer1_image: Option<ImageDesc>,
+}
+
+/// The work lists there are in a frame slot.
+pub(super) const LISTS: u64 = 5;
+
+impl FramePlan {
+    pub fn new(extent: (u32, u32), steps: u32, layer1: Option<LayerResolution>) -> Self {
+        // Level 0 padded so every level halves exactly (padding has no geometry).
+        let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
+        let layer1 = effective_layer1(layer1, levels);
+        // Evaluation points exist for layer 0's texels only.
+        let texels = pyramid_texels(pyramid_size, levels);
+        let all_texels = all_layers_texels(pyramid_size, levels, layer1);
+        let gpu = |bytes, usage| BufferPlan {
+            bytes,
+            usage,
+            location: MemoryLocation::GpuOnly,
+        };
+        let texel_usage =
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
+        let cleared = texel_usage | vk::BufferUsageFlags::TRANSFER_DST;
+        let list_bytes = LIST_HEADER_BYTES + 4 * pyramid_size.0 as u64 * pyramid_size.1 as u64;
+        let image = |format, (w, h): (u32, u32)| {
+            let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+            ImageDesc::new_2d(format, w, h, usage)
+        };
+        Self {
+            pyramid_size,
+            levels,
+            layer1,
+            steps,
+            geo: gpu(all_texels * GEO_TEXEL_BYTES, texel_usage),
+            aux: gpu(all_texels * AUX_BYTES, texel_usage),
+            radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
+            points: gpu(texels * EVAL_POINT_BYTES, cleared),
+            point_glossy: gpu(texels * POINT_GLOSSY_BYTES, cleared),
+            claims: gpu(
+                texels * 4,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            ),
+            list: gpu(
+                list_bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::INDIRECT_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
+            ),
+            stats: BufferPlan {
+                bytes: LIST_HEADER_BYTES * steps.max(1) as u64,
+                usage: vk::BufferUsageFlags::TRANSFER_DST,
+                location: MemoryLocation::GpuToCpu,
+            },
+            radiance_image: image(vk::Format::R32G32B32A32_SFLOAT, extent),
+            samples_image: image(vk::Format::R32_SFLOAT, extent),
+            layer1_image: layer1.map(|r| image(vk::Format::R32G32B32A32_SFLOAT, r.extent(extent))),
+        }
+    }
+
+    /// Bytes of device memory the plan takes: on `device`, what its memory
+    /// requirements say (alignment and padding included); without one, the
+    /// bytes asked for.
+    pub fn bytes(&self, device: Option<&Device>) -> u64 {
+        let buffer = |b: &BufferPlan| match device {
+            Some(d) => buffer_memory_bytes(d, b.bytes, b.usage),
+            None => b.bytes.max(4),
+        };
+        let image = |i: &ImageDesc| match device {
+            Some(d) => i.memory_bytes(d),
+            None => {
+                let texel = if i.format == vk::Format::R32_SFLOAT { 4 } else { 16 };
+                texel * i.width as u64 * i.height as u64
+            }
+        };
+        let steps = self.steps as u64;
+        let buffers = [
+            &self.geo,
+            &self.aux,
+            &self.radiance,
+            &self.points,
+            &self.point_glossy,
+            &self.claims,
+            &self.stats,
+        ];
+        buffers.iter().map(|b| buffer(b)).sum::<u64>()
+            + LISTS * buffer(&self.list)
+            + (2 * steps + 1) * image(&self.radiance_image)
+            + steps * image(&self.samples_image)
+            + self
+                .layer1_image
+                .as_ref()
+                .map_or(0, |i| steps.saturating_sub(1) * image(i))
+    }
+}
+
 /// Bytes of device memory one frame slot's SSBC resources take at
 /// `width` x `height` with `steps` steps (the pyramids, the evaluation
-/// points and their claims, the work lists, and the per-step images).
+/// points and their claims, the work lists, and the per-step images), as
+/// asked for; [`frame_bytes_on`] is what a device makes of them.
 pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerResolution>) -> u64 {
-    let (size, levels) = pyramid_layout(width, height);
-    let layer1 = effective_layer1(layer1, levels);
-    let all = all_layers_texels(size, levels, layer1);
-    let points = pyramid_texels(size, levels);
-    // Pending (two), requests, the coarsest level's points, the fallback.
-    let lists = 5 * (LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64);
-    let pixels = width as u64 * height as u64;
-    // Final image, and per step its residual and what it sends (16
-    // bytes each) and samples (4).
-    let images = pixels * (16 + 36 * steps as u64);
-    let layer1_images = layer1.map_or(0, |r| {
-        let (w, h) = r.extent((width, height));
-        16 * w as u64 * h as u64 * steps.saturating_sub(1) as u64
-    });
-    all * (GEO_TEXEL_BYTES + AUX_BYTES + RADIANCE_BYTES)
-        + points * (EVAL_POINT_BYTES + POINT_GLOSSY_BYTES + 4)
-        + lists
-        + images
-        + layer1_images
+    FramePlan::new((width, height), steps, layer1).bytes(None)
+}
+
+/// [`frame_bytes`] on `device`: each resource's memory requirements there,
+/// alignment and padding included (what the allocator then takes).
+pub fn frame_bytes_on(
+    device: &Device,
+    width: u32,
+    height: u32,
+    steps: u32,
+    layer1: Option<LayerResolution>,
+) -> u64 {
+    FramePlan::new((width, height), steps, layer1).bytes(Some(device))
 }
 
 /// Largest image the SSBC lists can address: an item packs a pixel's x in
