@@ -267,6 +267,109 @@ pub struct SsbcPostProcess {
     device: Arc<Device>,
 }
 
+/// The host's images of one frame, wrapped for barriers.
+struct WrappedInputs {
+    position: Image,
+    normal: Image,
+    albedo: Image,
+    s0: Image,
+    sources: Option<Image>,
+    out: Image,
+    hidden: Option<[Image; 4]>,
+}
+
+impl WrappedInputs {
+    fn new(device: &Arc<Device>, inputs: &PostProcessInputs) -> Self {
+        let wrap = |image: &HostImage, usage| {
+            let (w, h) = image.extent;
+            Image::from_host(
+                device,
+                image.image,
+                image.view,
+                ImageDesc::new_2d(image.format, w, h, usage),
+                image.layout,
+            )
+        };
+        let storage = vk::ImageUsageFlags::STORAGE;
+        Self {
+            position: wrap(&inputs.position, storage),
+            normal: wrap(&inputs.normal, storage),
+            albedo: wrap(&inputs.albedo, storage),
+            s0: wrap(&inputs.s0, storage),
+            sources: inputs.sources.map(|image| wrap(&image, storage)),
+            out: wrap(&inputs.output, vk::ImageUsageFlags::TRANSFER_DST),
+            hidden: inputs
+                .hidden
+                .map(|l| [l.position, l.normal, l.albedo, l.s0].map(|image| wrap(&image, storage))),
+        }
+    }
+
+    /// The visible layer and the optional hidden one, as SSBC reads them
+    /// (the host's G-buffer has no separate geometric normals).
+    fn layers(&self) -> (SsbcLayer<'_>, Option<SsbcLayer<'_>>) {
+        let visible = SsbcLayer {
+            gbuffer: SsbcGBuffer {
+                position: &self.position,
+                normal: &self.normal,
+                albedo: &self.albedo,
+                geometric: None,
+            },
+            s0: &self.s0,
+            sources: self.sources.as_ref().unwrap_or(&self.s0),
+        };
+        let hidden = self
+            .hidden
+            .as_ref()
+            .map(|[position, normal, albedo, s0]| SsbcLayer {
+                gbuffer: SsbcGBuffer {
+                    position,
+                    normal,
+                    albedo,
+                    geometric: None,
+                },
+                s0,
+                sources: s0,
+            });
+        (visible, hidden)
+    }
+
+    /// Moves every image back to the layout `inputs` declared for it
+    /// (those declared `UNDEFINED` stay as ssbc left them).
+    fn hand_back(&self, rec: &mut Recorder<'_>, inputs: &PostProcessInputs) {
+        let mut host = vec![
+            (&self.position, inputs.position.layout),
+            (&self.normal, inputs.normal.layout),
+            (&self.albedo, inputs.albedo.layout),
+            (&self.s0, inputs.s0.layout),
+            (&self.out, inputs.output.layout),
+        ];
+        if let (Some(image), Some(declared)) = (&self.sources, &inputs.sources) {
+            host.push((image, declared.layout));
+        }
+        if let (Some(images), Some(l)) = (&self.hidden, &inputs.hidden) {
+            let declared = [l.position, l.normal, l.albedo, l.s0].map(|i| i.layout);
+            host.extend(images.iter().zip(declared));
+        }
+        for (image, layout) in host {
+            if layout != vk::ImageLayout::UNDEFINED {
+                rec.hand_back(image, layout);
+            }
+        }
+    }
+}
+
+impl PostProcessInputs {
+    /// The SSBC camera of these inputs, for an image `height` pixels high.
+    fn camera(&self, height: u32) -> SsbcCamera {
+        SsbcCamera {
+            position: self.camera_position,
+            forward: self.camera_forward.normalize(),
+            up: self.camera_up.reject_from(self.camera_forward).normalize(),
+            pixel_side: 2.0 * (self.yfov * 0.5).tan() / height as f32,
+        }
+    }
+}
+
 impl SsbcPostProcess {
     /// Creates the pipelines for `slots` frames in flight.
     pub fn new(device: &Arc<Device>, slots: usize) -> Result<Self> {
@@ -505,37 +608,9 @@ impl SsbcPostProcess {
         };
         let (frame, pool) = (&held.resources, &held.pool);
 
-        let wrap = |image: &HostImage, usage| {
-            let (w, h) = image.extent;
-            Image::from_host(
-                &self.device,
-                image.image,
-                image.view,
-                ImageDesc::new_2d(image.format, w, h, usage),
-                image.layout,
-            )
-        };
-        let storage = vk::ImageUsageFlags::STORAGE;
-        let (position, normal, albedo, s0) = (
-            wrap(&inputs.position, storage),
-            wrap(&inputs.normal, storage),
-            wrap(&inputs.albedo, storage),
-            wrap(&inputs.s0, storage),
-        );
-        let sources = inputs.sources.map(|image| wrap(&image, storage));
-        let out = wrap(&inputs.output, vk::ImageUsageFlags::TRANSFER_DST);
-        let hidden = inputs
-            .hidden
-            .map(|l| [l.position, l.normal, l.albedo, l.s0].map(|image| wrap(&image, storage)));
-        let camera = SsbcCamera {
-            position: inputs.camera_position,
-            forward: inputs.camera_forward.normalize(),
-            up: inputs
-                .camera_up
-                .reject_from(inputs.camera_forward)
-                .normalize(),
-            pixel_side: 2.0 * (inputs.yfov * 0.5).tan() / h as f32,
-        };
+        let images = WrappedInputs::new(&self.device, inputs);
+        let out = &images.out;
+        let camera = inputs.camera(h);
         let eval_level = SsbcPass::eval_level(
             &camera,
             inputs.typical_depth,
@@ -548,32 +623,13 @@ impl SsbcPostProcess {
         // The host finished the slot's previous frame: its queries are free.
         self.profiler.begin_frame(cmd, slot, true);
         let scope = self.profiler.begin(cmd, "ssbc_postprocess");
+        let (visible, hidden) = images.layers();
         let recorded = self.pass.record_steps(
             &mut rec,
             &mut self.profiler,
             pool,
-            SsbcLayer {
-                gbuffer: SsbcGBuffer {
-                    position: &position,
-                    normal: &normal,
-                    albedo: &albedo,
-                    geometric: None,
-                },
-                s0: &s0,
-                sources: sources.as_ref().unwrap_or(&s0),
-            },
-            hidden
-                .as_ref()
-                .map(|[position, normal, albedo, s0]| SsbcLayer {
-                    gbuffer: SsbcGBuffer {
-                        position,
-                        normal,
-                        albedo,
-                        geometric: None,
-                    },
-                    s0,
-                    sources: s0,
-                }),
+            visible,
+            hidden,
             &SsbcInputs {
                 camera: &camera,
                 bound: inputs.bound,
@@ -593,27 +649,9 @@ impl SsbcPostProcess {
             PostOutput::Compensated => &frame.final_image,
             PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
         };
-        rec.copy_image(result, (0, 0), &out, (w, h));
+        rec.copy_image(result, (0, 0), out, (w, h));
         if self.restore_layouts {
-            let mut host = vec![
-                (&position, inputs.position.layout),
-                (&normal, inputs.normal.layout),
-                (&albedo, inputs.albedo.layout),
-                (&s0, inputs.s0.layout),
-                (&out, inputs.output.layout),
-            ];
-            if let (Some(image), Some(declared)) = (&sources, &inputs.sources) {
-                host.push((image, declared.layout));
-            }
-            if let (Some(images), Some(l)) = (&hidden, &inputs.hidden) {
-                let declared = [l.position, l.normal, l.albedo, l.s0].map(|i| i.layout);
-                host.extend(images.iter().zip(declared));
-            }
-            for (image, layout) in host {
-                if layout != vk::ImageLayout::UNDEFINED {
-                    rec.hand_back(image, layout);
-                }
-            }
+            images.hand_back(&mut rec, inputs);
         }
         rec.flush_barriers();
         self.profiler.end(cmd, scope);

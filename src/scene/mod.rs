@@ -647,48 +647,54 @@ impl Scene {
             }
         }
         for (i, m) in self.materials.iter().enumerate() {
-            let bad = |what: String| Err(Error::scene(&self.name, format!("material {i}: {what}")));
-            if !m.base_color.is_finite() || m.base_color.min_element() < 0.0 {
-                return bad("base colour is negative or not finite".into());
+            self.check_material(m)
+                .map_err(|what| Error::scene(&self.name, format!("material {i}: {what}")))?;
+        }
+        Ok(())
+    }
+
+    /// What is wrong with material `m`, if anything.
+    fn check_material(&self, m: &Material) -> std::result::Result<(), String> {
+        if !m.base_color.is_finite() || m.base_color.min_element() < 0.0 {
+            return Err("base colour is negative or not finite".into());
+        }
+        if !m.emission.is_finite() || m.emission.min_element() < 0.0 {
+            return Err(format!("emission {} is negative or not finite", m.emission));
+        }
+        if let AlphaMode::Mask(c) = m.alpha {
+            if !(0.0..=1.0).contains(&c) {
+                return Err(format!("alpha cutoff {c} is outside [0, 1]"));
             }
-            if !m.emission.is_finite() || m.emission.min_element() < 0.0 {
-                return bad(format!("emission {} is negative or not finite", m.emission));
-            }
-            if let AlphaMode::Mask(c) = m.alpha {
-                if !(0.0..=1.0).contains(&c) {
-                    return bad(format!("alpha cutoff {c} is outside [0, 1]"));
+        }
+        if !m.normal_scale.is_finite() {
+            return Err("normal scale is not finite".into());
+        }
+        let mut reflectance_texture = None;
+        if let Reflectance::MetallicRoughness {
+            metallic,
+            roughness,
+            texture,
+        } = m.reflectance
+        {
+            for (name, v) in [("metallic", metallic), ("roughness", roughness)] {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(format!("{name} {v} is outside [0, 1]"));
                 }
             }
-            if !m.normal_scale.is_finite() {
-                return bad("normal scale is not finite".into());
-            }
-            let mut reflectance_texture = None;
-            if let Reflectance::MetallicRoughness {
-                metallic,
-                roughness,
-                texture,
-            } = m.reflectance
-            {
-                for (name, v) in [("metallic", metallic), ("roughness", roughness)] {
-                    if !(0.0..=1.0).contains(&v) {
-                        return bad(format!("{name} {v} is outside [0, 1]"));
-                    }
-                }
-                reflectance_texture = texture.map(|t| t.index);
-            }
-            let textures = [
-                m.texture,
-                m.emissive_texture.map(|t| t.index),
-                m.normal_texture.map(|t| t.index),
-                reflectance_texture,
-            ];
-            if let Some(t) = textures
-                .into_iter()
-                .flatten()
-                .find(|&t| t >= self.textures.len())
-            {
-                return bad(format!("texture {t} does not exist"));
-            }
+            reflectance_texture = texture.map(|t| t.index);
+        }
+        let textures = [
+            m.texture,
+            m.emissive_texture.map(|t| t.index),
+            m.normal_texture.map(|t| t.index),
+            reflectance_texture,
+        ];
+        if let Some(t) = textures
+            .into_iter()
+            .flatten()
+            .find(|&t| t >= self.textures.len())
+        {
+            return Err(format!("texture {t} does not exist"));
         }
         Ok(())
     }

@@ -77,6 +77,29 @@ impl DescriptorSetLayout {
     pub fn name(&self, name: &str) {
         self.device.set_name(self.raw, name);
     }
+
+    /// The descriptor type of each of `bindings`, which must be exactly
+    /// this layout's.
+    fn types_of(&self, bindings: &[(u32, Binding<'_>)]) -> Result<Vec<vk::DescriptorType>> {
+        if bindings.len() != self.bindings.len() {
+            return Err(Error::InvalidParameter(format!(
+                "internal: {} of the set layout's {} bindings given",
+                bindings.len(),
+                self.bindings.len()
+            )));
+        }
+        bindings
+            .iter()
+            .map(|(number, _)| {
+                let ty = self.bindings.iter().find(|(n, _)| n == number);
+                ty.map(|(_, t)| *t).ok_or_else(|| {
+                    Error::InvalidParameter(format!(
+                        "internal: binding {number} is not in the set layout"
+                    ))
+                })
+            })
+            .collect()
+    }
 }
 
 impl Drop for DescriptorSetLayout {
@@ -144,28 +167,7 @@ impl DescriptorPool {
         layout: &DescriptorSetLayout,
         bindings: &[(u32, Binding<'_>)],
     ) -> Result<vk::DescriptorSet> {
-        let types: Vec<vk::DescriptorType> = bindings
-            .iter()
-            .map(|(number, _)| {
-                layout
-                    .bindings
-                    .iter()
-                    .find(|(n, _)| n == number)
-                    .map(|(_, t)| *t)
-                    .ok_or_else(|| {
-                        Error::InvalidParameter(format!(
-                            "internal: binding {number} is not in the set layout"
-                        ))
-                    })
-            })
-            .collect::<Result<_>>()?;
-        if bindings.len() != layout.bindings.len() {
-            return Err(Error::InvalidParameter(format!(
-                "internal: {} of the set layout's {} bindings given",
-                bindings.len(),
-                layout.bindings.len()
-            )));
-        }
+        let types = layout.types_of(bindings)?;
         let layouts = [layout.raw];
         let info = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(self.raw)
