@@ -519,20 +519,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         integration: settings.ssbc.integration,
         ssbc_steps,
     };
-    let ism = images.ism;
-    let ism_readback = ism_depth.map(|texels| {
-        let (depth, facing) = texels.into_iter().map(ism_unpack).unzip();
-        IsmReadback {
-            width: ism.atlas.desc.width,
-            height: ism.atlas.desc.height,
-            tile: ism.tile,
-            tiles_per_row: ism.tiles_per_row,
-            far: ism.far,
-            depth,
-            facing,
-            point_radius: ism.point_radius,
-        }
-    });
+    let ism_readback = ism_depth.map(|texels| IsmReadback::new(images.ism, texels));
     Ok(Frame {
         width: settings.width,
         height: settings.height,
@@ -545,6 +532,23 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         samples,
         accumulated: 1,
     })
+}
+
+impl IsmReadback {
+    /// The atlas `ism` read back as `texels` (packed distance and facing).
+    fn new(ism: &Ism, texels: Vec<u32>) -> Self {
+        let (depth, facing) = texels.into_iter().map(ism_unpack).unzip();
+        IsmReadback {
+            width: ism.atlas.desc.width,
+            height: ism.atlas.desc.height,
+            tile: ism.tile,
+            tiles_per_row: ism.tiles_per_row,
+            far: ism.far,
+            depth,
+            facing,
+            point_radius: ism.point_radius,
+        }
+    }
 }
 
 /// An error if a pixel's sample count says its residual sum was cut short

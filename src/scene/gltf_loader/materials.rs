@@ -200,22 +200,7 @@ impl Loader<'_> {
             }
             None => (None, 1.0),
         };
-        use json::material::AlphaMode as A;
-        let alpha = match checked(&m.alpha_mode) {
-            Some(A::Opaque) => crate::scene::AlphaMode::Opaque,
-            Some(A::Mask) => {
-                let cutoff = m.alpha_cutoff.map(|c| c.0).unwrap_or(0.5);
-                if !(0.0..=1.0).contains(&cutoff) {
-                    return Err(self.err(format!(
-                        "material {index}: alphaCutoff {cutoff} is outside [0, 1]"
-                    )));
-                }
-                crate::scene::AlphaMode::Mask(cutoff)
-            }
-            // Blending is not supported: a cutoff at 0.5 keeps the opaque parts.
-            Some(A::Blend) => crate::scene::AlphaMode::Mask(0.5),
-            None => return Err(self.err(format!("material {index}: invalid alphaMode"))),
-        };
+        let alpha = self.alpha_mode(index, m)?;
         let (metallic, roughness) = (pbr.metallic_factor.0, pbr.roughness_factor.0);
         for (name, v) in [("metallicFactor", metallic), ("roughnessFactor", roughness)] {
             if !(0.0..=1.0).contains(&v) {
@@ -244,6 +229,26 @@ impl Loader<'_> {
                 roughness,
                 texture: read_at(reflectance_texture, uv_maps.reflectance),
             },
+        })
+    }
+
+    /// Material `index`'s alpha mode (blending becomes a mask at 0.5).
+    pub(super) fn alpha_mode(&self, index: usize, m: &json::Material) -> Result<crate::scene::AlphaMode> {
+        use json::material::AlphaMode as A;
+        Ok(match checked(&m.alpha_mode) {
+            Some(A::Opaque) => crate::scene::AlphaMode::Opaque,
+            Some(A::Mask) => {
+                let cutoff = m.alpha_cutoff.map(|c| c.0).unwrap_or(0.5);
+                if !(0.0..=1.0).contains(&cutoff) {
+                    return Err(self.err(format!(
+                        "material {index}: alphaCutoff {cutoff} is outside [0, 1]"
+                    )));
+                }
+                crate::scene::AlphaMode::Mask(cutoff)
+            }
+            // Blending is not supported: a cutoff at 0.5 keeps the opaque parts.
+            Some(A::Blend) => crate::scene::AlphaMode::Mask(0.5),
+            None => return Err(self.err(format!("material {index}: invalid alphaMode"))),
         })
     }
 
