@@ -19,10 +19,14 @@ use crate::settings::RenderSettings;
 use crate::timings::CpuSpan;
 use crate::vk::Device;
 
+/// What a VPL set was traced for: lights and objects versions, VPL
+/// settings, interleaving pattern side.
+type VplKey = (u64, u64, VplSettings, u32);
+
 /// VPLs traced for one version of the lights and one set of settings, in
 /// the order of their interleaving subsets.
 pub struct VplCache {
-    key: (u64, u64, VplSettings, u32),
+    key: VplKey,
     /// The VPLs and the light paths that made them.
     pub set: VplSet,
     /// The same, as the GPU reads them.
@@ -157,56 +161,7 @@ impl SceneCache {
         let side = settings.pattern_side();
         let vpl_key = (versions.lights, versions.objects, settings.vpl.clone(), side);
         if !cache.vpls.as_ref().is_some_and(|v| v.key == vpl_key) {
-            let shown = visibility_hash(scene);
-            let directional = scene
-                .lights
-                .iter()
-                .any(|l| matches!(l.kind, crate::scene::LightKind::Directional));
-            // The paths and corner rays of VPLs traced for the same lights
-            // and settings, before objects moved, are kept where they
-            // cross none of the moved boxes (a directional light's paths
-            // start on a disk the size of the scene's bounds).
-            let earlier = cache.vpls.as_ref().filter(|v| {
-                (v.key.0, &v.key.2, v.key.3) == (vpl_key.0, &vpl_key.2, vpl_key.3)
-                    && v.traced_in.1 == shown
-                    && (!directional || v.traced_in.0 == cache.bounds)
-            });
-            let moved = &cache.moved_since_vpls;
-            let mut set = CpuSpan::time(spans, "vpl_generation", || {
-                let reuse = earlier.map(|v| vpl::Reuse { set: &v.set, moved });
-                vpl::generate_with(scene, &cache.bvh, &settings.vpl, &cache.bounds, reuse)
-            })?;
-            let subsets = vpl::interleave(&mut set.vpls, side * side);
-            // Each VPL splats the block of points its identity picks (so
-            // its ISM does not change with the paths traced before it).
-            let count = set.vpls.len() as u32;
-            let blocks = point_blocks(count as usize) as u64;
-            let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
-            let gpu = set.vpls.iter().zip(0..);
-            let miss = 4.0 * cache.bounds.radius().max(1e-3);
-            let ism_corners = CpuSpan::time(spans, "ism_rays", || {
-                let known = earlier
-                    .filter(|v| 4.0 * v.traced_in.0.radius().max(1e-3) == miss)
-                    .map(|v| ism_rays::KnownCorners {
-                        vpls: &v.set.vpls,
-                        depths: &v.ism_corners,
-                        moved,
-                    });
-                ism_rays::corner_depths(&cache.bvh, &set.vpls, miss, known)
-            });
-            cache.vpls = Some(VplCache {
-                ism_base: ism_rays::blocks(&ism_corners),
-                ism_corners,
-                traced_in: (cache.bounds, shown),
-                gpu: gpu
-                    .map(|(v, i)| GpuVpl::new(v, i, count, block(v)))
-                    .collect(),
-                set,
-                subsets,
-                key: vpl_key,
-                version: next_version(),
-            });
-            cache.moved_since_vpls.clear();
+            cache.trace_vpls(scene, settings, vpl_key, spans)?;
         }
         let blocks = point_blocks(cache.vpls().set.vpls.len());
         // Points move with their objects; an object shown again needs its own.
@@ -228,6 +183,70 @@ impl SceneCache {
             });
         }
         Ok(cache)
+    }
+
+    /// Traces the VPLs for `key` (lights, objects, VPL settings, pattern
+    /// side), with their ISM ray layers, reusing an earlier set's paths
+    /// where nothing moved across them.
+    fn trace_vpls(
+        &mut self,
+        scene: &Scene,
+        settings: &RenderSettings,
+        vpl_key: VplKey,
+        spans: &mut Vec<CpuSpan>,
+    ) -> Result<()> {
+        let side = vpl_key.3;
+        let shown = visibility_hash(scene);
+        let directional = scene
+            .lights
+            .iter()
+            .any(|l| matches!(l.kind, crate::scene::LightKind::Directional));
+        // The paths and corner rays of VPLs traced for the same lights
+        // and settings, before objects moved, are kept where they
+        // cross none of the moved boxes (a directional light's paths
+        // start on a disk the size of the scene's bounds).
+        let earlier = self.vpls.as_ref().filter(|v| {
+            (v.key.0, &v.key.2, v.key.3) == (vpl_key.0, &vpl_key.2, vpl_key.3)
+                && v.traced_in.1 == shown
+                && (!directional || v.traced_in.0 == self.bounds)
+        });
+        let moved = &self.moved_since_vpls;
+        let mut set = CpuSpan::time(spans, "vpl_generation", || {
+            let reuse = earlier.map(|v| vpl::Reuse { set: &v.set, moved });
+            vpl::generate_with(scene, &self.bvh, &settings.vpl, &self.bounds, reuse)
+        })?;
+        let subsets = vpl::interleave(&mut set.vpls, side * side);
+        // Each VPL splats the block of points its identity picks (so
+        // its ISM does not change with the paths traced before it).
+        let count = set.vpls.len() as u32;
+        let blocks = point_blocks(count as usize) as u64;
+        let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
+        let gpu = set.vpls.iter().zip(0..);
+        let miss = 4.0 * self.bounds.radius().max(1e-3);
+        let ism_corners = CpuSpan::time(spans, "ism_rays", || {
+            let known = earlier
+                .filter(|v| 4.0 * v.traced_in.0.radius().max(1e-3) == miss)
+                .map(|v| ism_rays::KnownCorners {
+                    vpls: &v.set.vpls,
+                    depths: &v.ism_corners,
+                    moved,
+                });
+            ism_rays::corner_depths(&self.bvh, &set.vpls, miss, known)
+        });
+        self.vpls = Some(VplCache {
+            ism_base: ism_rays::blocks(&ism_corners),
+            ism_corners,
+            traced_in: (self.bounds, shown),
+            gpu: gpu
+                .map(|(v, i)| GpuVpl::new(v, i, count, block(v)))
+                .collect(),
+            set,
+            subsets,
+            key: vpl_key,
+            version: next_version(),
+        });
+        self.moved_since_vpls.clear();
+        Ok(())
     }
 
     /// Brings each object's world bounds up to its transform (only moved,
