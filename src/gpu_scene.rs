@@ -32,6 +32,97 @@ pub struct GpuMesh {
     pub masked_count: u32,
 }
 
+/// Every mesh's vertices and indices in one array each, and where each
+/// mesh is: per mesh, opaque triangles first. The shadow pass draws them
+/// depth-only (an alpha test in the fragment shader costs rasterizers
+/// their fast depth-only path: llvmpipe's shadow pass was 14x slower with
+/// it).
+fn pack_meshes(scene: &Scene) -> (Vec<crate::scene::Vertex>, Vec<u32>, Vec<GpuMesh>) {
+    let (mut vertices, mut indices, mut meshes) = (Vec::new(), Vec::new(), Vec::new());
+    for mesh in scene.meshes() {
+        let (mut opaque, mut masked) = (Vec::new(), Vec::new());
+        for tri in mesh.indices.chunks_exact(3) {
+            if masked_material(scene, mesh.vertices[tri[0] as usize].material) {
+                masked.extend_from_slice(tri);
+            } else {
+                opaque.extend_from_slice(tri);
+            }
+        }
+        meshes.push(GpuMesh {
+            vertex_offset: vertices.len() as i32,
+            first_index: indices.len() as u32,
+            opaque_count: opaque.len() as u32,
+            masked_count: masked.len() as u32,
+        });
+        vertices.extend_from_slice(&mesh.vertices);
+        indices.extend(opaque);
+        indices.extend(masked);
+    }
+    (vertices, indices, meshes)
+}
+
+/// Each texture's layer in an array that holds the `used` ones (-1: not
+/// in it).
+fn array_layers(used: &[bool]) -> Vec<i32> {
+    let mut next = 0;
+    used.iter()
+        .map(|&u| {
+            if u {
+                next += 1;
+                next - 1
+            } else {
+                -1
+            }
+        })
+        .collect()
+}
+
+/// Which array each texture goes to, by how the materials read it.
+struct TextureRoles {
+    /// Base colour or emission: sRGB.
+    as_color: Vec<bool>,
+    /// Normal or metallic-roughness map: linear.
+    as_linear: Vec<bool>,
+    /// A normal map (averaged as unit vectors in its mips, unless it is a
+    /// metallic-roughness map too).
+    as_normals: Vec<bool>,
+    /// A metallic-roughness map.
+    as_data: Vec<bool>,
+}
+
+impl TextureRoles {
+    fn of(scene: &Scene) -> Self {
+        let none = vec![false; scene.textures.len()];
+        let mut roles = Self {
+            as_color: none.clone(),
+            as_linear: none.clone(),
+            as_normals: none.clone(),
+            as_data: none,
+        };
+        for m in &scene.materials {
+            for t in [m.texture, m.emissive_texture.map(|t| t.index)]
+                .into_iter()
+                .flatten()
+            {
+                roles.as_color[t] = true;
+            }
+            for t in [m.normal_texture, m.reflectance_texture()]
+                .into_iter()
+                .flatten()
+            {
+                roles.as_linear[t.index] = true;
+            }
+            if let Some(t) = m.normal_texture {
+                roles.as_normals[t.index] = true;
+            }
+            if let Some(t) = m.reflectance_texture() {
+                roles.as_data[t.index] = true;
+            }
+        }
+        roles
+    }
+}
+
 /// Frames that may be in flight at once: each has its command pool,
 /// timestamp queries and resources, and its copy of the objects here.
 pub const FRAME_SLOTS: usize = 2;
@@ -119,35 +210,12 @@ impl GpuScene {
     /// records ([`GpuScene::record_uploads`]), so nothing waits; objects
     /// per frame slot ([`GpuScene::write_objects`]).
     pub fn upload(device: &Arc<Device>, scene: &Scene, slots: usize) -> Result<Self> {
-        // Per mesh, opaque triangles first: the shadow pass draws them
-        // depth-only (an alpha test in the fragment shader costs
-        // rasterizers their fast depth-only path: llvmpipe's shadow pass
-        // was 14x slower with it).
-        let (mut vertices, mut indices, mut meshes) = (Vec::new(), Vec::new(), Vec::new());
+        let (vertices, indices, meshes) = pack_meshes(scene);
         let rays = RayScene::new(device, scene, slots);
         let input = match rays {
             Some(_) => RayScene::INPUT_USAGE,
             None => vk::BufferUsageFlags::empty(),
         };
-        for mesh in scene.meshes() {
-            let (mut opaque, mut masked) = (Vec::new(), Vec::new());
-            for tri in mesh.indices.chunks_exact(3) {
-                if masked_material(scene, mesh.vertices[tri[0] as usize].material) {
-                    masked.extend_from_slice(tri);
-                } else {
-                    opaque.extend_from_slice(tri);
-                }
-            }
-            meshes.push(GpuMesh {
-                vertex_offset: vertices.len() as i32,
-                first_index: indices.len() as u32,
-                opaque_count: opaque.len() as u32,
-                masked_count: masked.len() as u32,
-            });
-            vertices.extend_from_slice(&mesh.vertices);
-            indices.extend(opaque);
-            indices.extend(masked);
-        }
         let vertices = Buffer::with_data(
             device,
             "scene.vertices",
@@ -163,47 +231,13 @@ impl GpuScene {
         let objects = (0..slots)
             .map(|slot| Ok((objects_buffer(device, slot, scene.objects().len())?, 0)))
             .collect::<Result<Vec<_>>>()?;
-        // Which textures go to which array.
-        let mut as_color = vec![false; scene.textures.len()];
-        let mut as_linear = vec![false; scene.textures.len()];
-        // Normal maps are averaged as unit vectors, unless a texture is a
-        // metallic-roughness map too.
-        let mut as_normals = vec![false; scene.textures.len()];
-        let mut as_data = vec![false; scene.textures.len()];
-        for m in &scene.materials {
-            for t in [m.texture, m.emissive_texture.map(|t| t.index)]
-                .into_iter()
-                .flatten()
-            {
-                as_color[t] = true;
-            }
-            for t in [m.normal_texture, m.reflectance_texture()]
-                .into_iter()
-                .flatten()
-            {
-                as_linear[t.index] = true;
-            }
-            if let Some(t) = m.normal_texture {
-                as_normals[t.index] = true;
-            }
-            if let Some(t) = m.reflectance_texture() {
-                as_data[t.index] = true;
-            }
-        }
-        let layers = |used: &[bool]| -> Vec<i32> {
-            let mut next = 0;
-            used.iter()
-                .map(|&u| {
-                    if u {
-                        next += 1;
-                        next - 1
-                    } else {
-                        -1
-                    }
-                })
-                .collect()
-        };
-        let (color_layer, linear_layer) = (layers(&as_color), layers(&as_linear));
+        let TextureRoles {
+            as_color,
+            as_linear,
+            as_normals,
+            as_data,
+        } = TextureRoles::of(scene);
+        let (color_layer, linear_layer) = (array_layers(&as_color), array_layers(&as_linear));
         let mats: Vec<GpuMaterial> = scene
             .materials
             .iter()
