@@ -135,6 +135,33 @@ pub struct GraphicsDesc<'a> {
     pub reversed_depth: bool,
 }
 
+impl GraphicsDesc<'_> {
+    /// Filled triangles, both faces, with the depth bias asked for.
+    fn rasterization(&self) -> vk::PipelineRasterizationStateCreateInfo<'static> {
+        vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(vk::CullModeFlags::NONE)
+            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+            .depth_bias_enable(self.depth_bias != (0.0, 0.0))
+            .depth_bias_constant_factor(self.depth_bias.0)
+            .depth_bias_slope_factor(self.depth_bias.1)
+            .line_width(1.0)
+    }
+
+    /// Depth tested and written, nearer passing (greater when reversed).
+    fn depth_stencil(&self) -> vk::PipelineDepthStencilStateCreateInfo<'static> {
+        let compare = if self.reversed_depth {
+            vk::CompareOp::GREATER
+        } else {
+            vk::CompareOp::LESS
+        };
+        vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(true)
+            .depth_write_enable(true)
+            .depth_compare_op(compare)
+    }
+}
+
 /// The vertex and (optional) fragment modules of `desc`; none is left
 /// behind on failure.
 fn graphics_modules(
@@ -271,24 +298,10 @@ impl Pipeline {
         let viewport = vk::PipelineViewportStateCreateInfo::default()
             .viewport_count(1)
             .scissor_count(1);
-        let raster = vk::PipelineRasterizationStateCreateInfo::default()
-            .polygon_mode(vk::PolygonMode::FILL)
-            .cull_mode(vk::CullModeFlags::NONE)
-            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
-            .depth_bias_enable(desc.depth_bias != (0.0, 0.0))
-            .depth_bias_constant_factor(desc.depth_bias.0)
-            .depth_bias_slope_factor(desc.depth_bias.1)
-            .line_width(1.0);
+        let raster = desc.rasterization();
         let multisample = vk::PipelineMultisampleStateCreateInfo::default()
             .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(true)
-            .depth_write_enable(true)
-            .depth_compare_op(if desc.reversed_depth {
-                vk::CompareOp::GREATER
-            } else {
-                vk::CompareOp::LESS
-            });
+        let depth = desc.depth_stencil();
         let blend_attachments: Vec<_> = desc
             .color_formats
             .iter()
