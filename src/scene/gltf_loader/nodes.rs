@@ -76,26 +76,7 @@ impl Loader<'_> {
             _ => {}
         }
         if let Some(cam) = node.camera {
-            let c = root
-                .cameras
-                .get(cam.value())
-                .ok_or_else(|| self.err(format!("camera index {} out of range", cam.value())))?;
-            match &c.perspective {
-                Some(p) if p.yfov > 0.0 && p.yfov < std::f32::consts::PI => {
-                    let (_, rot, pos) = world.to_scale_rotation_translation();
-                    scene.cameras.push(Camera {
-                        position: pos,
-                        forward: (rot * -Vec3::Z).normalize(),
-                        up: (rot * Vec3::Y).normalize(),
-                        yfov: p.yfov,
-                    });
-                }
-                _ => log::warn!(
-                    "{}: camera {} is not a valid perspective camera; skipped",
-                    self.name,
-                    cam.value()
-                ),
-            }
+            self.camera(cam.value(), world, scene)?;
         }
         if let Some(l) = node
             .extensions
@@ -114,6 +95,33 @@ impl Loader<'_> {
                 materials,
                 default_material,
             )?;
+        }
+        Ok(())
+    }
+
+    /// Adds camera `index`, placed by its node's `world` transform (one
+    /// that is not a valid perspective camera is skipped with a warning).
+    pub(super) fn camera(&self, index: usize, world: Mat4, scene: &mut Scene) -> Result<()> {
+        let c = self
+            .root
+            .cameras
+            .get(index)
+            .ok_or_else(|| self.err(format!("camera index {index} out of range")))?;
+        match &c.perspective {
+            Some(p) if p.yfov > 0.0 && p.yfov < std::f32::consts::PI => {
+                let (_, rot, pos) = world.to_scale_rotation_translation();
+                scene.cameras.push(Camera {
+                    position: pos,
+                    forward: (rot * -Vec3::Z).normalize(),
+                    up: (rot * Vec3::Y).normalize(),
+                    yfov: p.yfov,
+                });
+            }
+            _ => log::warn!(
+                "{}: camera {} is not a valid perspective camera; skipped",
+                self.name,
+                index
+            ),
         }
         Ok(())
     }
