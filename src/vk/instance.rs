@@ -123,6 +123,44 @@ pub struct Instance {
     libraries_before: Option<LoadedLibraries>,
 }
 
+/// The layers and instance extensions to enable (the validation layer and
+/// its features with `validation`; debug utils, for object names and
+/// command labels in captures and validation messages, whenever the loader
+/// offers it), and whether debug utils is among them.
+fn layers_and_extensions(
+    entry: &ash::Entry,
+    validation: bool,
+    extra_extensions: &[&CStr],
+) -> Result<(Vec<*const i8>, Vec<*const i8>, bool)> {
+    let mut layers = Vec::new();
+    let mut extensions: Vec<*const i8> = extra_extensions.iter().map(|e| e.as_ptr()).collect();
+    if validation {
+        // SAFETY: plain enumeration on a loaded entry.
+        let available = unsafe { entry.enumerate_instance_layer_properties() }
+            .vk("vkEnumerateInstanceLayerProperties")?;
+        let present = available
+            .iter()
+            .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
+        if !present {
+            return Err(Error::NoValidationLayer);
+        }
+        layers.push(VALIDATION_LAYER.as_ptr());
+        extensions.push(ash::ext::validation_features::NAME.as_ptr());
+    }
+    // SAFETY: plain enumeration on a loaded entry.
+    let debug_utils = validation
+        || unsafe { entry.enumerate_instance_extension_properties(None) }
+            .map(|exts| {
+                exts.iter()
+                    .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME))
+            })
+            .unwrap_or(false);
+    if debug_utils {
+        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
+    Ok((layers, extensions, debug_utils))
+}
+
 impl Instance {
     /// Loads Vulkan and creates an instance for API 1.3. With `validation`,
     /// enables the Khronos layer with synchronization validation. Extra
@@ -146,36 +184,8 @@ impl Instance {
             .map_err(|e| Error::NoDevice(format!("cannot load the Vulkan loader ({e})")))?;
 
         let validation_log = Arc::new(ValidationLog::default());
-        let mut layers = Vec::new();
-        let mut extensions: Vec<*const i8> = extra_extensions.iter().map(|e| e.as_ptr()).collect();
-        if validation {
-            // SAFETY: plain enumeration on a loaded entry.
-            let available = unsafe { entry.enumerate_instance_layer_properties() }
-                .vk("vkEnumerateInstanceLayerProperties")?;
-            let present = available
-                .iter()
-                .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
-            if !present {
-                return Err(Error::NoValidationLayer);
-            }
-            layers.push(VALIDATION_LAYER.as_ptr());
-            extensions.push(ash::ext::validation_features::NAME.as_ptr());
-        }
-        // Debug utils (object names and command labels for captures and
-        // validation messages) whenever the loader offers it.
-        // SAFETY: plain enumeration on a loaded entry.
-        let debug_utils = validation
-            || unsafe { entry.enumerate_instance_extension_properties(None) }
-                .map(|exts| {
-                    exts.iter().any(|e| {
-                        e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME)
-                    })
-                })
-                .unwrap_or(false);
-        if debug_utils {
-            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-
+        let (layers, extensions, debug_utils) =
+            layers_and_extensions(&entry, validation, extra_extensions)?;
         let app_info = vk::ApplicationInfo::default()
             .application_name(c"ssbc")
             .engine_name(c"ssbc")
