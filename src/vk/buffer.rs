@@ -26,10 +26,7 @@ pub struct Buffer {
 /// `device`, as [`Buffer::new`] makes it (its memory requirements, asked
 /// before it exists: Vulkan 1.3).
 pub fn buffer_memory_bytes(device: &Device, size: u64, usage: vk::BufferUsageFlags) -> u64 {
-    let info = vk::BufferCreateInfo::default()
-        .size(size.max(4))
-        .usage(usage)
-        .sharing_mode(vk::SharingMode::EXCLUSIVE);
+    let info = create_info(size, usage);
     let query = vk::DeviceBufferMemoryRequirements::default().create_info(&info);
     let mut requirements = vk::MemoryRequirements2::default();
     // SAFETY: a valid create info on a live Vulkan 1.3 device.
@@ -41,6 +38,14 @@ pub fn buffer_memory_bytes(device: &Device, size: u64, usage: vk::BufferUsageFla
     requirements.memory_requirements.size
 }
 
+/// How [`Buffer::new`] creates a buffer of `size` bytes (at least 4).
+fn create_info(size: u64, usage: vk::BufferUsageFlags) -> vk::BufferCreateInfo<'static> {
+    vk::BufferCreateInfo::default()
+        .size(size.max(4))
+        .usage(usage)
+        .sharing_mode(vk::SharingMode::EXCLUSIVE)
+}
+
 impl Buffer {
     /// Creates a buffer of `size` bytes (at least 4) in `location`.
     pub fn new(
@@ -50,11 +55,8 @@ impl Buffer {
         usage: vk::BufferUsageFlags,
         location: MemoryLocation,
     ) -> Result<Self> {
-        let size = size.max(4);
-        let info = vk::BufferCreateInfo::default()
-            .size(size)
-            .usage(usage)
-            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = create_info(size, usage);
+        let size = info.size;
         // SAFETY: valid create info on a live device.
         let raw = unsafe { device.raw.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         // SAFETY: `raw` was just created from this device.
