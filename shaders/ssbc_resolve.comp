@@ -8,7 +8,8 @@
 // which I(x) changes: short near corners and contacts; see
 // residual_integral). Otherwise the pixel asks for the four points around it
 // one level finer and goes on the pending list for that level; at level 1
-// the pending list is the fallback list (the pixel is evaluated alone).
+// the pending list is the fallback list (the pixel is evaluated alone). At
+// level 0 (no level is coarse enough for points) every pixel goes there.
 // pc.from_list = 0: every pixel (the coarsest level); 1: the pending list.
 #include "ssbc_types.glsl"
 
@@ -125,10 +126,16 @@ void main() {
     vec4 material = vec4(imageLoad(g_albedo, p).rgb, b.roughness);
     vec3 rest_blend = vec3(0.0);
     int l = int(pc.level);
+    if (l == 0) {
+        // There are no points at level 0 (point_index): the pixel is
+        // evaluated alone.
+        APPEND_ITEM_TO(pending_out, pack_item(p), glossy);
+        return;
+    }
     float t_cam = length(x - pc.frame.camera_position.xyz);
     float r_world = inversesqrt(pc.frame.bound);
     float max_spacing = 1.5 * r_world / pc.texels_per_radius;
-    bool ok = l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
+    bool ok = screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
     ivec2 t0;
     vec2 fraction;
     footprint(p, l, t0, fraction);
@@ -144,7 +151,7 @@ void main() {
         if (w > 0.0) {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
-                EvalPoint point = load_point(point_texels, texel_index(0u, t, l));
+                EvalPoint point = load_point(point_texels, point_index(t, l));
                 GeoCluster g = geo_cluster(texel_index(0u, eval_pixel(t, l), 0), 0u);
                 // The point's surface (geometric) normal: near the pixel's
                 // shading normal, and the pixel on its tangent plane.
@@ -159,7 +166,7 @@ void main() {
                     && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
                     && dist <= min(max_spacing, pc.scale_fraction * point.variation);
                 if (glossy && ok) {
-                    vec4 point_rest = texelFetch(point_glossy, int(texel_index(0u, t, l)));
+                    vec4 point_rest = texelFetch(point_glossy, int(point_index(t, l)));
                     ok = floatBitsToUint(point_rest.w) == pc.generation && same_material(eval_pixel(t, l), material, b);
                     // The point's lobe: about its shading normal.
                     vec3 n_point = imageLoad(g_normal, eval_pixel(t, l)).xyz;
@@ -202,8 +209,7 @@ void main() {
             ivec2 t = t0 + ivec2(k & 1, k >> 1);
             if (corner_weight(fraction, k) > 0.0 && all(greaterThanEqual(t, ivec2(0)))
                 && all(lessThan(t, level_size(0u, l - 1)))) {
-                uint index = texel_index(0u, t, l - 1);
-                if (atomicExchange(claims[index], pc.generation) != pc.generation) {
+                if (atomicExchange(claims[point_index(t, l - 1)], pc.generation) != pc.generation) {
                     // Points at glossy receivers at the back (ssbc_eval.glsl).
                     uint q_index = texel_index(0u, eval_pixel(t, l - 1), 0);
                     bool glossy_point = (geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u;

@@ -25,9 +25,9 @@ void main() {
     if (any(greaterThanEqual(uvec2(p), pc.frame.size))) return;
     if (geo_aux(texel_index(0u, p, 0)).pixels == 0u) return;
     float reads = imageLoad(samples, p).x;
-    for (int l = 0; l <= int(pc.eval_level); l++) {
+    for (int l = 1; l <= int(pc.eval_level); l++) {
         uint index = texel_index(0u, p >> l, l);
-        EvalPoint point = load_point(point_texels, index);
+        EvalPoint point = load_point(point_texels, point_index(p >> l, l));
         if (point.generation == pc.generation && point.reads > 0.0) {
             // A point whose loops were cut short marks every pixel of its block.
             bool cut_short = point.reads >= float(CUT_SHORT);

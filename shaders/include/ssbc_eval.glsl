@@ -71,6 +71,7 @@ void store_point(uint index, EvalPoint p) {
 void evaluate(ivec2 t, bool glossy) {
     int l = int(pc.level);
     uint index = texel_index(0u, t, l);
+    uint point_slot = point_index(t, l);
     ivec2 q = eval_pixel(t, l);
     uint q_index = texel_index(0u, q, 0);
     GeoCluster g = geo_cluster(q_index, 0u);
@@ -86,9 +87,9 @@ void evaluate(ivec2 t, bool glossy) {
     // interpolate across edges (cornell 640x480: 1.2 -> 4.2% RMSE). Either
     // way the point's own pixel must be geometry.
     bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (geo_aux(index).flags & 1u) == 1u)
-        && (l == 0 || screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l));
+        && screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
     if (!usable) {
-        store_point(index, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
+        store_point(point_slot, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
         return;
     }
 #ifdef SSBC_GLOSSY_POINTS
@@ -107,9 +108,9 @@ void evaluate(ivec2 t, bool glossy) {
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(q), count, variation);
-    store_point(index, EvalPoint(residual, float(count), variation, pc.generation, 0u));
+    store_point(point_slot, EvalPoint(residual, float(count), variation, pc.generation, 0u));
 #ifdef SSBC_GLOSSY_POINTS
-    if (glossy) imageStore(point_glossy, int(index), vec4(glossy_rest, uintBitsToFloat(pc.generation)));
+    if (glossy) imageStore(point_glossy, int(point_slot), vec4(glossy_rest, uintBitsToFloat(pc.generation)));
 #endif
 }
 

@@ -26,7 +26,8 @@ pub struct SsbcFrame {
     /// Sum of `A_y S_{k-1}(y)` per texel, as `R32G32B32A32_SFLOAT` texels
     /// (two per texel).
     pub radiance: BufferView,
-    /// Evaluation points, one per texel of every level (`EvalPoint`), as
+    /// Evaluation points, one per texel of layer 0's levels 1 and up
+    /// (`EvalPoint`, `point_index` in ssbc_pyramid.glsl), as
     /// `R32G32B32A32_UINT` texels (four per point).
     pub points: BufferView,
     /// Per evaluation point at a glossy receiver, the glossy rest of its
@@ -151,12 +152,12 @@ impl SsbcPass {
             point_glossy: view(point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
             claims,
             pending: [
-                buffer("ssbc.pending_a", &plan.list)?,
-                buffer("ssbc.pending_b", &plan.list)?,
+                buffer("ssbc.pending_a", &plan.pixel_list)?,
+                buffer("ssbc.pending_b", &plan.pixel_list)?,
             ],
-            requests: buffer("ssbc.requests", &plan.list)?,
-            top_points: buffer("ssbc.top_points", &plan.list)?,
-            fallback: buffer("ssbc.fallback", &plan.list)?,
+            requests: buffer("ssbc.requests", &plan.point_list)?,
+            top_points: buffer("ssbc.top_points", &plan.point_list)?,
+            fallback: buffer("ssbc.fallback", &plan.pixel_list)?,
             stats: buffer("ssbc.stats", &plan.stats)?,
             residuals,
             residual_sources,

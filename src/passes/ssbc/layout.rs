@@ -98,9 +98,11 @@ pub(super) struct FramePlan {
     pub points: BufferPlan,
     pub point_glossy: BufferPlan,
     pub claims: BufferPlan,
-    /// Each of the five work lists (pending two, requests, the coarsest
-    /// level's points, the fallback).
-    pub list: BufferPlan,
+    /// Each of the three lists of pixels (pending two, the fallback)...
+    pub pixel_list: BufferPlan,
+    /// ...and of the two of evaluation points (requests, the coarsest
+    /// level's points; at level 1 and up).
+    pub point_list: BufferPlan,
     /// The fallback lists' headers, read back.
     pub stats: BufferPlan,
     /// The final image, and per step its residual and what it sends.
@@ -111,16 +113,19 @@ pub(super) struct FramePlan {
     pub layer1_image: Option<ImageDesc>,
 }
 
-/// The work lists there are in a frame slot.
-pub(super) const LISTS: u64 = 5;
+/// The work lists of pixels and of points there are in a frame slot.
+const PIXEL_LISTS: u64 = 3;
+const POINT_LISTS: u64 = 2;
 
 impl FramePlan {
     pub fn new(extent: (u32, u32), steps: u32, layer1: Option<LayerResolution>) -> Self {
         // Level 0 padded so every level halves exactly (padding has no geometry).
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
         let layer1 = effective_layer1(layer1, levels);
-        // Evaluation points exist for layer 0's texels only.
-        let texels = pyramid_texels(pyramid_size, levels);
+        // Evaluation points exist for layer 0's levels 1 and up only
+        // (`point_index` in ssbc_pyramid.glsl; at least one, for a binding).
+        let level0 = pyramid_size.0 as u64 * pyramid_size.1 as u64;
+        let points = (pyramid_texels(pyramid_size, levels) - level0).max(1);
         let all_texels = all_layers_texels(pyramid_size, levels, layer1);
         let gpu = |bytes, usage| BufferPlan {
             bytes,
@@ -130,7 +135,14 @@ impl FramePlan {
         let texel_usage =
             vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER;
         let cleared = texel_usage | vk::BufferUsageFlags::TRANSFER_DST;
-        let list_bytes = LIST_HEADER_BYTES + 4 * pyramid_size.0 as u64 * pyramid_size.1 as u64;
+        let list = |items: u64| BufferPlan {
+            bytes: LIST_HEADER_BYTES + 4 * items,
+            usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            location: MemoryLocation::GpuOnly,
+        };
         let image = |format, (w, h): (u32, u32)| {
             let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
             ImageDesc::new_2d(format, w, h, usage)
@@ -143,19 +155,15 @@ impl FramePlan {
             geo: gpu(all_texels * GEO_TEXEL_BYTES, texel_usage),
             aux: gpu(all_texels * AUX_BYTES, texel_usage),
             radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
-            points: gpu(texels * EVAL_POINT_BYTES, cleared),
-            point_glossy: gpu(texels * POINT_GLOSSY_BYTES, cleared),
+            points: gpu(points * EVAL_POINT_BYTES, cleared),
+            point_glossy: gpu(points * POINT_GLOSSY_BYTES, cleared),
             claims: gpu(
-                texels * 4,
+                points * 4,
                 vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
             ),
-            list: gpu(
-                list_bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::INDIRECT_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC,
-            ),
+            pixel_list: list(level0),
+            // Level 1 has a quarter of level 0's texels.
+            point_list: list(level0.div_ceil(4)),
             stats: BufferPlan {
                 bytes: LIST_HEADER_BYTES * steps.max(1) as u64,
                 usage: vk::BufferUsageFlags::TRANSFER_DST,
@@ -193,7 +201,8 @@ impl FramePlan {
             &self.stats,
         ];
         buffers.iter().map(|b| buffer(b)).sum::<u64>()
-            + LISTS * buffer(&self.list)
+            + PIXEL_LISTS * buffer(&self.pixel_list)
+            + POINT_LISTS * buffer(&self.point_list)
             + (2 * steps + 1) * image(&self.radiance_image)
             + steps * image(&self.samples_image)
             + self

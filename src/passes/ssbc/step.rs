@@ -134,7 +134,7 @@ impl SsbcPass {
         rec.fill_buffer(&frame.points.buffer, 0);
         rec.fill_buffer(&frame.point_glossy.buffer, 0);
         rec.fill_buffer(&frame.claims, 0);
-        if frame_block.glossy_receivers() {
+        if frame_block.glossy_receivers() && inputs.eval_level >= 1 {
             self.record_list_points(rec, pool, frame_block, inputs.eval_level, frame)?;
         }
         profiler.end(rec.cmd, scope);
@@ -259,12 +259,15 @@ impl SsbcPass {
         let pixels = out.gbuffer.extent();
         let top = push.eval_level;
         // The coarsest level: every texel is an evaluation point, every pixel
-        // tries to interpolate.
-        let (w, h) = Self::level_extent(frame, 0, top);
-        let timed = (&mut *profiler, format!("{step_name}/eval_{top}"));
-        let top_list = push.frame.glossy_receivers().then_some(&frame.top_points);
-        let eval = push.eval(top, top_list.is_some());
-        self.record_eval(rec, timed, pool, &eval, (frame, &out.gbuffer), (top_list, [w, h, 1]))?;
+        // tries to interpolate. Level 0 has no points: every pixel goes to
+        // the fallback list.
+        if top >= 1 {
+            let (w, h) = Self::level_extent(frame, 0, top);
+            let timed = (&mut *profiler, format!("{step_name}/eval_{top}"));
+            let top_list = push.frame.glossy_receivers().then_some(&frame.top_points);
+            let eval = push.eval(top, top_list.is_some());
+            self.record_eval(rec, timed, pool, &eval, (frame, &out.gbuffer), (top_list, [w, h, 1]))?;
+        }
         let mut pending_in = &frame.fallback; // unused while not from a list
         let mut pending_out = if top >= 2 {
             &frame.pending[0]
