@@ -47,6 +47,7 @@ fn settings(size: (u32, u32), layer1: Option<LayerResolution>) -> RenderSettings
 
 fn banded(size: (u32, u32), layer1: Option<LayerResolution>, guard_band: bool) -> RenderSettings {
     let mut s = RenderSettings::new(size.0, size.1);
+    s.output_layers = true;
     s.ssbc.guard_band = guard_band;
     s.ssbc.layers = 1 + layer1.is_some() as u32;
     s.ssbc.layer1_resolution = layer1.unwrap_or_default();

@@ -108,6 +108,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|v| v.parse().ok())
         .unwrap_or(1024);
     let mut settings = RenderSettings::new(size.0, size.1);
+    settings.output_layers = true;
     let num = |flag: &str| value(render_args, flag).and_then(|v| v.parse::<f64>().ok());
     if let Some(v) = num("--vpls") {
         settings.vpl.count = v as usize;

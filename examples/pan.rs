@@ -47,6 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut scene = ssbc::scene::load(&scene_path)?;
     scene.ensure_light();
     let mut settings = RenderSettings::new(size.0, size.1);
+    settings.output_layers = true;
     if let Some(n) = value("--moving-frames").and_then(|v| v.parse().ok()) {
         settings.history.moving_frames = n;
     }

@@ -106,7 +106,7 @@ void main() {
         imageStore(residual, p, vec4(0.0));
         imageStore(residual_sources, p, vec4(0.0));
         imageStore(final_image, p, imageLoad(previous, p));
-        imageStore(samples, p, vec4(0.0));
+        imageStore(samples, p, vec4(-1.0)); // no geometry (read back as 0)
         return;
     }
     vec3 x = xp.xyz;

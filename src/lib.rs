@@ -89,6 +89,7 @@ pub struct EmbeddingDoctests;
 
 pub mod compare;
 pub mod error;
+pub mod memory;
 pub mod output;
 pub mod postprocess;
 pub mod profile;

@@ -211,10 +211,18 @@ pub fn timings_table(frame: &Frame) -> String {
         t.cpu_ms.ism_rays,
         t.bound
     );
+    let pixels = t.width as u64 * t.height as u64;
     s += &format!(
-        "  device memory: {:.1} MiB ({:.0} bytes per pixel)\n",
+        "  device memory: {:.1} MiB ({:.0} bytes per pixel) in all\n",
         t.device_memory_bytes as f64 / (1 << 20) as f64,
-        t.device_memory_bytes as f64 / (t.width as f64 * t.height as f64).max(1.0)
+        t.device_memory_bytes as f64 / pixels.max(1) as f64
+    );
+    s += &format!(
+        "  a frame slot: estimated {}\n  measured ({} slot{}): {}\n",
+        t.memory.estimated.summary(pixels),
+        t.memory.slots,
+        if t.memory.slots == 1 { "" } else { "s" },
+        t.memory.measured.summary(pixels)
     );
     if t.emission_w > 0.0 {
         s += &format!(

@@ -403,8 +403,8 @@ impl SsbcPostProcess {
     /// anything is created: the bytes its resources ask for. A device adds
     /// alignment and padding to each ([`SsbcPostProcess::memory_on`]).
     pub fn memory(shape: &PostProcessShape, slots: usize) -> PostProcessMemory {
-        let (w, h) = shape.extent;
-        let per_slot = crate::passes::ssbc::frame_bytes(w, h, shape.steps, shape.layer1);
+        let per_slot =
+            crate::passes::ssbc::frame_bytes(None, shape.extent, shape.steps, shape.layer1);
         Self::memory_of(per_slot, slots)
     }
 
@@ -413,8 +413,8 @@ impl SsbcPostProcess {
     /// allocator takes (H200: 3,231,456 estimated, 3,231,792 allocated,
     /// where the bytes asked for are 9.5% fewer; docs/performance.md).
     pub fn memory_on(device: &Device, shape: &PostProcessShape, slots: usize) -> PostProcessMemory {
-        let (w, h) = shape.extent;
-        let per_slot = crate::passes::ssbc::frame_bytes_on(device, w, h, shape.steps, shape.layer1);
+        let per_slot =
+            crate::passes::ssbc::frame_bytes(Some(device), shape.extent, shape.steps, shape.layer1);
         Self::memory_of(per_slot, slots)
     }
 

@@ -27,6 +27,7 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 pub use crate::gpu_scene::FRAME_SLOTS;
+pub use crate::memory::{FrameMemory, MemoryReport};
 use crate::resident::{ResidentScene, SceneVersions};
 use crate::scene::Scene;
 use crate::scene_cache::SceneCache;
@@ -41,21 +42,24 @@ pub use readback::{Frame, IsmReadback, Layer, LayerImage};
 pub use sink::GpuSubmission;
 use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 
-/// Bytes of device memory one frame slot's resources take for `scene` at
-/// `settings` (an estimate from the sizes the passes allocate, within a few
-/// percent); a frame that would not fit in the device's largest
-/// device-local heap is refused before anything is allocated. Frames in
-/// flight at once ([`Renderer::render_to_gpu`], [`FRAME_SLOTS`]) each take
-/// a slot. With `history.enabled` it counts the temporal history's images
-/// (48 bytes per pixel), which only resident frames allocate.
+/// Device memory one frame slot's resources take for `scene` at
+/// `settings`, by part: the bytes the passes ask for, before anything is
+/// allocated ([`Renderer::frame_memory`] adds a device's alignment). A frame
+/// that would not fit in the device's largest device-local heap is refused
+/// before anything is allocated. Frames in flight at once
+/// ([`Renderer::render_to_gpu`], [`FRAME_SLOTS`]) each take a slot. With
+/// `history.enabled` it counts the temporal history's images, which only
+/// resident frames allocate; the read-back part is that of
+/// [`Renderer::render`]'s frames.
 ///
 /// ```
 /// let scene = ssbc::scene::load("cornell").unwrap();
 /// let hd = ssbc::renderer::frame_memory(&scene, &ssbc::RenderSettings::new(1920, 1080));
-/// assert!(hd > 1 << 30);
+/// println!("1080p: {}", hd.summary(1920 * 1080));
+/// assert!(hd.ssbc_pyramids > 0 && hd.total() > hd.ssbc_pyramids);
 /// ```
-pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> u64 {
-    limits::frame_memory(settings, scene.lights.len())
+pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> FrameMemory {
+    limits::frame_memory(None, settings, scene.lights.len())
 }
 
 /// The renderer: a device, its passes, and a command pool per frame slot.
@@ -216,6 +220,13 @@ impl Renderer {
     /// The device.
     pub fn device(&self) -> &Arc<Device> {
         &self.device
+    }
+
+    /// [`frame_memory`] on this renderer's device: SSBC's resources as the
+    /// device's memory requirements say, alignment and padding included
+    /// (what the allocator then takes).
+    pub fn frame_memory(&self, scene: &Scene, settings: &RenderSettings) -> FrameMemory {
+        limits::frame_memory(Some(&self.device), settings, scene.lights.len())
     }
 
     /// Validation messages so far (stays readable after the renderer is dropped).

@@ -172,7 +172,13 @@ pub struct RenderSettings {
     pub bound: Bound,
     /// Bias compensation.
     pub ssbc: SsbcSettings,
-    /// Also read back the G-buffer and the ISM atlas (for tests and tools).
+    /// Read back the component layers with the final image: direct, bounded
+    /// indirect and each SSBC step's residual ([`Layer::outputs`](crate::Layer::outputs)).
+    /// Off by default: each is 16 bytes per pixel of host-visible memory
+    /// (the final image and the texels read per pixel are always read back).
+    pub output_layers: bool,
+    /// Also read back the G-buffer and the ISM atlas (for tests and tools;
+    /// implies `output_layers`).
     pub debug_readback: bool,
     /// Keep the shadow maps and ISMs of the frame slot's previous frame
     /// when the lights, surfaces, VPLs and their settings did not change
@@ -302,6 +308,7 @@ impl Default for RenderSettings {
             interleave: 4,
             bound: Bound::Auto,
             ssbc: SsbcSettings::default(),
+            output_layers: false,
             debug_readback: false,
             reuse_unchanged: true,
             history: HistorySettings::default(),

@@ -268,6 +268,10 @@ pub struct Timings {
     /// Bytes of device memory ssbc's resources took when the frame was
     /// read back (all frame slots, the scene and the read-back buffers).
     pub device_memory_bytes: u64,
+    /// One frame slot's device memory by part, estimated before it was
+    /// allocated, and measured from the allocator over the slots that hold
+    /// resources.
+    pub memory: crate::memory::MemoryReport,
     /// ISM tile side.
     pub ism_tile: u32,
     /// Points per VPL.

@@ -293,6 +293,15 @@ impl Renderer {
         let reused = record_passes(&mut rec, renderer, &setup, scene_view, history_frame, timed)?;
         let light_paths = cache.vpls().set.paths;
 
+        // What this frame's slot was estimated to take (the history only
+        // where this frame keeps one), and the slots that hold resources.
+        let mut estimated = limits::frame_memory(Some(&device), settings, scene.lights.len());
+        if history.is_none() {
+            estimated.history = 0;
+        }
+        let slots = (0..FRAME_SLOTS)
+            .filter(|&s| self.passes.images(s).is_some())
+            .count() as u32;
         let images = self.passes.images(slot).expect("recorded above");
         rec.use_buffer(&images.ssbc.stats, Access::HostRead);
         let output = sink.finish(
@@ -311,6 +320,7 @@ impl Renderer {
                 record_start,
                 submit_ns: 0,
                 previous_timings,
+                memory: (estimated, slots),
                 readback: &mut self.readback[slot],
                 profiler: &mut self.profiler,
                 slot_done: &mut self.slot_done[slot],

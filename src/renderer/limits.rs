@@ -1,7 +1,8 @@
 //! What the device and the settings allow, checked before a frame.
 
 use crate::error::{Error, Result};
-use crate::settings::{Bound, RenderSettings, SsbcSettings};
+use crate::memory::FrameMemory;
+use crate::settings::{Bound, Gather, RenderSettings, SsbcSettings};
 use crate::vk::Device;
 
 /// Largest number of ISM points uploaded (VPLs x points per VPL).
@@ -23,34 +24,49 @@ fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
-/// Bytes of device memory one frame slot takes at `settings` with `lights`
-/// punctual lights (its images, buffers, shadow maps, ISMs, SSBC pyramids
-/// and read-back buffers), as the passes allocate them; two frames in
-/// flight take two slots.
-pub(super) fn frame_memory(settings: &RenderSettings, lights: usize) -> u64 {
-    let (w, h) = (settings.width as u64, settings.height as u64);
+/// Bytes of a G-buffer pixel (position, normal, albedo and emission in
+/// RGBA32F, depth in D32).
+const GBUFFER_PIXEL: u64 = 4 * 16 + 4;
+/// Bytes of a lighting pixel: direct light and what it sends, bounded
+/// indirect light, `S0` and what it sends (RGBA32F each)...
+const LIGHTING_PIXEL: u64 = 5 * 16;
+/// ...and with the interleaved gather its sums, glossy sums and guide
+/// (RGBA32F / RGBA32UI) and crease list (a word).
+const INTERLEAVED_PIXEL: u64 = 3 * 16 + 4;
+
+/// Device memory one frame slot takes at `settings` with `lights` punctual
+/// lights, by part, as the passes allocate it (without a device: the bytes
+/// asked for; with one, SSBC's resources as its memory requirements say).
+/// Two frames in flight take two slots. The read-back part is that of
+/// immediate frames ([`super::Renderer::render`]): resident frames and
+/// frames recorded into a host's command buffer read nothing back.
+pub(super) fn frame_memory(
+    device: Option<&Device>,
+    settings: &RenderSettings,
+    lights: usize,
+) -> FrameMemory {
+    let pixels = settings.width as u64 * settings.height as u64;
     let steps = settings.ssbc.steps as u64;
-    // G-buffer (4 RGBA32F + depth), direct, bounded lighting (indirect, S0,
-    // interleaved sums and guide, crease list), read-back (final, direct,
-    // indirect, residuals, samples).
-    let per_pixel = 68 + 16 + 68 + 48 + 20 * steps;
-    let layer1 = match settings.ssbc.second_layer() {
+    let layer1_pixels = match settings.ssbc.second_layer() {
         Some(r) if steps > 0 => {
             let (w1, h1) = r.extent((settings.width, settings.height));
-            152 * w1 as u64 * h1 as u64
+            w1 as u64 * h1 as u64
         }
         _ => 0,
     };
-    let ssbc = if steps > 0 {
-        crate::passes::ssbc::frame_bytes(
-            settings.width,
-            settings.height,
+    let lighting_pixel = LIGHTING_PIXEL
+        + match settings.gather {
+            Gather::Interleaved => INTERLEAVED_PIXEL,
+            Gather::Full => 0,
+        };
+    let ssbc = (steps > 0).then(|| {
+        crate::passes::ssbc::frame_memory(
+            device,
+            (settings.width, settings.height),
             settings.ssbc.steps,
             settings.ssbc.second_layer(),
         )
-    } else {
-        0
-    };
+    });
     let vpls = settings.vpl.count as u64;
     let tile = settings.ism_tile as u64;
     // The atlas, the VPLs and their ray-cast layers (a distance and a facing
@@ -59,20 +75,43 @@ pub(super) fn frame_memory(settings: &RenderSettings, lights: usize) -> u64 {
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
     let ism = vpls * (tile * tile * 4 + 48 + 512)
         + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
-    let shadow = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
+    let shadow_maps = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
     // Resident frames' temporal history.
     let history = if settings.history.enabled {
         crate::passes::temporal::slot_bytes((settings.width, settings.height))
     } else {
         0
     };
-    w * h * per_pixel + layer1 + ssbc + ism + shadow + history
+    // The final image and the texels read per step; with output layers the
+    // direct, bounded indirect and residual layers; with debug read-back the
+    // G-buffer's four images, S0's sources, a second layer's three images
+    // and sources, and the ISM atlas.
+    let outputs = settings.output_layers || settings.debug_readback;
+    let mut readback = pixels * (16 + 4 * steps);
+    if outputs {
+        readback += pixels * 16 * (2 + steps);
+    }
+    if settings.debug_readback {
+        readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + vpls * tile * tile * 4;
+    }
+    let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc.unwrap_or_default();
+    FrameMemory {
+        gbuffer: (pixels + layer1_pixels) * GBUFFER_PIXEL,
+        lighting: (pixels + layer1_pixels) * lighting_pixel,
+        ssbc_pyramids,
+        ssbc_lists,
+        ssbc_images,
+        ism,
+        shadow_maps,
+        history,
+        readback,
+    }
 }
 
 /// Fails, before anything is allocated, if one frame slot's resources
 /// cannot fit in the device's largest device-local heap.
 fn check_memory(device: &Device, settings: &RenderSettings, lights: usize) -> Result<()> {
-    let needed = frame_memory(settings, lights);
+    let needed = frame_memory(Some(device), settings, lights).total();
     let heap = device.device_local_heap();
     if heap == 0 || needed <= heap {
         return Ok(());

@@ -7,6 +7,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::cpu::vpl::Vpl;
 use crate::error::{Error, Result};
+use crate::memory::{FrameMemory, MemoryReport};
 use crate::passes::direct_lighting::DirectLight;
 use crate::passes::gbuffer::GBuffer;
 use crate::passes::indirect_bounded::BoundedLighting;
@@ -77,6 +78,13 @@ impl Layer {
     /// The debug layers of [`RenderSettings::debug_readback`].
     fn debug() -> impl Iterator<Item = Layer> {
         NAMED[3..].iter().map(|(l, _)| *l)
+    }
+
+    /// Whether a frame reads this layer back only with
+    /// [`RenderSettings::debug_readback`] (the G-buffers and sources), not
+    /// with [`RenderSettings::output_layers`].
+    pub fn is_debug(self) -> bool {
+        Self::debug().any(|l| l == self)
     }
 }
 
@@ -242,8 +250,9 @@ pub struct Frame {
     pub height: u32,
     /// The final image (linear radiance).
     pub image: LayerImage,
-    /// The other layers ([`Layer::outputs`] after `Final`, and with debug
-    /// read-back the G-buffer's and, with a second layer, its own).
+    /// The other layers: with [`RenderSettings::output_layers`] the
+    /// [`Layer::outputs`] after `Final`, with debug read-back also the
+    /// G-buffer's and, with a second layer, its own.
     pub layers: Vec<LayerImage>,
     /// Per-pass GPU timings.
     pub timings: Timings,
@@ -265,7 +274,8 @@ pub struct Frame {
 
 impl Frame {
     /// The image of `layer`, if the frame read it back: [`Layer::Final`]
-    /// always, the others with `debug_readback`.
+    /// always, the other outputs with `output_layers`, the G-buffers with
+    /// `debug_readback`.
     ///
     /// ```no_run
     /// # fn main() -> ssbc::Result<()> {
@@ -337,13 +347,17 @@ impl<'a> FrameImages<'a> {
         })
     }
 
-    /// The images a read-back frame copies to the host: the layers (the
-    /// final image first; with `debug` the G-buffers too), the per-step
-    /// sample counts, and with `debug` the ISM atlas.
-    pub fn readback(&self, debug: bool) -> Vec<(Readback, &'a Image)> {
+    /// The images a read-back frame at `settings` copies to the host: the
+    /// final image, with `output_layers` (or `debug_readback`) the other
+    /// outputs, with `debug_readback` the G-buffers too; the per-step sample
+    /// counts; with `debug_readback` the ISM atlas.
+    pub fn readback(&self, settings: &RenderSettings) -> Vec<(Readback, &'a Image)> {
+        let debug = settings.debug_readback;
+        let outputs = settings.output_layers || debug;
         let debug_layers = Layer::debug().filter(|_| debug);
         let mut v: Vec<(Readback, &'a Image)> = Layer::outputs(self.ssbc.steps())
             .into_iter()
+            .filter(|&l| outputs || l == Layer::Final)
             .chain(debug_layers)
             .filter_map(|l| Some((Readback::Layer(l), self.layer(l)?)))
             .collect();
@@ -427,6 +441,8 @@ pub(crate) struct FrameRecord<'a> {
     pub reused: Vec<String>,
     /// When it was submitted (ns, CLOCK_MONOTONIC).
     pub submit_ns: u64,
+    /// The slot's estimated device memory, and the slots that hold resources.
+    pub memory: (FrameMemory, u32),
 }
 
 /// Milliseconds of the CPU stage `name` (0 if it did not run this frame).
@@ -464,7 +480,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
     // A sum cut short in the band fails the frame too (its receivers are
     // the image's sources' neighbours, not sources).
     check_not_cut_short(&samples, record.settings)?;
-    let samples: Vec<Vec<f32>> = samples.into_iter().map(|s| crop(s, 1)).collect();
+    let mut samples: Vec<Vec<f32>> = samples.into_iter().map(|s| crop(s, 1)).collect();
     let FrameRecord {
         device,
         settings,
@@ -476,12 +492,16 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         spans,
         reused,
         submit_ns,
+        memory,
     } = record;
-    let geometry: Vec<bool> = layers[0]
-        .rgba
-        .chunks_exact(4)
-        .map(|p| p[3] != 0.0)
-        .collect();
+    // The resolve marks pixels without geometry -1 (ssbc_resolve.comp).
+    let geometry: Vec<bool> = samples
+        .first()
+        .map(|s| s.iter().map(|&c| c >= 0.0).collect())
+        .unwrap_or_default();
+    for step in &mut samples {
+        step.iter_mut().for_each(|c| *c = c.max(0.0));
+    }
     let ssbc_steps = ssbc_figures(&samples, &geometry, &images, view, settings, &gpu_times)?;
     let vpl_set = &cache.vpls().set;
     let bound = view.bound;
@@ -509,6 +529,11 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         emission_w: crate::cpu::emitters::luminance(vpl_set.emitted_power),
         enclosed_emission_w: crate::cpu::emitters::luminance(vpl_set.enclosed_power),
         device_memory_bytes: device.memory_in_use(),
+        memory: MemoryReport {
+            estimated: memory.0,
+            measured: FrameMemory::measured(device),
+            slots: memory.1,
+        },
         ism_tile: settings.ism_tile,
         points_per_vpl: settings.points_per_vpl,
         bound: if bound.is_finite() {

@@ -9,6 +9,7 @@ use super::guard_band::GuardBand;
 use super::readback::{self, hand_off_to_host, FrameImages, FrameRecord, ReadbackBuffers};
 use super::{Frame, Layer};
 use crate::error::Result;
+use crate::memory::FrameMemory;
 use crate::passes::FrameView;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
@@ -81,6 +82,8 @@ pub(super) struct Finish<'r> {
     /// When the frame was submitted (ns, CLOCK_MONOTONIC; set by `submit`).
     pub submit_ns: u64,
     pub previous_timings: Option<GpuFrameTimes>,
+    /// The slot's estimated device memory, and the slots that hold resources.
+    pub memory: (FrameMemory, u32),
     pub readback: &'r mut Option<ReadbackBuffers>,
     pub profiler: &'r mut GpuProfiler,
     pub slot_done: &'r mut u64,
@@ -115,7 +118,7 @@ impl Finish<'_> {
 impl FrameSink for ReadBack {
     type Output = Frame;
     fn finish(self, mut rec: Recorder<'_>, mut f: Finish<'_>) -> Result<Frame> {
-        let wanted = f.images.readback(f.settings.debug_readback);
+        let wanted = f.images.readback(f.settings);
         readback::ensure_buffers(f.device, f.readback, &wanted)?;
         let buffers = f.readback.as_ref().expect("made above");
         for ((_, image), (_, buffer)) in wanted.iter().zip(buffers) {
@@ -140,6 +143,7 @@ impl FrameSink for ReadBack {
                 spans: f.spans,
                 reused: f.reused,
                 submit_ns: f.submit_ns,
+                memory: f.memory,
             },
         )
     }

@@ -733,6 +733,12 @@ impl Device {
         self.allocator().generate_report().total_allocated_bytes
     }
 
+    /// ssbc's live allocations on this device, with their debug names and
+    /// sizes.
+    pub fn allocation_report(&self) -> Vec<gpu_allocator::AllocationReport> {
+        self.allocator().generate_report().allocations
+    }
+
     /// Size of the largest device-local memory heap (bytes): what a frame's
     /// resources must fit in.
     pub fn device_local_heap(&self) -> u64 {

@@ -104,9 +104,13 @@ pub fn tiny_settings() -> RenderSettings {
     s
 }
 
-/// Settings at `width` x `height`, the defaults for that size otherwise.
+/// Settings at `width` x `height`, the defaults for that size otherwise,
+/// but reading back every output layer (the tests look at them).
 pub fn small(width: u32, height: u32) -> RenderSettings {
-    RenderSettings::new(width, height)
+    RenderSettings {
+        output_layers: true,
+        ..RenderSettings::new(width, height)
+    }
 }
 
 /// RGB of pixel (x, y) of a layer.

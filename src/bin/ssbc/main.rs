@@ -389,6 +389,7 @@ impl SceneOptions {
                 guard_band: self.guard_band,
                 ..Default::default()
             },
+            output_layers: false,
             debug_readback: false,
             reuse_unchanged: true,
             history: HistorySettings {
@@ -436,7 +437,10 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         no_pipeline_statistics: args.no_pipeline_statistics,
         ..Default::default()
     };
-    let settings = args.common.settings();
+    let mut settings = args.common.settings();
+    // Read back only the layers that will be written.
+    settings.output_layers = args.layers || args.output_layer.is_some();
+    settings.debug_readback = args.output_layer.is_some_and(Layer::is_debug);
     if let Some(path) = &args.sequence {
         return render_sequence(&args, path, scene, &config, &settings);
     }

@@ -175,10 +175,11 @@ impl FramePlan {
         }
     }
 
-    /// Bytes of device memory the plan takes: on `device`, what its memory
-    /// requirements say (alignment and padding included); without one, the
-    /// bytes asked for.
-    pub fn bytes(&self, device: Option<&Device>) -> u64 {
+    /// Bytes of device memory the plan takes, as (pyramids and evaluation
+    /// points, lists, images): on `device`, what its memory requirements
+    /// say (alignment and padding included); without one, the bytes asked
+    /// for.
+    pub fn memory(&self, device: Option<&Device>) -> (u64, u64, u64) {
         let buffer = |b: &BufferPlan| match device {
             Some(d) => buffer_memory_bytes(d, b.bytes, b.usage),
             None => b.bytes.max(4),
@@ -191,45 +192,49 @@ impl FramePlan {
             }
         };
         let steps = self.steps as u64;
-        let buffers = [
+        let pyramids = [
             &self.geo,
             &self.aux,
             &self.radiance,
             &self.points,
             &self.point_glossy,
             &self.claims,
-            &self.stats,
         ];
-        buffers.iter().map(|b| buffer(b)).sum::<u64>()
-            + PIXEL_LISTS * buffer(&self.pixel_list)
+        let lists = PIXEL_LISTS * buffer(&self.pixel_list)
             + POINT_LISTS * buffer(&self.point_list)
-            + (2 * steps + 1) * image(&self.radiance_image)
+            + buffer(&self.stats);
+        let images = (2 * steps + 1) * image(&self.radiance_image)
             + steps * image(&self.samples_image)
             + self
                 .layer1_image
                 .as_ref()
-                .map_or(0, |i| steps.saturating_sub(1) * image(i))
+                .map_or(0, |i| steps.saturating_sub(1) * image(i));
+        (pyramids.iter().map(|b| buffer(b)).sum(), lists, images)
     }
 }
 
-/// Bytes of device memory one frame slot's SSBC resources take at
-/// `width` x `height` with `steps` steps (the pyramids, the evaluation
-/// points and their claims, the work lists, and the per-step images), as
-/// asked for; [`frame_bytes_on`] is what a device makes of them.
-pub fn frame_bytes(width: u32, height: u32, steps: u32, layer1: Option<LayerResolution>) -> u64 {
-    FramePlan::new((width, height), steps, layer1).bytes(None)
+/// Bytes of device memory one frame slot's SSBC resources take at `extent`
+/// with `steps` steps, as (the pyramids with the evaluation points and
+/// their claims, the work lists, the per-step images): on `device` as its
+/// memory requirements say, without one as asked for.
+pub fn frame_memory(
+    device: Option<&Device>,
+    extent: (u32, u32),
+    steps: u32,
+    layer1: Option<LayerResolution>,
+) -> (u64, u64, u64) {
+    FramePlan::new(extent, steps, layer1).memory(device)
 }
 
-/// [`frame_bytes`] on `device`: each resource's memory requirements there,
-/// alignment and padding included (what the allocator then takes).
-pub fn frame_bytes_on(
-    device: &Device,
-    width: u32,
-    height: u32,
+/// [`frame_memory`] in all.
+pub fn frame_bytes(
+    device: Option<&Device>,
+    extent: (u32, u32),
     steps: u32,
     layer1: Option<LayerResolution>,
 ) -> u64 {
-    FramePlan::new((width, height), steps, layer1).bytes(Some(device))
+    let (pyramids, lists, images) = frame_memory(device, extent, steps, layer1);
+    pyramids + lists + images
 }
 
 /// Largest image the SSBC lists can address: an item packs a pixel's x in

@@ -28,7 +28,7 @@ use crate::shaders::{
 };
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
-pub use layout::{check_size, frame_bytes, frame_bytes_on, pyramid_levels};
+pub use layout::{check_size, frame_bytes, frame_memory, pyramid_levels};
 pub use push::GLOSSY_RECEIVERS;
 
 /// Camera quantities the SSBC shaders need.
