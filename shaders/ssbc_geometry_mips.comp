@@ -86,11 +86,16 @@ void main() {
     uint pixels = 0u;
     bool continuous = true;
     float depth[8];
+    ivec2 below = level_size(pc.layer, level - 1);
     [[unroll]] for (int k = 0; k < 4; k++) {
-        uint c = texel_index(pc.layer, p * 2 + ivec2(k & 1, k >> 1), level - 1);
-        GeoAux child_aux = geo_aux(c);
-        members[2 * k] = geo_cluster(c, 0u);
-        members[2 * k + 1] = geo_cluster(c, 1u);
+        ivec2 child = p * 2 + ivec2(k & 1, k >> 1);
+        // A child beyond the last row or column is empty (as a pixel
+        // outside the image is at level 0).
+        bool exists = all(lessThan(child, below));
+        uint c = texel_index(pc.layer, child, level - 1);
+        GeoAux child_aux = exists ? geo_aux(c) : GeoAux(0.0, 0.0, 0u, 0u);
+        members[2 * k] = exists ? geo_cluster(c, 0u) : empty_cluster();
+        members[2 * k + 1] = exists ? geo_cluster(c, 1u) : empty_cluster();
         member_area[2 * k] = child_aux.front_area;
         member_area[2 * k + 1] = child_aux.back_area;
         pixels += child_aux.pixels;

@@ -22,6 +22,7 @@ void main() {
     ivec2 t = ivec2(gl_GlobalInvocationID.xy);
     int l = int(pc.level);
     if (t.x >= level_size(0u, l).x) return;
-    bool glossy = (geo_aux(texel_index(0u, eval_pixel(t, l), 0)).flags & GLOSSY_RECEIVER) != 0u;
+    bool glossy = eval_pixel_inside(t, l)
+        && (geo_aux(texel_index(0u, eval_pixel(t, l), 0)).flags & GLOSSY_RECEIVER) != 0u;
     APPEND_ITEM_TO(points, pack_item(t), glossy);
 }

@@ -38,10 +38,13 @@ void main() {
     uint back_mask = geo_aux(dst).flags >> 8;
     vec3 front = vec3(0.0);
     vec3 back = vec3(0.0);
+    ivec2 below = level_size(pc.layer, level - 1);
     [[unroll]] for (int k = 0; k < 4; k++) {
-        uint c = texel_index(pc.layer, p * 2 + ivec2(k & 1, k >> 1), level - 1);
+        ivec2 child = p * 2 + ivec2(k & 1, k >> 1);
+        bool exists = all(lessThan(child, below));  // else empty
+        uint c = texel_index(pc.layer, child, level - 1);
         [[unroll]] for (int j = 0; j < 2; j++) {
-            vec3 s = cluster_radiance(c, uint(j));
+            vec3 s = exists ? cluster_radiance(c, uint(j)) : vec3(0.0);
             if ((back_mask & (1u << (2 * k + j))) != 0u) {
                 back += s;
             } else {

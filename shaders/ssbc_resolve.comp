@@ -152,7 +152,8 @@ void main() {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
                 EvalPoint point = load_point(point_texels, point_index(t, l));
-                GeoCluster g = geo_cluster(texel_index(0u, eval_pixel(t, l), 0), 0u);
+                GeoCluster g = eval_pixel_inside(t, l) ? geo_cluster(texel_index(0u, eval_pixel(t, l), 0), 0u)
+                                                       : empty_cluster();
                 // The point's surface (geometric) normal: near the pixel's
                 // shading normal, and the pixel on its tangent plane.
                 // (The point's own shading normal, one more image load per
@@ -212,7 +213,8 @@ void main() {
                 if (atomicExchange(claims[point_index(t, l - 1)], pc.generation) != pc.generation) {
                     // Points at glossy receivers at the back (ssbc_eval.glsl).
                     uint q_index = texel_index(0u, eval_pixel(t, l - 1), 0);
-                    bool glossy_point = (geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u;
+                    bool glossy_point = eval_pixel_inside(t, l - 1)
+                        && (geo_aux(q_index).flags & GLOSSY_RECEIVER) != 0u;
                     APPEND_ITEM_TO(requests, pack_item(t), glossy_point);
                 }
             }

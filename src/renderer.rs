@@ -59,7 +59,7 @@ use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 /// assert!(hd.ssbc_pyramids > 0 && hd.total() > hd.ssbc_pyramids);
 /// ```
 pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> FrameMemory {
-    limits::frame_memory(None, settings, scene.lights.len())
+    limits::frame_memory(None, settings, scene.lights.len(), limits::FrameUse::ALL)
 }
 
 /// The renderer: a device, its passes, and a command pool per frame slot.
@@ -226,7 +226,12 @@ impl Renderer {
     /// device's memory requirements say, alignment and padding included
     /// (what the allocator then takes).
     pub fn frame_memory(&self, scene: &Scene, settings: &RenderSettings) -> FrameMemory {
-        limits::frame_memory(Some(&self.device), settings, scene.lights.len())
+        limits::frame_memory(
+            Some(&self.device),
+            settings,
+            scene.lights.len(),
+            limits::FrameUse::ALL,
+        )
     }
 
     /// Validation messages so far (stays readable after the renderer is dropped).

@@ -257,8 +257,9 @@ fn bad_instant_radiosity_parameters() {
     fails_on_a_2gib_heap_with(
         &[
             "--size",
-            // Fits a 2 GiB heap with one layer (1337 MiB), not two.
-            "1920x1080",
+            // Fits a 2 GiB heap with one layer or a second at half
+            // resolution, not with a second at full (2926 MiB).
+            "2560x1440",
             "--ssbc-layers",
             "2",
             "-o",

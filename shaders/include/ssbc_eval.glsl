@@ -74,9 +74,10 @@ void evaluate(ivec2 t, bool glossy) {
     uint point_slot = point_index(t, l);
     ivec2 q = eval_pixel(t, l);
     uint q_index = texel_index(0u, q, 0);
-    GeoCluster g = geo_cluster(q_index, 0u);
+    bool inside = eval_pixel_inside(t, l);
+    GeoCluster g = inside ? geo_cluster(q_index, 0u) : empty_cluster();
     vec3 x = g.position_extent.xyz;
-    vec3 nx = imageLoad(g_normal, q).xyz;
+    vec3 nx = inside ? imageLoad(g_normal, q).xyz : vec3(0.0);
     float r_world = inversesqrt(pc.frame.bound);
     // A point stands for its block only on one smooth surface, except at
     // level 1: there a pixel is at most a pixel from the points it

@@ -4,8 +4,9 @@
 // The pyramids live in buffers read and written as texel buffers (never as
 // storage buffers, whose size maxStorageBufferRange caps at 128 MiB on
 // lavapipe: 1920x1080 needs more), level after level (level l of a W x H
-// pyramid is (W >> l) x (H >> l) texels; W and H are padded so every level
-// halves exactly, which also gives every texel four children):
+// pyramid is ceil(W / 2^l) x ceil(H / 2^l) texels, nothing padded: a texel
+// of the last row or column may have only one or two children, and the
+// builds take the missing ones as empty; see level_start):
 //   geo         what the traversal reads: each texel's surface as two clusters
 //   aux         areas, pixels with geometry, continuity, how the children's
 //               clusters were grouped (pyramid builds and evaluation points only)
@@ -42,12 +43,40 @@ uint layer_shift(uint layer) {
     return layer == 0u ? 0u : (pc.frame.layers >> 4) & 15u;
 }
 
+// Layer 0's level starts: the first texel of level l, after the
+// ceil(W / 2^k) x ceil(H / 2^k) texels of each level k < l (l up to
+// `levels`: all of layer 0's texels). Summed once per invocation, on first
+// use (a sum per texel index would run up to 12 iterations inside the
+// walk's loop).
+const int MAX_LEVELS = 12;
+uint level_starts_[MAX_LEVELS + 1];
+bool level_starts_ready_ = false;
+
+uint level_start(int l) {
+    if (!level_starts_ready_) {
+        uint start = 0u;
+        [[unroll]] for (int k = 0; k <= MAX_LEVELS; k++) {
+            level_starts_[k] = start;
+            ivec2 s = level_size_of(pc.frame.pyramid_size, k);
+            start += k < int(pc.frame.levels) ? uint(s.x * s.y) : 0u;
+        }
+        level_starts_ready_ = true;
+    }
+    return level_starts_[l];
+}
+
 Pyramid pyramid_of(uint layer) {
     if (layer == 0u) return Pyramid(0u, pc.frame.pyramid_size, int(pc.frame.levels), 0);
-    uint n = pc.frame.pyramid_size.x * pc.frame.pyramid_size.y;
     uint shift = layer_shift(layer);
-    return Pyramid(level_start(n, int(pc.frame.levels)), pc.frame.pyramid_size >> shift,
+    return Pyramid(level_start(int(pc.frame.levels)), uvec2(level_size_of(pc.frame.pyramid_size, int(shift))),
                    int(pc.frame.levels - shift), int(shift));
+}
+
+// Index of texel t of level l of pyramid p in the buffers (a layer at half
+// resolution has layer 0's level sizes from level 1 on).
+uint texel_index_in(Pyramid p, ivec2 t, int l) {
+    return p.base + level_start(l + p.shift) - level_start(p.shift)
+        + uint(t.y) * uint(level_size_of(p.size, l).x) + uint(t.x);
 }
 
 // The size of an image whose pixel side is 2^shift image pixels (rounded up).
@@ -62,7 +91,7 @@ uvec2 layer_image_size(uint layer) {
 
 // Texels of level l of layer `layer`'s pyramid.
 ivec2 level_size(uint layer, int l) {
-    return ivec2(pyramid_of(layer).size) >> l;
+    return level_size_of(pyramid_of(layer).size, l);
 }
 
 // Index of texel t of level l of layer `layer`'s pyramid.
@@ -70,12 +99,19 @@ uint texel_index(uint layer, ivec2 t, int l) {
     return texel_index_in(pyramid_of(layer), t, l);
 }
 
+// Whether texel t of level l's evaluation pixel (eval_pixel) lies in the
+// image: in the last row or column of a level that overhangs the image it
+// may not (such a texel has no evaluation point).
+bool eval_pixel_inside(ivec2 t, int l) {
+    return all(lessThan(eval_pixel(t, l), ivec2(pc.frame.size)));
+}
+
 // Index of layer 0's evaluation point at texel t of level l >= 1. Points
 // exist for levels 1 and up, after one another as in the pyramid: at level
 // 0 a pixel is evaluated alone (ssbc_fallback.glsl), so the buffers hold a
 // third of the texels (1920x1080: 88 instead of 352 MB).
 uint point_index(ivec2 t, int l) {
-    return texel_index(0u, t, l) - pc.frame.pyramid_size.x * pc.frame.pyramid_size.y;
+    return texel_index(0u, t, l) - level_start(1);
 }
 
 // World-space area seen through a pixel at `position` with unit normal n:

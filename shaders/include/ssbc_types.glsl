@@ -20,7 +20,7 @@ struct SsbcFrame {
     vec4 camera_forward;      // xyz unit optical axis; w focal length in pixels (1 / s)
     vec4 camera_up;           // xyz unit up direction of the image (orthogonal to the axis)
     uvec2 size;               // image size
-    uvec2 pyramid_size;       // level 0 of the pyramids (padded)
+    uvec2 pyramid_size;       // level 0 of layer 0's pyramid (the image size)
     uint levels;              // pyramid levels
     uint layers;              // bits 0..3: pyramids the residual gathers from (1, or 2 with a
                               // second layer); bits 4..7: log2 of layer 1's pixel side;
@@ -123,9 +123,12 @@ struct GeoAux {
 const ivec2 CREASE_NEIGHBOURS[8] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -1), ivec2(0, 1),
                                            ivec2(-1, -1), ivec2(1, -1), ivec2(-1, 1), ivec2(1, 1));
 
-// One layer's pyramid: where it starts in the buffers, its level 0 (padded)
-// and its levels. Layer 1 is at full or half resolution: at half, its pixel
-// p covers the full-resolution pixels 2p .. 2p + 1.
+// One layer's pyramid: where it starts in the buffers, its level 0 and its
+// levels. Level l is ceil(size / 2^l) texels (texel t of it covers the
+// pixels t 2^l .. (t + 1) 2^l - 1; the last row and column may overhang the
+// image, and a texel there has fewer than four children). Layer 1 is at
+// full or half resolution: at half, its pixel p covers the full-resolution
+// pixels 2p .. 2p + 1, and its level l is layer 0's level l + 1 in size.
 struct Pyramid {
     uint base;
     uvec2 size;
@@ -133,19 +136,9 @@ struct Pyramid {
     int shift;                // log2 of its pixel's side in image pixels
 };
 
-// First texel of level l in a pyramid of n texels at level 0: after
-// n + n/4 + ... + n/4^(l-1) = (4n - 4 n/4^l) / 3 texels; the division by 3
-// is a multiply-high (exact below 2^32), which keeps integer division out
-// of the traversal's inner loop.
-uint level_start(uint n, int l) {
-    uint high, low;
-    umulExtended(4u * n - 4u * (n >> (2 * l)), 0xaaaaaaabu, high, low);
-    return high >> 1;
-}
-
-// Index of texel t of level l of pyramid p in the buffers.
-uint texel_index_in(Pyramid p, ivec2 t, int l) {
-    return p.base + level_start(p.size.x * p.size.y, l) + uint(t.y) * (p.size.x >> l) + uint(t.x);
+// Texels of level l of a pyramid whose level 0 is `size`.
+ivec2 level_size_of(uvec2 size, int l) {
+    return ivec2(((size - 1u) >> l) + 1u);
 }
 
 // The pixel that is the evaluation point of texel t of level l: the one at

@@ -231,7 +231,7 @@ Roots roots_of(uint layer, vec2 center, float radius_px) {
     float r = radius_px * to_layer;
     int level = clamp(int(ceil(log2(max(r, 1.0) * 0.5))), 0, p.levels - 1);
     ivec2 lo = max(ivec2(floor(c - r)) >> level, ivec2(0));
-    ivec2 hi = min(ivec2(ceil(c + r)) >> level, (ivec2(p.size) >> level) - 1);
+    ivec2 hi = min(ivec2(ceil(c + r)) >> level, level_size_of(p.size, level) - 1);
     // Never empty: c lies in the image (the walk reads at least one root).
     return Roots(p, level, lo, max(hi, lo));
 }
@@ -281,9 +281,10 @@ int lowest_bit(uint v) {
 // 1024x768: 65.2 -> 56.4 texels read per pixel with two layers, 35.1 ->
 // 32.7 with one).
 // The walk is one flat loop without a stack of texels (and without
-// break/continue, which lavapipe's SIMD loops have mishandled): the padded
-// pyramid gives every texel four children, visited in the order (0,0)
-// (1,0) (0,1) (1,1) as far as the level's bits in `children` say; after a
+// break/continue, which lavapipe's SIMD loops have mishandled): a texel's
+// children (up to four; one beyond the last row or column never holds
+// members) are visited in the order (0,0) (1,0) (0,1) (1,1) as far as the
+// level's bits in `children` say; after a
 // texel comes its first child if refined, else its next sibling, climbing
 // first to the nearest level whose texel has siblings left (`pending`).
 void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, float radius_px, float r_world,

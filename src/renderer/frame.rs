@@ -8,8 +8,9 @@ use ash::vk;
 use super::frame_passes::{HistoryFrame, Passes};
 use super::guard_band::GuardBand;
 use super::history::{HistoryPlan, Motion};
+use super::limits::{self, FrameUse};
 use super::sink::{Finish, FrameSink};
-use super::{limits, Renderer, FRAME_SLOTS};
+use super::{Renderer, FRAME_SLOTS};
 use crate::error::{Error, Result};
 use crate::gpu_scene::SlotScene;
 use crate::passes::ssbc::SsbcCamera;
@@ -166,7 +167,11 @@ impl Renderer {
         host_slot: Option<usize>,
         resident: bool,
     ) -> Result<S::Output> {
-        limits::check_settings(&self.device, settings, scene.lights.len())?;
+        let uses = FrameUse {
+            history: resident && host_slot.is_none() && settings.history.enabled,
+            readback: S::READS_BACK,
+        };
+        limits::check_settings(&self.device, settings, scene.lights.len(), uses)?;
         let (slot, previous_timings) = match host_slot {
             Some(slot) => (slot, None),
             None => {
@@ -247,6 +252,10 @@ impl Renderer {
             previous_timings,
             history,
         } = request;
+        let uses = FrameUse {
+            history: history.is_some(),
+            readback: S::READS_BACK,
+        };
         let host_settings = settings;
         let shifted = self.history_settings(scene, settings, history);
         let settings = shifted.as_ref().unwrap_or(settings);
@@ -266,7 +275,7 @@ impl Renderer {
             .gpu_scene
             .write_objects(slot, scene, versions.objects)?;
         // With a guard band every pass renders the wider frame (`settings`).
-        let (band, wide) = GuardBand::widen_frame(&device, scene, settings, cache)?;
+        let (band, wide) = GuardBand::widen_frame(&device, scene, settings, cache, uses)?;
         let (inner, settings) = (settings, wide.as_ref().unwrap_or(settings));
         let view = frame_view(scene, settings, cache, band)?;
 
@@ -293,12 +302,9 @@ impl Renderer {
         let reused = record_passes(&mut rec, renderer, &setup, scene_view, history_frame, timed)?;
         let light_paths = cache.vpls().set.paths;
 
-        // What this frame's slot was estimated to take (the history only
-        // where this frame keeps one), and the slots that hold resources.
-        let mut estimated = limits::frame_memory(Some(&device), settings, scene.lights.len());
-        if history.is_none() {
-            estimated.history = 0;
-        }
+        // What this frame's slot was estimated to take, and the slots that
+        // hold resources.
+        let estimated = limits::frame_memory(Some(&device), settings, scene.lights.len(), uses);
         let slots = (0..FRAME_SLOTS)
             .filter(|&s| self.passes.images(s).is_some())
             .count() as u32;

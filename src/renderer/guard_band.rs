@@ -87,12 +87,13 @@ impl GuardBand {
         scene: &Scene,
         settings: &RenderSettings,
         cache: &SceneCache,
+        uses: super::limits::FrameUse,
     ) -> Result<(Option<Self>, Option<RenderSettings>)> {
         let Some(band) = Self::size(scene, settings, cache)? else {
             return Ok((None, None));
         };
         let wide = band.widen(settings);
-        super::limits::check_settings(device, &wide, scene.lights.len()).map_err(|e| {
+        super::limits::check_settings(device, &wide, scene.lights.len(), uses).map_err(|e| {
             let why = match e {
                 Error::InvalidParameter(why) => why,
                 other => other.to_string(),

@@ -34,16 +34,34 @@ const LIGHTING_PIXEL: u64 = 5 * 16;
 /// (RGBA32F / RGBA32UI) and crease list (a word).
 const INTERLEAVED_PIXEL: u64 = 3 * 16 + 4;
 
+/// What a frame holds besides its passes' resources.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FrameUse {
+    /// A temporal history (resident frames of ssbc's own with
+    /// `history.enabled`).
+    pub history: bool,
+    /// Read-back buffers ([`super::Renderer::render`]'s frames).
+    pub readback: bool,
+}
+
+impl FrameUse {
+    /// Both: what [`super::frame_memory`] reports.
+    pub const ALL: Self = Self {
+        history: true,
+        readback: true,
+    };
+}
+
 /// Device memory one frame slot takes at `settings` with `lights` punctual
 /// lights, by part, as the passes allocate it (without a device: the bytes
-/// asked for; with one, SSBC's resources as its memory requirements say).
-/// Two frames in flight take two slots. The read-back part is that of
-/// immediate frames ([`super::Renderer::render`]): resident frames and
-/// frames recorded into a host's command buffer read nothing back.
+/// asked for; with one, SSBC's resources as its memory requirements say),
+/// with the history and read-back `uses` says. Two frames in flight take
+/// two slots.
 pub(super) fn frame_memory(
     device: Option<&Device>,
     settings: &RenderSettings,
     lights: usize,
+    uses: FrameUse,
 ) -> FrameMemory {
     let pixels = settings.width as u64 * settings.height as u64;
     let steps = settings.ssbc.steps as u64;
@@ -77,7 +95,7 @@ pub(super) fn frame_memory(
         + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
     let shadow_maps = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
     // Resident frames' temporal history.
-    let history = if settings.history.enabled {
+    let history = if uses.history && settings.history.enabled {
         crate::passes::temporal::slot_bytes((settings.width, settings.height))
     } else {
         0
@@ -87,11 +105,15 @@ pub(super) fn frame_memory(
     // G-buffer's four images, S0's sources, a second layer's three images
     // and sources, and the ISM atlas.
     let outputs = settings.output_layers || settings.debug_readback;
-    let mut readback = pixels * (16 + 4 * steps);
-    if outputs {
+    let mut readback = if uses.readback {
+        pixels * (16 + 4 * steps)
+    } else {
+        0
+    };
+    if uses.readback && outputs {
         readback += pixels * 16 * (2 + steps);
     }
-    if settings.debug_readback {
+    if uses.readback && settings.debug_readback {
         readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + vpls * tile * tile * 4;
     }
     let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc.unwrap_or_default();
@@ -110,8 +132,13 @@ pub(super) fn frame_memory(
 
 /// Fails, before anything is allocated, if one frame slot's resources
 /// cannot fit in the device's largest device-local heap.
-fn check_memory(device: &Device, settings: &RenderSettings, lights: usize) -> Result<()> {
-    let needed = frame_memory(Some(device), settings, lights).total();
+fn check_memory(
+    device: &Device,
+    settings: &RenderSettings,
+    lights: usize,
+    uses: FrameUse,
+) -> Result<()> {
+    let needed = frame_memory(Some(device), settings, lights, uses).total();
     let heap = device.device_local_heap();
     if heap == 0 || needed <= heap {
         return Ok(());
@@ -132,6 +159,7 @@ pub(super) fn check_settings(
     device: &Device,
     settings: &RenderSettings,
     lights: usize,
+    uses: FrameUse,
 ) -> Result<()> {
     check_size(device, settings.width, settings.height)?;
     let max = device.limits().max_image_dimension2_d;
@@ -184,5 +212,5 @@ pub(super) fn check_settings(
     if settings.vpl.count > 0 {
         crate::passes::ism::check_atlas(device, settings.vpl.count as u32, settings.ism_tile)?;
     }
-    check_memory(device, settings, lights)
+    check_memory(device, settings, lights, uses)
 }

@@ -42,6 +42,8 @@ pub struct GpuSubmission {
 pub(super) trait FrameSink {
     /// What the frame returns.
     type Output;
+    /// Whether the frame is read back (its slot holds read-back buffers).
+    const READS_BACK: bool = false;
     /// The host's command buffer to record into (None: ssbc's own, timed).
     fn host_command_buffer(&self) -> Option<vk::CommandBuffer> {
         None
@@ -117,6 +119,7 @@ impl Finish<'_> {
 
 impl FrameSink for ReadBack {
     type Output = Frame;
+    const READS_BACK: bool = true;
     fn finish(self, mut rec: Recorder<'_>, mut f: Finish<'_>) -> Result<Frame> {
         let wanted = f.images.readback(f.settings);
         readback::ensure_buffers(f.device, f.readback, &wanted)?;

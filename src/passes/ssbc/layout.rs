@@ -1,4 +1,4 @@
-//! The SSBC pyramids' layout: levels, padding, where each layer's pyramid
+//! The SSBC pyramids' layout: levels, their sizes, where each layer's pyramid
 //! starts, the sizes of their texels and lists, what a frame's resources
 //! take and what a size needs of the device.
 
@@ -19,18 +19,10 @@ pub(super) const EVAL_POINT_BYTES: u64 = 64;
 /// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
 pub(super) const POINT_GLOSSY_BYTES: u64 = 16;
 
-/// Level 0 of the pyramids for an image (padded so that every level halves
-/// exactly) and the number of levels.
+/// Level 0 of the pyramids for an image (the image: nothing is padded) and
+/// the number of levels.
 pub(super) fn pyramid_layout(width: u32, height: u32) -> ((u32, u32), u32) {
-    let levels = pyramid_levels(width, height);
-    let align = 1u32 << (levels - 1);
-    (
-        (
-            width.div_ceil(align) * align,
-            height.div_ceil(align) * align,
-        ),
-        levels,
-    )
+    ((width, height), pyramid_levels(width, height))
 }
 
 /// Pyramid levels for an image: down to about 2 texels on the short side.
@@ -38,16 +30,28 @@ pub fn pyramid_levels(width: u32, height: u32) -> u32 {
     (31 - width.min(height).max(1).leading_zeros()).clamp(1, 12)
 }
 
+/// Texels of level `level` of a pyramid whose level 0 is `size`:
+/// ceil(size / 2^level) (`level_size_of` in ssbc_types.glsl).
+pub(super) fn level_size((w, h): (u32, u32), level: u32) -> (u32, u32) {
+    (
+        ((w.max(1) - 1) >> level) + 1,
+        ((h.max(1) - 1) >> level) + 1,
+    )
+}
+
 /// Texels of all `levels` levels of a pyramid whose level 0 is `size`
-/// (padded so every level halves exactly; `texel_index_in` in
-/// ssbc_types.glsl).
+/// (`level_start` in ssbc_pyramid.glsl).
 pub(super) fn pyramid_texels(size: (u32, u32), levels: u32) -> u64 {
-    let n = size.0 as u64 * size.1 as u64;
-    (4 * n - 4 * (n >> (2 * levels))) / 3
+    (0..levels)
+        .map(|l| {
+            let (w, h) = level_size(size, l);
+            w as u64 * h as u64
+        })
+        .sum()
 }
 
 /// Texels of layer 0's pyramid and, with a second layer, layer 1's after it
-/// (at half resolution half the size, one level fewer: `pyramid_of` in
+/// (at half resolution layer 0's levels from level 1 on: `pyramid_of` in
 /// ssbc_pyramid.glsl).
 pub(super) fn all_layers_texels(
     size: (u32, u32),
@@ -59,7 +63,7 @@ pub(super) fn all_layers_texels(
         None => first,
         Some(r) => {
             let shift = r.shift();
-            first + pyramid_texels((size.0 >> shift, size.1 >> shift), levels - shift)
+            first + pyramid_texels(level_size(size, shift), levels - shift)
         }
     }
 }
@@ -119,7 +123,6 @@ const POINT_LISTS: u64 = 2;
 
 impl FramePlan {
     pub fn new(extent: (u32, u32), steps: u32, layer1: Option<LayerResolution>) -> Self {
-        // Level 0 padded so every level halves exactly (padding has no geometry).
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
         let layer1 = effective_layer1(layer1, levels);
         // Evaluation points exist for layer 0's levels 1 and up only
@@ -162,8 +165,10 @@ impl FramePlan {
                 vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
             ),
             pixel_list: list(level0),
-            // Level 1 has a quarter of level 0's texels.
-            point_list: list(level0.div_ceil(4)),
+            point_list: list({
+                let (w, h) = level_size(pyramid_size, 1);
+                w as u64 * h as u64
+            }),
             stats: BufferPlan {
                 bytes: LIST_HEADER_BYTES * steps.max(1) as u64,
                 usage: vk::BufferUsageFlags::TRANSFER_DST,

@@ -93,7 +93,6 @@ impl SsbcPass {
     /// Texels of level `level` of layer `layer`'s pyramid (at half
     /// resolution half the size).
     pub(super) fn level_extent(frame: &SsbcFrame, layer: u32, level: u32) -> (u32, u32) {
-        let shift = level + Self::layer_shift(frame, layer);
-        (frame.pyramid_size.0 >> shift, frame.pyramid_size.1 >> shift)
+        super::layout::level_size(frame.pyramid_size, level + Self::layer_shift(frame, layer))
     }
 }
