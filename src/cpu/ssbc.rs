@@ -148,6 +148,62 @@ fn clip(poly: &[glam::Vec2], side: impl Fn(glam::Vec2) -> f32) -> Vec<glam::Vec2
     out
 }
 
+/// The eye's rays through the image plane (pixel coordinates uv), for
+/// lifting pixel polygons onto surfaces' tangent planes.
+struct Rays {
+    eye: Vec3,
+    base: Vec3,
+    du: Vec3,
+    dv: Vec3,
+}
+
+impl Rays {
+    /// Where the ray through uv meets the plane (c, n), if in front.
+    fn on_plane(&self, uv: glam::Vec2, c: Vec3, n: Vec3) -> Option<Vec3> {
+        let r = self.base + self.du * uv.x + self.dv * uv.y;
+        let t = n.dot(c - self.eye) / n.dot(r);
+        (t.is_finite() && t > 0.0).then(|| self.eye + r * t)
+    }
+
+    /// Area, centroid and size (largest distance of a vertex from the
+    /// centroid) of the polygon lifted onto the plane (c, n).
+    fn lift(&self, poly: &[glam::Vec2], c: Vec3, n: Vec3) -> Option<(f32, Vec3, f32)> {
+        let v = poly
+            .iter()
+            .map(|&uv| self.on_plane(uv, c, n))
+            .collect::<Option<Vec<Vec3>>>()?;
+        let (mut cross, mut centroid, mut weight) = (Vec3::ZERO, Vec3::ZERO, 0.0);
+        for k in 1..v.len().saturating_sub(1) {
+            let t = (v[k] - v[0]).cross(v[k + 1] - v[0]);
+            cross += t;
+            centroid += (v[0] + v[k] + v[k + 1]) * (t.length() / 3.0);
+            weight += t.length();
+        }
+        if v.len() < 3 || weight.is_nan() || weight <= 0.0 {
+            return None;
+        }
+        let centroid = centroid / weight;
+        let size = v
+            .iter()
+            .map(|p| (*p - centroid).length())
+            .fold(0.0, f32::max);
+        Some((0.5 * cross.length(), centroid, size))
+    }
+
+    /// An uncut pixel square lifted: the planar quad's area from its
+    /// diagonals, its size from the corners' mean (as the GPU's fast path).
+    fn lift_square(&self, square: &[glam::Vec2], c: Vec3, n: Vec3) -> Option<(f32, Vec3, f32)> {
+        let v = square
+            .iter()
+            .map(|&uv| self.on_plane(uv, c, n))
+            .collect::<Option<Vec<Vec3>>>()?;
+        let area = 0.5 * (v[2] - v[0]).cross(v[3] - v[1]).length();
+        let mean = (v[0] + v[1] + v[2] + v[3]) * 0.25;
+        let size = v.iter().map(|p| (*p - mean).length()).fold(0.0, f32::max);
+        Some((area, mean, size))
+    }
+}
+
 /// The footprint of layer-0 pixel (x, y) on its tangent plane, split at
 /// creases: where the line along which its tangent plane meets a
 /// neighbour's passes between the two pixel centres, and the two are one
@@ -172,38 +228,8 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
     };
     let ap = clamped_area(cp, np);
     let (base, du, dv) = camera.image_rays(g.width, g.height);
-    let ray = |uv: glam::Vec2| base + du * uv.x + dv * uv.y;
     let eye = camera.position;
-    // Where the ray through uv meets the plane (c, n), if in front.
-    let on_plane = |uv: glam::Vec2, c: Vec3, n: Vec3| {
-        let r = ray(uv);
-        let t = n.dot(c - eye) / n.dot(r);
-        (t.is_finite() && t > 0.0).then(|| eye + r * t)
-    };
-    // Area, centroid and size (largest distance of a vertex from the
-    // centroid) of the polygon lifted onto the plane (c, n).
-    let lift = |poly: &[glam::Vec2], c: Vec3, n: Vec3| -> Option<(f32, Vec3, f32)> {
-        let v = poly
-            .iter()
-            .map(|&uv| on_plane(uv, c, n))
-            .collect::<Option<Vec<Vec3>>>()?;
-        let (mut cross, mut centroid, mut weight) = (Vec3::ZERO, Vec3::ZERO, 0.0);
-        for k in 1..v.len().saturating_sub(1) {
-            let t = (v[k] - v[0]).cross(v[k + 1] - v[0]);
-            cross += t;
-            centroid += (v[0] + v[k] + v[k + 1]) * (t.length() / 3.0);
-            weight += t.length();
-        }
-        if v.len() < 3 || weight.is_nan() || weight <= 0.0 {
-            return None;
-        }
-        let centroid = centroid / weight;
-        let size = v
-            .iter()
-            .map(|p| (*p - centroid).length())
-            .fold(0.0, f32::max);
-        Some((0.5 * cross.length(), centroid, size))
-    };
+    let rays = Rays { eye, base, du, dv };
     let corner = glam::Vec2::new(x as f32, y as f32);
     let square: Vec<glam::Vec2> = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
         .iter()
@@ -236,35 +262,23 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
         };
         let fp = fp - offset;
         let m = centre_p + (centre_q - centre_p) * (fp / (fp - fq));
-        match on_plane(m, cp, np) {
+        match rays.on_plane(m, cp, np) {
             Some(crease) if (crease - cp).length() <= 2.0 * (cq - cp).length() => {}
             _ => continue,
         }
         own = clip(&own, |uv| sign * (line(uv) - offset));
         cut = true;
         let theirs = clip(&square, |uv| -sign * (line(uv) - offset));
-        if let Some((area, centroid, size)) = lift(&theirs, cq, nq) {
+        if let Some((area, centroid, size)) = rays.lift(&theirs, cq, nq) {
             if size <= 20.0 * aq.sqrt() && other.is_none_or(|o| area > 1.001 * o.2) {
                 other = Some((centroid, nq, area, j));
             }
         }
     }
-    // Uncut: the planar quad's area from its diagonals, its size from the
-    // corners' mean (as the GPU's fast path).
-    let lift_square = || -> Option<(f32, Vec3, f32)> {
-        let v = square
-            .iter()
-            .map(|&uv| on_plane(uv, cp, np))
-            .collect::<Option<Vec<Vec3>>>()?;
-        let area = 0.5 * (v[2] - v[0]).cross(v[3] - v[1]).length();
-        let mean = (v[0] + v[1] + v[2] + v[3]) * 0.25;
-        let size = v.iter().map(|p| (*p - mean).length()).fold(0.0, f32::max);
-        Some((area, mean, size))
-    };
     let lifted = if cut {
-        lift(&own, cp, np)
+        rays.lift(&own, cp, np)
     } else {
-        lift_square()
+        rays.lift_square(&square, cp, np)
     };
     match lifted {
         Some((own_area, _, size)) if size <= 20.0 * ap.sqrt() => Footprint { own_area, other },

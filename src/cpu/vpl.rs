@@ -143,6 +143,15 @@ struct Trail {
 }
 
 impl Trail {
+    /// Logs a path that deposited `vpls` and cast the segments from
+    /// `segments` on.
+    fn log(&mut self, vpls: std::ops::Range<usize>, segments: usize) {
+        self.paths.push(PathLog {
+            vpls,
+            segments: segments..self.segments.len(),
+        });
+    }
+
     /// Logs a path that deposited nothing and cast nothing.
     fn skip(&mut self, vpls: usize, segments: usize) {
         self.paths.push(PathLog {
@@ -210,25 +219,14 @@ pub fn generate_with(
     bounds: &Bounds,
     reuse: Option<Reuse<'_>>,
 ) -> Result<VplSet> {
-    if settings.count > 0 && settings.bounces == 0 {
-        return Err(Error::InvalidParameter(
-            "vpl.bounces 0 leaves no VPLs; set vpl.count to 0 to switch indirect light off"
-                .into(),
-        ));
-    }
+    check_bounces(settings)?;
     let mut set = VplSet::default();
     let emitters = Emitters::new(scene);
     if settings.count == 0 || (scene.lights.is_empty() && emitters.is_empty()) {
         return Ok(set);
     }
     let radius = bounds.radius().max(1e-3);
-    // Sources: every punctual light, then the emitters as one.
-    let mut powers: Vec<f32> = scene
-        .lights
-        .iter()
-        .map(|l| luminance(light_power(l, radius)).max(0.0))
-        .collect();
-    powers.push(luminance(emitters.power()).max(0.0));
+    let powers = source_powers(scene, &emitters, radius);
     let total: f32 = powers.iter().sum();
     if total.is_nan() || total <= 0.0 {
         return Ok(set);
@@ -252,76 +250,35 @@ pub fn generate_with(
     while raw.len() < settings.count && path - first < max_paths && path < u64::MAX {
         let before = raw.len();
         let segments_before = trail.segments.len();
-        let kept = reuse.as_ref().and_then(|r| {
-            let log = r.set.trail.paths.get((path - first) as usize)?;
-            let segments = &r.set.trail.segments[log.segments.clone()];
-            let crossed = segments
-                .iter()
-                .any(|s| r.moved.iter().any(|b| ray_meets_box(s.origin, s.dir, s.t, b)));
-            (!crossed).then_some((log, r.set))
-        });
-        if let Some((log, old)) = kept {
+        if let Some((log, old)) = reuse.as_ref().and_then(|r| kept_path(r, path - first)) {
             raw.extend_from_slice(&old.trail.raw[log.vpls.clone()]);
             trail
                 .segments
                 .extend_from_slice(&old.trail.segments[log.segments.clone()]);
-            trail.paths.push(PathLog {
-                vpls: before..raw.len(),
-                segments: segments_before..trail.segments.len(),
-            });
-            set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
+            trail.log(before..raw.len(), segments_before);
             path += 1;
             continue;
         }
         let s = |d: usize| halton.sample(path, d);
-        // Choose a source in proportion to its power.
-        let mut pick = s(0) * total;
-        let mut li = powers.len() - 1;
-        for (i, p) in powers.iter().enumerate() {
-            if pick < *p {
-                li = i;
-                break;
-            }
-            pick -= p;
-        }
+        let li = pick_source(&powers, s(0) * total);
         let p_light = powers[li] / total;
-        let u1 = Vec2::new(s(1), s(2));
-        let u2 = Vec2::new(s(3), s(4));
         let (origin, dir, mut flux, leaving) = if li == scene.lights.len() {
-            // An emissive triangle: a point in proportion to power, a VPL on
-            // it, then a cosine-distributed direction (pdf cos/pi, so the
-            // path's flux is pi Le / pdf_area / p_light).
-            // (A cut-out point of an alpha-masked emitter sends nothing.)
-            let e = emitters.sample(scene, glam::Vec4::new(s(1), s(2), s(3), s(4)));
-            let Some(e) = e.filter(|e| e.radiance != Vec3::ZERO) else {
+            let start = EmitterStart::sample(scene, &emitters, enclosure.as_ref(), path, s);
+            let flux = start.flux();
+            emitter_flux += flux;
+            let Some((vpl, dir, triangle)) = start.leaving() else {
+                enclosed += start.enclosed_flux();
                 trail.skip(before, segments_before);
                 path += 1;
                 continue;
             };
-            let flux = e.radiance * std::f32::consts::PI / e.pdf_area;
-            emitter_flux += flux;
-            // Light emitted into a solid never leaves it: the path
-            // counts (the estimate stays unbiased) but deposits nothing.
-            if enclosure.as_ref().is_some_and(|c| c.emits_into_solid(&e)) {
-                enclosed += flux;
-                trail.skip(before, segments_before);
-                path += 1;
-                continue;
-            }
             raw.push(Vpl {
-                position: e.position,
-                normal: e.normal,
-                brdf: Brdf::lambertian(Vec3::ONE),
-                incident: e.normal,
-                shading_normal: Vec3::ZERO,
                 flux: flux / p_light,
-                radius: 0.0,
-                bounce: 0,
-                path,
+                ..vpl
             });
-            let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
-            (e.position, dir, flux, Some(e.triangle))
+            (vpl.position, dir, flux, Some(triangle))
         } else {
+            let (u1, u2) = (Vec2::new(s(1), s(2)), Vec2::new(s(3), s(4)));
             let (origin, dir, flux) = punctual_start(&scene.lights[li], radius, bounds, u1, u2);
             (origin, dir, flux, None)
         };
@@ -340,49 +297,162 @@ pub fn generate_with(
             &mut raw,
             &mut trail.segments,
         );
-        trail.paths.push(PathLog {
-            vpls: before..raw.len(),
-            segments: segments_before..trail.segments.len(),
-        });
-        set.max_per_path = set.max_per_path.max((raw.len() - before) as u32);
+        trail.log(before..raw.len(), segments_before);
     }
     set.paths = path - first;
+    set.max_per_path = trail.paths.iter().map(|p| p.vpls.len() as u32).max().unwrap_or(0);
     trail.raw = raw.clone();
     set.trail = trail;
-    // The last path ran to its end (cutting it short would lose the light
-    // of its later bounces: a bias of about 1/paths). To keep exactly
-    // `count` VPLs (GPU resources are sized by it), the surplus is thinned
-    // without bias: the VPLs lowest in a hash of their identity (a choice
-    // independent of what they carry, and of the interleaving subset the
-    // identity hash's high bits pick) are dropped and the rest weighted up.
-    let surplus = raw.len().saturating_sub(settings.count);
-    let mut norm = 1.0 / set.paths.max(1) as f32;
-    if surplus > 0 {
-        let mut order: Vec<(u64, usize)> = raw
-            .iter()
-            .enumerate()
-            .map(|(i, v)| (hash64(v.identity_hash() ^ 0xD1B5_4A32_D192_ED03), i))
-            .collect();
-        order.sort_unstable();
-        let mut keep = vec![true; raw.len()];
-        for &(_, i) in &order[..surplus] {
-            keep[i] = false;
-        }
-        norm *= raw.len() as f32 / settings.count as f32;
-        let mut k = keep.iter();
-        raw.retain(|_| *k.next().expect("one flag per VPL"));
-    }
+    // Exactly `count` VPLs: GPU resources are sized by it.
+    let norm = (1.0 / set.paths.max(1) as f32) * thin_to(&mut raw, settings.count);
     set.emitted_power = emitters.power();
     set.enclosed_power = set.emitted_power * (enclosed / emitter_flux.max(Vec3::splat(1e-30)));
-    set.vpls = raw
-        .into_iter()
-        .map(|v| Vpl {
-            flux: v.flux * norm,
-            ..v
-        })
-        .collect();
+    raw.iter_mut().for_each(|v| v.flux *= norm);
+    set.vpls = raw;
     assign_radii(&mut set.vpls);
     Ok(set)
+}
+
+/// VPLs need a bounce.
+fn check_bounces(settings: &VplSettings) -> Result<()> {
+    if settings.count > 0 && settings.bounces == 0 {
+        return Err(Error::InvalidParameter(
+            "vpl.bounces 0 leaves no VPLs; set vpl.count to 0 to switch indirect light off"
+                .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The power (luminance) of every punctual light, then of the emitters as
+/// one source: what light paths start from.
+fn source_powers(scene: &Scene, emitters: &Emitters, radius: f32) -> Vec<f32> {
+    let lights = scene.lights.iter().map(|l| light_power(l, radius));
+    lights
+        .chain(std::iter::once(emitters.power()))
+        .map(|p| luminance(p).max(0.0))
+        .collect()
+}
+
+/// The earlier set's path `index` (from its first) with that set, if none
+/// of its rays crosses where an object moved.
+fn kept_path<'a>(reuse: &Reuse<'a>, index: u64) -> Option<(&'a PathLog, &'a VplSet)> {
+    let log = reuse.set.trail.paths.get(index as usize)?;
+    let segments = &reuse.set.trail.segments[log.segments.clone()];
+    let crossed = segments
+        .iter()
+        .any(|s| reuse.moved.iter().any(|b| ray_meets_box(s.origin, s.dir, s.t, b)));
+    (!crossed).then_some((log, reuse.set))
+}
+
+/// The source whose share of the summed `powers` holds `pick` (a uniform
+/// number times their sum): each in proportion to its power.
+fn pick_source(powers: &[f32], mut pick: f32) -> usize {
+    for (i, p) in powers.iter().enumerate() {
+        if pick < *p {
+            return i;
+        }
+        pick -= p;
+    }
+    powers.len() - 1
+}
+
+/// A light path's start on an emissive triangle: a point in proportion to
+/// power, a VPL on it, then a cosine-distributed direction (pdf cos/pi, so
+/// the path's flux is pi Le / pdf_area).
+enum EmitterStart {
+    /// A cut-out point of an alpha-masked emitter: it sends nothing.
+    Nothing,
+    /// Light emitted into a solid never leaves it: the path counts (the
+    /// estimate stays unbiased) but deposits nothing.
+    IntoSolid(Vec3),
+    /// The VPL on the emitter (its flux not yet divided by the source's
+    /// probability), the direction the path leaves in and the triangle.
+    Leaving(Vpl, Vec3, u32),
+}
+
+impl EmitterStart {
+    fn sample(
+        scene: &Scene,
+        emitters: &Emitters,
+        enclosure: Option<&super::enclosure::Enclosure>,
+        path: u64,
+        s: impl Fn(usize) -> f32,
+    ) -> Self {
+        let e = emitters.sample(scene, glam::Vec4::new(s(1), s(2), s(3), s(4)));
+        let Some(e) = e.filter(|e| e.radiance != Vec3::ZERO) else {
+            return Self::Nothing;
+        };
+        let flux = e.radiance * std::f32::consts::PI / e.pdf_area;
+        if enclosure.is_some_and(|c| c.emits_into_solid(&e)) {
+            return Self::IntoSolid(flux);
+        }
+        let vpl = Vpl {
+            position: e.position,
+            normal: e.normal,
+            brdf: Brdf::lambertian(Vec3::ONE),
+            incident: e.normal,
+            shading_normal: Vec3::ZERO,
+            flux,
+            radius: 0.0,
+            bounce: 0,
+            path,
+        };
+        let dir = cosine_hemisphere(e.normal, Vec2::new(s(5), s(6)));
+        Self::Leaving(vpl, dir, e.triangle)
+    }
+
+    /// The flux the path starts with (zero for a cut-out point).
+    fn flux(&self) -> Vec3 {
+        match self {
+            Self::Nothing => Vec3::ZERO,
+            Self::IntoSolid(flux) => *flux,
+            Self::Leaving(vpl, ..) => vpl.flux,
+        }
+    }
+
+    /// The flux emitted into a solid.
+    fn enclosed_flux(&self) -> Vec3 {
+        match self {
+            Self::IntoSolid(flux) => *flux,
+            _ => Vec3::ZERO,
+        }
+    }
+
+    /// The VPL, direction and triangle of a path that leaves the emitter.
+    fn leaving(&self) -> Option<(Vpl, Vec3, u32)> {
+        match self {
+            Self::Leaving(vpl, dir, triangle) => Some((*vpl, *dir, *triangle)),
+            _ => None,
+        }
+    }
+}
+
+/// Thins `raw` to `count` VPLs without bias, returning the weight the
+/// survivors take. The last path ran to its end (cutting it short would
+/// lose the light of its later bounces: a bias of about 1/paths), so there
+/// may be a surplus: the VPLs lowest in a hash of their identity (a choice
+/// independent of what they carry, and of the interleaving subset the
+/// identity hash's high bits pick) are dropped and the rest weighted up.
+fn thin_to(raw: &mut Vec<Vpl>, count: usize) -> f32 {
+    let surplus = raw.len().saturating_sub(count);
+    if surplus == 0 {
+        return 1.0;
+    }
+    let mut order: Vec<(u64, usize)> = raw
+        .iter()
+        .enumerate()
+        .map(|(i, v)| (hash64(v.identity_hash() ^ 0xD1B5_4A32_D192_ED03), i))
+        .collect();
+    order.sort_unstable();
+    let mut keep = vec![true; raw.len()];
+    for &(_, i) in &order[..surplus] {
+        keep[i] = false;
+    }
+    let weight = raw.len() as f32 / count as f32;
+    let mut k = keep.iter();
+    raw.retain(|_| *k.next().expect("one flag per VPL"));
+    weight
 }
 
 /// How many nearest VPLs set a VPL's radius.

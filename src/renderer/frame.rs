@@ -167,10 +167,7 @@ impl Renderer {
         host_slot: Option<usize>,
         resident: bool,
     ) -> Result<S::Output> {
-        let uses = FrameUse {
-            history: resident && host_slot.is_none() && settings.history.enabled,
-            readback: S::READS_BACK,
-        };
+        let uses = FrameUse::of::<S>(resident && host_slot.is_none() && settings.history.enabled);
         limits::check_settings(&self.device, settings, scene.lights.len(), uses)?;
         let (slot, previous_timings) = match host_slot {
             Some(slot) => (slot, None),
@@ -252,10 +249,7 @@ impl Renderer {
             previous_timings,
             history,
         } = request;
-        let uses = FrameUse {
-            history: history.is_some(),
-            readback: S::READS_BACK,
-        };
+        let uses = FrameUse::of::<S>(history.is_some());
         let host_settings = settings;
         let shifted = self.history_settings(scene, settings, history);
         let settings = shifted.as_ref().unwrap_or(settings);
@@ -290,7 +284,6 @@ impl Renderer {
             scene,
             cache,
         };
-        let timed = host.is_none();
         let history_frame = history.map(|plan| HistoryFrame {
             step: self
                 .history
@@ -299,15 +292,12 @@ impl Renderer {
         });
         let renderer = (&mut self.passes, &mut self.profiler, &mut self.fault);
         let scene_view = (&view, slot_scene);
+        let timed = host.is_none();
         let reused = record_passes(&mut rec, renderer, &setup, scene_view, history_frame, timed)?;
         let light_paths = cache.vpls().set.paths;
-
-        // What this frame's slot was estimated to take, and the slots that
-        // hold resources.
+        // The slot's estimated memory, and the slots holding resources.
         let estimated = limits::frame_memory(Some(&device), settings, scene.lights.len(), uses);
-        let slots = (0..FRAME_SLOTS)
-            .filter(|&s| self.passes.images(s).is_some())
-            .count() as u32;
+        let memory = (estimated, self.passes.slots_in_use());
         let images = self.passes.images(slot).expect("recorded above");
         rec.use_buffer(&images.ssbc.stats, Access::HostRead);
         let output = sink.finish(
@@ -326,7 +316,7 @@ impl Renderer {
                 record_start,
                 submit_ns: 0,
                 previous_timings,
-                memory: (estimated, slots),
+                memory,
                 readback: &mut self.readback[slot],
                 profiler: &mut self.profiler,
                 slot_done: &mut self.slot_done[slot],

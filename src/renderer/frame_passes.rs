@@ -171,6 +171,13 @@ impl Passes {
         result
     }
 
+    /// Frame slots that hold resources (whose memory the allocator counts).
+    pub fn slots_in_use(&self) -> u32 {
+        (0..FRAME_SLOTS)
+            .filter(|&s| self.images(s).is_some())
+            .count() as u32
+    }
+
     /// The images the slot's last recorded frame wrote.
     pub fn images(&self, slot: usize) -> Option<FrameImages<'_>> {
         let ssbc = self.ssbc.resources(slot)?;

@@ -45,6 +45,14 @@ pub(super) struct FrameUse {
 }
 
 impl FrameUse {
+    /// A frame sent on by `S`, with or without a temporal history.
+    pub fn of<S: super::sink::FrameSink>(history: bool) -> Self {
+        Self {
+            history,
+            readback: S::READS_BACK,
+        }
+    }
+
     /// Both: what [`super::frame_memory`] reports.
     pub const ALL: Self = Self {
         history: true,
@@ -87,11 +95,18 @@ pub(super) fn frame_memory(
     });
     let vpls = settings.vpl.count as u64;
     let tile = settings.ism_tile as u64;
-    // The atlas, the VPLs and their ray-cast layers (a distance and a facing
-    // per block); the point blocks they share, in object space with their
-    // normals and placed in the world.
+    // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
+    // and ray-cast layers (a distance and a facing per block); the point
+    // blocks they share, in object space with their normals and placed in
+    // the world.
+    let per_row = crate::gpu_types::ism_tiles_per_row(settings.vpl.count as u32) as u64;
+    let atlas = per_row * vpls.div_ceil(per_row) * tile * tile * 4;
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
-    let ism = vpls * (tile * tile * 4 + 48 + 512)
+    let subsets = 4 * (settings.pattern_side() as u64).pow(2) + 4;
+    let gpu_vpl = std::mem::size_of::<crate::gpu_types::GpuVpl>() as u64;
+    let ism = atlas
+        + vpls * (gpu_vpl + 512)
+        + subsets
         + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
     let shadow_maps = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
     // Resident frames' temporal history.
@@ -114,7 +129,7 @@ pub(super) fn frame_memory(
         readback += pixels * 16 * (2 + steps);
     }
     if uses.readback && settings.debug_readback {
-        readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + vpls * tile * tile * 4;
+        readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas;
     }
     let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc.unwrap_or_default();
     FrameMemory {

@@ -494,14 +494,7 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         submit_ns,
         memory,
     } = record;
-    // The resolve marks pixels without geometry -1 (ssbc_resolve.comp).
-    let geometry: Vec<bool> = samples
-        .first()
-        .map(|s| s.iter().map(|&c| c >= 0.0).collect())
-        .unwrap_or_default();
-    for step in &mut samples {
-        step.iter_mut().for_each(|c| *c = c.max(0.0));
-    }
+    let geometry = geometry_of(&mut samples);
     let ssbc_steps = ssbc_figures(&samples, &geometry, &images, view, settings, &gpu_times)?;
     let vpl_set = &cache.vpls().set;
     let bound = view.bound;
@@ -578,6 +571,19 @@ impl IsmReadback {
 
 /// An error if a pixel's sample count says its residual sum was cut short
 /// by the device's loop limit (see [`CUT_SHORT`]).
+/// The pixels with geometry, from the texels read per pixel of each step
+/// (the resolve marks those without -1, ssbc_resolve.comp; they become 0).
+fn geometry_of(samples: &mut [Vec<f32>]) -> Vec<bool> {
+    let geometry = samples
+        .first()
+        .map(|s| s.iter().map(|&c| c >= 0.0).collect())
+        .unwrap_or_default();
+    for step in samples {
+        step.iter_mut().for_each(|c| *c = c.max(0.0));
+    }
+    geometry
+}
+
 fn check_not_cut_short(samples: &[Vec<f32>], settings: &RenderSettings) -> Result<()> {
     if !samples.iter().flatten().any(|&c| c >= CUT_SHORT as f32) {
         return Ok(());

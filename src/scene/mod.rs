@@ -264,9 +264,50 @@ impl Scene {
         self.add_object(Object::new(mesh, transform))
     }
 
+    /// Checks a mesh's data against itself and its material (which it
+    /// returns).
+    fn check_mesh(&self, data: &MeshData, material: u32) -> Result<&Material> {
+        let bad = |m: &str| Err(Error::scene(&self.name, m));
+        if data.indices.len() % 3 != 0 {
+            return bad("index count is not a multiple of 3");
+        }
+        if !data.normals.is_empty() && data.normals.len() != data.positions.len()
+            || !data.uvs.is_empty() && data.uvs.len() != data.positions.len()
+            || !data.tangents.is_empty() && data.tangents.len() != data.positions.len()
+            || !data.colors.is_empty() && data.colors.len() != data.positions.len()
+        {
+            return bad("attribute counts differ from the position count");
+        }
+        if data
+            .colors
+            .iter()
+            .any(|c| !(c.cmpge(Vec4::ZERO) & c.cmple(Vec4::ONE)).all())
+        {
+            return bad("a vertex colour is outside [0, 1]");
+        }
+        if let Some(&i) = data
+            .indices
+            .iter()
+            .find(|&&i| i as usize >= data.positions.len())
+        {
+            return bad(&format!(
+                "index {i} out of range ({} vertices)",
+                data.positions.len()
+            ));
+        }
+        let Some(mat) = self.materials.get(material as usize) else {
+            return bad(&format!("material {material} does not exist"));
+        };
+        if data.indices.len() / 3 > MAX_TRIANGLES {
+            return bad(&format!("more than {MAX_TRIANGLES} triangles"));
+        }
+        Ok(mat)
+    }
+
     /// Adds a mesh in object space that objects can then draw
     /// ([`Scene::add_object`]); returns its index.
     pub fn new_mesh(&mut self, data: MeshData, material: u32) -> Result<usize> {
+        let normal_texture = self.check_mesh(&data, material)?.normal_texture;
         let MeshData {
             positions,
             normals,
@@ -275,38 +316,9 @@ impl Scene {
             colors,
             indices,
         } = data;
-        let bad = |m: &str| Err(Error::scene(&self.name, m));
-        if indices.len() % 3 != 0 {
-            return bad("index count is not a multiple of 3");
-        }
-        if !normals.is_empty() && normals.len() != positions.len()
-            || !uvs.is_empty() && uvs.len() != positions.len()
-            || !tangents.is_empty() && tangents.len() != positions.len()
-            || !colors.is_empty() && colors.len() != positions.len()
-        {
-            return bad("attribute counts differ from the position count");
-        }
-        if colors
-            .iter()
-            .any(|c| !(c.cmpge(Vec4::ZERO) & c.cmple(Vec4::ONE)).all())
-        {
-            return bad("a vertex colour is outside [0, 1]");
-        }
-        if let Some(&i) = indices.iter().find(|&&i| i as usize >= positions.len()) {
-            return bad(&format!(
-                "index {i} out of range ({} vertices)",
-                positions.len()
-            ));
-        }
-        let Some(mat) = self.materials.get(material as usize) else {
-            return bad(&format!("material {material} does not exist"));
-        };
-        if indices.len() / 3 > MAX_TRIANGLES {
-            return bad(&format!("more than {MAX_TRIANGLES} triangles"));
-        }
-        let wants_tangents = mat.normal_texture.is_some();
+        let wants_tangents = normal_texture.is_some();
         // Tangents are generated along the normal map's own u and v.
-        let normal_map_uv = mat.normal_texture.map_or(Affine2::IDENTITY, |t| t.uv);
+        let normal_map_uv = normal_texture.map_or(Affine2::IDENTITY, |t| t.uv);
         let mapped_uvs: Vec<[f32; 2]> = if normal_map_uv == Affine2::IDENTITY {
             Vec::new()
         } else {

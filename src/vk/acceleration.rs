@@ -54,6 +54,62 @@ enum Geometry<'a> {
     },
 }
 
+impl Geometry<'_> {
+    /// The structure's type, its geometry for a build and its primitive
+    /// count.
+    fn describe(
+        &self,
+    ) -> (
+        vk::AccelerationStructureTypeKHR,
+        vk::AccelerationStructureGeometryKHR<'static>,
+        u32,
+    ) {
+        match self {
+        Geometry::Triangles {
+            vertices,
+            stride,
+            indices,
+            range,
+        } => {
+            let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+                .vertex_format(vk::Format::R32G32B32_SFLOAT)
+                .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: vertices.device_address()
+                        + range.vertex_offset as u64 * stride,
+                })
+                .vertex_stride(*stride)
+                .max_vertex(range.max_vertex.saturating_sub(range.vertex_offset))
+                .index_type(vk::IndexType::UINT32)
+                .index_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: indices.device_address() + range.first_index as u64 * 4,
+                });
+            (
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                vk::AccelerationStructureGeometryKHR::default()
+                    .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+                    .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+                    .flags(vk::GeometryFlagsKHR::OPAQUE),
+                range.triangles,
+            )
+        }
+        Geometry::Instances { buffer, count } => {
+            let instances = vk::AccelerationStructureGeometryInstancesDataKHR::default()
+                .array_of_pointers(false)
+                .data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: buffer.device_address(),
+                });
+            (
+                vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+                vk::AccelerationStructureGeometryKHR::default()
+                    .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+                    .geometry(vk::AccelerationStructureGeometryDataKHR { instances }),
+                *count,
+            )
+        }
+    }
+    }
+}
+
 fn functions(device: &Device) -> Result<&ash::khr::acceleration_structure::Device> {
     device
         .ray_queries()
@@ -99,49 +155,7 @@ impl AccelerationStructure {
     fn build(rec: &mut Recorder<'_>, name: &str, geometry: Geometry<'_>) -> Result<(Self, Buffer)> {
         let device = rec.device.clone();
         let ext = functions(&device)?;
-        let (ty, geometry_info, primitives) = match &geometry {
-            Geometry::Triangles {
-                vertices,
-                stride,
-                indices,
-                range,
-            } => {
-                let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-                    .vertex_format(vk::Format::R32G32B32_SFLOAT)
-                    .vertex_data(vk::DeviceOrHostAddressConstKHR {
-                        device_address: vertices.device_address()
-                            + range.vertex_offset as u64 * stride,
-                    })
-                    .vertex_stride(*stride)
-                    .max_vertex(range.max_vertex.saturating_sub(range.vertex_offset))
-                    .index_type(vk::IndexType::UINT32)
-                    .index_data(vk::DeviceOrHostAddressConstKHR {
-                        device_address: indices.device_address() + range.first_index as u64 * 4,
-                    });
-                (
-                    vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
-                    vk::AccelerationStructureGeometryKHR::default()
-                        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-                        .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
-                        .flags(vk::GeometryFlagsKHR::OPAQUE),
-                    range.triangles,
-                )
-            }
-            Geometry::Instances { buffer, count } => {
-                let instances = vk::AccelerationStructureGeometryInstancesDataKHR::default()
-                    .array_of_pointers(false)
-                    .data(vk::DeviceOrHostAddressConstKHR {
-                        device_address: buffer.device_address(),
-                    });
-                (
-                    vk::AccelerationStructureTypeKHR::TOP_LEVEL,
-                    vk::AccelerationStructureGeometryKHR::default()
-                        .geometry_type(vk::GeometryTypeKHR::INSTANCES)
-                        .geometry(vk::AccelerationStructureGeometryDataKHR { instances }),
-                    *count,
-                )
-            }
-        };
+        let (ty, geometry_info, primitives) = geometry.describe();
         let geometries = [geometry_info];
         let mut info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
             .ty(ty)

@@ -332,8 +332,22 @@ impl SsbcPass {
             }
         }
         profiler.end(rec.cmd, sub);
-        // Texels read per pixel.
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
+        self.record_samples(rec, pool, out, push, frame)?;
+        profiler.end(rec.cmd, sub);
+        Ok(())
+    }
+
+    /// Texels read per pixel: each pixel's own, plus its share of the
+    /// evaluation points whose blocks it is in.
+    fn record_samples(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &DescriptorPool,
+        out: &StepOutput<'_>,
+        push: &StepPush,
+        frame: &SsbcFrame,
+    ) -> Result<()> {
         let bindings = ssbc_samples_comp::Bindings {
             aux_texels: &frame.aux,
             point_texels: &frame.points,
@@ -344,10 +358,9 @@ impl SsbcPass {
             eval_level: push.eval_level,
             generation: push.generation,
         };
+        let pixels = Work::pixels(out.gbuffer.extent());
         self.samples
-            .dispatch(rec, pool, &bindings, &samples_push, Work::pixels(pixels))?;
-        profiler.end(rec.cmd, sub);
-        Ok(())
+            .dispatch(rec, pool, &bindings, &samples_push, pixels)
     }
 
     /// Evaluation points of `push.level`: those of a list (a two-ended

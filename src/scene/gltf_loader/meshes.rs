@@ -23,6 +23,15 @@ pub(super) fn triangulate(mode: json::mesh::Mode, idx: &[u32]) -> Vec<u32> {
     }
 }
 
+/// A primitive's vertex attributes, as read.
+struct Attributes {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<[f32; 2]>,
+    tangents: Vec<Vec4>,
+    colors: Vec<Vec4>,
+}
+
 impl Loader<'_> {
     /// Adds glTF mesh `index`'s triangle primitives as scene meshes (object
     /// space) and returns their indices.
@@ -38,7 +47,7 @@ impl Loader<'_> {
         default_material: u32,
     ) -> Result<Vec<usize>> {
         let mut made = Vec::new();
-        use json::mesh::{Mode, Semantic};
+        use json::mesh::Mode;
         let root = self.root;
         let mesh = root
             .meshes
@@ -56,76 +65,13 @@ impl Loader<'_> {
                 );
                 continue;
             }
-            let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
-            let pos_acc = attr(Semantic::Positions)
-                .ok_or_else(|| self.err(format!("mesh {index} primitive {pi} has no POSITION")))?;
-            let mut positions: Vec<Vec3> = self
-                .read_floats(pos_acc, 3)?
-                .chunks_exact(3)
-                .map(Vec3::from_slice)
-                .collect();
-            let mut normals: Vec<Vec3> = match attr(Semantic::Normals) {
-                Some(a) => self
-                    .read_floats(a, 3)?
-                    .chunks_exact(3)
-                    .map(Vec3::from_slice)
-                    .collect(),
-                None => Vec::new(),
-            };
-            let uv_maps = match prim.material {
-                Some(m) => self.uv_maps.get(m.value()).copied().unwrap_or_default(),
-                None => MaterialUvMaps::default(),
-            };
-            let uv_map = uv_maps.mesh;
-            let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(uv_map.set)) {
-                Some(a) => self
-                    .read_floats(a, 2)?
-                    .chunks_exact(2)
-                    .map(|c| uv_map.transform.transform_point2(Vec2::new(c[0], c[1])))
-                    .map(|uv| uv.is_finite().then_some(uv.into()))
-                    .collect::<Option<_>>()
-                    .ok_or_else(|| {
-                        self.err(format!(
-                            "mesh {index} primitive {pi}: KHR_texture_transform takes texture coordinates past the largest float"
-                        ))
-                    })?,
-                None => {
-                    if uv_map.set != 0 {
-                        log::warn!(
-                            "{}: mesh {index} primitive {pi} has no TEXCOORD_{} for its material's textures",
-                            self.name,
-                            uv_map.set
-                        );
-                    }
-                    Vec::new()
-                }
-            };
-            let mut tangents: Vec<Vec4> = match attr(Semantic::Tangents) {
-                Some(a) => self
-                    .read_floats(a, 4)?
-                    .chunks_exact(4)
-                    .map(Vec4::from_slice)
-                    .collect(),
-                None => Vec::new(),
-            };
-            let colors = match attr(Semantic::Colors(0)) {
-                Some(a) => self.read_colors(a, index, pi)?,
-                None => Vec::new(),
-            };
-            if !normals.is_empty() && normals.len() != positions.len()
-                || !uvs.is_empty() && uvs.len() != positions.len()
-                || !tangents.is_empty() && tangents.len() != positions.len()
-                || !colors.is_empty() && colors.len() != positions.len()
-            {
-                return Err(self.err(format!(
-                    "mesh {index} primitive {pi}: attribute counts differ"
-                )));
-            }
-            if !uvs.is_empty() && normals.len() == tangents.len() {
-                // The normal map's own map of the TEXCOORD set.
-                let normal_map = uv_maps.normal * uv_map.transform;
-                follow_texture_transform(&mut tangents, &normals, normal_map.matrix2);
-            }
+            let Attributes {
+                mut positions,
+                mut normals,
+                uvs,
+                mut tangents,
+                colors,
+            } = self.attributes(prim, index, pi)?;
             let at = format!("mesh {index} primitive {pi}");
             self.morph(&at, prim, weights, &mut positions, &mut normals, &mut tangents)?;
             if let Some(joints) = joints {
@@ -173,6 +119,95 @@ impl Loader<'_> {
             )?);
         }
         Ok(made)
+    }
+
+    /// Primitive `pi` of mesh `index`'s vertex attributes (object space,
+    /// texture coordinates through their material's transform), every one
+    /// present as long as the positions.
+    fn attributes(
+        &mut self,
+        prim: &json::mesh::Primitive,
+        index: usize,
+        pi: usize,
+    ) -> Result<Attributes> {
+        use json::mesh::Semantic;
+        let attr = |s: Semantic| prim.attributes.get(&Checked::Valid(s)).map(|a| a.value());
+        let pos_acc = attr(Semantic::Positions)
+            .ok_or_else(|| self.err(format!("mesh {index} primitive {pi} has no POSITION")))?;
+        let positions: Vec<Vec3> = self
+            .read_floats(pos_acc, 3)?
+            .chunks_exact(3)
+            .map(Vec3::from_slice)
+            .collect();
+        let normals: Vec<Vec3> = match attr(Semantic::Normals) {
+            Some(a) => self
+                .read_floats(a, 3)?
+                .chunks_exact(3)
+                .map(Vec3::from_slice)
+                .collect(),
+            None => Vec::new(),
+        };
+        let uv_maps = match prim.material {
+            Some(m) => self.uv_maps.get(m.value()).copied().unwrap_or_default(),
+            None => MaterialUvMaps::default(),
+        };
+        let uv_map = uv_maps.mesh;
+        let uvs: Vec<[f32; 2]> = match attr(Semantic::TexCoords(uv_map.set)) {
+            Some(a) => self
+                .read_floats(a, 2)?
+                .chunks_exact(2)
+                .map(|c| uv_map.transform.transform_point2(Vec2::new(c[0], c[1])))
+                .map(|uv| uv.is_finite().then_some(uv.into()))
+                .collect::<Option<_>>()
+                .ok_or_else(|| {
+                    self.err(format!(
+                        "mesh {index} primitive {pi}: KHR_texture_transform takes texture coordinates past the largest float"
+                    ))
+                })?,
+            None => {
+                if uv_map.set != 0 {
+                    log::warn!(
+                        "{}: mesh {index} primitive {pi} has no TEXCOORD_{} for its material's textures",
+                        self.name,
+                        uv_map.set
+                    );
+                }
+                Vec::new()
+            }
+        };
+        let mut tangents: Vec<Vec4> = match attr(Semantic::Tangents) {
+            Some(a) => self
+                .read_floats(a, 4)?
+                .chunks_exact(4)
+                .map(Vec4::from_slice)
+                .collect(),
+            None => Vec::new(),
+        };
+        let colors = match attr(Semantic::Colors(0)) {
+            Some(a) => self.read_colors(a, index, pi)?,
+            None => Vec::new(),
+        };
+        if !normals.is_empty() && normals.len() != positions.len()
+            || !uvs.is_empty() && uvs.len() != positions.len()
+            || !tangents.is_empty() && tangents.len() != positions.len()
+            || !colors.is_empty() && colors.len() != positions.len()
+        {
+            return Err(self.err(format!(
+                "mesh {index} primitive {pi}: attribute counts differ"
+            )));
+        }
+        if !uvs.is_empty() && normals.len() == tangents.len() {
+            // The normal map's own map of the TEXCOORD set.
+            let normal_map = uv_maps.normal * uv_map.transform;
+            follow_texture_transform(&mut tangents, &normals, normal_map.matrix2);
+        }
+        Ok(Attributes {
+            positions,
+            normals,
+            uvs,
+            tangents,
+            colors,
+        })
     }
 
     /// Displaces a primitive's vertices by its morph targets at `weights`

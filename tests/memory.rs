@@ -1,0 +1,94 @@
+//! Device memory by part: the estimate made before anything is allocated
+//! agrees with the allocator after a frame, part by part, and a setting
+//! that is off holds nothing.
+
+mod common;
+
+use ssbc::memory::FrameMemory;
+use ssbc::settings::LayerResolution;
+use ssbc::RenderSettings;
+
+/// Renders one frame on a fresh renderer (one frame slot) and checks every
+/// part of its timings' estimate against the allocator's measure: within 1%
+/// (alignment and the allocator's own rounding).
+fn estimate_matches_measure(settings: &RenderSettings) {
+    let mut scene = ssbc::scene::load("cornell").expect("cornell");
+    scene.ensure_light();
+    let frame = common::render_validated(&scene, settings);
+    let report = frame.timings.memory;
+    assert_eq!(report.slots, 1, "one frame on a fresh renderer");
+    let (estimated, measured) = (report.estimated.parts(), report.measured.parts());
+    for ((part, e), (_, m)) in estimated.iter().zip(measured) {
+        let tolerance = m / 100;
+        assert!(
+            e.abs_diff(m) <= tolerance,
+            "{}x{}: {part} estimated {e} bytes, allocated {m}",
+            settings.width,
+            settings.height
+        );
+    }
+    // An immediate frame keeps no history and reads back what it was asked.
+    assert_eq!(report.measured.history, 0);
+    assert!(report.measured.readback > 0 && report.measured.ssbc_pyramids > 0);
+}
+
+#[test]
+fn the_estimate_is_what_the_allocator_holds_part_by_part() {
+    estimate_matches_measure(&RenderSettings::new(320, 240));
+    // Two layers, two steps, every layer read back, an odd size (the
+    // pyramids' last rows and columns overhang the image).
+    let mut s = RenderSettings::new(203, 151);
+    s.ssbc.steps = 2;
+    s.ssbc.layers = 2;
+    s.ssbc.layer1_resolution = LayerResolution::Half;
+    s.debug_readback = true;
+    estimate_matches_measure(&s);
+}
+
+#[test]
+fn memory_follows_what_is_on() {
+    let mut scene = ssbc::scene::load("cornell").expect("cornell");
+    scene.ensure_light();
+    let memory = |s: &RenderSettings| ssbc::renderer::frame_memory(&scene, s);
+    let base = RenderSettings::new(640, 480);
+    let pixels = 640 * 480;
+    let m = memory(&base);
+    // Read back by default: the final image (RGBA32F) and one step's texel
+    // counts (R32F); nothing else.
+    assert_eq!(m.readback, pixels * (16 + 4));
+    let mut outputs = base.clone();
+    outputs.output_layers = true;
+    // Direct, bounded indirect and the residual besides.
+    assert_eq!(memory(&outputs).readback, m.readback + pixels * 16 * 3);
+    // No SSBC step: no pyramids, lists or step images.
+    let mut no_steps = base.clone();
+    no_steps.ssbc.steps = 0;
+    let n = memory(&no_steps);
+    assert_eq!((n.ssbc_pyramids, n.ssbc_lists, n.ssbc_images), (0, 0, 0));
+    // No history where it is off.
+    let mut no_history = base.clone();
+    no_history.history.enabled = false;
+    assert_eq!(memory(&no_history).history, 0);
+    assert!(m.history > 0);
+    // A second layer adds its G-buffer, lighting and pyramid; at half
+    // resolution about a quarter of that.
+    let mut two = base.clone();
+    two.ssbc.layers = 2;
+    let full = memory(&two);
+    two.ssbc.layer1_resolution = LayerResolution::Half;
+    let half = memory(&two);
+    let extra = |x: &FrameMemory| x.total() - m.total();
+    assert!(extra(&full) > 3 * extra(&half) && extra(&half) > 0);
+}
+
+/// Today's figure at 1920x1080, resident (issue 64 aims at 160 bytes per
+/// pixel): a regression guard, from `cargo bench --bench memory`.
+#[test]
+fn a_1080p_frame_slot_takes_at_most_530_bytes_per_pixel() {
+    let mut scene = ssbc::scene::load("cornell").expect("cornell");
+    scene.ensure_light();
+    let mut m = ssbc::renderer::frame_memory(&scene, &RenderSettings::new(1920, 1080));
+    m.readback = 0;
+    let per_pixel = m.total() as f64 / (1920.0 * 1080.0);
+    assert!(per_pixel <= 530.0, "{per_pixel:.1} bytes per pixel: {m:?}");
+}
