@@ -3,9 +3,8 @@
 // object's space, w the object) placed by its object's transform, with its
 // surface normal (w: ism_pack_normal); a hidden object's points get w = 0
 // and are not splatted. (Placing them in the splat instead repeats the
-// transform for every VPL sharing a block and doubled the splat's time on
-// llvmpipe; placing takes 18.5 ms for 262k points there, one or eight a
-// invocation alike, and runs only when the points or the objects changed.)
+// transform for every VPL sharing a block; placing runs only when the
+// points or the objects changed (measured: docs/accuracy.md, "Tuned constants").)
 #include "common.glsl"
 #include "ism.glsl"
 

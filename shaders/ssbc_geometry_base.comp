@@ -2,9 +2,8 @@
 // SSBC geometry pyramid, level 0, from a G-buffer layer (pc.layer):
 // each pixel's world position and unit normal as its front cluster, and the
 // world-space area A_y it stands for. Kept apart from the coarser levels
-// (ssbc_geometry_mips.comp): inside their kernel lavapipe ran this level 3x
-// slower (45 vs 14 ms at 1024x768), paying per invocation for code it does
-// not run.
+// (ssbc_geometry_mips.comp): inside their kernel lavapipe ran this level
+// slower, paying per invocation for code it does not run (measured: docs/accuracy.md, "Tuned constants").
 //
 // Footprints (full-resolution layers): a pixel stands for the surface seen through its
 // square, on its tangent plane. Where the line along which that plane
@@ -14,9 +13,8 @@
 // that part's centroid, with the neighbour's normal, and carries the
 // neighbour's radiance (its offset in GeoAux.flags bits 1..4, read by
 // ssbc_radiance_mips.comp). Pixel centres alone miss the strip of a grazing
-// surface next to a crease, where G is largest: in the CPU twin on the
-// open-front box (160x120) recovery went from 65.0 to 74.2% with one layer
-// (its ceiling: 75.7%). Mirrored by `footprint` in src/cpu/ssbc.rs.
+// surface next to a crease, where G is largest (measured: docs/accuracy.md, "Tuned constants").
+// Mirrored by `footprint` in src/cpu/ssbc.rs.
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform GeometryBasePush {

@@ -52,13 +52,9 @@ const float GLOSSY_POINT_MATERIAL = 0.02;
 // pixel's whole residual, for points whose lobes point apart (see
 // same_lobe) to stand for it: the light they reflect hardly changes
 // across their lobes, so neither across the pixel's, which lies among
-// theirs on a smooth surface. Spheres, relative RMSE against brute force
-// at 256x192 / 640x480 / 1024x768 and texels per pixel at 1024x768: 0.025
-// 1.33 / 1.48 / 1.18%, 34.9; 0.05 1.37 / 1.47 / 1.18%, 34.4; 0.1 2.25% at
-// 256x192 (docs/performance.md). The weighted mean rather than the
-// largest deviation (a pixel on a point takes its rest, whatever its
-// neighbours say): 1.39 / 1.44 / 1.10% -> 1.39 / 1.44 / 1.12%, 34.0 ->
-// 33.7 texels.
+// theirs on a smooth surface. The weighted mean rather than the largest
+// deviation: a pixel on a point takes its rest, whatever its neighbours
+// say (measured: docs/accuracy.md, "Tuned constants").
 const float AGREE = 0.05;
 
 // Whether an evaluation point with a glossy rest (at pixel q) computed it
@@ -156,10 +152,9 @@ void main() {
                                                        : empty_cluster();
                 // The point's surface (geometric) normal: near the pixel's
                 // shading normal, and the pixel on its tangent plane.
-                // (The point's own shading normal, one more image load per
-                // point and pixel, made the coarsest resolve 15-25% slower
-                // on cornell 1024x768 and changed nothing without normal
-                // maps.)
+                // (The point's own shading normal costs one more image
+                // load per point and pixel for nothing without normal
+                // maps (measured: docs/accuracy.md, "Tuned constants").)
                 vec3 n = g.normal_cone.xyz;
                 vec3 d = x - g.position_extent.xyz;
                 float dist = length(d);

@@ -410,8 +410,7 @@ impl SsbcPostProcess {
 
     /// [`SsbcPostProcess::memory`] on `device`, from each resource's memory
     /// requirements there (asked before anything exists): what the
-    /// allocator takes (H200: 3,231,456 estimated, 3,231,792 allocated,
-    /// where the bytes asked for are 9.5% fewer; docs/performance.md).
+    /// allocator takes (docs/performance.md).
     pub fn memory_on(device: &Device, shape: &PostProcessShape, slots: usize) -> PostProcessMemory {
         let per_slot =
             crate::passes::ssbc::frame_bytes(Some(device), shape.extent, shape.steps, shape.layer1);

@@ -49,8 +49,7 @@ pub struct VplCache {
 /// Most blocks of ISM points: VPLs share blocks beyond this many (a VPL
 /// needs a well-spread subset of the scene's points, not its own; from
 /// different places, VPLs sharing one splat it differently). Sampling time
-/// and memory then stop growing with the VPL count (5120 VPLs x 1024
-/// points were 84 MiB and 248 ms on the CPU per immediate-mode frame).
+/// and memory then stop growing with the VPL count (measured: docs/accuracy.md, "Tuned constants").
 pub const MAX_POINT_BLOCKS: usize = 256;
 
 /// A hash of how many objects there are and which are visible.

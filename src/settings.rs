@@ -437,26 +437,21 @@ impl LayerResolution {
 /// SSBC parameters.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SsbcSettings {
-    /// Number of residual steps K (0 = no compensation). One by default:
-    /// on the open-front box a second step moved the relMSE against a
-    /// path-traced reference from 0.0069 to 0.0068 for 12% more frame.
+    /// Number of residual steps K (0 = no compensation). One by default: a
+    /// second gains little against a path-traced reference for its cost
+    /// (docs/accuracy.md, "Tuned constants").
     pub steps: u32,
     /// Integration method.
     pub integration: Integration,
     /// Lower clamp of cos(theta_view) in A_y (conservative grazing-angle compensation).
     pub min_cos_view: f32,
     /// Refine a texel whose bounding sphere's radius exceeds this fraction of
-    /// its distance to x... With `refine_excess` 1.5, 0.16 keeps the
-    /// hierarchical residual within 1.7% relative RMSE and 0.6% in the mean
-    /// of brute force on the built-in scenes and an open box at 256x192 to
-    /// 640x480 (tests/ssbc.rs). Without it (0), 0.1 reads 1.3 to 1.6 times
-    /// as many texels as 0.16, and 0.2 exceeds 2% at 320x240.
+    /// its distance to x... 0.16: the coarsest that keeps the hierarchical
+    /// residual within 2% of brute force (tests/ssbc.rs) (docs/accuracy.md, "Tuned constants").
     pub refine_ratio: f32,
     /// ...but only if G can exceed (1 + refine_excess) b somewhere in it: a
     /// cluster where max(G - b, 0) <= refine_excess b adds at most that per
-    /// unit of A_y S(y), error included, however large it is. 1.5 reads
-    /// 21-31% fewer texels than refining every large cluster (0) at the same
-    /// accuracy; 2 moved the mean by 1% on cornell 320x240.
+    /// unit of A_y S(y), error included, however large it is (docs/accuracy.md, "Tuned constants").
     pub refine_excess: f32,
     /// A texel is one smooth surface ("continuous", usable as an evaluation
     /// point) if the mean of its unit normals is at least this long...
@@ -473,10 +468,8 @@ pub struct SsbcSettings {
     /// A pixel interpolates only from points closer to it than this fraction
     /// of their variation scale: the length over which I(x) changes there,
     /// estimated as the contribution-weighted harmonic mean of the distances
-    /// to what they gather from (short near corners and contacts). 0.2 keeps
-    /// the accuracy of the former limit, 0.25 x the distance to the nearest
-    /// contributing surface, with 22% fewer texels on tori at 640x480 (which
-    /// that limit sent pixel by pixel inside its concave rings).
+    /// to what they gather from (short near corners and contacts)
+    /// (docs/accuracy.md, "Tuned constants").
     pub scale_fraction: f32,
     /// G-buffer layers SSBC gathers from: 1 (the visible surfaces), or 2: a
     /// deep G-buffer's second layer (at `layer1_resolution`), the nearest surfaces
@@ -493,9 +486,9 @@ pub struct SsbcSettings {
     /// Render a guard band: the view widened on every side by 1/sqrt(b)
     /// seen at the nearest visible depth (at most half the image's shorter
     /// side), so that surfaces just outside the image are sources too; the
-    /// image is cropped back. Off by default: on the built-ins and the open
-    /// box 0-0.2% of the true residual comes from there, for up to 4x the
-    /// pixels (docs/ssbc-implementation.md). Not in the viewer.
+    /// image is cropped back. Off by default: little of the true residual
+    /// comes from there, for up to 4x the pixels
+    /// (docs/ssbc-implementation.md). Not in the viewer.
     pub guard_band: bool,
     /// How receivers of both kinds are dispatched (the same image either way).
     pub receiver_dispatch: ReceiverDispatch,

@@ -7,11 +7,8 @@
 //
 // A workgroup takes 8 listed pixels (x) with 16 lanes each (y), a lane
 // summing every 16th VPL. A thread per pixel left a GPU nearly idle (a few
-// thousand threads, each looping over thousands of VPLs): on an H100 the
-// crease pixels took 90% of the bounded lighting pass at 320x240 (cornell;
-// 76% at 1024x768), against 34% on lavapipe; with 8 lanes 56% (29%), with
-// 16 lanes 41-43% (19%). Lavapipe pays 5% (8 lanes) or 10% (16) more for
-// them. Lanes of one VPL slice run side by side (x first), so a CPU's SIMD
+// thousand threads, each looping over thousands of VPLs) (measured: docs/accuracy.md, "Tuned constants").
+// Lanes of one VPL slice run side by side (x first), so a CPU's SIMD
 // rows still fetch one VPL for 8 pixels.
 #include "common.glsl"
 #include "ism.glsl"

@@ -95,13 +95,8 @@ float ism_slope(float c) {
 // How much slope a texel's stored surface allows (see ism_tolerance):
 // ISM_SLOPE_MARGIN x its own, because the nearest point of the receiver's
 // own surface in a texel faces the VPL a little more squarely than the
-// receiver does (with 1x a floor seen at a grazing angle shadowed 1.1% of
-// its own light), plus ISM_CURVE for a surface that curves within a
-// footprint. Margin, curve: a floor turned to the VPLs, its lowest band
-// of its own light; a mirror-like floor before a plinth, its nearest
-// quarter metres (tests/instant_radiosity.rs): 1.0, 0.5: 0.988, 5.5 and
-// 2.5; 1.25, 0.5: 0.993, 5.5 and 2.5; 1.5, 0.5: 0.995, 5.5 and 2.5; 1.5,
-// 1.0: 0.997, 6.1 and 2.5.
+// receiver does, plus ISM_CURVE for a surface that curves within a
+// footprint (measured: docs/accuracy.md, "Tuned constants").
 const float ISM_SLOPE_MARGIN = 1.5;
 const float ISM_CURVE = 0.5;
 
@@ -110,12 +105,11 @@ const float ISM_CURVE = 0.5;
 // larger) at its slope to the VPL's ray. The receiver's own surface lands
 // in its texel, so its slope (cos_x) is enough for it; but at grazing
 // angles that let any occluder within several footprints through (a
-// mirror-like floor before a plinth reflected the VPLs the plinth hides:
-// 14.7x the exact-visibility light over the nearest half metre). Where the
-// texel says how the surface it stores faces the ray (`facing` >= 0), the
-// slope is at most that surface's (with a margin, above): the receiver's
-// own surface still gets what it needs, and an occluder facing the VPL
-// shadows (3.4x). Mirrored in renderer/readback.rs.
+// mirror-like floor before a plinth reflected the VPLs the plinth hides).
+// Where the texel says how the surface it stores faces the ray (`facing` >=
+// 0), the slope is at most that surface's (with a margin, above): the
+// receiver's own surface still gets what it needs, and an occluder facing
+// the VPL shadows (measured: docs/accuracy.md, "Tuned constants"). Mirrored in renderer/readback.rs.
 float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
     float footprint = max(dist * 4.0 / float(tile), point_radius);
     float slope = ism_slope(cos_x);

@@ -15,13 +15,9 @@
 // two-ended list (ssbc_types.glsl), glossy ones at the back, so a SIMD
 // group runs one walk. On a CPU device (lavapipe) the two kernels run one
 // after the other and a Lambertian point runs none of the glossy code:
-// lavapipe runs both sides of a branch (with the glossy code behind a
-// uniform test cornell's evaluation levels took 10-20% longer, behind a
-// per-point one 50%; the open-front box's levels took 1.5-1.7x its
-// Lambertian twin's when a SIMD group ran both walks). On a GPU, where a
-// level takes as long as its slowest walk whatever the number of points,
-// one dispatch runs both (ONE_DISPATCH; H100, spheres 1024x768: the two
-// kernels of a level took 0.42 + 0.67 ms one after the other).
+// lavapipe runs both sides of a branch. On a GPU, where a level takes as
+// long as its slowest walk whatever the number of points, one dispatch
+// runs both (ONE_DISPATCH) (measured: docs/accuracy.md, "Tuned constants").
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform EvalPush {
@@ -83,10 +79,9 @@ void evaluate(ivec2 t, bool glossy) {
     // level 1: there a pixel is at most a pixel from the points it
     // interpolates, and the resolve's own tests (normal, tangent plane) keep
     // it on the point's surface, so a block across a silhouette or crease
-    // still serves the pixels on its point's side (tori 1024x768: 4.1 ->
-    // 3.7% of pixels alone, traversal -12%). Coarser, that let pixels
-    // interpolate across edges (cornell 640x480: 1.2 -> 4.2% RMSE). Either
-    // way the point's own pixel must be geometry.
+    // still serves the pixels on its point's side; coarser, that let
+    // pixels interpolate across edges (measured: docs/accuracy.md, "Tuned constants"). Either way the point's
+    // own pixel must be geometry.
     bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (geo_aux(index).flags & 1u) == 1u)
         && screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
     if (!usable) {
@@ -97,10 +92,8 @@ void evaluate(ivec2 t, bool glossy) {
     if (glossy) {
         begin_glossy(receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q)), x, nx);
         // The lobe refined at half its scale within 3 alpha of its mirror
-        // direction, at its whole scale beyond (as the fallback does):
-        // spheres 1024x768 34.4 -> 34.3 texels per pixel, against brute
-        // force the same (half everywhere before; the whole scale
-        // everywhere: 1.91% at 640x480 instead of 1.48%).
+        // direction, at its whole scale beyond (as the fallback does)
+        // (measured: docs/accuracy.md, "Tuned constants").
         glossy_refine = 1.0;
         glossy_refine_near = 0.5;
         glossy_near = 3.0 * glossy_alpha;

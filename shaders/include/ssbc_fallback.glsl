@@ -9,9 +9,8 @@
 // the geometry pass) are at the back of the fallback list, for
 // ssbc_fallback_glossy.comp, which defines SSBC_GLOSSY_FALLBACK (and with
 // ONE_DISPATCH takes the front too): on a CPU device a pixel here never
-// runs the glossy walk, and a SIMD group never runs both. Lambertian frames
-// gain the most: the Lambertian twin of spheres at 1024x768 took 152 -> 97
-// ms here with the glossy code behind a per-pixel test removed.
+// runs the glossy walk, and a SIMD group never runs both: Lambertian
+// frames gain the most (measured: docs/accuracy.md, "Tuned constants").
 #include "ssbc_types.glsl"
 
 layout(push_constant) uniform IntegralPush {
@@ -51,17 +50,13 @@ void fallback(ivec2 p) {
 #ifdef SSBC_GLOSSY_FALLBACK
 // A glossy receiver: the walk with its BRDF, refined by its lobe
 // (ssbc_walk.glsl), finely only within 3 alpha of its mirror direction (at
-// the whole angular scale beyond: spheres' texels per pixel 38.1 -> 36.7,
-// relative RMSE against brute force unchanged). `rest_only`: its evaluation
+// the whole angular scale beyond). `rest_only`: its evaluation
 // points stood for its Lambertian part but not for its glossy rest, and the
 // resolve kernel wrote what they give; the walk adds the glossy rest, at a
 // quarter of the lobe's scale near the mirror and with the geometric
 // refinement 5x coarser (REST_ONLY_COARSER). Other glossy pixels are alone
 // for their geometry (silhouettes, contacts): their lobe at 0.75 of its
-// scale near the mirror (0.5: the same errors, 0.3% more texels). Spheres
-// 1024x768: texels per pixel 38.1 -> 34.9 (the Lambertian twin 28.8);
-// relative RMSE against brute force at 256x192 to 1024x768 1.07-1.44% ->
-// 1.22-1.50% (docs/performance.md).
+// scale near the mirror (measured: docs/accuracy.md, "Tuned constants").
 void fallback_glossy(ivec2 p, bool rest_only) {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = imageLoad(g_normal, p).xyz;

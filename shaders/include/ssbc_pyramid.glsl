@@ -149,11 +149,7 @@ Brdf receiver_brdf(vec4 albedo, vec4 normal) {
 // How much a nearly Lambertian receiver's BRDF may vary (times the cosine,
 // relative to its value along the normal) over the directions light arrives
 // from for it to take the residual's linear form from evaluation points
-// like a Lambertian one. The glTF open-front box (rough dielectrics),
-// relative RMSE against brute force at 320x240 / 1024x768 and a step against
-// its Lambertian twin's at 1024x768: 0.05: 0.98 / 1.11%, 1.34x; 0.15:
-// 1.80 / 1.63%, 1.23x; 0.25: 1.84 / 1.68%, 1.11x; every rough
-// dielectric (no check): 1.82% at 1024x768, 1.01x.
+// like a Lambertian one (measured: docs/accuracy.md, "Tuned constants").
 const float NEARLY_LAMBERTIAN = 0.15;
 
 // Whether f(wo, .) of a glossy receiver differs from its value for light

@@ -76,9 +76,8 @@ float mirror_chord2(vec3 w) {
 // keep the lobe: they are refined until they are small against it (see
 // visit()). One evaluation, its alpha^2 selected: lavapipe runs both sides
 // of an if for the whole SIMD group, and a branch between the widened and
-// the plain lobe cost two (spheres 1024x768, glossy kernels of a step:
-// 324-327 -> 298-299 ms with one; the receiver's terms in BrdfView another
-// 3%). ssbc::cpu::ssbc::glossy_pixel_spread is the CPU twin's.
+// the plain lobe cost two (measured: docs/accuracy.md, "Tuned constants").
+// ssbc::cpu::ssbc::glossy_pixel_spread is the CPU twin's.
 void add_glossy(vec3 w, float chord2, vec3 weighted, float omega) {
     if (!glossy_active) return;
     float diffuse_weight;
@@ -132,11 +131,10 @@ void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, floa
 }
 
 // The brute-force loop takes BRUTE_SPAN pixels of a row per iteration,
-// unrolled. One per iteration cut windows short from a radius of about 128
-// pixels, 90 with two layers (tori 640x480: half the residual missing; 320x240
-// with two layers: 1.2% relative RMSE against the CPU twin); 16 fit a
-// 1024x768 window of one layer, or of two with a radius up to about 500
-// pixels. (Blocks of 4 x 16 took 12 s more to compile.)
+// unrolled: one per iteration ran into lavapipe's loop limit (CUT_SHORT)
+// from a radius of about 128 pixels, 90 with two layers; 16 fit a 1024x768
+// window of one layer, or of two with a radius up to about 500 pixels
+// (measured: docs/accuracy.md, "Tuned constants").
 const int BRUTE_SPAN = 16;
 
 // Every texel of level 0 of pyramid p in the window (the reference);

@@ -70,9 +70,9 @@ struct GeoTexel {
 // normal's direction by less than 2^-15 radians, well within the 1e-3
 // radians its cone is widened by for rounding (ssbc_geometry_mips.comp).
 // A z of 0 (axis-aligned normals are common) would become a denormal,
-// which costs lavapipe's x86 code a microcode assist per operation (one
-// layer's SSBC step +23% on tori): it becomes about 2^-60 first (its square
-// is still a normal float).
+// which costs lavapipe's x86 code a microcode assist per operation
+// (measured: docs/accuracy.md, "Tuned constants"): it becomes about 2^-60 first (its square is still a
+// normal float).
 const float SMALLEST_Z = 8.6736174e-19;
 
 GeoCluster with_children_bits(GeoCluster g, uint bits) {
@@ -155,9 +155,7 @@ ivec2 eval_pixel(ivec2 t, int l) {
 // (`count`), so that a work group, and every SIMD group in it, holds one
 // kind of receiver. Three dispatches: both ends (the front's work groups
 // first), the front alone, the back alone (a CPU device spends nearly a
-// walk's time on a work group with nothing to do: lavapipe, spheres
-// 1024x768, the glossy points' kernel over both ends took 207 ms, over the
-// back 107).
+// walk's time on a work group with nothing to do (measured: docs/accuracy.md, "Tuned constants")).
 struct ListHeader {
     uint dispatch_x;          // VkDispatchIndirectCommand: both ends
     uint dispatch_y;

@@ -39,57 +39,40 @@ struct Visit {
 
 // Adding a cluster from its mean takes max(G - b, 0) at the mean for the
 // mean of max(G - b, 0) over its pixels: always too little (max is convex),
-// by up to half of how much G varies over the cluster where G ~ b there,
-// which left the hierarchical residual 0.5 to 1.3% short of brute force at
-// refine_ratio 0.2. G = cos_x cos_y / d^2 changes by about
+// by up to half of how much G varies over the cluster where G ~ b there.
+// G = cos_x cos_y / d^2 changes by about
 //   s = SPREAD (R / d) (2 G + (cos_x + cos_y) / d^2)
 // across a cluster of bounding radius R (first order in R / d). Taking G
 // spread evenly over [G - s, G + s], the mean of max(G - b, 0) is, with
 // m = G - b and t = (m + s) / 2s in [0, 1]:
 //   m (m >= s),  (m + s)^2 / 4s = t/2 (G - b) + t/2 s (|m| < s),  0 (m <= -s).
-// SPREAD (the pixels' r.m.s. offset over R, about) was chosen so that the
-// mean of the residual matches brute force within 0.5% on the built-in
-// scenes and the open box at 256x192 to 640x480 (0.6 overshot by 1-3%).
+// SPREAD (the pixels' r.m.s. offset over R, about): the value whose mean
+// residual matches brute force (measured: docs/accuracy.md, "Tuned constants").
 const float SPREAD = 0.3;
 // What a glossy receiver refines: clusters seen wider than glossy_refine
 // of its lobe's local angular scale (visit()), or glossy_refine_near of it
 // within glossy_near of the lobe's mirror direction. A pixel's own walk
-// 0.25 everywhere by default; glossy evaluation points 0.5 within 3 alpha
-// of the mirror and 1.0 beyond (ssbc_eval.glsl), as accurate against brute
-// force there (spheres 1024x768, 0.5 everywhere: 1.22 / 1.18% against 1.46
-// / 1.40% with 0.25; 1.0: 1.18%) and their levels 10% cheaper. The glossy
-// fallback sets its own (ssbc_fallback.glsl).
+// 0.25 everywhere by default; glossy evaluation points and the glossy
+// fallback set their own (ssbc_eval.glsl, ssbc_fallback.glsl)
+// (measured: docs/accuracy.md, "Tuned constants").
 float glossy_refine = 0.25;
 float glossy_refine_near = 0.25;
 float glossy_near = 0.0;
 // Whether only the glossy rest is wanted (the Lambertian part came from
 // evaluation points): the geometric refinement is REST_ONLY_COARSER x
-// coarser. Spheres, relative RMSE against brute force at 256x192 to
-// 1024x768 and texels per pixel at 1024x768: 1x 1.13-1.46%, 36.3; 4x
-// 1.20-1.48%, 35.3; 5x 1.22-1.50%, 34.9; 8x 1.28-1.92%, 34.8; the lobe's
-// refinement alone 1.43-1.92%, 34.7 (limit 2%).
+// coarser, as coarse as keeps the error against brute force within the
+// tests' limit (measured: docs/accuracy.md, "Tuned constants").
 const float REST_ONLY_COARSER = 5.0;
 // A glossy walk refines by its lobe only clusters where G may exceed
 // (1 + LOBE_EXCESS refine_excess) b (a rest-only walk, whose geometry is
 // coarser, everywhere): elsewhere max(G - b, 0) is small and the BRDF's
-// change across the cluster changes little. Spheres, relative RMSE
-// against brute force at 256x192 / 320x240 / 640x480 / 1024x768 and
-// texels per pixel at 1024x768: everywhere 1.39 / 1.50 / 1.44 / 1.12%,
-// 33.7; 0.25 the same errors, 33.4; 0.35 1.73% at 320x240, 33.3; 0.5
-// 1.98%, 33.1; 1 (where the geometry is refined) 2.18%, 32.8; rest-only
-// walks too at 1: 2.96% at 256x192.
+// change across the cluster changes little (measured: docs/accuracy.md, "Tuned constants").
 const float LOBE_EXCESS = 0.25;
 bool glossy_rest_only = false;
 // A rest-only walk skips the clusters that lie wholly more than
 // REST_ONLY_FAR alphas from the lobe's mirror direction. What they drop
-// is GGX's tail there (2% of the lobe's energy beyond 15 alphas) and the
-// Fresnel weight's change of the diffuse lobe (-0.04 w of it), whose
-// skipped share, added back from the points' I, moved no figure below.
-// Spheres, relative RMSE against brute force at 256x192 / 640x480 /
-// 1024x768 and texels per pixel at 1024x768: none 1.39 / 1.45 / 1.10%,
-// 34.3; 20 alphas 1.39 / 1.44 / 1.09%, 34.1; 15 1.39 / 1.44 / 1.10%,
-// 34.0; 10 1.42 / 1.46 / 1.25%, 33.9 (5, in an earlier build: 2.34 /
-// 1.84 / 2.67%).
+// is GGX's tail there and the Fresnel weight's change of the diffuse lobe
+// (-0.04 w of it) (measured: docs/accuracy.md, "Tuned constants").
 const float REST_ONLY_FAR = 15.0;
 
 // A cluster is skipped if G cannot exceed b anywhere in it: G <= cos_x cos_y
@@ -144,18 +127,13 @@ Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
     // A glossy receiver refines what its BRDF changes across wherever G > b:
     // GGX changes over an angle of about a quarter of (alpha + the angle
     // from the mirror direction), so clusters wider than that, seen from
-    // x, are refined. Spheres 1024x768, step / Lambertian step: this 2.70x;
-    // 0.25 alpha everywhere 4.17x, as accurate; alpha everywhere 3.0x and
-    // 0.5 here 2.40x, both leaving a pixel beside a contact 23% short
-    // (3.2% relative RMSE against brute force at 640x480 instead of 1.3%).
+    // x, are refined (measured: docs/accuracy.md, "Tuned constants").
     float chord2 = glossy_active ? mirror_chord2(d * inv_dist) : 0.0;
     float seen = extent.x * inv_dist;
     // The angle from the chord c to the mirror direction, 2 asin(c / 2)
     // to third order: exact near the mirror, where the test is fine, and
-    // at most 26% short at 180 degrees (a little more refined there:
-    // spheres 1024x768 34.2 -> 34.3 texels per pixel, the same errors
-    // against brute force); acos cost a square root and a polynomial
-    // per cluster (glossy kernels 2% longer).
+    // at most 26% short at 180 degrees (a little more refined there); acos
+    // costs a square root and a polynomial per cluster (measured: docs/accuracy.md, "Tuned constants").
     float off_mirror = sqrt(chord2) * (1.0 + chord2 * (1.0 / 24.0));
     float beyond = max(off_mirror - seen, 0.0);
     skip = skip || (glossy_rest_only && beyond > REST_ONLY_FAR * glossy_alpha);
@@ -189,15 +167,9 @@ vec3 add_visit(inout Residual acc, Visit v, vec3 as, vec3 nx, inout vec2 scale) 
 // (`*_weighted` from add_visit): the BRDF in a loop over those, so that a
 // SIMD group whose lanes add at most one cluster evaluates it once;
 // lavapipe runs both sides of an if for the whole group, so called once
-// per cluster it cost two evaluations per texel (spheres 1024x768: step
-// 760 -> 716-731 ms, images the same bit for bit). A group whose lanes
-// add nothing costs little here (a loop with a runtime zero count added
-// 7.5 ms to the open box's glossy kernels, the BRDF passes 14 ms more;
-// two texels per pass saved nothing: docs/performance.md). (Exactly one per
-// texel, a back cluster that adds with the front one waiting for the next
-// texel that adds nothing, was slower: the texels whose clusters both add
-// while one waits, read again, were 2% more texels, and the glossy kernels
-// took 535 against 520-528 ms on one thread.)
+// per cluster it cost two evaluations per texel. A group whose lanes add
+// nothing costs little here; what was tried instead is in
+// docs/performance.md ("Tuned constants" in docs/accuracy.md).
 // At `level` 0 each is a pixel of `pixel_scale` image pixels, whose solid
 // angle may widen the lobe (add_glossy).
 void add_glossy_visits(int level, float pixel_scale, Visit front, vec3 front_weighted, Visit back,
@@ -256,9 +228,8 @@ uvec2 set_children_at(uvec2 children, int z, uint m) {
     return children;
 }
 
-// The lowest set bit of a 4-bit mask m != 0, from a table (2 bits per m).
-// With findLSB here and below, the two-layer step on tori 1024x768 took
-// 1000 ms against 947 (one alternating run).
+// The lowest set bit of a 4-bit mask m != 0, from a table (2 bits per m):
+// faster than findLSB on lavapipe (measured: docs/accuracy.md, "Tuned constants").
 int lowest_of_4(uint m) {
     return int((0x12131210u >> (2u * m)) & 3u);
 }
@@ -271,15 +242,13 @@ int lowest_bit(uint v) {
 
 // Top-down over every layer's pyramid, from its roots, layer after layer in
 // one loop: a SIMD group runs as many iterations as its busiest lane needs
-// in all, not the sum of each layer's busiest (tori 1024x768, two full
-// layers: step 1.76x -> 1.67x one layer's). Every texel read is counted.
+// in all, not the sum of each layer's busiest (measured: docs/accuracy.md, "Tuned constants"). Every texel read
+// is counted.
 // A texel is refined if either of its clusters needs refining; otherwise
 // its clusters are added or skipped. A refined texel's children are
 // visited unless they only hold members of a cluster that was skipped
 // (G <= b over all of it): at a silhouette one cluster is often near x and
-// the other beyond the bounding radius or behind x's tangent plane (tori
-// 1024x768: 65.2 -> 56.4 texels read per pixel with two layers, 35.1 ->
-// 32.7 with one).
+// the other beyond the bounding radius or behind x's tangent plane.
 // The walk is one flat loop without a stack of texels (and without
 // break/continue, which lavapipe's SIMD loops have mishandled): a texel's
 // children (up to four; one beyond the last row or column never holds

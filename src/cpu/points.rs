@@ -84,8 +84,7 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
             .take(count)
             .collect()
     } else {
-        // Every draw is kept: the points are independent (2048 VPLs' worth,
-        // 2M points: 143 ms on one thread).
+        // Every draw is kept: the points are independent.
         (0..count as u64)
             .into_par_iter()
             .filter_map(point)

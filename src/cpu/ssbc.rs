@@ -298,7 +298,7 @@ pub fn footprint(g: &GBufferView<'_>, camera: &TwinCamera, x: u32, y: u32) -> Fo
 /// fuses multiply-adds, lavapipe and the CPU do not), and the line halves
 /// p's square. (Skipping a line exactly through the centre, as before, gave
 /// pixels whose centre a crease crosses their whole square on their own
-/// plane: 20% more residual on cornell's ceiling diagonal at 256x192.)
+/// plane (measured: docs/accuracy.md, "Tuned constants").)
 /// ssbc_geometry_base.comp's `crease_side` is the same.
 fn crease_side(fp: f32, fq: f32) -> Option<(f32, f32)> {
     let offset = if fp.abs() <= 1e-4 * (fp - fq).abs() {
@@ -550,8 +550,7 @@ mod tests {
     /// A crease line through p's centre (fp = 0), or a hair beyond it by
     /// rounding, halves p's square on p's side; a line that does not run
     /// between the centres is no crease. (Before, fp = 0 exactly was no
-    /// crease and a rounding error either side decided: the brute-force
-    /// step differed from this twin by 2.6% on NVIDIA.)
+    /// crease and a rounding error either side decided (measured: docs/accuracy.md, "Tuned constants").)
     #[test]
     fn a_crease_line_through_the_centre_halves_the_pixel() {
         // Clearly between the centres: no snapping, p's side positive.

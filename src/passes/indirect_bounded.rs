@@ -38,15 +38,10 @@ use crate::vk::{
     Device, Image, Work,
 };
 
-/// Relative depth tolerance of the ISM visibility test. With 32-texel tiles
-/// (the default) 0.12 rather than 0.05: false shadows 5.1 -> 4.4% of
-/// (pixel, VPL) pairs, leaks 2.7 -> 3.5%, and against path-traced
-/// references relMSE 0.0070 -> 0.0066 (open-front box; tori unchanged) and
-/// the mean 0.980 -> 0.985 (tori 0.995 -> 0.997), 320x240, 2048 VPLs.
-/// With the ray-cast layer (near occluders no longer leak) 0.16: open-front
-/// box relMSE on 4x4 blocks 0.0031 -> 0.0030, per pixel 0.0066 (same), mean
-/// 0.983 -> 0.987; closed room (tests/scenes) 0.955 -> 0.959; 0.2 and 0.3
-/// raise the mean further but the per-pixel relMSE too (0.0076 at 0.2).
+/// Relative depth tolerance of the ISM visibility test: trades false
+/// shadows against leaks; with the ray-cast layer (near occluders no
+/// longer leak) 0.16 is right in the mean against path-traced references
+/// (measured: docs/accuracy.md, "Tuned constants").
 pub const ISM_BIAS: f32 = 0.16;
 
 /// The ISM test's relative tolerance at a receiver of BRDF `brdf`:
@@ -55,18 +50,8 @@ pub const ISM_BIAS: f32 = 0.16;
 /// distance lets an occluder near the receiver through (a plinth 0.5 m in
 /// front of a floor point 3 m from the VPL); a diffuse receiver blurs such
 /// a leak over its hemisphere, a narrow lobe shows it as a bright
-/// reflection where the occluder should be. A metal floor of roughness 0.12
-/// before a plinth, 160x120 against Mitsuba 3: relMSE(4x4) 0.059 -> 0.028
-/// (the floor in front of the plinth 8.6x the exact-visibility VPL sum
-/// before); the studio 0.0214 -> 0.0190; spheres, its metallic variant, the
-/// sphere grid, helmet and bottle within 0.0001 (docs/accuracy.md). Since
-/// ISM texels bound the slope term by their own surface's, 4 alpha instead
-/// of 10: the same floor at roughness 0.3, 320x240 against the path
-/// tracer, relMSE(4x4) 120 -> 3.6 (mean 1.10 -> 0.991), the studio 0.0175
-/// -> 0.0134, the metallic spheres 0.00955 -> 0.00965 (their limit 0.01;
-/// 0.0099 before the stored slope); 3 and 2 alpha darken `spheres` (means
-/// 0.9846, 0.9819 against 0.9876). `shaders/include/vpl_gather.glsl` is
-/// the twin.
+/// reflection where the occluder should be (measured: docs/accuracy.md, "Tuned constants").
+/// `shaders/include/vpl_gather.glsl` is the twin.
 pub fn ism_bias_for(brdf: &crate::cpu::brdf::Brdf) -> f32 {
     if brdf.is_lambertian() {
         ISM_BIAS
@@ -78,9 +63,8 @@ pub fn ism_bias_for(brdf: &crate::cpu::brdf::Brdf) -> f32 {
 /// Surface tests of the reconstruction filter: a neighbour is on the
 /// pixel's surface if it lies within `FILTER_PLANE_SLOPE` x its distance of
 /// the pixel's tangent plane and its normal within acos(`FILTER_NORMAL_COS`)
-/// of the pixel's. (Measuring the chord against the mean of the two
-/// normals instead, which accepts more of a curved surface, raised tori's
-/// error from 4.5% to 6.6%: irradiance follows the normal there.)
+/// of the pixel's: against the pixel's own normal, since irradiance
+/// follows the normal on a curved surface (measured: docs/accuracy.md, "Tuned constants").
 pub const FILTER_PLANE_SLOPE: f32 = 0.1;
 /// See [`FILTER_PLANE_SLOPE`].
 pub const FILTER_NORMAL_COS: f32 = 0.9;

@@ -14,8 +14,8 @@ use crate::settings::RenderSettings;
 use crate::vk::Device;
 
 /// Rays across the image (per side, at most) that find the nearest visible
-/// depth: 16384 rays, 2-3 ms of CPU per frame (tori, closed room); fewer
-/// would miss what a very wide image shows in a few columns.
+/// depth: fewer would miss what a very wide image shows in a few columns
+/// (measured: docs/accuracy.md, "Tuned constants").
 const DEPTH_PROBES: u32 = 128;
 
 /// A frame rendered `margin` pixels wider on every side than the image it
