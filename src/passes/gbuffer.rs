@@ -47,32 +47,24 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
+    /// What it allocates for `extent`: the four colour targets, then depth.
+    pub fn descs(extent: (u32, u32)) -> [ImageDesc; 5] {
+        let color = super::storage_desc(GBUFFER_FORMAT, extent, vk::ImageUsageFlags::COLOR_ATTACHMENT);
+        let depth = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let depth = ImageDesc::new_2d(vk::Format::D32_SFLOAT, extent.0, extent.1, depth);
+        [color, color, color, color, depth]
+    }
+
     /// Allocates the images for `extent`, named `{prefix}.position` etc.
     pub fn new(device: &Arc<Device>, prefix: &str, extent: (u32, u32)) -> Result<Self> {
-        let color = |name: &str| {
-            super::storage_image(
-                device,
-                &format!("{prefix}.{name}"),
-                GBUFFER_FORMAT,
-                extent,
-                vk::ImageUsageFlags::COLOR_ATTACHMENT,
-            )
-        };
+        let [color, _, _, _, depth] = Self::descs(extent);
+        let image = |name: &str, desc| Image::new(device, &format!("{prefix}.{name}"), desc);
         Ok(Self {
-            position: color("position")?,
-            normal: color("normal")?,
-            albedo: color("albedo")?,
-            emission: color("emission")?,
-            depth: Image::new(
-                device,
-                &format!("{prefix}.depth"),
-                ImageDesc::new_2d(
-                    vk::Format::D32_SFLOAT,
-                    extent.0,
-                    extent.1,
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                ),
-            )?,
+            position: image("position", color)?,
+            normal: image("normal", color)?,
+            albedo: image("albedo", color)?,
+            emission: image("emission", color)?,
+            depth: image("depth", depth)?,
         })
     }
 

@@ -35,8 +35,43 @@ use crate::shaders::{
 use crate::shaders::blocks::{FilterPush, GatherPush};
 use crate::vk::{
     AccelerationStructure, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout,
-    Device, Image, Work,
+    Device, Image, Work, ImageDesc,
 };
+
+/// The interleaved gather's guide: a pixel's position and packed normal
+/// (guide.glsl).
+fn guide_desc(extent: (u32, u32)) -> ImageDesc {
+    let usage = vk::ImageUsageFlags::empty();
+    super::storage_desc(vk::Format::R32G32B32A32_UINT, extent, usage)
+}
+
+/// The crease list: a dispatch header, then a pixel per word.
+fn creases_bytes(extent: (u32, u32)) -> u64 {
+    16 + 4 * extent.0 as u64 * extent.1 as u64
+}
+
+const CREASES_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
+    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
+        | vk::BufferUsageFlags::INDIRECT_BUFFER.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
+);
+
+/// Bytes of device memory a layer's bounded lighting takes at `extent` with
+/// `gather`: its three radiance images and, interleaved, two more, the
+/// guide and the crease list (on `device` as its memory requirements say).
+pub(crate) fn memory_bytes(device: Option<&Device>, extent: (u32, u32), gather: Gather) -> u64 {
+    let radiance = super::radiance_desc(extent).bytes(device);
+    match gather {
+        Gather::Full => 3 * radiance,
+        Gather::Interleaved => {
+            let creases = match device {
+                Some(d) => crate::vk::buffer_memory_bytes(d, creases_bytes(extent), CREASES_USAGE),
+                None => creases_bytes(extent),
+            };
+            5 * radiance + guide_desc(extent).bytes(device) + creases
+        }
+    }
+}
 
 /// Relative depth tolerance of the ISM visibility test: trades false
 /// shadows against leaks; with the ray-cast layer (near occluders no
@@ -416,20 +451,12 @@ impl Pass for IndirectBoundedPass {
             Gather::Interleaved => Some(Interleaved {
                 sums: image("lighting.interleaved")?,
                 glossy: image("lighting.interleaved_glossy")?,
-                guide: super::storage_image(
-                    device,
-                    &name("lighting.interleaved_guide"),
-                    vk::Format::R32G32B32A32_UINT,
-                    extent,
-                    vk::ImageUsageFlags::empty(),
-                )?,
+                guide: Image::new(device, &name("lighting.interleaved_guide"), guide_desc(extent))?,
                 creases: Buffer::new(
                     device,
                     &name("lighting.creases"),
-                    16 + 4 * extent.0 as u64 * extent.1 as u64,
-                    vk::BufferUsageFlags::STORAGE_BUFFER
-                        | vk::BufferUsageFlags::INDIRECT_BUFFER
-                        | vk::BufferUsageFlags::TRANSFER_DST,
+                    creases_bytes(extent),
+                    CREASES_USAGE,
                     MemoryLocation::GpuOnly,
                 )?,
             }),

@@ -71,15 +71,29 @@ pub struct Ism {
     pub point_radius: f32,
 }
 
+/// The ISM atlas's texels across and down: whole rows of `tile`-texel
+/// tiles for `vpl_count` VPLs (not checked against the device).
+fn atlas_extent(vpl_count: u32, tile: u32) -> (u64, u64) {
+    let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
+    let rows = vpl_count.max(1).div_ceil(tiles_per_row);
+    (
+        tiles_per_row as u64 * tile as u64,
+        rows as u64 * tile as u64,
+    )
+}
+
+/// The ISM atlas for `vpl_count` VPLs with `tile`-texel tiles, as
+/// allocated (TRANSFER_SRC: diagnostics read it back).
+pub(crate) fn atlas_desc(vpl_count: u32, tile: u32) -> ImageDesc {
+    let (w, h) = atlas_extent(vpl_count, tile);
+    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
+    ImageDesc::new_2d(vk::Format::R32_UINT, w as u32, h as u32, usage)
+}
+
 /// The extent of the ISM atlas for `vpl_count` tiles of `tile` texels;
 /// an error if the device cannot make an image that large.
 pub(crate) fn check_atlas(device: &Device, vpl_count: u32, tile: u32) -> Result<(u32, u32)> {
-    let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
-    let rows = vpl_count.max(1).div_ceil(tiles_per_row);
-    let (w, h) = (
-        tiles_per_row as u64 * tile as u64,
-        rows as u64 * tile as u64,
-    );
+    let (w, h) = atlas_extent(vpl_count, tile);
     let max = device.limits().max_image_dimension2_d as u64;
     if w > max || h > max {
         return Err(Error::InvalidParameter(format!(
@@ -136,19 +150,9 @@ impl Pass for IsmPass {
         }
         let vpl_count = vpls.len() as u32;
         let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
-        let (w, h) = check_atlas(device, vpl_count, tile)?;
+        check_atlas(device, vpl_count, tile)?;
         let points_per_vpl = points.points_per_block as u32;
-        // TRANSFER_SRC: diagnostics read it back.
-        let atlas = Image::new(
-            device,
-            "ism.atlas",
-            ImageDesc::new_2d(
-                vk::Format::R32_UINT,
-                w,
-                h,
-                vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC,
-            ),
-        )?;
+        let atlas = Image::new(device, "ism.atlas", atlas_desc(vpl_count, tile))?;
         let vpl_data = if vpls.is_empty() {
             vec![GpuVpl::default()]
         } else {

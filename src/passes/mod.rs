@@ -28,7 +28,9 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
-use crate::vk::{DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, Recorder};
+use crate::vk::{
+    DescriptorPool, DescriptorSetLayout, Device, GpuProfiler, Image, ImageDesc, Recorder,
+};
 use ssbc::SsbcCamera;
 
 /// What a pass's per-slot resources are made from: the device, the frame's
@@ -365,39 +367,33 @@ pub(crate) fn begin_rendering(
     }
 }
 
-/// A render-target image of the G-buffer or a lighting layer.
-pub(crate) fn storage_image(
-    device: &std::sync::Arc<Device>,
-    name: &str,
+/// A render-target image of the G-buffer or a lighting layer, as
+/// described before it exists (the memory estimates take the same).
+pub(crate) fn storage_desc(
     format: vk::Format,
     extent: (u32, u32),
     extra_usage: vk::ImageUsageFlags,
-) -> crate::Result<Image> {
-    Image::new(
-        device,
-        name,
-        crate::vk::ImageDesc::new_2d(
-            format,
-            extent.0,
-            extent.1,
-            vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC | extra_usage,
-        ),
-    )
+) -> ImageDesc {
+    let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC | extra_usage;
+    ImageDesc::new_2d(format, extent.0, extent.1, usage)
 }
 
 /// A linear-radiance layer (RGBA32F storage image) of the frame's size.
+pub(crate) fn radiance_desc(extent: (u32, u32)) -> ImageDesc {
+    storage_desc(
+        vk::Format::R32G32B32A32_SFLOAT,
+        extent,
+        vk::ImageUsageFlags::empty(),
+    )
+}
+
+/// A linear-radiance layer ([`radiance_desc`]).
 pub(crate) fn radiance_image(
     device: &Arc<Device>,
     name: &str,
     extent: (u32, u32),
 ) -> crate::Result<Image> {
-    storage_image(
-        device,
-        name,
-        vk::Format::R32G32B32A32_SFLOAT,
-        extent,
-        vk::ImageUsageFlags::empty(),
-    )
+    Image::new(device, name, radiance_desc(extent))
 }
 
 /// A pass's profiling and resource name on G-buffer layer `layer`:

@@ -120,6 +120,20 @@ pub fn light_views(light: &Light, bounds: &Bounds, resolution: u32) -> Vec<(Mat4
 /// space, and the object drawn (set per draw).
 type ShadowPush = shadow_map_vert::Push;
 
+/// The shadow maps' depth array: `views` layers of `resolution` texels a
+/// side (a cube's six per light).
+pub(crate) fn depth_desc(resolution: u32, views: u32) -> ImageDesc {
+    ImageDesc {
+        format: vk::Format::D32_SFLOAT,
+        width: resolution,
+        height: resolution,
+        layers: views,
+        mip_levels: 1,
+        usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+        array: true,
+    }
+}
+
 impl ShadowMapPass {
     /// Creates the depth pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
@@ -190,19 +204,7 @@ impl Pass for ShadowMapPass {
         let (device, resolution) = (setup.device, setup.settings.shadow_map_size);
         let (gpu_lights, views) = light_table(&setup.scene.lights, &setup.cache.bounds, resolution);
         let layers = views.len().max(1) as u32;
-        let depth = Image::new(
-            device,
-            "shadow_maps.depth",
-            ImageDesc {
-                format: vk::Format::D32_SFLOAT,
-                width: resolution,
-                height: resolution,
-                layers,
-                mip_levels: 1,
-                usage: vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
-                array: true,
-            },
-        )?;
+        let depth = Image::new(device, "shadow_maps.depth", depth_desc(resolution, layers))?;
         let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
         let packed = if packed.is_empty() {
             vec![ShadowView::default()]

@@ -31,8 +31,6 @@ pub struct Temporal {
     pub reprojected: Image,
 }
 
-/// Bytes of device memory the pass's images take per pixel and frame slot.
-pub const BYTES_PER_PIXEL: u64 = 3 * 16;
 
 /// How a frame folds into history.
 #[derive(Clone, Copy, Debug)]
@@ -160,7 +158,8 @@ impl Pass for TemporalPass {
     }
 }
 
-/// The extent's history images in one slot (bytes).
-pub fn slot_bytes(extent: (u32, u32)) -> u64 {
-    extent.0 as u64 * extent.1 as u64 * BYTES_PER_PIXEL
+/// The extent's history images in one slot (bytes; on `device` as its
+/// memory requirements say): output, history and reprojection.
+pub fn slot_bytes(device: Option<&crate::vk::Device>, extent: (u32, u32)) -> u64 {
+    3 * super::radiance_desc(extent).bytes(device)
 }

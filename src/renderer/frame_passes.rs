@@ -219,7 +219,7 @@ impl Passes {
             .filter_map(|slot| self.temporal.resources(slot))
             .map(|t| {
                 let (w, h) = (t.output.desc.width, t.output.desc.height);
-                crate::passes::temporal::slot_bytes((w, h))
+                crate::passes::temporal::slot_bytes(None, (w, h))
             })
             .sum()
     }

@@ -2,7 +2,9 @@
 
 use crate::error::{Error, Result};
 use crate::memory::FrameMemory;
-use crate::settings::{Bound, Gather, RenderSettings, SsbcSettings};
+use crate::passes::gbuffer::GBuffer;
+use crate::passes::{indirect_bounded, radiance_desc};
+use crate::settings::{Bound, RenderSettings, SsbcSettings};
 use crate::vk::Device;
 
 /// Largest number of ISM points uploaded (VPLs x points per VPL).
@@ -23,16 +25,6 @@ fn check_size(device: &Device, width: u32, height: u32) -> Result<()> {
     }
     Ok(())
 }
-
-/// Bytes of a G-buffer pixel (position, normal, albedo and emission in
-/// RGBA32F, depth in D32).
-const GBUFFER_PIXEL: u64 = 4 * 16 + 4;
-/// Bytes of a lighting pixel: direct light and what it sends, bounded
-/// indirect light, `S0` and what it sends (RGBA32F each)...
-const LIGHTING_PIXEL: u64 = 5 * 16;
-/// ...and with the interleaved gather its sums, glossy sums and guide
-/// (RGBA32F / RGBA32UI) and crease list (a word).
-const INTERLEAVED_PIXEL: u64 = 3 * 16 + 4;
 
 /// What a frame holds besides its passes' resources.
 #[derive(Clone, Copy, Debug)]
@@ -71,20 +63,27 @@ pub(super) fn frame_memory(
     lights: usize,
     uses: FrameUse,
 ) -> FrameMemory {
-    let pixels = settings.width as u64 * settings.height as u64;
+    let extent = (settings.width, settings.height);
+    let pixels = extent.0 as u64 * extent.1 as u64;
     let steps = settings.ssbc.steps as u64;
-    let layer1_pixels = match settings.ssbc.second_layer() {
-        Some(r) if steps > 0 => {
-            let (w1, h1) = r.extent((settings.width, settings.height));
-            w1 as u64 * h1 as u64
-        }
-        _ => 0,
-    };
-    let lighting_pixel = LIGHTING_PIXEL
-        + match settings.gather {
-            Gather::Interleaved => INTERLEAVED_PIXEL,
-            Gather::Full => 0,
-        };
+    // The G-buffer layers: the visible surfaces and, with a second SSBC
+    // layer, the hidden ones at its resolution.
+    let layer1 = settings.ssbc.second_layer().filter(|_| steps > 0);
+    let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
+    let (mut gbuffer, mut lighting) = (0, 0);
+    for layer in layers {
+        gbuffer += GBuffer::descs(layer)
+            .iter()
+            .map(|d| d.bytes(device))
+            .sum::<u64>();
+        // Direct light and what it sends; the bounded lighting.
+        lighting += 2 * radiance_desc(layer).bytes(device)
+            + indirect_bounded::memory_bytes(device, layer, settings.gather);
+    }
+    let layer1_pixels = layer1.map_or(0, |r| {
+        let (w, h) = r.extent(extent);
+        w as u64 * h as u64
+    });
     let ssbc = (steps > 0).then(|| {
         crate::passes::ssbc::frame_memory(
             device,
@@ -94,13 +93,12 @@ pub(super) fn frame_memory(
         )
     });
     let vpls = settings.vpl.count as u64;
-    let tile = settings.ism_tile as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
     // and ray-cast layers (a distance and a facing per block); the point
     // blocks they share, in object space with their normals and placed in
     // the world.
-    let per_row = crate::gpu_types::ism_tiles_per_row(settings.vpl.count as u32) as u64;
-    let atlas = per_row * vpls.div_ceil(per_row) * tile * tile * 4;
+    let atlas_desc = crate::passes::ism::atlas_desc(settings.vpl.count as u32, settings.ism_tile);
+    let atlas = atlas_desc.bytes(device);
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
     let subsets = 4 * (settings.pattern_side() as u64).pow(2) + 4;
     let gpu_vpl = std::mem::size_of::<crate::gpu_types::GpuVpl>() as u64;
@@ -108,10 +106,16 @@ pub(super) fn frame_memory(
         + vpls * (gpu_vpl + 512)
         + subsets
         + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
-    let shadow_maps = lights as u64 * 6 * (settings.shadow_map_size as u64).pow(2) * 4;
+    // A cube (six views) per light.
+    let shadow_maps = if lights == 0 {
+        0
+    } else {
+        let views = 6 * lights as u32;
+        crate::passes::shadow_maps::depth_desc(settings.shadow_map_size, views).bytes(device)
+    };
     // Resident frames' temporal history.
     let history = if uses.history && settings.history.enabled {
-        crate::passes::temporal::slot_bytes((settings.width, settings.height))
+        crate::passes::temporal::slot_bytes(device, extent)
     } else {
         0
     };
@@ -129,12 +133,12 @@ pub(super) fn frame_memory(
         readback += pixels * 16 * (2 + steps);
     }
     if uses.readback && settings.debug_readback {
-        readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas;
+        readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas_desc.bytes(None);
     }
     let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc.unwrap_or_default();
     FrameMemory {
-        gbuffer: (pixels + layer1_pixels) * GBUFFER_PIXEL,
-        lighting: (pixels + layer1_pixels) * lighting_pixel,
+        gbuffer,
+        lighting,
         ssbc_pyramids,
         ssbc_lists,
         ssbc_images,

@@ -65,6 +65,22 @@ impl ImageDesc {
         requirements.memory_requirements.size
     }
 
+    /// Bytes it takes: on `device`, its memory requirements there;
+    /// without one, its texels (one mip level) as asked for.
+    pub fn bytes(&self, device: Option<&Device>) -> u64 {
+        match device {
+            Some(d) => self.memory_bytes(d),
+            None => {
+                let texel = match self.format {
+                    vk::Format::R32G32B32A32_SFLOAT | vk::Format::R32G32B32A32_UINT => 16,
+                    vk::Format::R16G16B16A16_SFLOAT => 8,
+                    _ => 4,
+                };
+                texel * self.width as u64 * self.height as u64 * self.layers as u64
+            }
+        }
+    }
+
     /// A single-layer, single-mip 2D image.
     pub fn new_2d(format: vk::Format, width: u32, height: u32, usage: vk::ImageUsageFlags) -> Self {
         Self {
