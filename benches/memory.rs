@@ -48,15 +48,16 @@ fn main() -> ssbc::Result<()> {
     let pixels = |s: &RenderSettings| s.width as u64 * s.height as u64;
 
     println!("## Bytes per pixel of a frame slot (estimated), by image size\n");
-    println!("Defaults: one SSBC step, one layer, the VPL count the size chooses; an immediate frame's read-back (the final image and texels read).\n");
+    println!(
+        "Defaults: one SSBC step, one layer, the VPL count the size chooses. Immediate frames \
+         (`render`) read back the final image and the texels read, and keep no history:\n"
+    );
     header();
     for (w, h) in SIZES {
         let s = RenderSettings::new(w, h);
-        row(
-            &format!("{w}x{h}, {} VPLs", s.vpl.count),
-            &frame_memory(&scene, &s),
-            pixels(&s),
-        );
+        let mut m = frame_memory(&scene, &s);
+        m.history = 0;
+        row(&format!("{w}x{h}, {} VPLs", s.vpl.count), &m, pixels(&s));
     }
     println!("\nResident frames add the temporal history and read nothing back:\n");
     header();
@@ -67,16 +68,14 @@ fn main() -> ssbc::Result<()> {
         row(&format!("{w}x{h} resident"), &m, pixels(&s));
     }
 
-    println!("\n## By VPL count, 1920x1080\n");
+    println!("\n## By VPL count, 1920x1080, immediate\n");
     header();
     for vpls in [256, 1024, 2048, 4096, 8192, 16384] {
         let mut s = RenderSettings::new(1920, 1080);
         s.vpl.count = vpls;
-        row(
-            &format!("{vpls} VPLs"),
-            &frame_memory(&scene, &s),
-            pixels(&s),
-        );
+        let mut m = frame_memory(&scene, &s);
+        m.history = 0;
+        row(&format!("{vpls} VPLs"), &m, pixels(&s));
     }
 
     if quick {

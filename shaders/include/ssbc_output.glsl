@@ -18,13 +18,19 @@ layout(set = 0, binding = 13, r32f) uniform image2D samples;               // te
 layout(set = 0, binding = 14) uniform utextureBuffer point_texels;          // points[] as texels (reads)
 layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // what S_k sends
 
+// Whether what S_k sends is kept: a last step's is never read (LAST_STEP),
+// and the renderer binds its residual there instead of an image of its own.
+bool keeps_sources() {
+    return (pc.frame.layers & LAST_STEP) == 0u;
+}
+
 // S_k(p) = diffuse colour / pi * I + the glossy rest (0 on a Lambertian
 // receiver); what the pixel sends in the next step, view-independent
 // (brdf_source_color); final = previous + S_k; `reads`: the pixel's own.
 void write_residual(ivec2 p, Brdf b, vec3 integral, vec3 rest, float reads) {
     vec3 s = brdf_diffuse_color(b) / PI * integral + rest;
     imageStore(residual, p, vec4(s, 1.0));
-    imageStore(residual_sources, p, vec4(brdf_source_color(b) / PI * integral, 1.0));
+    if (keeps_sources()) imageStore(residual_sources, p, vec4(brdf_source_color(b) / PI * integral, 1.0));
     imageStore(final_image, p, vec4(imageLoad(previous, p).rgb + s, 1.0));
     imageStore(samples, p, vec4(reads));
 }

@@ -27,13 +27,15 @@ struct SsbcFrame {
                               // bit 8 (GLOSSY_RECEIVERS): the receivers' BRDF is in the
                               // G-buffer's w channels (brdf_from_gbuffer), else Lambertian;
                               // bit 9 (ONE_DISPATCH): glossy and other receivers' points and
-                              // fallback pixels in one dispatch (ssbc_eval.glsl)
+                              // fallback pixels in one dispatch (ssbc_eval.glsl); bit 10
+                              // (LAST_STEP): no later step reads what this one sends
     float bound;              // b [1/m^2]
     float min_cos_view;       // lower clamp of cos(theta_view) in A_y
 };
 
 const uint GLOSSY_RECEIVERS = 256u;
 const uint ONE_DISPATCH = 512u;
+const uint LAST_STEP = 1024u;
 
 const uint INTEGRATION_HIERARCHICAL = 0u;
 const uint INTEGRATION_BRUTE = 1u;

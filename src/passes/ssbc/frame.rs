@@ -53,7 +53,7 @@ pub struct SsbcFrame {
     pub residuals: Vec<Image>,
     /// What the pixels send as sources of the next step, view-independent
     /// (brdf_source_color; the same as `residuals` on Lambertian
-    /// receivers).
+    /// receivers), for every step but the last.
     pub residual_sources: Vec<Image>,
     /// Texels read per pixel of each step (r32f: a pixel's own reads plus its
     /// share of the evaluation points whose blocks it is in).
@@ -123,7 +123,10 @@ impl SsbcPass {
                 .collect::<Result<Vec<_>>>()
         };
         let residuals = per_step("ssbc.residual", &plan.radiance_image)?;
-        let residual_sources = per_step("ssbc.residual_sources", &plan.radiance_image)?;
+        // What each step but the last sends to the next.
+        let residual_sources = (1..steps)
+            .map(|k| image(format!("ssbc.residual_sources_{k}"), &plan.radiance_image))
+            .collect::<Result<Vec<_>>>()?;
         let samples = per_step("ssbc.samples", &plan.samples_image)?;
         let geo = buffer("ssbc.pyramid.geometry", &plan.geo)?;
         let aux = buffer("ssbc.pyramid.aux", &plan.aux)?;

@@ -109,7 +109,7 @@ pub(super) struct FramePlan {
     pub point_list: BufferPlan,
     /// The fallback lists' headers, read back.
     pub stats: BufferPlan,
-    /// The final image, and per step its residual and what it sends.
+    /// The final image, each step's residual and what each but the last sends.
     pub radiance_image: ImageDesc,
     /// Per step, the texels read per pixel.
     pub samples_image: ImageDesc,
@@ -208,7 +208,8 @@ impl FramePlan {
         let lists = PIXEL_LISTS * buffer(&self.pixel_list)
             + POINT_LISTS * buffer(&self.point_list)
             + buffer(&self.stats);
-        let images = (2 * steps + 1) * image(&self.radiance_image)
+        // Each step's residual, each but the last's sources, the final image.
+        let images = (2 * steps).max(1) * image(&self.radiance_image)
             + steps * image(&self.samples_image)
             + self
                 .layer1_image

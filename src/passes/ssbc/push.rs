@@ -16,6 +16,11 @@ pub const GLOSSY_RECEIVERS: u32 = 256;
 /// shaders/include/ssbc_eval.glsl; [`super::SsbcPass`] sets it on GPUs).
 pub(crate) const ONE_DISPATCH: u32 = 512;
 
+/// `SsbcFrame.layers` bit: the step is the last, so what its residual sends
+/// is never read: `residual_sources` is not written (the step binds its
+/// residual there; LAST_STEP in shaders/include/ssbc_types.glsl).
+pub(crate) const LAST_STEP: u32 = 1024;
+
 /// What every SSBC kernel reads of the frame (`SsbcFrame` in the shaders).
 pub(crate) use crate::shaders::blocks::SsbcFrame as FrameBlock;
 pub(crate) use crate::shaders::blocks::{
@@ -62,6 +67,14 @@ impl FrameBlock {
     /// Whether both kinds of receiver run in one dispatch ([`ONE_DISPATCH`]).
     pub fn one_dispatch(&self) -> bool {
         self.layers & ONE_DISPATCH != 0
+    }
+
+    /// The same frame, marked as its last step's if `last` ([`LAST_STEP`]).
+    pub fn with_last_step(mut self, last: bool) -> Self {
+        if last {
+            self.layers |= LAST_STEP;
+        }
+        self
     }
 
     /// The same frame, with both kinds of receiver in one dispatch if

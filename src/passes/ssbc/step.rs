@@ -151,8 +151,9 @@ impl SsbcPass {
             } else {
                 &frame.residual_sources[step - 1]
             };
+            let last = step + 1 == steps;
             let push = StepPush {
-                frame: frame_block,
+                frame: frame_block.with_last_step(last),
                 residual: ResidualParams::new(inputs),
                 generation: step as u32 + 1,
                 eval_level: inputs.eval_level,
@@ -177,7 +178,8 @@ impl SsbcPass {
                 previous,
                 final_image: &frame.final_image,
                 residual: &frame.residuals[step],
-                residual_sources: &frame.residual_sources[step],
+                // A last step's sources are never read (LAST_STEP).
+                residual_sources: frame.residual_sources.get(step).unwrap_or(&frame.residuals[step]),
                 samples: &frame.samples[step],
             };
             self.record_residual(rec, profiler, &name, pool, &step_out, &push, frame)?;
