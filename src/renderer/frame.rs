@@ -186,7 +186,9 @@ impl Renderer {
         let history = (resident && host_slot.is_none() && settings.history.enabled)
             .then(|| self.history.plan(slot, (scene, versions), settings));
         if history.is_none() {
+            // A history that is off holds no memory either.
             self.history.reset();
+            self.passes.forget_history();
         }
         let frame = FrameRequest {
             versions,

@@ -213,6 +213,14 @@ impl Passes {
         self.temporal_ran[slot] = false;
     }
 
+    /// Frees every slot's temporal history (a frame without one).
+    pub fn forget_history(&mut self) {
+        for slot in 0..FRAME_SLOTS {
+            self.temporal.forget(slot);
+            self.temporal_ran[slot] = false;
+        }
+    }
+
     /// Device memory the temporal history's images take in every slot.
     pub fn history_bytes(&self) -> u64 {
         (0..FRAME_SLOTS)

@@ -84,14 +84,12 @@ pub(super) fn frame_memory(
         let (w, h) = r.extent(extent);
         w as u64 * h as u64
     });
-    let ssbc = (steps > 0).then(|| {
-        crate::passes::ssbc::frame_memory(
-            device,
-            (settings.width, settings.height),
-            settings.ssbc.steps,
-            settings.ssbc.second_layer(),
-        )
-    });
+    let ssbc = crate::passes::ssbc::frame_memory(
+        device,
+        crate::passes::ssbc::SsbcPass::allocated_extent(extent, settings.ssbc.steps),
+        settings.ssbc.steps,
+        settings.ssbc.second_layer(),
+    );
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
     // and ray-cast layers (a distance and a facing per block); the point
@@ -135,7 +133,7 @@ pub(super) fn frame_memory(
     if uses.readback && settings.debug_readback {
         readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas_desc.bytes(None);
     }
-    let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc.unwrap_or_default();
+    let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc;
     FrameMemory {
         gbuffer,
         lighting,

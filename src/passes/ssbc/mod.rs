@@ -150,6 +150,17 @@ impl SsbcPass {
         v
     }
 
+    /// The extent a frame slot's resources are allocated for: without steps
+    /// nothing is recorded, and a 1x1 frame holds the resources every slot
+    /// has.
+    pub(crate) fn allocated_extent(extent: (u32, u32), steps: u32) -> (u32, u32) {
+        if steps == 0 {
+            (1, 1)
+        } else {
+            extent
+        }
+    }
+
     /// The coarsest level of evaluation points: the coarsest (at most
     /// `max_eval_level`) that puts `texels_per_radius` texels across the
     /// bounding radius 1/sqrt(b) at `depth` (the distance along the optical
@@ -246,7 +257,7 @@ impl Pass for SsbcPass {
         let ssbc = &setup.settings.ssbc;
         self.allocate(
             setup.device,
-            setup.extent(),
+            Self::allocated_extent(setup.extent(), ssbc.steps),
             ssbc.steps,
             ssbc.max_eval_level,
             ssbc.second_layer(),
