@@ -25,10 +25,10 @@ pub(super) struct FrameOutput {
     pub margin: u32,
 }
 
-/// A frame submitted by [`Renderer::render_to_gpu`].
+/// A frame submitted by [`Renderer::render_to_gpu`](super::Renderer::render_to_gpu).
 #[derive(Clone, Debug)]
 pub struct GpuSubmission {
-    /// Timeline value that signals the frame is done (see [`Renderer::output_image`]).
+    /// Timeline value that signals the frame is done (see [`Renderer::output_image`](super::Renderer::output_image)).
     pub value: u64,
     /// GPU times of the previous frame that used this frame slot, read
     /// without waiting (None for a slot's first frame or without timestamps).

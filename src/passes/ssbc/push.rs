@@ -64,12 +64,12 @@ impl FrameBlock {
         self.layers & GLOSSY_RECEIVERS != 0
     }
 
-    /// Whether both kinds of receiver run in one dispatch ([`ONE_DISPATCH`]).
+    /// Whether both kinds of receiver run in one dispatch (`ONE_DISPATCH`).
     pub fn one_dispatch(&self) -> bool {
         self.layers & ONE_DISPATCH != 0
     }
 
-    /// The same frame, marked as its last step's if `last` ([`LAST_STEP`]).
+    /// The same frame, marked as its last step's if `last` (`LAST_STEP`).
     pub fn with_last_step(mut self, last: bool) -> Self {
         if last {
             self.layers |= LAST_STEP;
