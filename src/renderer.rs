@@ -222,9 +222,10 @@ impl Renderer {
         &self.device
     }
 
-    /// [`frame_memory`] on this renderer's device: SSBC's resources as the
+    /// [`frame_memory`] on this renderer's device: each resource as the
     /// device's memory requirements say, alignment and padding included
-    /// (what the allocator then takes).
+    /// (what the allocator then takes), for settings the device accepts
+    /// (an image beyond its limits is counted by its texels).
     pub fn frame_memory(&self, scene: &Scene, settings: &RenderSettings) -> FrameMemory {
         limits::frame_memory(
             Some(&self.device),

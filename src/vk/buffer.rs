@@ -26,6 +26,9 @@ pub struct Buffer {
 /// `device`, as [`Buffer::new`] makes it (its memory requirements, asked
 /// before it exists: Vulkan 1.3).
 pub fn buffer_memory_bytes(device: &Device, size: u64, usage: vk::BufferUsageFlags) -> u64 {
+    if size == 0 {
+        return 0;
+    }
     let info = create_info(size, usage);
     let query = vk::DeviceBufferMemoryRequirements::default().create_info(&info);
     let mut requirements = vk::MemoryRequirements2::default();

@@ -67,10 +67,12 @@ impl ImageDesc {
 
     /// Bytes it takes: on `device`, its memory requirements there;
     /// without one, its texels (one mip level) as asked for.
+    /// (Asked of the device only where the device could make it: an
+    /// absurd size is refused later, with its own error.)
     pub fn bytes(&self, device: Option<&Device>) -> u64 {
         match device {
-            Some(d) => self.memory_bytes(d),
-            None => {
+            Some(d) if self.fits(d) => self.memory_bytes(d),
+            _ => {
                 let texel = match self.format {
                     vk::Format::R32G32B32A32_SFLOAT | vk::Format::R32G32B32A32_UINT => 16,
                     vk::Format::R16G16B16A16_SFLOAT => 8,
@@ -79,6 +81,16 @@ impl ImageDesc {
                 texel * self.width as u64 * self.height as u64 * self.layers as u64
             }
         }
+    }
+
+    /// Whether `device` can make such an image: a size and layer count
+    /// within its limits.
+    fn fits(&self, device: &Device) -> bool {
+        let limits = device.limits();
+        let side = 1..=limits.max_image_dimension2_d;
+        side.contains(&self.width)
+            && side.contains(&self.height)
+            && (1..=limits.max_image_array_layers).contains(&self.layers)
     }
 
     /// A single-layer, single-mip 2D image.

@@ -445,6 +445,7 @@ fn render(args: RenderArgs) -> Result<u32, ssbc::Error> {
         return render_sequence(&args, path, scene, &config, &settings);
     }
     let mut renderer = Renderer::new(&config)?;
+    log_memory(&scene, &settings, false);
     let log = renderer.validation_log();
     let mut trace = args
         .trace
@@ -539,6 +540,19 @@ fn show_pose(resident: &mut ssbc::resident::ResidentScene, t: f32) -> Result<(),
     Ok(())
 }
 
+/// Logs what a frame slot will take, by part, before anything is
+/// allocated (frames read back; resident ones with their history): the
+/// bytes asked for, whatever the settings (the device's checks come
+/// later, with their own errors).
+fn log_memory(scene: &ssbc::Scene, settings: &RenderSettings, resident: bool) {
+    let mut m = ssbc::renderer::frame_memory(scene, settings);
+    if !resident {
+        m.history = 0;
+    }
+    let pixels = settings.width as u64 * settings.height as u64;
+    log::info!("a frame slot will take {}", m.summary(pixels));
+}
+
 /// Makes `wanted` the frame's image (`--output-layer`).
 fn select_output_layer(frame: &mut ssbc::Frame, wanted: Option<Layer>) -> Result<(), ssbc::Error> {
     let Some(wanted) = wanted else {
@@ -595,8 +609,9 @@ fn render_sequence(
             )));
         }
     }
-    let mut resident = ssbc::resident::ResidentScene::new(scene)?;
     let mut renderer = Renderer::new(config)?;
+    log_memory(&scene, settings, true);
+    let mut resident = ssbc::resident::ResidentScene::new(scene)?;
     let log = renderer.validation_log();
     let stop = Arc::new(AtomicBool::new(false));
     {
