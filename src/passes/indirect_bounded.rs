@@ -64,10 +64,7 @@ pub(crate) fn memory_bytes(device: Option<&Device>, extent: (u32, u32), gather: 
     match gather {
         Gather::Full => 3 * radiance,
         Gather::Interleaved => {
-            let creases = match device {
-                Some(d) => crate::vk::buffer_memory_bytes(d, creases_bytes(extent), CREASES_USAGE),
-                None => creases_bytes(extent),
-            };
+            let creases = crate::vk::buffer_bytes(device, creases_bytes(extent), CREASES_USAGE);
             5 * radiance + guide_desc(extent).bytes(device) + creases
         }
     }

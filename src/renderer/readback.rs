@@ -387,12 +387,7 @@ pub(crate) type ReadbackBuffers = Vec<(Readback, Buffer)>;
 
 /// Bytes of a tightly packed host copy of `image`'s first level.
 fn readback_size(image: &Image) -> u64 {
-    let texel = if image.desc.format == vk::Format::R32G32B32A32_SFLOAT {
-        16
-    } else {
-        4
-    };
-    image.desc.width as u64 * image.desc.height as u64 * texel
+    image.desc.bytes(None)
 }
 
 /// Makes `held` fit `images` (kept while every size matches).

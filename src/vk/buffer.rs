@@ -22,13 +22,14 @@ pub struct Buffer {
     pub(crate) state: Cell<ResourceState>,
 }
 
-/// Bytes of device memory a buffer of `size` bytes with `usage` takes on
-/// `device`, as [`Buffer::new`] makes it (its memory requirements, asked
-/// before it exists: Vulkan 1.3).
-pub fn buffer_memory_bytes(device: &Device, size: u64, usage: vk::BufferUsageFlags) -> u64 {
-    if size == 0 {
-        return 0;
-    }
+/// Bytes of device memory a buffer of `size` bytes with `usage` takes, as
+/// [`Buffer::new`] makes it: on `device` its memory requirements, asked
+/// before it exists (Vulkan 1.3); without one, `size` (as
+/// [`ImageDesc::bytes`](super::ImageDesc::bytes) for images).
+pub fn buffer_bytes(device: Option<&Device>, size: u64, usage: vk::BufferUsageFlags) -> u64 {
+    let Some(device) = device.filter(|_| size > 0) else {
+        return size;
+    };
     let info = create_info(size, usage);
     let query = vk::DeviceBufferMemoryRequirements::default().create_info(&info);
     let mut requirements = vk::MemoryRequirements2::default();

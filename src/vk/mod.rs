@@ -50,7 +50,7 @@ pub use profiler::{GpuFrameTimes, PassTiming};
 unstable_pub! {
     use self::acceleration::{AccelerationStructure, TriangleRange};
     use self::barrier::Access;
-    use self::buffer::{buffer_memory_bytes, Buffer};
+    use self::buffer::{buffer_bytes, Buffer};
     use self::buffer_view::BufferView;
     use self::commands::{CommandPool, Recorder, TrackedImage};
     use self::descriptor::{Binding, DescriptorPool, DescriptorSetLayout, Tracked};

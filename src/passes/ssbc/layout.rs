@@ -7,7 +7,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
-use crate::vk::{buffer_memory_bytes, Device, ImageDesc};
+use crate::vk::{buffer_bytes, Device, ImageDesc};
 
 /// Sizes of the GLSL structs, in bytes.
 /// `ListHeader` (ssbc_types.glsl).
@@ -185,17 +185,8 @@ impl FramePlan {
     /// say (alignment and padding included); without one, the bytes asked
     /// for.
     pub fn memory(&self, device: Option<&Device>) -> (u64, u64, u64) {
-        let buffer = |b: &BufferPlan| match device {
-            Some(d) => buffer_memory_bytes(d, b.bytes, b.usage),
-            None => b.bytes.max(4),
-        };
-        let image = |i: &ImageDesc| match device {
-            Some(d) => i.memory_bytes(d),
-            None => {
-                let texel = if i.format == vk::Format::R32_SFLOAT { 4 } else { 16 };
-                texel * i.width as u64 * i.height as u64
-            }
-        };
+        let buffer = |b: &BufferPlan| buffer_bytes(device, b.bytes, b.usage);
+        let image = |i: &ImageDesc| i.bytes(device);
         let steps = self.steps as u64;
         let pyramids = [
             &self.geo,
