@@ -36,21 +36,47 @@ void main() {
     if (dist < 1e-5) return;
     vec3 w = d / dist;
     if (dot(w, vpl.normal.xyz) <= 0.0) return;
-    vec2 uv = ism_paraboloid(w, vpl.normal.xyz);
+    vec3 n = vpl.normal.xyz;
+    vec2 uv = ism_paraboloid(w, n);
     // Footprint in texels: the paraboloid maps a small angle a near the pole
     // to a/4 of the tile; larger splats near the VPL close holes.
     float radius_texels = clamp(pc.point_radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
-    int r = int(radius_texels);
-    uint depth = ism_pack(dist * pc.depth_scale, abs(dot(w, ism_unpack_normal(normal_bits))));
+    int r = int(ceil(radius_texels));
+    vec3 normal = ism_unpack_normal(normal_bits);
+    float facing = abs(dot(w, normal));
     uint cell = floatBitsToUint(vpl.normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
     ivec2 center = ivec2(uv * float(pc.tile));
+    // Where the point lies in its texel, in texels from the centre.
+    vec2 within = uv * float(pc.tile) - vec2(center) - 0.5;
+    imageAtomicMin(ism_depth, origin + center, ism_pack(dist * pc.depth_scale, facing));
+    // The other texels the point's disc (its tangent plane within
+    // point_radius) covers, at the distance where their centre ray meets
+    // it: a surface seen at a slant covers the texels it does, at the
+    // distances it has there, not a round splat at the point's distance,
+    // which shadowed what lay just behind a slanted surface's edge
+    // (measured: docs/accuracy.md, "ISM points as discs").
+    vec3 t, b;
+    ism_basis(n, t, b);
+    float plane = dot(d, normal);
     for (int dy = -r; dy <= r; dy++) {
         for (int dx = -r; dx <= r; dx++) {
-            if (dx * dx + dy * dy > r * r) continue;
             ivec2 local = center + ivec2(dx, dy);
-            if (any(lessThan(local, ivec2(0))) || any(greaterThanEqual(local, ivec2(int(pc.tile))))) continue;
-            imageAtomicMin(ism_depth, origin + local, depth);
+            if ((dx == 0 && dy == 0) || any(lessThan(local, ivec2(0))) || any(greaterThanEqual(local, ivec2(int(pc.tile))))) continue;
+            // Beyond the disc's reach (the paraboloid stretches angles up
+            // to twice radius_texels' towards the horizon): most far points.
+            if (length(vec2(dx, dy) - within) > 2.0 * radius_texels) continue;
+            vec2 q = (vec2(local) + 0.5) / float(pc.tile) * 2.0 - 1.0;
+            float q2 = dot(q, q);
+            if (q2 >= 1.0) continue;
+            // The unit ray through the texel's centre (ism_paraboloid inverted).
+            float z = (1.0 - q2) / (1.0 + q2);
+            vec3 ray = (t * q.x + b * q.y) * (1.0 + z) + n * z;
+            float dn = dot(ray, normal);
+            if (abs(dn) < 1e-3) continue;
+            float hit = plane / dn;
+            if (hit <= 0.0 || distance(ray * hit, d) > pc.point_radius) continue;
+            imageAtomicMin(ism_depth, origin + local, ism_pack(hit * pc.depth_scale, abs(dn)));
         }
     }
 }
