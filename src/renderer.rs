@@ -34,7 +34,9 @@ use crate::scene_cache::SceneCache;
 pub use crate::settings::{Bound, RenderSettings, RendererConfig};
 pub use crate::timings::{CpuTimings, SsbcStepTiming, Timings};
 use crate::vk::HostImage;
-use crate::vk::{CommandPool, Device, GpuProfiler, Image, Instance, Validation, ValidationLog};
+use crate::vk::{
+    CommandPool, Device, GpuFrameTimes, GpuProfiler, Image, Instance, Validation, ValidationLog,
+};
 use frame_passes::Passes;
 use history::History;
 use readback::ReadbackBuffers;
@@ -337,8 +339,9 @@ impl Renderer {
     /// left in `TRANSFER_DST_OPTIMAL` after a transfer write). The host
     /// ends and submits `cmd` and synchronises with its own semaphores; it
     /// passes the frame slot (`0..FRAME_SLOTS`) and guarantees the slot's
-    /// previous frame has finished on the GPU. Such frames are labelled but
-    /// not timed, and must not be interleaved with ssbc's own submissions
+    /// previous frame has finished on the GPU. Such frames are labelled and
+    /// timed (the query resets recorded into `cmd`; read them with
+    /// [`Renderer::host_timings`]), and must not be interleaved with ssbc's own submissions
     /// ([`Renderer::render_resident`], ...) while in flight. A change of
     /// geometry or materials uploads the scene with ssbc's own submission
     /// first (waited for).
@@ -369,6 +372,24 @@ impl Renderer {
         // The host guarantees the slot's previous frame is done.
         let (scene, versions) = (scene.scene(), scene.versions());
         self.run(scene, versions, settings, sink, Some(slot), false)
+    }
+
+    /// GPU times of the frame last recorded into a host's command buffer in
+    /// `slot` ([`Renderer::record_resident`]), per pass with the same names
+    /// as ssbc's own frames, read without waiting once the host knows that
+    /// frame has finished (its fence), e.g. before recording the slot
+    /// again. None: the slot has no recorded frame, the device has no
+    /// timestamps, or the results are not all available yet.
+    pub fn host_timings(&self, slot: usize) -> Result<Option<GpuFrameTimes>> {
+        if slot >= FRAME_SLOTS {
+            return Err(Error::InvalidParameter(format!(
+                "frame slot {slot} of {FRAME_SLOTS}"
+            )));
+        }
+        if !self.profiler.has_frame(slot) {
+            return Ok(None);
+        }
+        self.profiler.try_resolve(slot)
     }
 
     unstable_pub! {

@@ -335,6 +335,39 @@ fn the_renderer_records_into_a_hosts_command_buffer() {
         raw.destroy_fence(fence, None);
         raw.destroy_command_pool(pool, None);
     }
+    // The host's frame was timed in its own command buffer: the same
+    // passes as ssbc's own frame, read without waiting now it is done.
+    let times = renderer
+        .host_timings(1)
+        .unwrap()
+        .expect("the host's frame has timings");
+    let names: Vec<&str> = times.passes.iter().map(|p| p.name.as_str()).collect();
+    let own_names: Vec<&str> = own
+        .timings
+        .passes
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|p| p.name.as_str())
+        .collect();
+    for (host, own) in times
+        .passes
+        .iter()
+        .zip(own.timings.passes.as_ref().unwrap())
+    {
+        eprintln!(
+            "{}: host {:.2} ms, own {:.2} ms",
+            host.name, host.gpu_ms, own.gpu_ms
+        );
+    }
+    for pass in ["gbuffer", "indirect_bounded", "ssbc_step_1"] {
+        assert!(names.contains(&pass), "{pass} not in {names:?}");
+    }
+    assert_eq!(
+        names, own_names,
+        "the host's frame's passes are ssbc's own frame's"
+    );
+    assert!(times.frame_ms > 0.0 && times.passes.iter().all(|p| p.gpu_ms >= 0.0));
     let host_pixels: Vec<f32> = readback.read().unwrap();
     let peak = own.image.rgba.iter().fold(0f32, |m, v| m.max(v.abs()));
     let d = host_pixels

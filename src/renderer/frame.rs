@@ -102,20 +102,21 @@ fn record_scene<'c>(
     Ok((cache, slot_scene))
 }
 
-/// Records the passes of the frame `setup` in `rec`, timed unless it goes
-/// into a host's command buffer (ssbc cannot know when the host's
-/// submission finishes, nor whether it runs: nothing it records is then
-/// kept for a later frame). Returns the passes that kept the slot's
-/// previous output.
+/// Records the passes of the frame `setup` in `rec`, timed. Into a host's
+/// command buffer (`host`) the query resets are recorded there too, and
+/// nothing is kept for a later frame (ssbc cannot know whether the host's
+/// submission runs). Returns the passes that kept the slot's previous
+/// output.
 fn record_passes(
     rec: &mut Recorder<'_>,
     (passes, profiler, fault): (&mut Passes, &mut GpuProfiler, &mut Option<String>),
     setup: &SlotSetup<'_>,
     (view, scene): (&FrameView, SlotScene<'_>),
     history: Option<HistoryFrame>,
-    timed: bool,
+    host: bool,
 ) -> Result<Vec<String>> {
-    profiler.begin_frame(rec.cmd, setup.slot, timed);
+    profiler.record_resets(host);
+    profiler.begin_frame(rec.cmd, setup.slot, true);
     let mut reused = Vec::new();
     let mut cx = Recording {
         rec,
@@ -123,7 +124,7 @@ fn record_passes(
         view,
         settings: setup.settings,
         fault,
-        reuse: setup.settings.reuse_unchanged && timed,
+        reuse: setup.settings.reuse_unchanged && !host,
         reused: &mut reused,
     };
     passes.record(&mut cx, setup, scene, history)?;
@@ -294,8 +295,15 @@ impl Renderer {
         });
         let renderer = (&mut self.passes, &mut self.profiler, &mut self.fault);
         let scene_view = (&view, slot_scene);
-        let timed = host.is_none();
-        let reused = record_passes(&mut rec, renderer, &setup, scene_view, history_frame, timed)?;
+        let into_host = host.is_some();
+        let reused = record_passes(
+            &mut rec,
+            renderer,
+            &setup,
+            scene_view,
+            history_frame,
+            into_host,
+        )?;
         let light_paths = cache.vpls().set.paths;
         // The slot's estimated memory, and the slots holding resources.
         let estimated = limits::frame_memory(Some(&device), settings, scene.lights.len(), uses);

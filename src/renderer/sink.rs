@@ -169,6 +169,10 @@ impl FrameSink for IntoHost<'_> {
         Some(self.cmd)
     }
     fn finish(self, mut rec: Recorder<'_>, f: Finish<'_>) -> Result<()> {
-        hand_off_to_host(&mut rec, &f.images, self.output, self.layer, f.band)
+        hand_off_to_host(&mut rec, &f.images, self.output, self.layer, f.band)?;
+        // Its queries are read once the host says the frame is done
+        // (`Renderer::host_timings`).
+        f.profiler.submitted(f.slot);
+        Ok(())
     }
 }

@@ -82,6 +82,8 @@ pub struct GpuProfiler {
     /// whose device need not have hostQueryReset) instead of done on the
     /// host at `begin_frame`.
     resets_recorded: bool,
+    /// The same for the frames now being recorded only (`record_resets`).
+    host_frames: bool,
 }
 
 /// An open pass scope; close it with [`GpuProfiler::end`]. `UNTIMED`: a
@@ -165,6 +167,7 @@ impl GpuProfiler {
             period_ns: support.timestamp_period_ns as f64,
             valid_mask,
             resets_recorded: false,
+            host_frames: false,
         })
     }
 
@@ -176,9 +179,17 @@ impl GpuProfiler {
         self
     }
 
+    /// Whether the next frames' query resets are recorded into their
+    /// command buffer (a host's) or done on the host (ssbc's own); a
+    /// profiler made [`with_recorded_resets`](Self::with_recorded_resets)
+    /// records them whatever this says.
+    pub fn record_resets(&mut self, recorded: bool) {
+        self.host_frames = recorded;
+    }
+
     /// Resets `count` queries of `pool` from `first`, on the host or in `cmd`.
     fn reset(&self, cmd: vk::CommandBuffer, pool: vk::QueryPool, first: u32, count: u32) {
-        if self.resets_recorded {
+        if self.resets_recorded || self.host_frames {
             // SAFETY: `cmd` is recording outside a render pass (the caller's
             // contract); the range lies inside the pool.
             unsafe { self.device.raw.cmd_reset_query_pool(cmd, pool, first, count) };
@@ -214,7 +225,8 @@ impl GpuProfiler {
         slot as u32 * (self.capacity * 2 + 2)
     }
 
-    /// Resets `slot`'s queries (host reset) and starts a frame in it: writes
+    /// Resets `slot`'s queries (on the host, or in `cmd`: `record_resets`)
+    /// and starts a frame in it: writes
     /// the frame's first timestamp. The slot's previous frame must be done.
     /// An untimed frame (`timed` false) only gets labels.
     pub fn begin_frame(&mut self, cmd: vk::CommandBuffer, slot: usize, timed: bool) {
