@@ -424,6 +424,7 @@ fn twin_points(
         up: camera.up,
         pixel_side,
         min_cos_view,
+        principal: glam::Vec2::ZERO,
     };
     let mut depth = vec![f32::INFINITY; (w * h) as usize];
     let mut points = Vec::new();

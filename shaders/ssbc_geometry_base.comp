@@ -21,6 +21,8 @@ layout(push_constant) uniform GeometryBasePush {
     SsbcFrame frame;
     uint layer;               // the pyramid built
     uint geometric;           // 1: g_geometric.w holds geometric normals
+    vec2 principal;           // the optical axis's image point minus the image's centre
+                              // (pixels; non-zero for a jittered or off-centre projection)
 } pc;
 
 #include "ssbc_pyramid.glsl"
@@ -58,7 +60,8 @@ struct Polygon {
 };
 
 // The unnormalised ray through image point uv (pixel x spans [x, x + 1];
-// the optical axis at the image's centre) is r0 + u du + v dv.
+// the optical axis at the image's centre plus pc.principal) is
+// r0 + u du + v dv.
 struct ImageRays {
     vec3 r0;
     vec3 du;
@@ -71,7 +74,8 @@ ImageRays image_rays() {
     float s = pc.frame.camera_position.w;
     vec3 du = normalize(cross(f, up)) * s;
     vec3 dv = -up * s;
-    return ImageRays(f - du * (0.5 * float(pc.frame.size.x)) - dv * (0.5 * float(pc.frame.size.y)), du, dv);
+    vec2 axis = 0.5 * vec2(pc.frame.size) + pc.principal;
+    return ImageRays(f - du * axis.x - dv * axis.y, du, dv);
 }
 
 vec3 image_ray(vec2 uv) {

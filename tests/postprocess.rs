@@ -103,7 +103,8 @@ fn check_report(report: postprocess::PostProcessReport) {
 fn bad_host_inputs_are_clear_errors() {
     use ash::vk;
     use ssbc::postprocess::{
-        HostImage, PostOutput, PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
+        HostCamera, HostGeometry, HostImage, NormalEncoding, OutputWrite, PostOutput,
+        PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
     };
     use ssbc::settings::SsbcSettings;
     use ssbc::vk::{Device, DeviceSelector, Instance, Validation};
@@ -113,9 +114,11 @@ fn bad_host_inputs_are_clear_errors() {
     let device = Device::new(instance, &DeviceSelector::default(), &[]).unwrap();
     assert!(SsbcPostProcess::new(&device, 0).is_err());
     let mut post = SsbcPostProcess::new(&device, 2).unwrap();
-    // Never dereferenced: every call below fails its checks first.
+    // Never dereferenced: every call below fails its checks first. Each
+    // input its own (fake) handle: the output may not be one of them.
+    use ash::vk::Handle;
     let image = HostImage {
-        image: vk::Image::null(),
+        image: vk::Image::from_raw(1),
         view: vk::ImageView::null(),
         format: vk::Format::R32G32B32A32_SFLOAT,
         extent: (64, 48),
@@ -129,18 +132,26 @@ fn bad_host_inputs_are_clear_errors() {
         extent: (22, 16),
         ..image
     };
+    let handle = |raw: u64| HostImage {
+        image: vk::Image::from_raw(raw),
+        ..image
+    };
     let inputs = PostProcessInputs {
-        position: image,
-        normal: image,
-        albedo: image,
-        s0: image,
+        geometry: HostGeometry::Position(image),
+        normal: handle(2),
+        normal_encoding: NormalEncoding::Signed,
+        albedo: handle(3),
+        s0: handle(4),
         sources: None,
         receivers: ReceiverBrdf::Lambertian,
-        output: image,
-        camera_position: glam::Vec3::new(0.0, 1.0, 3.0),
-        camera_forward: -glam::Vec3::Z,
-        camera_up: glam::Vec3::Y,
-        yfov: 0.8,
+        output: handle(5),
+        write: OutputWrite::Copy,
+        camera: HostCamera::LookAt {
+            position: glam::Vec3::new(0.0, 1.0, 3.0),
+            forward: -glam::Vec3::Z,
+            up: glam::Vec3::Y,
+            yfov: 0.8,
+        },
         bound: 4.0,
         typical_depth: 3.0,
         hidden: None,
@@ -154,21 +165,21 @@ fn bad_host_inputs_are_clear_errors() {
         (
             PostProcessInputs {
                 normal: HostImage {
-                    format: vk::Format::R8G8B8A8_UNORM,
-                    ..image
+                    format: vk::Format::R8G8_UNORM,
+                    ..inputs.normal
                 },
                 ..inputs
             },
             one.clone(),
             PostOutput::Compensated,
             0,
-            "normal image is R8G8B8A8_UNORM",
+            "normal image is R8G8_UNORM; as normal (xyz) it must be one of",
         ),
         (
             PostProcessInputs {
                 s0: HostImage {
                     extent: (32, 48),
-                    ..image
+                    ..inputs.s0
                 },
                 ..inputs
             },
@@ -225,7 +236,7 @@ fn bad_host_inputs_are_clear_errors() {
             one.clone(),
             PostOutput::Compensated,
             0,
-            "second layer's position image is (22, 16); it must be the size of the position image ((64, 48)) or half of it, rounded up ((32, 24))",
+            "second layer's position image is (22, 16); it must be the size of the geometry image ((64, 48)) or half of it, rounded up ((32, 24))",
         ),
         (
             // ...all four images alike.
@@ -242,6 +253,79 @@ fn bad_host_inputs_are_clear_errors() {
             PostOutput::Compensated,
             0,
             "second layer's normal image is (32, 24); it must be (64, 48), the size of the second layer's position image",
+        ),
+        (
+            // Depth needs the matrices to become positions.
+            PostProcessInputs {
+                geometry: HostGeometry::Depth {
+                    image: HostImage {
+                        format: vk::Format::D32_SFLOAT,
+                        ..image
+                    },
+                    background: 0.0,
+                },
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "a depth image needs the camera as matrices",
+        ),
+        (
+            PostProcessInputs {
+                camera: HostCamera::Matrices {
+                    view: glam::Mat4::IDENTITY,
+                    projection: glam::camera::rh::proj::vulkan::orthographic(
+                        -1.0, 1.0, -1.0, 1.0, 0.1, 10.0,
+                    ),
+                    jitter: glam::Vec2::ZERO,
+                },
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "not a perspective one",
+        ),
+        (
+            // Roughness in w: not in 2 bits of alpha.
+            PostProcessInputs {
+                normal: HostImage {
+                    format: vk::Format::A2B10G10R10_UNORM_PACK32,
+                    ..inputs.normal
+                },
+                normal_encoding: NormalEncoding::Unsigned,
+                receivers: ReceiverBrdf::MetallicRoughnessInW,
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "MetallicRoughnessInW reads the roughness from the normal image's w",
+        ),
+        (
+            PostProcessInputs {
+                output: HostImage {
+                    format: vk::Format::R8G8B8A8_UNORM,
+                    ..inputs.output
+                },
+                write: OutputWrite::Store,
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "output image is R8G8B8A8_UNORM; as output (store, add) it must be one of",
+        ),
+        (
+            PostProcessInputs {
+                output: inputs.normal,
+                ..inputs
+            },
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "the output image is one of the inputs",
         ),
     ];
     let check = |post: &mut SsbcPostProcess,
@@ -288,6 +372,30 @@ fn bad_host_inputs_are_clear_errors() {
     check(
         &mut post,
         (inputs, two, PostOutput::Compensated, 1, "steps: 2"),
+    );
+    // Inputs in other formats are converted into copies the shape counts:
+    // a slot prepared for RGBA32F inputs refuses them.
+    let packed = PostProcessInputs {
+        albedo: HostImage {
+            format: vk::Format::R8G8B8A8_SRGB,
+            ..inputs.albedo
+        },
+        ..inputs
+    };
+    let shape = PostProcessShape::for_inputs(&packed, &one).unwrap();
+    assert_eq!(shape.conversion, ssbc::postprocess::Conversion::Inputs);
+    let extra = SsbcPostProcess::memory(&shape, 1).per_slot
+        - SsbcPostProcess::memory(&PostProcessShape::new((64, 48), &one, None), 1).per_slot;
+    assert_eq!(extra, 64 * 64 * 48, "the four RGBA32F copies");
+    check(
+        &mut post,
+        (
+            packed,
+            one.clone(),
+            PostOutput::Compensated,
+            0,
+            "conversion: Inputs",
+        ),
     );
     drop(post);
     drop(device);

@@ -81,6 +81,7 @@ fn gpu_brute_force_step_equals_cpu_twin() {
         up: camera.up,
         pixel_side,
         min_cos_view: 0.2,
+        principal: glam::Vec2::ZERO,
     };
     let cpu = brute_force_step(&g, &s0, twin_camera, f.bound);
     let gpu = layer(&f, "residual_1");

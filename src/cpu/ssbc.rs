@@ -87,21 +87,21 @@ pub struct TwinCamera {
     pub pixel_side: f32,
     /// Lower clamp of cos(theta_view).
     pub min_cos_view: f32,
+    /// Where the optical axis meets the image, from its centre, in pixels
+    /// (x right, y down; a jittered or off-centre projection's).
+    pub principal: glam::Vec2,
 }
 
 impl TwinCamera {
     /// The unnormalised ray through the image point `uv` (continuous pixel
     /// coordinates: pixel x spans [x, x + 1]; the optical axis at the
-    /// image's centre) of a `width` x `height` image, as
+    /// image's centre plus `principal`) of a `width` x `height` image, as
     /// (ray at (0, 0), change per unit of u, change per unit of v).
     fn image_rays(&self, width: u32, height: u32) -> (Vec3, Vec3, Vec3) {
         let right = self.forward.cross(self.up).normalize();
         let (du, dv) = (right * self.pixel_side, -self.up * self.pixel_side);
-        (
-            self.forward - du * (0.5 * width as f32) - dv * (0.5 * height as f32),
-            du,
-            dv,
-        )
+        let axis = 0.5 * glam::Vec2::new(width as f32, height as f32) + self.principal;
+        (self.forward - du * axis.x - dv * axis.y, du, dv)
     }
 }
 

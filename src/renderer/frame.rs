@@ -45,6 +45,7 @@ fn frame_view(
             forward: camera.forward,
             up: camera.up,
             pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
+            principal: glam::Vec2::ZERO,
         },
         view_proj: camera.projection(w as f32 / h as f32, near, far) * camera.view(),
         centre_depth: (bounds.center() - camera.position).dot(camera.forward),

@@ -739,6 +739,19 @@ impl Device {
         self.allocator().generate_report().allocations
     }
 
+    /// What images of `format` in optimal tiling can do on this device
+    /// (sampled, storage, ...).
+    pub fn format_features(&self, format: vk::Format) -> vk::FormatFeatureFlags {
+        // SAFETY: a live physical device of this instance; any format value
+        // is valid to query.
+        unsafe {
+            self.instance
+                .raw
+                .get_physical_device_format_properties(self.physical, format)
+        }
+        .optimal_tiling_features
+    }
+
     /// Size of the largest device-local memory heap (bytes): what a frame's
     /// resources must fit in.
     pub fn device_local_heap(&self) -> u64 {

@@ -129,9 +129,18 @@ pub struct Image {
     owned: bool,
 }
 
+/// The aspects a barrier on an image of `format` names: both of a combined
+/// depth-stencil format (valid without separate depth-stencil layouts).
 fn aspect_of(format: vk::Format) -> vk::ImageAspectFlags {
     match format {
-        vk::Format::D32_SFLOAT | vk::Format::D16_UNORM => vk::ImageAspectFlags::DEPTH,
+        vk::Format::D32_SFLOAT | vk::Format::D16_UNORM | vk::Format::X8_D24_UNORM_PACK32 => {
+            vk::ImageAspectFlags::DEPTH
+        }
+        vk::Format::D16_UNORM_S8_UINT
+        | vk::Format::D24_UNORM_S8_UINT
+        | vk::Format::D32_SFLOAT_S8_UINT => {
+            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
+        }
         _ => vk::ImageAspectFlags::COLOR,
     }
 }
@@ -386,7 +395,8 @@ pub struct HostImage {
     pub image: vk::Image,
     /// A 2D view of its only mip and layer (owned by the host).
     pub view: vk::ImageView,
-    /// Its format (must be `R32G32B32A32_SFLOAT`).
+    /// Its format (which ones each use accepts: the tables in
+    /// `ssbc::postprocess`).
     pub format: vk::Format,
     /// Width and height.
     pub extent: (u32, u32),

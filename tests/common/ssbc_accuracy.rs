@@ -186,6 +186,7 @@ pub fn residual_vs_twin(
         up: camera.up,
         pixel_side: 2.0 * (camera.yfov * 0.5).tan() / frame.height as f32,
         min_cos_view: settings.ssbc.min_cos_view,
+        principal: glam::Vec2::ZERO,
     };
     let twin = BruteForceTwin::new(&g, s0, twin_camera, frame.bound)
         .with_glossy_receivers(camera.position);

@@ -43,6 +43,10 @@ pub struct SsbcCamera {
     pub up: glam::Vec3,
     /// Pixel side on the image plane at distance 1: 2 tan(fov/2) / height.
     pub pixel_side: f32,
+    /// Where the optical axis meets the image, from the image's centre, in
+    /// pixels (x right, y down): zero for a symmetric frustum, the jitter
+    /// or the frustum's offset otherwise.
+    pub principal: glam::Vec2,
 }
 
 /// The SSBC pipelines, one per kernel.

@@ -8,17 +8,19 @@ use crate::shaders::{ssbc_geometry_base_comp, ssbc_geometry_mips_comp, ssbc_radi
 use crate::vk::{DescriptorPool, Image, Recorder, Work};
 
 impl SsbcPass {
-    /// The geometry pyramid of layer `layer` from its G-buffer; `mips`
-    /// holds the frame and thresholds (its layer and level are set here).
+    /// The geometry pyramid of layer `mips.layer` from its G-buffer; `mips`
+    /// holds the frame and thresholds (its level is set here), `principal`
+    /// the camera's [`super::SsbcCamera::principal`].
     pub(super) fn record_geometry(
         &self,
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
         gbuffer: SsbcGBuffer<'_>,
-        layer: u32,
         mips: GeometryMipsPush,
+        principal: glam::Vec2,
         frame: &SsbcFrame,
     ) -> Result<()> {
+        let layer = mips.layer;
         for level in 0..frame.levels - Self::layer_shift(frame, layer) {
             let texels = Work::pixels(Self::level_extent(frame, layer, level));
             if level == 0 {
@@ -35,6 +37,7 @@ impl SsbcPass {
                     frame: mips.frame,
                     layer,
                     geometric: u32::from(gbuffer.geometric.is_some()),
+                    principal: principal.into(),
                 };
                 self.geometry_base
                     .dispatch(rec, pool, &bindings, &push, texels)?;
@@ -43,11 +46,7 @@ impl SsbcPass {
                     geo_words: &frame.geo,
                     aux_words: &frame.aux,
                 };
-                let push = GeometryMipsPush {
-                    layer,
-                    level,
-                    ..mips
-                };
+                let push = GeometryMipsPush { level, ..mips };
                 self.geometry.dispatch(rec, pool, &bindings, &push, texels)?;
             }
         }

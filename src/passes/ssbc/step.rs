@@ -128,7 +128,12 @@ impl SsbcPass {
             max_thickness: inputs.settings.max_thickness,
         };
         for (layer, source) in std::iter::once(visible).chain(hidden).enumerate() {
-            self.record_geometry(rec, pool, source.gbuffer, layer as u32, mips, frame)?;
+            let mips = GeometryMipsPush {
+                layer: layer as u32,
+                ..mips
+            };
+            let principal = inputs.camera.principal;
+            self.record_geometry(rec, pool, source.gbuffer, mips, principal, frame)?;
         }
         // Evaluation points are stamped with the step's generation (1, 2, ...).
         rec.fill_buffer(&frame.points.buffer, 0);

@@ -1,20 +1,41 @@
 //! SSBC as a post-process on a host engine's own images, recorded into the
 //! host's own command buffer: the paper's use of the technique.
 //!
-//! The host draws its G-buffer (world position, normal, diffuse albedo) and
-//! its clamped lighting `S0 = T Le + T_b L^` with its own pipelines, then
-//! calls [`SsbcPostProcess::record`], which records the geometry pyramid and
-//! K residual steps `S_k = T_r S_{k-1}` and copies the compensated image
-//! `S0 + S_1 + ... + S_K` (or one step's residual) into the host's output
-//! image. The host ends, submits and synchronises the command buffer with
-//! its own semaphores or fences.
+//! The host draws its G-buffer (world position or depth, normal, diffuse
+//! albedo) and its clamped lighting `S0 = T Le + T_b L^` with its own
+//! pipelines, then calls [`SsbcPostProcess::record`], which records the
+//! geometry pyramid and K residual steps `S_k = T_r S_{k-1}` and writes the
+//! compensated image `S0 + S_1 + ... + S_K` (or one step's residual) into
+//! the host's output image, or adds the compensation onto it. The host
+//! ends, submits and synchronises the command buffer with its own
+//! semaphores or fences.
 //!
-//! Images (all 2D, one mip, one layer, the same size):
+//! The camera ([`HostCamera`]) is a symmetric frustum or the host's view
+//! and projection matrices (any perspective in Vulkan clip space: reversed
+//! or infinite Z, off-centre, with a per-frame sub-pixel jitter); SSBC
+//! splits pixels at creases where the jittered pixels really are.
 //!
-//! | image | format | usage | layout on entry | layout on exit |
+//! Images (all 2D, one mip, one layer, the same size). Where every input of
+//! the first layer is `R32G32B32A32_SFLOAT`, with world positions and
+//! signed normals, ssbc reads them in place as storage images
+//! ([`Conversion::None`]). Otherwise it reads them all through sampling
+//! (sRGB, UNORM, SNORM and packed formats decoded by the sampler; depth
+//! turned into positions with the inverse of the jittered view-projection)
+//! into RGBA32F copies of its own, which [`PostProcessShape`] counts
+//! (64 bytes a pixel, 80 with sources). [`FORMATS`] lists what each
+//! accepts; anything else is refused by name, as is a format the device
+//! cannot sample or store.
+//!
+//! | image | formats | usage | layout on entry | layout on exit |
 //! |---|---|---|---|---|
-//! | position (xyz world, w = 0 off geometry), normal (xyz), albedo (rgb), S0 (rgb) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
-//! | output | `R32G32B32A32_SFLOAT` | `TRANSFER_DST` | any (declared) | `TRANSFER_DST_OPTIMAL`, last written by a copy |
+//! | geometry: position (xyz world, w = 0 off geometry) | `R32G32B32A32_SFLOAT` | `STORAGE` in place, else `SAMPLED` | any (declared) | `GENERAL` in place, else `SHADER_READ_ONLY_OPTIMAL` |
+//! | geometry: depth (with [`HostCamera::Matrices`] and the background depth) | `D32_SFLOAT`, `D32_SFLOAT_S8_UINT`, `D24_UNORM_S8_UINT`, `X8_D24_UNORM_PACK32`, `D16_UNORM`, `R32_SFLOAT` | `SAMPLED` (a view of the depth aspect) | any (declared) | `SHADER_READ_ONLY_OPTIMAL` |
+//! | normal, [`NormalEncoding`] `Signed` / `Unsigned` (xyz; w the roughness for [`ReceiverBrdf::MetallicRoughnessInW`]) | `R32G32B32A32_SFLOAT`, `R16G16B16A16_SFLOAT`, `R16G16B16A16_SNORM`, `R16G16B16A16_UNORM`, `R8G8B8A8_SNORM`, `R8G8B8A8_UNORM`, `A2B10G10R10_UNORM_PACK32`, `A2R10G10B10_UNORM_PACK32` | as position | any (declared) | as position |
+//! | normal, `Octahedral` / `OctahedralUnsigned` (Lambertian receivers) | `R32G32_SFLOAT`, `R16G16_SFLOAT`, `R16G16_SNORM`, `R16G16_UNORM`, `R8G8_SNORM`, `R8G8_UNORM` | `SAMPLED` | any (declared) | `SHADER_READ_ONLY_OPTIMAL` |
+//! | albedo (rgb; w the metallic for `MetallicRoughnessInW`) | `R32G32B32A32_SFLOAT`, `R16G16B16A16_SFLOAT`, `R8G8B8A8_UNORM`, `R8G8B8A8_SRGB`, `B8G8R8A8_UNORM`, `B8G8R8A8_SRGB`, `A2B10G10R10_UNORM_PACK32` | as position | any (declared) | as position |
+//! | S0 and sources (rgb) | `R32G32B32A32_SFLOAT`, `R16G16B16A16_SFLOAT`, `B10G11R11_UFLOAT_PACK32`, `E5B9G9R9_UFLOAT_PACK32` | as position | any (declared) | as position |
+//! | output, [`OutputWrite::Copy`] | `R32G32B32A32_SFLOAT` | `TRANSFER_DST` | any (declared) | `TRANSFER_DST_OPTIMAL`, last written by a copy |
+//! | output, [`OutputWrite::Store`] / [`OutputWrite::Add`] (may be the S0 image itself) | `R32G32B32A32_SFLOAT`, `R16G16B16A16_SFLOAT`, `B10G11R11_UFLOAT_PACK32` (where the device can store it) | `STORAGE` | any (declared) | `GENERAL`, last written by a compute shader |
 //! | optional second layer ([`PostProcessInputs::hidden`]): position, normal, albedo, S0, all four **the same size as the others or half of it** (rounded up) | `R32G32B32A32_SFLOAT` | `STORAGE` | any (declared) | `GENERAL`, last read by compute shaders |
 //!
 //! With [`SsbcPostProcess::set_restore_layouts`], every image instead ends
@@ -36,16 +57,16 @@
 //!
 //! Barriers: ssbc's first barrier on each host image waits for all prior
 //! commands' writes (`ALL_COMMANDS` / `MEMORY_WRITE`) and moves it from the
-//! declared layout; on exit the host must make the output's transfer write
-//! visible to whatever reads it next (and move the layouts back if it
-//! needs to). Internal resources (the pyramids) belong to one of `slots`
+//! declared layout; on exit the host must make the output's write visible
+//! to whatever reads it next (and move the layouts back if it needs to). Internal resources (the pyramids) belong to one of `slots`
 //! frame slots: the host passes the slot of the frame being recorded and
 //! guarantees the GPU has finished the slot's previous frame, as it does for
 //! its own per-frame resources.
 //!
 //! Memory is the host's to budget before anything exists:
 //! [`SsbcPostProcess::memory`] says what a [`PostProcessShape`] (size,
-//! steps, second layer) holds per slot, [`SsbcPostProcess::prepare`] creates
+//! steps, second layer, conversion; [`PostProcessShape::for_inputs`]) holds
+//! per slot, [`SsbcPostProcess::prepare`] creates
 //! it for every slot (at start-up and at a resize, outside any recording),
 //! and [`SsbcPostProcess::record`] allocates nothing: inputs or settings of
 //! another shape are an error that names both. Before `prepare` with a new
@@ -57,18 +78,29 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::passes::ssbc::{
-    SsbcCamera, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings,
-};
+use crate::passes::ssbc::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings};
 use crate::passes::PassSlot;
 use crate::settings::LayerResolution;
 use crate::vk::{DescriptorPool, Device, GpuFrameTimes, GpuProfiler, Image, ImageDesc, Recorder};
 
+mod camera;
+mod convert;
+mod inputs;
+
+use convert::{ConvertedInputs, HostIo, SampledInputs};
+
+pub use crate::vk::HostImage;
+pub use camera::HostCamera;
+pub use inputs::{
+    Conversion, HostGeometry, NormalEncoding, OutputWrite, PostOutput, PostProcessInputs,
+    PostProcessLayer, ReceiverBrdf, FORMATS,
+};
+
 /// What a post-process's frame slots are made for: the image size, SSBC's
-/// steps and coarsest evaluation level, and the second layer's resolution
-/// (`None`: one layer). [`SsbcPostProcess::prepare`] creates the resources
-/// for one; [`SsbcPostProcess::record`] needs inputs and settings of that
-/// shape.
+/// steps and coarsest evaluation level, the second layer's resolution
+/// (`None`: one layer) and whether the first layer is converted.
+/// [`SsbcPostProcess::prepare`] creates the resources for one;
+/// [`SsbcPostProcess::record`] needs inputs and settings of that shape.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PostProcessShape {
     /// Width and height of the host's images (the first layer's).
@@ -80,11 +112,15 @@ pub struct PostProcessShape {
     /// The second layer's resolution, if the host gives one
     /// ([`PostProcessInputs::hidden`]).
     pub layer1: Option<LayerResolution>,
+    /// Whether the first layer is read in place or converted into ssbc's
+    /// own copies (which its formats decide; see the module documentation).
+    pub conversion: Conversion,
 }
 
 impl PostProcessShape {
-    /// The shape for images of `extent` with `settings`, and a second layer
-    /// at `layer1`'s resolution if any.
+    /// The shape for RGBA32F images of `extent` (world positions, signed
+    /// normals: read in place) with `settings`, and a second layer at
+    /// `layer1`'s resolution if any.
     pub fn new(
         extent: (u32, u32),
         settings: &SsbcSettings,
@@ -95,15 +131,27 @@ impl PostProcessShape {
             steps: settings.steps,
             max_eval_level: settings.max_eval_level,
             layer1,
+            conversion: Conversion::None,
         }
+    }
+
+    /// The shape `inputs` and `settings` need (their sizes, second layer
+    /// and formats), or what is wrong with them.
+    pub fn for_inputs(inputs: &PostProcessInputs, settings: &SsbcSettings) -> Result<Self> {
+        let checked = inputs.check()?;
+        Ok(Self {
+            conversion: checked.conversion,
+            ..Self::new(checked.extent, settings, checked.layer1)
+        })
     }
 }
 
 /// Device memory a post-process holds ([`SsbcPostProcess::memory`]), in
 /// bytes. Nothing carries over from one frame to the next (no history): the
-/// pyramids, evaluation points, work lists and residuals are all rewritten
-/// every frame, so a host may count them as per-frame scratch, though ssbc
-/// owns them from `prepare` until the next `prepare` or the drop.
+/// pyramids, evaluation points, work lists, residuals and converted inputs
+/// are all rewritten every frame, so a host may count them as per-frame
+/// scratch, though ssbc owns them from `prepare` until the next `prepare`
+/// or the drop.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PostProcessMemory {
     /// One frame slot's resources.
@@ -116,96 +164,19 @@ pub struct PostProcessMemory {
     pub transient: u64,
 }
 
-pub use crate::vk::HostImage;
-
-/// What the host wants in its output image.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PostOutput {
-    /// `S0 + S_1 + ... + S_K`.
-    Compensated,
-    /// One step's residual `S_k` (1-based).
-    Residual(u32),
-}
-
-/// How SSBC reads the receivers' BRDF from the host's images.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ReceiverBrdf {
-    /// Lambertian of the albedo image's rgb; the w channels of the albedo
-    /// and normal images are not read (what every host got before there
-    /// was a choice, bit for bit).
-    #[default]
-    Lambertian,
-    /// glTF 2.0 metallic-roughness (ssbc's G-buffer encoding): the albedo
-    /// image's rgb is the base colour and w the metallic, the normal image's
-    /// w the perceptual roughness (negative: that pixel is Lambertian).
-    /// Such receivers reflect the residual towards the camera with their
-    /// BRDF, each evaluated alone.
-    MetallicRoughnessInW,
-}
-
-/// The host's inputs for one frame.
-#[derive(Clone, Copy, Debug)]
-pub struct PostProcessInputs {
-    /// World-space position (xyz; w = 0 where there is no geometry).
-    pub position: HostImage,
-    /// Shading normal (xyz, unit length).
-    pub normal: HostImage,
-    /// Diffuse albedo (rgb).
-    pub albedo: HostImage,
-    /// The clamped lighting `S0` (rgb radiance towards the camera).
-    pub s0: HostImage,
-    /// What each pixel sends as a source of the first step, made
-    /// view-independent (None: `s0` itself, right for Lambertian surfaces).
-    /// ssbc's renderer sends each surface's reflected light spread evenly
-    /// by its hemispherical albedo, specular lobe included
-    /// (docs/ssbc-implementation.md); later steps do the same with
-    /// `receivers`.
-    pub sources: Option<HostImage>,
-    /// How the receivers reflect.
-    pub receivers: ReceiverBrdf,
-    /// Where the result goes.
-    pub output: HostImage,
-    /// Camera position (world).
-    pub camera_position: glam::Vec3,
-    /// Unit optical axis.
-    pub camera_forward: glam::Vec3,
-    /// The image's up direction (row 0 is the top; made orthogonal to the
-    /// optical axis). With the axis, it places each pixel's square in the
-    /// world, which SSBC needs to split pixels at creases.
-    pub camera_up: glam::Vec3,
-    /// Vertical field of view (radians).
-    pub yfov: f32,
-    /// The clamping bound b (1/m²) the host's `S0` was clamped with.
-    pub bound: f32,
-    /// Distance along the optical axis where most of the image lies (e.g.
-    /// to the scene's centre): picks the coarsest evaluation level.
-    pub typical_depth: f32,
-    /// An optional second G-buffer layer of hidden surfaces (see the module
-    /// documentation), whose surfaces SSBC gathers from as well.
-    pub hidden: Option<PostProcessLayer>,
-}
-
-/// The host's second G-buffer layer, at full or half resolution (rounded
-/// up): the position image's size says which.
-#[derive(Clone, Copy, Debug)]
-pub struct PostProcessLayer {
-    /// World-space position (xyz; w = 0 where there is no hidden surface).
-    pub position: HostImage,
-    /// The normal of the surface's own (outward) side, unit length.
-    pub normal: HostImage,
-    /// Diffuse albedo (rgb).
-    pub albedo: HostImage,
-    /// Its clamped lighting `S0` (rgb radiance).
-    pub s0: HostImage,
-}
-
 /// Passes timed per frame slot: the post-process's query pools hold
 /// 2 x this + 2 timestamps (and this many pipeline-statistics queries where
 /// the device has them) per slot.
 pub const PROFILED_PASSES: u32 = 1024;
 
-/// One slot's pyramids and images, for the shape they were made for.
-type SsbcSlot = PassSlot<PostProcessShape, SsbcFrame>;
+/// One slot's resources.
+struct SlotResources {
+    frame: SsbcFrame,
+    converted: Option<ConvertedInputs>,
+}
+
+/// One slot's resources, for the shape they were made for.
+type SsbcSlot = PassSlot<PostProcessShape, SlotResources>;
 
 /// SSBC on the host's images (see the module documentation). Command
 /// buffers must be submitted in the order they were recorded.
@@ -215,16 +186,43 @@ type SsbcSlot = PassSlot<PostProcessShape, SsbcFrame>;
 /// ```no_run
 /// use ash::vk;
 /// use ssbc::postprocess::{
-///     HostImage, PostOutput, PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
+///     HostCamera, HostGeometry, HostImage, NormalEncoding, OutputWrite, PostOutput,
+///     PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
 /// };
 ///
 /// /// At start-up and at a resize (the GPU idle): the budget, then the
 /// /// resources of every frame slot.
-/// fn resize(post: &mut SsbcPostProcess, slots: usize, size: (u32, u32)) -> ssbc::Result<()> {
+/// fn resize(post: &mut SsbcPostProcess, slots: usize, inputs: &PostProcessInputs) -> ssbc::Result<()> {
 ///     let settings = ssbc::SsbcSettings { steps: 2, ..Default::default() };
-///     let shape = PostProcessShape::new(size, &settings, None);
+///     let shape = PostProcessShape::for_inputs(inputs, &settings)?;
 ///     println!("SSBC: {} MiB", SsbcPostProcess::memory(&shape, slots).total >> 20);
 ///     post.prepare(shape)
+/// }
+///
+/// /// The inputs of a host with a depth buffer, RGB10A2 normals, sRGB
+/// /// albedo and an RGBA16F lighting image that SSBC adds onto.
+/// fn inputs(
+///     [depth, normal, albedo, lighting]: [HostImage; 4],
+///     view: glam::Mat4,
+///     projection: glam::Mat4, // Vulkan clip space, reversed Z
+///     jitter: glam::Vec2,     // this frame's TAA offset, in pixels
+///     bound: f32,             // the b the host clamped its lighting with
+/// ) -> PostProcessInputs {
+///     PostProcessInputs {
+///         geometry: HostGeometry::Depth { image: depth, background: 0.0 },
+///         normal,
+///         normal_encoding: NormalEncoding::Unsigned,
+///         albedo,
+///         s0: lighting,
+///         sources: None,
+///         receivers: ReceiverBrdf::Lambertian,
+///         output: lighting,
+///         write: OutputWrite::Add,
+///         camera: HostCamera::Matrices { view, projection, jitter },
+///         bound,
+///         typical_depth: 5.0,
+///         hidden: None,
+///     }
 /// }
 ///
 /// /// Records SSBC after the host's G-buffer and clamped-lighting passes.
@@ -232,34 +230,17 @@ type SsbcSlot = PassSlot<PostProcessShape, SsbcFrame>;
 ///     post: &mut SsbcPostProcess, // SsbcPostProcess::new(&device, frames_in_flight)
 ///     cmd: vk::CommandBuffer,     // the host's, recording
 ///     frame_slot: usize,
-///     [position, normal, albedo, s0, output]: [HostImage; 5],
-///     camera: &ssbc::scene::Camera,
-///     bound: f32,
+///     inputs: &PostProcessInputs,
 /// ) -> ssbc::Result<()> {
-///     let inputs = PostProcessInputs {
-///         position,
-///         normal,
-///         albedo,
-///         s0,
-///         sources: None,
-///         receivers: ReceiverBrdf::Lambertian,
-///         output,
-///         camera_position: camera.position,
-///         camera_forward: camera.forward,
-///         camera_up: camera.up,
-///         yfov: camera.yfov,
-///         bound,
-///         typical_depth: 5.0,
-///         hidden: None,
-///     };
 ///     let settings = ssbc::SsbcSettings { steps: 2, ..Default::default() };
-///     post.record(cmd, frame_slot, &inputs, &settings, PostOutput::Compensated)
+///     post.record(cmd, frame_slot, inputs, &settings, PostOutput::Compensated)
 /// }
 /// ```
 pub struct SsbcPostProcess {
     // Field order is drop order: resources before the device.
     slots: Vec<Option<SsbcSlot>>,
     pass: SsbcPass,
+    io: HostIo,
     /// Timestamps per slot, reset and written in the host's command buffer.
     profiler: GpuProfiler,
     /// Move the host's images back to their declared layouts on exit.
@@ -269,17 +250,20 @@ pub struct SsbcPostProcess {
 
 /// The host's images of one frame, wrapped for barriers.
 struct WrappedInputs {
-    position: Image,
+    geometry: Image,
     normal: Image,
     albedo: Image,
     s0: Image,
     sources: Option<Image>,
     out: Image,
+    /// The output is the s0 image: `out` takes over s0's tracked state
+    /// before it is written.
+    out_is_s0: bool,
     hidden: Option<[Image; 4]>,
 }
 
 impl WrappedInputs {
-    fn new(device: &Arc<Device>, inputs: &PostProcessInputs) -> Self {
+    fn new(device: &Arc<Device>, inputs: &PostProcessInputs, conversion: Conversion) -> Self {
         let wrap = |image: &HostImage, usage| {
             let (w, h) = image.extent;
             Image::from_host(
@@ -291,31 +275,67 @@ impl WrappedInputs {
             )
         };
         let storage = vk::ImageUsageFlags::STORAGE;
+        // Converted inputs are sampled; the others read as storage.
+        let first = if conversion == Conversion::None {
+            storage
+        } else {
+            vk::ImageUsageFlags::SAMPLED
+        };
+        let out_usage = match inputs.write {
+            OutputWrite::Copy => vk::ImageUsageFlags::TRANSFER_DST,
+            _ => storage,
+        };
         Self {
-            position: wrap(&inputs.position, storage),
-            normal: wrap(&inputs.normal, storage),
-            albedo: wrap(&inputs.albedo, storage),
-            s0: wrap(&inputs.s0, storage),
-            sources: inputs.sources.map(|image| wrap(&image, storage)),
-            out: wrap(&inputs.output, vk::ImageUsageFlags::TRANSFER_DST),
+            geometry: wrap(inputs.geometry.image(), first),
+            normal: wrap(&inputs.normal, first),
+            albedo: wrap(&inputs.albedo, first),
+            s0: wrap(&inputs.s0, first),
+            sources: inputs.sources.map(|image| wrap(&image, first)),
+            out: wrap(&inputs.output, out_usage),
+            out_is_s0: inputs.output.image == inputs.s0.image,
             hidden: inputs
                 .hidden
                 .map(|l| [l.position, l.normal, l.albedo, l.s0].map(|image| wrap(&image, storage))),
         }
     }
 
-    /// The visible layer and the optional hidden one, as SSBC reads them
-    /// (the host's G-buffer has no separate geometric normals).
-    fn layers(&self) -> (SsbcLayer<'_>, Option<SsbcLayer<'_>>) {
-        let visible = SsbcLayer {
-            gbuffer: SsbcGBuffer {
-                position: &self.position,
-                normal: &self.normal,
-                albedo: &self.albedo,
-                geometric: None,
+    /// The output image, ready to be written: where it is the s0 image, in
+    /// the state ssbc's reads of s0 left it.
+    fn output(&self) -> &Image {
+        if self.out_is_s0 {
+            self.out.state.set(self.s0.state.get());
+        }
+        &self.out
+    }
+
+    /// The visible layer (the host's images, or their converted copies)
+    /// and the optional hidden one, as SSBC reads them (the host's
+    /// G-buffer has no separate geometric normals).
+    fn layers<'a>(
+        &'a self,
+        converted: Option<&'a ConvertedInputs>,
+    ) -> (SsbcLayer<'a>, Option<SsbcLayer<'a>>) {
+        let visible = match converted {
+            Some(c) => SsbcLayer {
+                gbuffer: SsbcGBuffer {
+                    position: &c.position,
+                    normal: &c.normal,
+                    albedo: &c.albedo,
+                    geometric: None,
+                },
+                s0: &c.s0,
+                sources: c.sources.as_ref().unwrap_or(&c.s0),
             },
-            s0: &self.s0,
-            sources: self.sources.as_ref().unwrap_or(&self.s0),
+            None => SsbcLayer {
+                gbuffer: SsbcGBuffer {
+                    position: &self.geometry,
+                    normal: &self.normal,
+                    albedo: &self.albedo,
+                    geometric: None,
+                },
+                s0: &self.s0,
+                sources: self.sources.as_ref().unwrap_or(&self.s0),
+            },
         };
         let hidden = self
             .hidden
@@ -337,12 +357,15 @@ impl WrappedInputs {
     /// (those declared `UNDEFINED` stay as ssbc left them).
     fn hand_back(&self, rec: &mut Recorder<'_>, inputs: &PostProcessInputs) {
         let mut host = vec![
-            (&self.position, inputs.position.layout),
+            (&self.geometry, inputs.geometry.image().layout),
             (&self.normal, inputs.normal.layout),
             (&self.albedo, inputs.albedo.layout),
-            (&self.s0, inputs.s0.layout),
-            (&self.out, inputs.output.layout),
         ];
+        // An output that is the s0 image holds its latest state.
+        if !self.out_is_s0 {
+            host.push((&self.s0, inputs.s0.layout));
+        }
+        host.push((&self.out, inputs.output.layout));
         if let (Some(image), Some(declared)) = (&self.sources, &inputs.sources) {
             host.push((image, declared.layout));
         }
@@ -358,18 +381,6 @@ impl WrappedInputs {
     }
 }
 
-impl PostProcessInputs {
-    /// The SSBC camera of these inputs, for an image `height` pixels high.
-    fn camera(&self, height: u32) -> SsbcCamera {
-        SsbcCamera {
-            position: self.camera_position,
-            forward: self.camera_forward.normalize(),
-            up: self.camera_up.reject_from(self.camera_forward).normalize(),
-            pixel_side: 2.0 * (self.yfov * 0.5).tan() / height as f32,
-        }
-    }
-}
-
 impl SsbcPostProcess {
     /// Creates the pipelines for `slots` frames in flight.
     pub fn new(device: &Arc<Device>, slots: usize) -> Result<Self> {
@@ -381,6 +392,7 @@ impl SsbcPostProcess {
         Ok(Self {
             slots: (0..slots).map(|_| None).collect(),
             pass: SsbcPass::new(device)?,
+            io: HostIo::new(device)?,
             // Room for 16 steps of up to 31 scopes each (8 evaluation levels
             // of eval, eval/glossy and resolve; the step's own scopes).
             profiler: GpuProfiler::new(device, PROFILED_PASSES, slots, true, true)?
@@ -403,18 +415,19 @@ impl SsbcPostProcess {
     /// anything is created: the bytes its resources ask for. A device adds
     /// alignment and padding to each ([`SsbcPostProcess::memory_on`]).
     pub fn memory(shape: &PostProcessShape, slots: usize) -> PostProcessMemory {
-        let per_slot =
-            crate::passes::ssbc::frame_bytes(None, shape.extent, shape.steps, shape.layer1);
-        Self::memory_of(per_slot, slots)
+        Self::memory_of(Self::slot_bytes(None, shape), slots)
     }
 
     /// [`SsbcPostProcess::memory`] on `device`, from each resource's memory
     /// requirements there (asked before anything exists): what the
     /// allocator takes (docs/performance.md).
     pub fn memory_on(device: &Device, shape: &PostProcessShape, slots: usize) -> PostProcessMemory {
-        let per_slot =
-            crate::passes::ssbc::frame_bytes(Some(device), shape.extent, shape.steps, shape.layer1);
-        Self::memory_of(per_slot, slots)
+        Self::memory_of(Self::slot_bytes(Some(device), shape), slots)
+    }
+
+    fn slot_bytes(device: Option<&Device>, shape: &PostProcessShape) -> u64 {
+        crate::passes::ssbc::frame_bytes(device, shape.extent, shape.steps, shape.layer1)
+            + ConvertedInputs::bytes(device, shape.conversion, shape.extent)
     }
 
     fn memory_of(per_slot: u64, slots: usize) -> PostProcessMemory {
@@ -428,9 +441,9 @@ impl SsbcPostProcess {
     }
 
     /// Creates every frame slot's resources for `shape` (at start-up and when
-    /// the host's images change size), outside any recording. Slots already
-    /// of that shape are kept. The host has waited for every command buffer
-    /// it recorded into before a new shape.
+    /// the host's images change size or format), outside any recording.
+    /// Slots already of that shape are kept. The host has waited for every
+    /// command buffer it recorded into before a new shape.
     pub fn prepare(&mut self, shape: PostProcessShape) -> Result<()> {
         let (w, h) = shape.extent;
         if shape.steps == 0 {
@@ -450,112 +463,39 @@ impl SsbcPostProcess {
                 heap >> 20
             )));
         }
-        let (pass, device) = (&self.pass, &self.device);
+        let (pass, io, device) = (&self.pass, &self.io, &self.device);
         for (slot, entry) in self.slots.iter_mut().enumerate() {
             PassSlot::refresh(
                 entry,
                 shape,
                 |_| Ok(false),
                 || {
-                    pass.allocate(
-                        device,
-                        shape.extent,
-                        shape.steps,
-                        shape.max_eval_level,
-                        shape.layer1,
-                    )
+                    Ok(SlotResources {
+                        frame: pass.allocate(
+                            device,
+                            shape.extent,
+                            shape.steps,
+                            shape.max_eval_level,
+                            shape.layer1,
+                        )?,
+                        converted: ConvertedInputs::new(
+                            device,
+                            shape.conversion,
+                            shape.extent,
+                            slot,
+                        )?,
+                    })
                 },
-                |frame| {
-                    let pool = DescriptorPool::new(device, &pass.frame_layouts(frame))?;
+                |held| {
+                    let mut layouts = pass.frame_layouts(&held.frame);
+                    layouts.extend(io.set_layouts());
+                    let pool = DescriptorPool::new(device, &layouts)?;
                     pool.name(&format!("ssbc post-process slot {slot} descriptor pool"));
                     Ok(pool)
                 },
             )?;
         }
         Ok(())
-    }
-
-    /// The image size and the second layer's resolution, if the inputs are
-    /// valid.
-    fn check(inputs: &PostProcessInputs) -> Result<((u32, u32), Option<LayerResolution>)> {
-        let extent = inputs.position.extent;
-        let same = format!("the size of the position image, {extent:?}");
-        let mut named = vec![
-            ("position", &inputs.position, extent, same.clone()),
-            ("normal", &inputs.normal, extent, same.clone()),
-            ("albedo", &inputs.albedo, extent, same.clone()),
-            ("s0", &inputs.s0, extent, same.clone()),
-            ("output", &inputs.output, extent, same.clone()),
-        ];
-        if let Some(sources) = &inputs.sources {
-            named.push(("sources", sources, extent, same.clone()));
-        }
-        // The second layer's position image says its resolution; the other
-        // three follow it.
-        let mut layer1 = None;
-        if let Some(hidden) = &inputs.hidden {
-            let half = LayerResolution::Half.extent(extent);
-            let r = if hidden.position.extent == half && half != extent {
-                LayerResolution::Half
-            } else {
-                LayerResolution::Full
-            };
-            let layer1_extent = r.extent(extent);
-            let either = format!(
-                "the size of the position image ({extent:?}) or half of it, rounded up ({half:?})"
-            );
-            let like = format!("{layer1_extent:?}, the size of the second layer's position image");
-            named.extend([
-                (
-                    "second layer's position",
-                    &hidden.position,
-                    layer1_extent,
-                    either,
-                ),
-                (
-                    "second layer's normal",
-                    &hidden.normal,
-                    layer1_extent,
-                    like.clone(),
-                ),
-                (
-                    "second layer's albedo",
-                    &hidden.albedo,
-                    layer1_extent,
-                    like.clone(),
-                ),
-                ("second layer's s0", &hidden.s0, layer1_extent, like),
-            ]);
-            layer1 = Some(r);
-        }
-        for (name, image, wanted, what) in named {
-            if image.format != vk::Format::R32G32B32A32_SFLOAT {
-                return Err(Error::InvalidParameter(format!(
-                    "SSBC post-process: the {name} image is {:?}; it must be R32G32B32A32_SFLOAT",
-                    image.format
-                )));
-            }
-            if image.extent != wanted {
-                return Err(Error::InvalidParameter(format!(
-                    "SSBC post-process: the {name} image is {:?}; it must be {what}",
-                    image.extent
-                )));
-            }
-        }
-        let up = inputs.camera_up.reject_from(inputs.camera_forward);
-        let finite = inputs.camera_position.is_finite()
-            && inputs.camera_forward.is_finite()
-            && up.is_finite()
-            && up.length_squared() > 0.0
-            && inputs.yfov.is_finite()
-            && inputs.typical_depth.is_finite();
-        if !finite || inputs.yfov <= 0.0 || inputs.bound.is_nan() || inputs.bound <= 0.0 {
-            return Err(Error::InvalidParameter(
-                "SSBC post-process: camera (with an up vector not along the optical axis), field of view, depth and bound must be finite and positive"
-                    .into(),
-            ));
-        }
-        Ok((extent, layer1))
     }
 
     fn check_settings(settings: &SsbcSettings, output: PostOutput) -> Result<()> {
@@ -580,7 +520,7 @@ impl SsbcPostProcess {
     /// `cmd` (recording, outside any render pass), in the resources
     /// [`SsbcPostProcess::prepare`] made for the shape of `inputs` and
     /// `settings`; allocates nothing. See the module documentation for
-    /// layouts and synchronisation.
+    /// formats, layouts and synchronisation.
     pub fn record(
         &mut self,
         cmd: vk::CommandBuffer,
@@ -589,14 +529,15 @@ impl SsbcPostProcess {
         settings: &SsbcSettings,
         output: PostOutput,
     ) -> Result<()> {
-        let ((w, h), layer1) = Self::check(inputs)?;
+        let shape = PostProcessShape::for_inputs(inputs, settings)?;
         Self::check_settings(settings, output)?;
+        HostIo::check_device(&self.device, inputs, shape.conversion)?;
+        let (w, h) = shape.extent;
         let slot_count = self.slots.len();
         let entry = self
             .slots
             .get_mut(slot)
             .ok_or_else(|| Error::InvalidParameter(format!("frame slot {slot} of {slot_count}")))?;
-        let shape = PostProcessShape::new((w, h), settings, layer1);
         // The host finished this slot's previous frame (its promise).
         let prepared = entry.as_ref().map(|held| *held.key());
         let Some(held) = PassSlot::reuse(entry, &shape)? else {
@@ -605,11 +546,11 @@ impl SsbcPostProcess {
                 "SSBC post-process: frame slot {slot} holds {prepared}, these inputs and settings need {shape:?}: call prepare() with it first (record() allocates nothing)"
             )));
         };
-        let (frame, pool) = (&held.resources, &held.pool);
+        let (resources, pool) = (&held.resources, &held.pool);
+        let frame = &resources.frame;
 
-        let images = WrappedInputs::new(&self.device, inputs);
-        let out = &images.out;
-        let camera = inputs.camera(h);
+        let images = WrappedInputs::new(&self.device, inputs, shape.conversion);
+        let camera = inputs.camera.ssbc((w, h))?;
         let eval_level = SsbcPass::eval_level(
             &camera,
             inputs.typical_depth,
@@ -622,33 +563,64 @@ impl SsbcPostProcess {
         // The host finished the slot's previous frame: its queries are free.
         self.profiler.begin_frame(cmd, slot, true);
         let scope = self.profiler.begin(cmd, "ssbc_postprocess");
-        let (visible, hidden) = images.layers();
-        let recorded = self.pass.record_steps(
-            &mut rec,
-            &mut self.profiler,
-            pool,
-            visible,
-            hidden,
-            &SsbcInputs {
-                camera: &camera,
-                bound: inputs.bound,
-                eval_level,
-                settings,
-                glossy_receivers: inputs.receivers == ReceiverBrdf::MetallicRoughnessInW,
-            },
-            frame,
-        );
+        let recorded = (|| {
+            let converted = resources.converted.as_ref();
+            if let Some(copies) = converted {
+                let host = SampledInputs {
+                    geometry: &images.geometry,
+                    normal: &images.normal,
+                    albedo: &images.albedo,
+                    s0: &images.s0,
+                    sources: images.sources.as_ref(),
+                };
+                self.io
+                    .record_convert(&mut rec, &mut self.profiler, pool, inputs, host, copies)?;
+            }
+            let (visible, hidden) = images.layers(converted);
+            let s0 = visible.s0;
+            self.pass.record_steps(
+                &mut rec,
+                &mut self.profiler,
+                pool,
+                visible,
+                hidden,
+                &SsbcInputs {
+                    camera: &camera,
+                    bound: inputs.bound,
+                    eval_level,
+                    settings,
+                    glossy_receivers: inputs.receivers == ReceiverBrdf::MetallicRoughnessInW,
+                },
+                frame,
+            )?;
+            let result = match output {
+                PostOutput::Compensated => &frame.final_image,
+                PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
+            };
+            let out = images.output();
+            match inputs.write {
+                OutputWrite::Copy => rec.copy_image(result, (0, 0), out, (w, h)),
+                write => {
+                    let (add, subtract) = convert::write_mode(write, output, images.out_is_s0);
+                    self.io.record_write(
+                        &mut rec,
+                        &mut self.profiler,
+                        pool,
+                        result,
+                        subtract.then_some(s0),
+                        out,
+                        add,
+                    )?;
+                }
+            }
+            Ok::<_, Error>(())
+        })();
         if let Err(e) = recorded {
             // The slot's tracked states describe commands the host will
             // not submit as they are: start it afresh next time.
             self.slots[slot] = None;
             return Err(e);
         }
-        let result = match output {
-            PostOutput::Compensated => &frame.final_image,
-            PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
-        };
-        rec.copy_image(result, (0, 0), out, (w, h));
         if self.restore_layouts {
             images.hand_back(&mut rec, inputs);
         }

@@ -1,0 +1,528 @@
+//! What the post-process examples' hosts share: a small engine of its own
+//! in raw `ash` (its allocator, images, buffers, compute kernels compiled
+//! from GLSL at run time, barriers and device), and its G-buffer and
+//! lighting kernels (a room corner with a box, lit by VPLs).
+
+#![allow(dead_code)] // each example uses part of it
+
+use std::sync::{Arc, Mutex};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
+use gpu_allocator::MemoryLocation;
+use ssbc::vk::{Device, HostDevice, Instance, RequiredFeatures};
+
+pub type Error = Box<dyn std::error::Error>;
+
+/// The host's memory: its own allocator on the device ssbc made.
+pub struct HostMemory {
+    pub device: Arc<Device>,
+    pub allocator: Mutex<Allocator>,
+}
+
+/// A host image: 2D, one level, with its view.
+pub struct Image {
+    pub memory: Arc<HostMemory>,
+    pub raw: vk::Image,
+    pub view: vk::ImageView,
+    pub format: vk::Format,
+    pub width: u32,
+    pub height: u32,
+    pub allocation: Option<Allocation>,
+}
+
+/// A host buffer.
+pub struct Buffer {
+    pub memory: Arc<HostMemory>,
+    pub raw: vk::Buffer,
+    pub allocation: Option<Allocation>,
+}
+
+impl HostMemory {
+    pub fn new(device: &Arc<Device>) -> Result<Arc<Self>, Error> {
+        let allocator = Allocator::new(&gpu_allocator::vulkan::AllocatorCreateDesc {
+            instance: device.instance.raw.clone(),
+            device: device.raw.clone(),
+            physical_device: device.physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })?;
+        Ok(Arc::new(Self {
+            device: device.clone(),
+            allocator: Mutex::new(allocator),
+        }))
+    }
+
+    /// Memory for a resource with `requirements` (`linear`: a buffer or a
+    /// linearly tiled image).
+    pub fn allocate(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        location: MemoryLocation,
+        linear: bool,
+    ) -> Result<Allocation, Error> {
+        Ok(self
+            .allocator
+            .lock()
+            .unwrap()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })?)
+    }
+
+    /// A `width` x `height` RGBA32F image for storage and copies.
+    pub fn image(self: &Arc<Self>, name: &str, width: u32, height: u32) -> Result<Image, Error> {
+        let usage = vk::ImageUsageFlags::STORAGE
+            | vk::ImageUsageFlags::TRANSFER_SRC
+            | vk::ImageUsageFlags::TRANSFER_DST;
+        self.image_of(
+            name,
+            (width, height),
+            vk::Format::R32G32B32A32_SFLOAT,
+            usage,
+        )
+    }
+
+    /// A `width` x `height` image of `format` and `usage`.
+    pub fn image_of(
+        self: &Arc<Self>,
+        name: &str,
+        (width, height): (u32, u32),
+        format: vk::Format,
+        usage: vk::ImageUsageFlags,
+    ) -> Result<Image, Error> {
+        let raw_device = &self.device.raw;
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width,
+                height,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(usage);
+        // SAFETY: a valid create info on a live device; destroyed in Drop.
+        let raw = unsafe { raw_device.create_image(&info, None)? };
+        // SAFETY: `raw` is a live image of this device.
+        let requirements = unsafe { raw_device.get_image_memory_requirements(raw) };
+        let allocation = self.allocate(name, requirements, MemoryLocation::GpuOnly, false)?;
+        // SAFETY: the allocation fits the image's requirements; not bound yet.
+        unsafe { raw_device.bind_image_memory(raw, allocation.memory(), allocation.offset())? };
+        let view_info = vk::ImageViewCreateInfo::default()
+            .image(raw)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(full_range(format));
+        // SAFETY: the image is live and bound.
+        let view = unsafe { raw_device.create_image_view(&view_info, None)? };
+        Ok(Image {
+            memory: self.clone(),
+            raw,
+            view,
+            format,
+            width,
+            height,
+            allocation: Some(allocation),
+        })
+    }
+
+    /// A buffer of `size` bytes at `location`.
+    pub fn buffer(
+        self: &Arc<Self>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer, Error> {
+        let raw_device = &self.device.raw;
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage);
+        // SAFETY: a valid create info; destroyed in Drop.
+        let raw = unsafe { raw_device.create_buffer(&info, None)? };
+        // SAFETY: `raw` is a live buffer of this device.
+        let requirements = unsafe { raw_device.get_buffer_memory_requirements(raw) };
+        let allocation = self.allocate(name, requirements, location, true)?;
+        // SAFETY: the allocation fits; the buffer is not bound yet.
+        unsafe { raw_device.bind_buffer_memory(raw, allocation.memory(), allocation.offset())? };
+        Ok(Buffer {
+            memory: self.clone(),
+            raw,
+            allocation: Some(allocation),
+        })
+    }
+}
+
+/// The aspect of an image of `format` (the example's formats).
+pub fn aspect(format: vk::Format) -> vk::ImageAspectFlags {
+    match format {
+        vk::Format::D32_SFLOAT => vk::ImageAspectFlags::DEPTH,
+        _ => vk::ImageAspectFlags::COLOR,
+    }
+}
+
+/// The whole of a one-level image of `format`.
+pub fn full_range(format: vk::Format) -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange {
+        aspect_mask: aspect(format),
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
+}
+
+impl Buffer {
+    /// The host-visible bytes as `T`s (the device wrote them and the host
+    /// waited for its fence).
+    pub fn read<T: bytemuck::Pod>(&self) -> Vec<T> {
+        let bytes = self
+            .allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .expect("a host-visible buffer");
+        bytemuck::pod_collect_to_vec(bytes)
+    }
+
+    /// Copies `data` into the host-visible buffer.
+    pub fn write<T: bytemuck::Pod>(&mut self, data: &[T]) {
+        let bytes = self
+            .allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .expect("a host-visible buffer");
+        let src = bytemuck::cast_slice(data);
+        bytes[..src.len()].copy_from_slice(src);
+    }
+}
+
+impl Drop for Image {
+    fn drop(&mut self) {
+        let raw_device = &self.memory.device.raw;
+        // SAFETY: the host waited for its work before dropping its images.
+        unsafe {
+            raw_device.destroy_image_view(self.view, None);
+            raw_device.destroy_image(self.raw, None);
+        }
+        if let Some(a) = self.allocation.take() {
+            let _ = self.memory.allocator.lock().unwrap().free(a);
+        }
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: as for images.
+        unsafe { self.memory.device.raw.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take() {
+            let _ = self.memory.allocator.lock().unwrap().free(a);
+        }
+    }
+}
+
+/// The host's G-buffer pass: a camera ray per pixel against three quads.
+pub const GBUFFER_GLSL: &str = r#"#version 450
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0, rgba32f) uniform writeonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform writeonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform writeonly image2D g_albedo;
+layout(push_constant) uniform Camera { vec4 eye; vec4 forward; vec4 right; vec4 up; } cam;
+
+// A rectangle of the plane n.p = offset within [lo, hi], hit beyond tmin;
+// with `front_only`, only from the side n faces.
+void try_plane(vec3 o, vec3 d, vec3 n, float offset, vec3 lo, vec3 hi, vec3 albedo, bool front_only,
+               float tmin, inout float best, inout vec3 hit_n, inout vec3 hit_albedo) {
+    float denom = dot(n, d);
+    if (abs(denom) < 1e-6 || (front_only && denom > 0.0)) return;
+    float t = (offset - dot(n, o)) / denom;
+    vec3 p = o + t * d;
+    if (t > tmin && t < best && all(greaterThanEqual(p, lo - 1e-4)) && all(lessThanEqual(p, hi + 1e-4))) {
+        best = t; hit_n = n; hit_albedo = albedo;
+    }
+}
+
+// The corner (floor, back wall, left wall) and a box standing in it.
+void trace(vec3 o, vec3 d, bool front_only, float tmin, inout float best, inout vec3 n, inout vec3 albedo) {
+    try_plane(o, d, vec3(0, 1, 0), 0.0, vec3(-1, 0, -1), vec3(1, 0, 1), vec3(0.7, 0.7, 0.7), front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 0, 1), -1.0, vec3(-1, 0, -1), vec3(1, 2, -1), vec3(0.8, 0.6, 0.4), front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(1, 0, 0), -1.0, vec3(-1, 0, -1), vec3(-1, 2, 1), vec3(0.3, 0.6, 0.8), front_only, tmin, best, n, albedo);
+    vec3 lo = vec3(-0.7, 0.0, -0.6), hi = vec3(-0.3, 0.5, -0.2), a = vec3(0.6);
+    try_plane(o, d, vec3(1, 0, 0), hi.x, vec3(hi.x, lo.yz), hi, a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(-1, 0, 0), -lo.x, lo, vec3(lo.x, hi.yz), a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 0, 1), hi.z, vec3(lo.xy, hi.z), hi, a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 0, -1), -lo.z, lo, vec3(hi.xy, lo.z), a, front_only, tmin, best, n, albedo);
+    try_plane(o, d, vec3(0, 1, 0), hi.y, vec3(lo.x, hi.y, lo.z), hi, a, front_only, tmin, best, n, albedo);
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(g_position);
+    if (any(greaterThanEqual(p, size))) return;
+    // (right.w, up.w): the sub-pixel jitter the host draws this frame with.
+    vec2 ndc = (vec2(p) + 0.5 - vec2(cam.right.w, cam.up.w)) / vec2(size) * 2.0 - 1.0;
+    vec3 d = normalize(cam.forward.xyz + ndc.x * cam.right.xyz - ndc.y * cam.up.xyz);
+    vec3 o = cam.eye.xyz;
+    float best = 1e30; vec3 n = vec3(0); vec3 albedo = vec3(0);
+    trace(o, d, true, 1e-4, best, n, albedo);
+    // A second layer (eye.w = the separation; this G-buffer may be half the
+    // size): the nearest surface that far behind the visible one, back
+    // faces included, with its own outward normal.
+    if (cam.eye.w > 0.0 && best < 1e29) {
+        float first = best;
+        best = 1e30;
+        trace(o, d, false, first + cam.eye.w, best, n, albedo);
+    }
+    bool hit = best < 1e29;
+    imageStore(g_position, p, hit ? vec4(o + best * d, 1.0) : vec4(0.0));
+    imageStore(g_normal, p, vec4(n, 0.0));
+    imageStore(g_albedo, p, vec4(albedo, 1.0));
+}
+"#;
+
+/// The host's lighting: clamped VPL light, albedo/pi * sum flux * min(G, b)
+/// (no shadows: every point of a concave corner sees every other).
+pub const LIGHTING_GLSL: &str = r#"#version 450
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D s0;
+struct Vpl { vec4 position; vec4 normal; vec4 flux; };
+layout(set = 0, binding = 4, std430) readonly buffer Vpls { Vpl vpls[]; };
+layout(push_constant) uniform Params { uint count; float bound; } params;
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(p, imageSize(s0)))) return;
+    vec4 x = imageLoad(g_position, p);
+    if (x.w == 0.0) { imageStore(s0, p, vec4(0.0)); return; }
+    vec3 n = imageLoad(g_normal, p).xyz;
+    vec3 sum = vec3(0);
+    for (uint i = 0; i < params.count; i++) {
+        vec3 d = vpls[i].position.xyz - x.xyz;
+        float d2 = max(dot(d, d), 1e-8);
+        vec3 w = d / sqrt(d2);
+        float g = max(dot(n, w), 0.0) * max(dot(vpls[i].normal.xyz, -w), 0.0) / d2;
+        sum += vpls[i].flux.rgb * min(g, params.bound);
+    }
+    imageStore(s0, p, vec4(imageLoad(g_albedo, p).rgb / 3.14159265 * sum, 1.0));
+}
+"#;
+
+/// 64 VPLs on the floor near the corner, facing up: position, normal,
+/// flux (`Vpl` in LIGHTING_GLSL).
+pub fn corner_vpls() -> Vec<[f32; 12]> {
+    (0..64)
+        .map(|i| {
+            let (u, v) = ((i % 8) as f32 / 8.0 + 0.06, (i / 8) as f32 / 8.0 + 0.06);
+            [
+                -1.0 + 1.2 * u,
+                0.0,
+                -1.0 + 1.2 * v,
+                1.0,
+                0.0,
+                1.0,
+                0.0,
+                0.0,
+                0.05,
+                0.045,
+                0.04,
+                0.0,
+            ]
+        })
+        .collect()
+}
+
+pub fn compile(source: &str, name: &str) -> Result<Vec<u32>, Box<dyn std::error::Error>> {
+    let compiler = shaderc::Compiler::new()?;
+    let spirv =
+        compiler.compile_into_spirv(source, shaderc::ShaderKind::Compute, name, "main", None)?;
+    Ok(spirv.as_binary().to_vec())
+}
+
+/// A raw compute pipeline of the host: storage images then storage buffers.
+pub struct HostKernel {
+    pub device: Arc<Device>,
+    pub set_layout: vk::DescriptorSetLayout,
+    pub layout: vk::PipelineLayout,
+    pub pipeline: vk::Pipeline,
+}
+
+impl HostKernel {
+    /// Records the kernel over `groups` work groups with `set` and `push`.
+    pub fn dispatch(
+        &self,
+        cmd: vk::CommandBuffer,
+        set: vk::DescriptorSet,
+        push: &[u8],
+        groups: (u32, u32),
+    ) {
+        let raw = &self.device.raw;
+        // SAFETY: recording into the host's command buffer; the pipeline,
+        // its layout and the set are live and match.
+        unsafe {
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[set],
+                &[],
+            );
+            raw.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            raw.cmd_dispatch(cmd, groups.0, groups.1, 1);
+        }
+    }
+
+    pub fn new(
+        device: &Arc<Device>,
+        spirv: &[u32],
+        types: &[vk::DescriptorType],
+        push_bytes: u32,
+    ) -> Result<Self, Box<dyn std::error::Error>> {
+        let raw = &device.raw;
+        let bindings: Vec<_> = types
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(t)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .size(push_bytes)];
+        // SAFETY: valid create infos on a live device; destroyed in Drop.
+        unsafe {
+            let set_layout = raw.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )?;
+            let set_layouts = [set_layout];
+            let layout = raw.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )?;
+            let module =
+                raw.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(spirv), None)?;
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main");
+            let info = vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(layout);
+            let pipeline = raw
+                .create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
+                .map_err(|(_, e)| e)?[0];
+            raw.destroy_shader_module(module, None);
+            Ok(Self {
+                device: device.clone(),
+                set_layout,
+                layout,
+                pipeline,
+            })
+        }
+    }
+}
+
+impl Drop for HostKernel {
+    fn drop(&mut self) {
+        // SAFETY: the host waited for its work before dropping its kernels.
+        unsafe {
+            self.device.raw.destroy_pipeline(self.pipeline, None);
+            self.device.raw.destroy_pipeline_layout(self.layout, None);
+            self.device
+                .raw
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// The host's barrier: everything before, to compute or transfer after.
+pub fn host_barrier(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    images: &[(&Image, vk::ImageLayout, vk::ImageLayout)],
+    dst_stage: vk::PipelineStageFlags2,
+    dst_access: vk::AccessFlags2,
+) {
+    let barriers: Vec<_> = images
+        .iter()
+        .map(|(image, old, new)| {
+            vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+                .dst_stage_mask(dst_stage)
+                .dst_access_mask(dst_access)
+                .old_layout(*old)
+                .new_layout(*new)
+                .image(image.raw)
+                .subresource_range(full_range(image.format))
+        })
+        .collect();
+    // SAFETY: recording; the images are live.
+    unsafe {
+        device.raw.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+        )
+    };
+}
+
+/// The host's device, with only what the SSBC post-process needs
+/// (`RequiredFeatures::POST_PROCESS`: synchronization2 and timeline
+/// semaphores; no dynamic rendering, no host query reset), handed to ssbc;
+/// and the raw device, which the host destroys.
+pub fn host_device(instance: &Arc<Instance>) -> Result<(Arc<Device>, ash::Device), Error> {
+    let raw = &instance.raw;
+    // SAFETY: enumeration on a live instance.
+    let physical = *unsafe { raw.enumerate_physical_devices()? }
+        .first()
+        .ok_or("no Vulkan device")?;
+    // SAFETY: valid physical device.
+    let family = unsafe { raw.get_physical_device_queue_family_properties(physical) }
+        .iter()
+        .position(|f| {
+            f.queue_flags
+                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
+        })
+        .ok_or("no graphics+compute queue")? as u32;
+    let priorities = [1.0];
+    let queues = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(family)
+        .queue_priorities(&priorities)];
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
+    let mut f13 = vk::PhysicalDeviceVulkan13Features::default().synchronization2(true);
+    let info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queues)
+        .push_next(&mut f12)
+        .push_next(&mut f13);
+    // SAFETY: a Vulkan 1.3 device offers both features.
+    let device = unsafe { raw.create_device(physical, &info, None)? };
+    let ssbc = Device::from_host(
+        instance.clone(),
+        HostDevice {
+            physical,
+            device: device.clone(),
+            queue_family: family,
+            queue_index: 0,
+            enabled_features: RequiredFeatures::POST_PROCESS,
+        },
+    )?;
+    Ok((ssbc, device))
+}
