@@ -341,10 +341,14 @@ impl Renderer {
     /// passes the frame slot (`0..FRAME_SLOTS`) and guarantees the slot's
     /// previous frame has finished on the GPU. Such frames are labelled and
     /// timed (the query resets recorded into `cmd`; read them with
-    /// [`Renderer::host_timings`]), and must not be interleaved with ssbc's own submissions
-    /// ([`Renderer::render_resident`], ...) while in flight. A change of
-    /// geometry or materials uploads the scene with ssbc's own submission
-    /// first (waited for).
+    /// [`Renderer::host_timings`]) and keep temporal history as
+    /// [`Renderer::render_resident`] does, reading the history of the
+    /// previous frame's slot: a host that alternates the slots accumulates
+    /// a still view ([`Renderer::accumulated_frames`]), one that records
+    /// every frame into the same slot starts anew each frame. They must not
+    /// be interleaved with ssbc's own submissions while in flight. A change
+    /// of geometry or materials uploads the scene with ssbc's own
+    /// submission first (waited for).
     pub fn record_resident(
         &mut self,
         scene: &ResidentScene,
@@ -371,7 +375,7 @@ impl Renderer {
         let sink = IntoHost { cmd, output, layer };
         // The host guarantees the slot's previous frame is done.
         let (scene, versions) = (scene.scene(), scene.versions());
-        self.run(scene, versions, settings, sink, Some(slot), false)
+        self.run(scene, versions, settings, sink, Some(slot), true)
     }
 
     /// GPU times of the frame last recorded into a host's command buffer in

@@ -205,8 +205,10 @@ pub struct RenderSettings {
 /// Setting a camera or lights equal to the last frame's is no change (an
 /// engine may set them every frame).
 ///
-/// Immediate-mode frames ([`Renderer::render`](crate::Renderer::render)) and
-/// frames recorded into a host's command buffer have none.
+/// Immediate-mode frames ([`Renderer::render`](crate::Renderer::render))
+/// have none. Frames recorded into a host's command buffer
+/// ([`Renderer::record_resident`](crate::Renderer::record_resident)) keep
+/// it while the host alternates the frame slots.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HistorySettings {
     /// Keep history (off: every resident frame stands alone).

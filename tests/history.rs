@@ -2,7 +2,8 @@
 //! exactly the mean of the same frames taken one by one; a moved camera
 //! reprojects history and never carries it onto surfaces the previous
 //! frame did not see; changed lights drop history where the indirect light
-//! changed; the host can cut it; no resources are made per frame.
+//! changed; the host can cut it; frames recorded into the host's command
+//! buffer keep it too; no resources are made per frame.
 
 mod common;
 
@@ -302,6 +303,52 @@ fn the_host_cuts_history() {
     }
     drop(renderer);
     assert_eq!(log.total(), 0, "{:?}", log.messages());
+}
+
+/// Frames a host records into its own command buffer
+/// (`Renderer::record_resident`) keep history as ssbc's own frames do
+/// while the host alternates the frame slots: the same images, the same
+/// count; a host that records every frame into one slot starts anew.
+#[test]
+fn frames_in_a_hosts_command_buffer_keep_history() {
+    let s = settings();
+    let mut own = common::validated_renderer();
+    let mut renderer = common::validated_renderer();
+    let logs = [own.validation_log(), renderer.validation_log()];
+    let mut resident = ResidentScene::new(open_box()).unwrap();
+    let mut host = common::host_frame::HostFrames::new(&renderer, &s);
+    let mut camera = resident.scene().camera(None).unwrap();
+    for k in 1..=5u32 {
+        if k == 4 {
+            // A small camera move: reprojected, one frame again.
+            camera.position += Vec3::new(0.02, 0.0, 0.0);
+            resident.set_camera(camera.clone());
+        }
+        let mine = own.render_resident(&resident, &s).unwrap();
+        let theirs = host.frame(&mut renderer, &resident, &s, k as usize % 2);
+        assert_eq!(renderer.accumulated_frames(), own.accumulated_frames());
+        assert_eq!(mine.accumulated, [1, 2, 3, 1, 2][k as usize - 1]);
+        let peak = mine.image.rgba.iter().fold(0f32, |m, v| m.max(v.abs()));
+        let d = theirs
+            .iter()
+            .zip(&mine.image.rgba)
+            .fold(0f32, |m, (a, b)| m.max((a - b).abs()))
+            / peak;
+        assert!(d < 1e-5, "frame {k}: the host's image differs by {d}");
+    }
+    resident.reset_history();
+    host.frame(&mut renderer, &resident, &s, 0);
+    assert_eq!(renderer.accumulated_frames(), 1, "reset");
+    host.frame(&mut renderer, &resident, &s, 1);
+    assert_eq!(renderer.accumulated_frames(), 2);
+    // One slot: a frame cannot read the history it overwrites.
+    host.frame(&mut renderer, &resident, &s, 1);
+    assert_eq!(renderer.accumulated_frames(), 1, "the same slot again");
+    drop(host);
+    drop((own, renderer));
+    for log in logs {
+        assert_eq!(log.total(), 0, "{:?}", log.messages());
+    }
 }
 
 /// A glossy surface's light depends on the view: orbiting the camera by

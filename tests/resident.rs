@@ -212,10 +212,6 @@ fn a_failed_frame_leaves_the_renderer_usable() {
 /// reads back what ssbc's own read-back frame gives.
 #[test]
 fn the_renderer_records_into_a_hosts_command_buffer() {
-    use ash::vk;
-    use ssbc::postprocess::HostImage;
-    use ssbc::vk::{Buffer, Image, ImageDesc};
-
     let mut renderer = validated();
     let log = renderer.validation_log();
     let resident = ResidentScene::new(cornell()).unwrap();
@@ -223,118 +219,8 @@ fn the_renderer_records_into_a_hosts_command_buffer() {
     let own = renderer.render_resident(&resident, &s).unwrap();
     let device = renderer.device().clone();
     device.wait_idle().unwrap();
-    let (w, h) = (s.width, s.height);
-    let output = Image::new(
-        &device,
-        "host.output",
-        ImageDesc::new_2d(
-            vk::Format::R32G32B32A32_SFLOAT,
-            w,
-            h,
-            // (STORAGE only because ssbc's helper makes a view of it.)
-            vk::ImageUsageFlags::TRANSFER_DST
-                | vk::ImageUsageFlags::TRANSFER_SRC
-                | vk::ImageUsageFlags::STORAGE,
-        ),
-    )
-    .unwrap();
-    let readback = Buffer::new(
-        &device,
-        "host.readback",
-        w as u64 * h as u64 * 16,
-        vk::BufferUsageFlags::TRANSFER_DST,
-        gpu_allocator::MemoryLocation::GpuToCpu,
-    )
-    .unwrap();
-    let raw = &device.raw;
-    // SAFETY: the host's own pool, buffer and fence on a live device,
-    // destroyed below after the fence has signalled.
-    let (pool, cmd, fence) = unsafe {
-        let pool = raw
-            .create_command_pool(
-                &vk::CommandPoolCreateInfo::default().queue_family_index(device.queue_family),
-                None,
-            )
-            .unwrap();
-        let cmd = raw
-            .allocate_command_buffers(
-                &vk::CommandBufferAllocateInfo::default()
-                    .command_pool(pool)
-                    .command_buffer_count(1),
-            )
-            .unwrap()[0];
-        let fence = raw
-            .create_fence(&vk::FenceCreateInfo::default(), None)
-            .unwrap();
-        raw.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())
-            .unwrap();
-        (pool, cmd, fence)
-    };
-    let host = HostImage {
-        image: output.raw,
-        view: output.view,
-        format: vk::Format::R32G32B32A32_SFLOAT,
-        extent: (w, h),
-        layout: vk::ImageLayout::UNDEFINED,
-    };
-    renderer
-        .record_resident(&resident, &s, cmd, 1, &host, ssbc::Layer::Final)
-        .unwrap();
-    // SAFETY: recording the host's own copy and submitting its buffer.
-    unsafe {
-        let to_src = [vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COPY)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::COPY)
-            .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)
-            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-            .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-            .image(output.raw)
-            .subresource_range(output.full_range())];
-        raw.cmd_pipeline_barrier2(
-            cmd,
-            &vk::DependencyInfo::default().image_memory_barriers(&to_src),
-        );
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: w,
-                height: h,
-                depth: 1,
-            });
-        raw.cmd_copy_image_to_buffer(
-            cmd,
-            output.raw,
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            readback.raw,
-            &[region],
-        );
-        let host_read = [vk::MemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COPY)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-        raw.cmd_pipeline_barrier2(
-            cmd,
-            &vk::DependencyInfo::default().memory_barriers(&host_read),
-        );
-        raw.end_command_buffer(cmd).unwrap();
-        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-        raw.queue_submit2(
-            device.queue,
-            &[vk::SubmitInfo2::default().command_buffer_infos(&cmds)],
-            fence,
-        )
-        .unwrap();
-        raw.wait_for_fences(&[fence], true, u64::MAX).unwrap();
-        raw.destroy_fence(fence, None);
-        raw.destroy_command_pool(pool, None);
-    }
+    let mut host = common::host_frame::HostFrames::new(&renderer, &s);
+    let host_pixels = host.frame(&mut renderer, &resident, &s, 1);
     // The host's frame was timed in its own command buffer: the same
     // passes as ssbc's own frame, read without waiting now it is done.
     let times = renderer
@@ -368,7 +254,6 @@ fn the_renderer_records_into_a_hosts_command_buffer() {
         "the host's frame's passes are ssbc's own frame's"
     );
     assert!(times.frame_ms > 0.0 && times.passes.iter().all(|p| p.gpu_ms >= 0.0));
-    let host_pixels: Vec<f32> = readback.read().unwrap();
     let peak = own.image.rgba.iter().fold(0f32, |m, v| m.max(v.abs()));
     let d = host_pixels
         .iter()
@@ -379,7 +264,7 @@ fn the_renderer_records_into_a_hosts_command_buffer() {
         d < 1e-6,
         "the host's image differs from ssbc's own frame by {d}"
     );
-    drop((output, readback));
+    drop(host);
     drop(renderer);
     drop(device);
     assert_eq!(log.total(), 0, "{:?}", log.messages());

@@ -63,6 +63,16 @@
 //! guarantees the GPU has finished the slot's previous frame, as it does for
 //! its own per-frame resources.
 //!
+//! The post-process keeps no temporal history, by design: SSBC draws no
+//! random samples (for given inputs its result is the same every frame);
+//! all the noise in its output is the noise of the host's `S0` (its VPLs or
+//! whatever sampled its lighting), which the host's own temporal
+//! accumulation (its TAA or denoiser, with its motion vectors and
+//! disocclusion tests) already averages. A second history inside ssbc would
+//! average the same noise twice and lag behind the host's. ssbc's own
+//! renderer does keep one ([`crate::Renderer::record_resident`]), because
+//! there ssbc draws the VPLs whose noise it averages.
+//!
 //! Memory is the host's to budget before anything exists:
 //! [`SsbcPostProcess::memory`] says what a [`PostProcessShape`] (size,
 //! steps, second layer, conversion; [`PostProcessShape::for_inputs`]) holds

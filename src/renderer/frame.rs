@@ -159,7 +159,8 @@ impl Renderer {
     /// Records a frame in `slot` (the host's, or the next of ssbc's own,
     /// waiting for the frame that used it last) and sends it where `sink`
     /// says; after a failure the slot's resources are dropped. `resident`
-    /// frames of ssbc's own keep temporal history; any other cuts it.
+    /// frames (ssbc's own or recorded into a host's command buffer) keep
+    /// temporal history; any other cuts it.
     pub(super) fn run<S: FrameSink>(
         &mut self,
         scene: &Scene,
@@ -169,7 +170,8 @@ impl Renderer {
         host_slot: Option<usize>,
         resident: bool,
     ) -> Result<S::Output> {
-        let uses = FrameUse::of::<S>(resident && host_slot.is_none() && settings.history.enabled);
+        let with_history = resident && settings.history.enabled;
+        let uses = FrameUse::of::<S>(with_history);
         limits::check_settings(&self.device, settings, scene.lights.len(), uses)?;
         let (slot, previous_timings) = match host_slot {
             Some(slot) => (slot, None),
@@ -185,8 +187,7 @@ impl Renderer {
                 (slot, previous)
             }
         };
-        let history = (resident && host_slot.is_none() && settings.history.enabled)
-            .then(|| self.history.plan(slot, (scene, versions), settings));
+        let history = with_history.then(|| self.history.plan(slot, (scene, versions), settings));
         if history.is_none() {
             // A history that is off holds no memory either.
             self.history.reset();

@@ -3,6 +3,7 @@
 //! small scenes with known analytic answers.
 #![allow(dead_code)]
 
+pub mod host_frame;
 pub mod ssbc_accuracy;
 
 use glam::{Mat4, Vec3};
