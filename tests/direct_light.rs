@@ -67,6 +67,52 @@ fn point_light_matches_inverse_square_cosine_law() {
     );
 }
 
+/// A camera's sub-pixel jitter moves every pixel's sample: the analytic
+/// answer at the jittered pixel centres holds, at the plain centres it
+/// does not (a light close to the plane, so the pixels differ).
+#[test]
+fn a_jittered_camera_samples_its_jittered_pixel_centres() {
+    let (albedo, intensity, d) = (0.5, 0.5, 0.25);
+    let light_pos = Vec3::new(0.1, d, 0.2);
+    let mut scene = plane_scene(albedo, 4.0);
+    scene.lights.push(point_light(light_pos, intensity));
+    let mut camera = scene.camera(None).unwrap();
+    camera.jitter = glam::Vec2::new(0.45, -0.4);
+    scene.cameras = vec![camera.clone()];
+    let frame = render_validated(&scene, &small(W, H));
+    let expected = |p: Vec3| {
+        let l = light_pos - p;
+        albedo / PI * intensity * l.normalize().y / l.length_squared()
+    };
+    let plain = ssbc::scene::Camera {
+        jitter: glam::Vec2::ZERO,
+        ..camera.clone()
+    };
+    let (mut worst, mut worst_plain, mut n) = (0f32, 0f32, 0);
+    for y in 0..H {
+        for x in 0..W {
+            let (Some(p), Some(q)) = (
+                hit_plane(&camera, x, y, W, H, 2.0, 0.05),
+                hit_plane(&plain, x, y, W, H, 2.0, 0.05),
+            ) else {
+                continue;
+            };
+            let got = pixel(&frame, "direct", x, y).x;
+            worst = worst.max((got - expected(p)).abs() / expected(p));
+            worst_plain = worst_plain.max((got - expected(q)).abs() / expected(q));
+            n += 1;
+        }
+    }
+    eprintln!(
+        "jittered camera: {n} pixels, worst relative error {:.3}% at the jittered centres, {:.3}% at the plain ones",
+        worst * 100.0,
+        worst_plain * 100.0
+    );
+    assert!(n > W as usize * H as usize / 3, "only {n} pixels compared");
+    assert!(worst < 0.01, "{worst}");
+    assert!(worst_plain > 3.0 * worst, "{worst_plain} vs {worst}");
+}
+
 #[test]
 fn spot_light_matches_inside_inner_cone() {
     let (albedo, intensity) = (0.7, 5.0);

@@ -162,6 +162,7 @@ fn textured_quad_from_above(material: &str, left: [u8; 3], right: [u8; 3]) -> ss
         forward: -Vec3::Y,
         up: -Vec3::Z,
         yfov: 60f32.to_radians(),
+        jitter: glam::Vec2::ZERO,
     });
     scene.lights.push(ssbc::scene::Light {
         kind: LightKind::Directional,

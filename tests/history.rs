@@ -403,7 +403,8 @@ fn glossy_history_follows_the_view() {
 }
 
 /// Engines set the camera and lights every frame: setting the same ones
-/// again is no change, and the view keeps converging.
+/// again, or only a new sub-pixel jitter, is no change, and the view keeps
+/// converging.
 #[test]
 fn setting_the_same_camera_and_lights_keeps_accumulating() {
     let mut scene = open_box();
@@ -418,6 +419,17 @@ fn setting_the_same_camera_and_lights_keeps_accumulating() {
         resident.set_lights(scene.lights.clone()).unwrap();
         let frame = renderer.render_resident(&resident, &s).unwrap();
         assert_eq!(frame.accumulated, k);
+    }
+    // A TAA engine's jitter changes every frame: still no move (the
+    // reprojection places the sub-pixel shift).
+    renderer.render_resident(&resident, &s).unwrap();
+    for (k, jitter) in [(5, (0.25, -0.25)), (6, (-0.25, 0.25)), (7, (0.4, 0.1))] {
+        let mut jittered = camera.clone();
+        jittered.jitter = glam::Vec2::new(jitter.0, jitter.1);
+        resident.set_camera(jittered);
+        let frame = renderer.render_resident(&resident, &s).unwrap();
+        assert_eq!(frame.accumulated, k);
+        assert!(frame.image.rgba.iter().all(|v| v.is_finite()));
     }
     let mut moved = camera.clone();
     moved.position.x += 0.01;

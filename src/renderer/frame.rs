@@ -32,6 +32,12 @@ fn frame_view(
     band: Option<GuardBand>,
 ) -> Result<FrameView> {
     let mut camera = scene.camera(settings.camera)?;
+    if !camera.jitter.is_finite() {
+        return Err(Error::InvalidParameter(format!(
+            "camera jitter {} is not finite",
+            camera.jitter
+        )));
+    }
     let (w, h) = (settings.width, settings.height);
     if let Some(band) = band {
         camera.yfov = band.widen_yfov(camera.yfov, h - 2 * band.margin);
@@ -45,9 +51,9 @@ fn frame_view(
             forward: camera.forward,
             up: camera.up,
             pixel_side: 2.0 * (camera.yfov * 0.5).tan() / h as f32,
-            principal: glam::Vec2::ZERO,
+            principal: camera.jitter,
         },
-        view_proj: camera.projection(w as f32 / h as f32, near, far) * camera.view(),
+        view_proj: camera.jittered_projection(w, h, near, far) * camera.view(),
         centre_depth: (bounds.center() - camera.position).dot(camera.forward),
         bound: settings.bound.resolve(cache.diagonal()),
         diagonal: cache.diagonal(),

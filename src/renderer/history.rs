@@ -92,8 +92,17 @@ impl History {
         // New versions of equal lights or an equal camera are no change.
         let lights_moved =
             |l: &LastFrame| l.versions.lights != versions.lights && l.lights != scene.lights;
-        let camera_moved =
-            |l: &LastFrame| l.versions.camera != versions.camera && l.cameras != scene.cameras;
+        // A new jitter alone is no move: the reprojection places it.
+        let unjittered = |cameras: &[Camera]| {
+            cameras
+                .iter()
+                .map(Camera::without_jitter)
+                .collect::<Vec<_>>()
+        };
+        let camera_moved = |l: &LastFrame| {
+            l.versions.camera != versions.camera
+                && unjittered(&l.cameras) != unjittered(&scene.cameras)
+        };
         let motion = match &self.last {
             None => Motion::Reset,
             Some(last)

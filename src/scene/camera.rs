@@ -13,6 +13,11 @@ pub struct Camera {
     pub up: Vec3,
     /// Vertical field of view in radians.
     pub yfov: f32,
+    /// This frame's sub-pixel jitter (pixels, x right, y down): where every
+    /// point lands moves by it, as in a TAA engine's jittered projection
+    /// (`translate(2 jitter / extent) * projection`). Zero by default; a
+    /// change of jitter alone is no camera move for temporal history.
+    pub jitter: Vec2,
 }
 
 impl Camera {
@@ -26,6 +31,7 @@ impl Camera {
             forward,
             up,
             yfov,
+            jitter: Vec2::ZERO,
         }
     }
 
@@ -82,6 +88,7 @@ impl Camera {
             forward,
             up,
             yfov,
+            jitter: Vec2::ZERO,
         }
     }
 
@@ -97,13 +104,31 @@ impl Camera {
         glam::camera::rh::proj::vulkan::perspective(self.yfov, aspect, far, near)
     }
 
+    /// [`Camera::projection`] for a `width` x `height` image with the
+    /// camera's [`Camera::jitter`].
+    pub fn jittered_projection(&self, width: u32, height: u32, near: f32, far: f32) -> Mat4 {
+        let (w, h) = (width as f32, height as f32);
+        let shift = 2.0 * self.jitter / Vec2::new(w, h);
+        Mat4::from_translation(shift.extend(0.0)) * self.projection(w / h, near, far)
+    }
+
+    /// The same camera with its jitter left out (what temporal history
+    /// compares to tell a camera move).
+    pub fn without_jitter(&self) -> Self {
+        Self {
+            jitter: Vec2::ZERO,
+            ..self.clone()
+        }
+    }
+
     /// Unit world-space direction through the centre of pixel (`x`, `y`) of a
-    /// `width` x `height` image: the same pixel grid the rasterizer samples.
+    /// `width` x `height` image: the same pixel grid the rasterizer samples
+    /// (with the camera's jitter).
     pub fn pixel_ray(&self, x: f32, y: f32, width: u32, height: u32) -> Vec3 {
         let aspect = width as f32 / height as f32;
         let t = (self.yfov * 0.5).tan();
-        let ndc_x = 2.0 * (x + 0.5) / width as f32 - 1.0;
-        let ndc_y = 2.0 * (y + 0.5) / height as f32 - 1.0;
+        let ndc_x = 2.0 * (x + 0.5 - self.jitter.x) / width as f32 - 1.0;
+        let ndc_y = 2.0 * (y + 0.5 - self.jitter.y) / height as f32 - 1.0;
         let right = self.forward.cross(self.up).normalize();
         (self.forward + right * (ndc_x * t * aspect) - self.up * (ndc_y * t)).normalize()
     }

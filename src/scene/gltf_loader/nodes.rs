@@ -115,6 +115,7 @@ impl Loader<'_> {
                     forward: (rot * -Vec3::Z).normalize(),
                     up: (rot * Vec3::Y).normalize(),
                     yfov: p.yfov,
+                    jitter: glam::Vec2::ZERO,
                 });
             }
             _ => log::warn!(
