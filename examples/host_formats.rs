@@ -22,8 +22,8 @@ use ash::vk;
 use glam::{Mat4, Vec2, Vec3};
 use gpu_allocator::MemoryLocation;
 use host::{
-    compile, host_barrier, host_device, Buffer, Error, HostKernel, HostMemory, Image, GBUFFER_GLSL,
-    LIGHTING_GLSL,
+    array, compare, compile, decode, half, host_barrier, host_device, Buffer, Error, HostKernel,
+    HostMemory, Image, GBUFFER_GLSL, LIGHTING_GLSL, PACKED_BYTES, PACKED_FORMATS, PACK_GLSL,
 };
 use ssbc::postprocess::{
     HostCamera, HostGeometry, HostImage, NormalEncoding, OutputWrite, PostOutput,
@@ -32,41 +32,6 @@ use ssbc::postprocess::{
 use ssbc::reference::{BruteForceTwin, GBufferView, TwinCamera};
 use ssbc::settings::{Integration, SsbcSettings};
 use ssbc::vk::{Instance, Validation};
-
-/// The host packs its RGBA32F working images into what it keeps: depth
-/// (reversed Z, 0 where nothing was hit), normals as unsigned 10-bit xyz,
-/// albedo sRGB-encoded in 8 bits, lighting in halves.
-const PACK_GLSL: &str = r#"#version 450
-layout(local_size_x = 8, local_size_y = 8) in;
-layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D s0;
-layout(set = 0, binding = 4, std430) writeonly buffer Depth { float depth[]; };
-layout(set = 0, binding = 5, std430) writeonly buffer Normal { uint normal[]; };
-layout(set = 0, binding = 6, std430) writeonly buffer Albedo { uint albedo[]; };
-layout(set = 0, binding = 7, std430) writeonly buffer Lighting { uvec2 lighting[]; };
-layout(push_constant) uniform Pack { mat4 view_projection; } pc;
-
-vec3 srgb_encode(vec3 x) {
-    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, greaterThan(x, vec3(0.0031308)));
-}
-
-void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 size = imageSize(g_position);
-    if (any(greaterThanEqual(p, size))) return;
-    uint i = uint(p.y * size.x + p.x);
-    vec4 x = imageLoad(g_position, p);
-    vec4 clip = pc.view_projection * vec4(x.xyz, 1.0);
-    depth[i] = x.w != 0.0 ? clip.z / clip.w : 0.0;
-    uvec3 n = uvec3(round(clamp(imageLoad(g_normal, p).xyz * 0.5 + 0.5, 0.0, 1.0) * 1023.0));
-    normal[i] = n.x | (n.y << 10) | (n.z << 20) | (3u << 30);
-    albedo[i] = packUnorm4x8(vec4(srgb_encode(clamp(imageLoad(g_albedo, p).rgb, 0.0, 1.0)), 1.0));
-    vec3 c = imageLoad(s0, p).rgb;
-    lighting[i] = uvec2(packHalf2x16(c.rg), packHalf2x16(vec2(c.b, 1.0)));
-}
-"#;
 
 /// What the example measured.
 #[derive(Debug)]
@@ -121,15 +86,6 @@ struct Resources {
     /// them.
     readback: [Buffer; 9],
 }
-
-const PACKED_FORMATS: [vk::Format; 4] = [
-    vk::Format::D32_SFLOAT,
-    vk::Format::A2B10G10R10_UNORM_PACK32,
-    vk::Format::R8G8B8A8_SRGB,
-    vk::Format::R16G16B16A16_SFLOAT,
-];
-/// Bytes per texel of each packed image.
-const PACKED_BYTES: [u64; 4] = [4, 4, 4, 8];
 
 impl Resources {
     fn new(memory: &std::sync::Arc<HostMemory>, (w, h): (u32, u32)) -> Result<Self, Error> {
@@ -201,11 +157,6 @@ impl Resources {
             layout,
         }
     }
-}
-
-/// The `N` resources made for each of `N` names.
-fn array<T, const N: usize>(v: Vec<T>) -> [T; N] {
-    v.try_into().unwrap_or_else(|_| unreachable!("made N"))
 }
 
 /// The host's three kernels and their sets.
@@ -332,51 +283,6 @@ enum Run {
     Add,
 }
 
-/// Half to float.
-fn half(bits: u16) -> f32 {
-    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exponent = ((bits >> 10) & 0x1f) as i32;
-    let mantissa = (bits & 0x3ff) as f32;
-    sign * match exponent {
-        0 => mantissa * 2f32.powi(-24),
-        31 => f32::INFINITY,
-        e => (1.0 + mantissa / 1024.0) * 2f32.powi(e - 15),
-    }
-}
-
-/// The packed normals, albedo and lighting read back, decoded to RGBA
-/// floats: unsigned 10-bit xyz made unit length, sRGB, halves.
-fn decode(readback: &[Buffer]) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
-    let normal = readback[0]
-        .read::<u32>()
-        .iter()
-        .flat_map(|&bits| {
-            let t = |shift: u32| ((bits >> shift) & 1023) as f32 / 1023.0 * 2.0 - 1.0;
-            let n = Vec3::new(t(0), t(10), t(20));
-            let n = if n.length() > 0.0 { n / n.length() } else { n };
-            [n.x, n.y, n.z, 0.0]
-        })
-        .collect();
-    let srgb = |byte: u8| {
-        let c = byte as f32 / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let albedo = readback[1]
-        .read::<u32>()
-        .iter()
-        .flat_map(|&bits| {
-            let b = bits.to_le_bytes();
-            [srgb(b[0]), srgb(b[1]), srgb(b[2]), 1.0]
-        })
-        .collect();
-    let lighting = readback[2].read::<u16>().into_iter().map(half).collect();
-    (normal, albedo, lighting)
-}
-
 /// Unit normals (RGBA) through the octahedral map stored in two SNORM16
 /// channels, decoded as shaders/postprocess_convert.comp does.
 fn octahedral_snorm16(normals: &[f32]) -> Vec<f32> {
@@ -400,24 +306,6 @@ fn octahedral_snorm16(normals: &[f32]) -> Vec<f32> {
             [d.x, d.y, d.z, 0.0]
         })
         .collect()
-}
-
-/// Relative RMSE and mean ratio of `gpu` against `twin` (rgb of RGBA).
-fn compare(gpu: &[f32], twin: &[f32]) -> (f64, f64) {
-    let (mut err, mut norm, mut sum_gpu, mut sum_twin) = (0f64, 0f64, 0f64, 0f64);
-    for (i, (a, b)) in gpu.iter().zip(twin).enumerate() {
-        if i % 4 == 3 {
-            continue;
-        }
-        err += ((a - b) as f64).powi(2);
-        norm += (*b as f64).powi(2);
-        sum_gpu += *a as f64;
-        sum_twin += *b as f64;
-    }
-    (
-        (err / norm.max(1e-30)).sqrt(),
-        sum_gpu / sum_twin.max(1e-30),
-    )
 }
 
 /// Runs the host frame at `w` x `h`, once per [`Run`].
@@ -596,18 +484,9 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
         );
         // The packed texels into the images the host keeps.
         let copy = vk::PipelineStageFlags2::COPY;
-        let staged = vk::MemoryBarrier2::default()
-            .src_stage_mask(compute)
-            .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-            .dst_stage_mask(copy)
-            .dst_access_mask(vk::AccessFlags2::TRANSFER_READ);
-        // SAFETY: recording.
-        unsafe {
-            raw.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().memory_barriers(&[staged]),
-            )
-        };
+        let write = vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        let read = vk::AccessFlags2::TRANSFER_READ;
+        host::memory_barrier(&device, cmd, (compute, write), (copy, read));
         let to_dst: Vec<_> = r
             .packed
             .iter()
@@ -621,23 +500,7 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
             vk::AccessFlags2::TRANSFER_WRITE,
         );
         for (image, buffer) in r.packed.iter().zip(&r.staging) {
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: host::aspect(image.format),
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
-            // SAFETY: recording; the image is in TRANSFER_DST_OPTIMAL and the
-            // buffer holds a texel per pixel in its format.
-            unsafe {
-                raw.cmd_copy_buffer_to_image(cmd, buffer.raw, image.raw, transfer_dst, &[region])
-            };
+            host::copy_buffer_to_image(&device, cmd, buffer, image);
         }
 
         // --- SSBC, recorded into the host's command buffer. ---
@@ -674,34 +537,17 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
             .chain([(result.0, result.2)])
             .chain(packed_read.iter().copied());
         for (image, buffer) in sources {
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
-            // SAFETY: recording; the image is in TRANSFER_SRC_OPTIMAL.
-            unsafe {
-                raw.cmd_copy_image_to_buffer(cmd, image.raw, transfer_src, buffer.raw, &[region])
-            };
+            host::copy_image_to_buffer(&device, cmd, image, buffer);
         }
-        let host_read = vk::MemoryBarrier2::default()
-            .src_stage_mask(copy)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-            .dst_access_mask(vk::AccessFlags2::HOST_READ);
-        // SAFETY: recording, then one submission waited on with the fence.
+        let host_read = (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ);
+        host::memory_barrier(
+            &device,
+            cmd,
+            (copy, vk::AccessFlags2::TRANSFER_WRITE),
+            host_read,
+        );
+        // SAFETY: one submission, waited on with the fence.
         unsafe {
-            raw.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().memory_barriers(&[host_read]),
-            );
             raw.end_command_buffer(cmd)?;
             let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
             raw.queue_submit2(

@@ -8,6 +8,7 @@
 use std::sync::{Arc, Mutex};
 
 use ash::vk;
+use glam::Vec3;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator};
 use gpu_allocator::MemoryLocation;
 use ssbc::vk::{Device, HostDevice, Instance, RequiredFeatures};
@@ -489,6 +490,15 @@ pub fn host_barrier(
 /// semaphores; no dynamic rendering, no host query reset), handed to ssbc;
 /// and the raw device, which the host destroys.
 pub fn host_device(instance: &Arc<Instance>) -> Result<(Arc<Device>, ash::Device), Error> {
+    host_device_with(instance, RequiredFeatures::POST_PROCESS)
+}
+
+/// The host's device with `features` merged into its own (none), handed to
+/// ssbc; and the raw device, which the host destroys.
+pub fn host_device_with(
+    instance: &Arc<Instance>,
+    features: RequiredFeatures,
+) -> Result<(Arc<Device>, ash::Device), Error> {
     let raw = &instance.raw;
     // SAFETY: enumeration on a live instance.
     let physical = *unsafe { raw.enumerate_physical_devices()? }
@@ -506,13 +516,16 @@ pub fn host_device(instance: &Arc<Instance>) -> Result<(Arc<Device>, ash::Device
     let queues = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(family)
         .queue_priorities(&priorities)];
-    let mut f12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
-    let mut f13 = vk::PhysicalDeviceVulkan13Features::default().synchronization2(true);
+    // The host's own features (none here), and what ssbc needs merged in.
+    let (mut f12, mut f13) = features.merge_into(
+        vk::PhysicalDeviceVulkan12Features::default(),
+        vk::PhysicalDeviceVulkan13Features::default(),
+    );
     let info = vk::DeviceCreateInfo::default()
         .queue_create_infos(&queues)
         .push_next(&mut f12)
         .push_next(&mut f13);
-    // SAFETY: a Vulkan 1.3 device offers both features.
+    // SAFETY: a Vulkan 1.3 device offers all four features.
     let device = unsafe { raw.create_device(physical, &info, None)? };
     let ssbc = Device::from_host(
         instance.clone(),
@@ -521,8 +534,190 @@ pub fn host_device(instance: &Arc<Instance>) -> Result<(Arc<Device>, ash::Device
             device: device.clone(),
             queue_family: family,
             queue_index: 0,
-            enabled_features: RequiredFeatures::POST_PROCESS,
+            enabled_features: features,
         },
     )?;
     Ok((ssbc, device))
+}
+
+/// The host packs its RGBA32F working images into what it keeps: depth
+/// (reversed Z, 0 where nothing was hit), normals as unsigned 10-bit xyz,
+/// albedo sRGB-encoded in 8 bits, lighting in halves.
+pub const PACK_GLSL: &str = r#"#version 450
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
+layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 3, rgba32f) uniform readonly image2D s0;
+layout(set = 0, binding = 4, std430) writeonly buffer Depth { float depth[]; };
+layout(set = 0, binding = 5, std430) writeonly buffer Normal { uint normal[]; };
+layout(set = 0, binding = 6, std430) writeonly buffer Albedo { uint albedo[]; };
+layout(set = 0, binding = 7, std430) writeonly buffer Lighting { uvec2 lighting[]; };
+layout(push_constant) uniform Pack { mat4 view_projection; } pc;
+
+vec3 srgb_encode(vec3 x) {
+    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, greaterThan(x, vec3(0.0031308)));
+}
+
+void main() {
+    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 size = imageSize(g_position);
+    if (any(greaterThanEqual(p, size))) return;
+    uint i = uint(p.y * size.x + p.x);
+    vec4 x = imageLoad(g_position, p);
+    vec4 clip = pc.view_projection * vec4(x.xyz, 1.0);
+    depth[i] = x.w != 0.0 ? clip.z / clip.w : 0.0;
+    uvec3 n = uvec3(round(clamp(imageLoad(g_normal, p).xyz * 0.5 + 0.5, 0.0, 1.0) * 1023.0));
+    normal[i] = n.x | (n.y << 10) | (n.z << 20) | (3u << 30);
+    albedo[i] = packUnorm4x8(vec4(srgb_encode(clamp(imageLoad(g_albedo, p).rgb, 0.0, 1.0)), 1.0));
+    vec3 c = imageLoad(s0, p).rgb;
+    lighting[i] = uvec2(packHalf2x16(c.rg), packHalf2x16(vec2(c.b, 1.0)));
+}
+"#;
+
+pub const PACKED_FORMATS: [vk::Format; 4] = [
+    vk::Format::D32_SFLOAT,
+    vk::Format::A2B10G10R10_UNORM_PACK32,
+    vk::Format::R8G8B8A8_SRGB,
+    vk::Format::R16G16B16A16_SFLOAT,
+];
+/// Bytes per texel of each packed image.
+pub const PACKED_BYTES: [u64; 4] = [4, 4, 4, 8];
+
+/// The `N` resources made for each of `N` names.
+pub fn array<T, const N: usize>(v: Vec<T>) -> [T; N] {
+    v.try_into().unwrap_or_else(|_| unreachable!("made N"))
+}
+
+/// Half to float.
+pub fn half(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = ((bits >> 10) & 0x1f) as i32;
+    let mantissa = (bits & 0x3ff) as f32;
+    sign * match exponent {
+        0 => mantissa * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        e => (1.0 + mantissa / 1024.0) * 2f32.powi(e - 15),
+    }
+}
+
+/// The packed normals, albedo and lighting read back, decoded to RGBA
+/// floats: unsigned 10-bit xyz made unit length, sRGB, halves.
+pub fn decode(readback: &[Buffer]) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let normal = readback[0]
+        .read::<u32>()
+        .iter()
+        .flat_map(|&bits| {
+            let t = |shift: u32| ((bits >> shift) & 1023) as f32 / 1023.0 * 2.0 - 1.0;
+            let n = Vec3::new(t(0), t(10), t(20));
+            let n = if n.length() > 0.0 { n / n.length() } else { n };
+            [n.x, n.y, n.z, 0.0]
+        })
+        .collect();
+    let srgb = |byte: u8| {
+        let c = byte as f32 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let albedo = readback[1]
+        .read::<u32>()
+        .iter()
+        .flat_map(|&bits| {
+            let b = bits.to_le_bytes();
+            [srgb(b[0]), srgb(b[1]), srgb(b[2]), 1.0]
+        })
+        .collect();
+    let lighting = readback[2].read::<u16>().into_iter().map(half).collect();
+    (normal, albedo, lighting)
+}
+
+/// Relative RMSE and mean ratio of `gpu` against `twin` (rgb of RGBA).
+pub fn compare(gpu: &[f32], twin: &[f32]) -> (f64, f64) {
+    let (mut err, mut norm, mut sum_gpu, mut sum_twin) = (0f64, 0f64, 0f64, 0f64);
+    for (i, (a, b)) in gpu.iter().zip(twin).enumerate() {
+        if i % 4 == 3 {
+            continue;
+        }
+        err += ((a - b) as f64).powi(2);
+        norm += (*b as f64).powi(2);
+        sum_gpu += *a as f64;
+        sum_twin += *b as f64;
+    }
+    (
+        (err / norm.max(1e-30)).sqrt(),
+        sum_gpu / sum_twin.max(1e-30),
+    )
+}
+
+/// The whole of `image`'s one level and layer, for a buffer copy.
+fn whole(image: &Image) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: aspect(image.format),
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width: image.width,
+            height: image.height,
+            depth: 1,
+        })
+}
+
+/// Records a copy of all of `image` (in TRANSFER_SRC_OPTIMAL) into `buffer`.
+pub fn copy_image_to_buffer(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    image: &Image,
+    buffer: &Buffer,
+) {
+    let layout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+    // SAFETY: recording; the caller's barrier put the image in the layout,
+    // and the buffer holds a texel per pixel in its format.
+    unsafe {
+        device
+            .raw
+            .cmd_copy_image_to_buffer(cmd, image.raw, layout, buffer.raw, &[whole(image)])
+    };
+}
+
+/// Records a copy of `buffer` into all of `image` (in TRANSFER_DST_OPTIMAL).
+pub fn copy_buffer_to_image(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    buffer: &Buffer,
+    image: &Image,
+) {
+    let layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+    // SAFETY: as for copy_image_to_buffer.
+    unsafe {
+        device
+            .raw
+            .cmd_copy_buffer_to_image(cmd, buffer.raw, image.raw, layout, &[whole(image)])
+    };
+}
+
+/// Records a global barrier from `src` to `dst` (stage, access).
+pub fn memory_barrier(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) {
+    let barrier = vk::MemoryBarrier2::default()
+        .src_stage_mask(src.0)
+        .src_access_mask(src.1)
+        .dst_stage_mask(dst.0)
+        .dst_access_mask(dst.1);
+    // SAFETY: recording.
+    unsafe {
+        device.raw.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().memory_barriers(&[barrier]),
+        )
+    };
 }

@@ -73,6 +73,26 @@ impl RequiredFeatures {
         host_query_reset: false,
     };
 
+    /// Sets these features in the host's Vulkan 1.2 and 1.3 feature
+    /// structs, to chain into its `VkDeviceCreateInfo`; what the host set
+    /// itself stays set.
+    pub fn merge_into<'a>(
+        &self,
+        v12: vk::PhysicalDeviceVulkan12Features<'a>,
+        v13: vk::PhysicalDeviceVulkan13Features<'a>,
+    ) -> (
+        vk::PhysicalDeviceVulkan12Features<'a>,
+        vk::PhysicalDeviceVulkan13Features<'a>,
+    ) {
+        let on = |host: vk::Bool32, ours: bool| host == vk::TRUE || ours;
+        (
+            v12.timeline_semaphore(on(v12.timeline_semaphore, self.timeline_semaphore))
+                .host_query_reset(on(v12.host_query_reset, self.host_query_reset)),
+            v13.synchronization2(on(v13.synchronization2, self.synchronization2))
+                .dynamic_rendering(on(v13.dynamic_rendering, self.dynamic_rendering)),
+        )
+    }
+
     /// Names of the features [`RequiredFeatures::ALL`] needs that are not set.
     pub fn missing(&self) -> Vec<&'static str> {
         self.missing_from(Self::ALL)
