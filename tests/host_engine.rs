@@ -30,6 +30,14 @@ fn a_host_engine_frame_loop_matches_ssbcs_own_render() {
         "relMSE of 4x4 blocks {}",
         report.block_rel_mse
     );
+    // The image is mostly ssbc's own S0: the compensation alone must match
+    // too (measured 5.0% RMSE and 0.9935 at 128x96, from the host's 10-bit
+    // normals and 8-bit albedo; docs/embedding.md).
+    let (rmse, mean) = report.compensation;
+    assert!(
+        rmse < 0.1 && (mean - 1.0).abs() < 0.02,
+        "compensation: relative RMSE {rmse}, mean {mean}"
+    );
     let has =
         |passes: &[(String, f64)], name: &str| passes.iter().any(|(n, ms)| n == name && *ms > 0.0);
     for pass in ["gbuffer", "direct_lighting", "indirect_bounded"] {
