@@ -2,10 +2,11 @@
 //! the world (to split pixels at creases) and, for a depth input, how to
 //! turn depth back into world positions.
 
-use glam::{Mat4, Vec2, Vec3, Vec4Swizzles};
+use glam::{Mat4, Vec2, Vec3};
 
 use crate::error::{Error, Result};
 use crate::passes::ssbc::SsbcCamera;
+use crate::scene::Perspective;
 
 /// The camera the host drew its G-buffer with.
 #[derive(Clone, Copy, Debug)]
@@ -69,7 +70,7 @@ impl HostCamera {
     /// an error naming what SSBC cannot use (an orthographic, mirrored,
     /// skewed or non-square-pixel projection, or non-finite values).
     pub(crate) fn ssbc(&self, extent: (u32, u32)) -> Result<SsbcCamera> {
-        let (w, h) = extent;
+        let h = extent.1;
         let bad =
             |why: &str| Error::InvalidParameter(format!("SSBC post-process: the camera {why}"));
         match *self {
@@ -100,57 +101,13 @@ impl HostCamera {
             }
             HostCamera::Matrices { view, .. } => {
                 let projection = self.jittered_projection(extent).unwrap_or(Mat4::NAN);
-                if !view.is_finite() || !projection.is_finite() || view.determinant() == 0.0 {
-                    return Err(bad("matrices must be finite, the view invertible"));
-                }
-                // A ray through clip (x, y) has, in view space, a direction d
-                // with row0.d = x row3.d and row1.d = y row3.d:
-                // d = (r0 - x r3) x (r1 - y r3) = C - y A - x B, affine in x, y.
-                let [r0, r1, r3] = [0, 1, 3].map(|i| projection.row(i).xyz());
-                let (c, a, b) = (r0.cross(r1), r0.cross(r3), r3.cross(r1));
-                // In pixel coordinates u = (x + 1) w / 2, v = (y + 1) h / 2.
-                let mut rays = [c + a + b, -b * (2.0 / w as f32), -a * (2.0 / h as f32)];
-                let centre = rays[0] + rays[1] * (0.5 * w as f32) + rays[2] * (0.5 * h as f32);
-                if centre.dot(r3) < 0.0 {
-                    rays = rays.map(|r| -r); // the ray in front (clip w > 0)
-                }
-                let world = view.inverse();
-                let [r0w, du, dv] = rays.map(|r| world.transform_vector3(r));
-                let axis = du.cross(dv);
-                if axis.length_squared() <= 0.0 || !axis.is_finite() {
-                    return Err(bad(
-                        "projection is not a perspective one (orthographic or degenerate)",
-                    ));
-                }
-                let forward = axis.normalize();
-                if r0w.dot(forward) <= 0.0 {
-                    return Err(bad("projection mirrors the image"));
-                }
-                // Rays scaled to unit length along the axis.
-                let scale = r0w.dot(forward).recip();
-                let (r0w, du, dv) = (r0w * scale, du * scale, dv * scale);
-                let s = du.length();
-                if (dv.length() / s - 1.0).abs() > 1e-3 {
-                    return Err(bad(&format!(
-                        "projection's pixels are not square ({:.4} wide per high)",
-                        s / dv.length()
-                    )));
-                }
-                if du.dot(dv).abs() > 1e-3 * s * s {
-                    return Err(bad("projection is skewed"));
-                }
-                // The axis meets the image where r0 + u du + v dv = forward.
-                let to_axis = forward - r0w;
-                let axis_at = Vec2::new(
-                    to_axis.dot(du) / (s * s),
-                    to_axis.dot(dv) / dv.length_squared(),
-                );
+                let p = Perspective::of(view, projection, extent).map_err(|why| bad(&why))?;
                 Ok(SsbcCamera {
-                    position: world.transform_point3(Vec3::ZERO),
-                    forward,
-                    up: -dv.normalize(),
-                    pixel_side: s,
-                    principal: axis_at - 0.5 * Vec2::new(w as f32, h as f32),
+                    position: p.position,
+                    forward: p.forward,
+                    up: p.up,
+                    pixel_side: p.pixel_side,
+                    principal: p.principal,
                 })
             }
         }
@@ -160,7 +117,34 @@ impl HostCamera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Camera;
     use glam::camera::rh::proj::vulkan;
+    use glam::Vec4Swizzles;
+
+    /// ssbc's own camera from a host's matrices: the same camera, its
+    /// off-centre axis as the jitter.
+    #[test]
+    fn a_camera_from_matrices_is_the_camera_with_its_jitter() {
+        let (w, h) = (160, 120);
+        let mut camera = Camera::look_at(Vec3::new(0.9, 1.1, 1.6), Vec3::new(-0.4, 0.5, -0.6), 0.9);
+        camera.jitter = Vec2::new(-0.3, 0.45);
+        let projection = camera.jittered_projection(w, h, 0.1, 50.0);
+        let back = Camera::from_matrices(camera.view(), projection, w, h).unwrap();
+        assert!(back.position.distance(camera.position) < 1e-5);
+        assert!(back.forward.distance(camera.forward) < 1e-5);
+        assert!(back.up.distance(camera.up) < 1e-5);
+        assert!((back.yfov - camera.yfov).abs() < 1e-5);
+        assert!(
+            back.jitter.distance(camera.jitter) < 1e-3,
+            "{}",
+            back.jitter
+        );
+        let flat = vulkan::orthographic(-1.0, 1.0, -1.0, 1.0, 0.1, 10.0);
+        let err = Camera::from_matrices(camera.view(), flat, w, h)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not a perspective"), "{err}");
+    }
     use glam::camera::rh::view::look_to_mat4;
 
     #[test]

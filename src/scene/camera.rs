@@ -134,6 +134,106 @@ impl Camera {
     }
 }
 
+/// What a host's view and projection matrices say of a pinhole camera for
+/// a `width` x `height` image.
+#[derive(Clone, Copy, Debug)]
+pub struct Perspective {
+    /// Eye position.
+    pub position: Vec3,
+    /// Unit optical axis.
+    pub forward: Vec3,
+    /// Unit up direction of the image (row 0 is the top).
+    pub up: Vec3,
+    /// Pixel side on the image plane at distance 1.
+    pub pixel_side: f32,
+    /// Where the optical axis meets the image, from its centre, in pixels
+    /// (x right, y down): a jitter or an off-centre frustum.
+    pub principal: Vec2,
+}
+
+impl Perspective {
+    /// The camera of `view` and `projection` (Vulkan clip space: x right, y
+    /// down, any depth mapping) for an image of `extent`, or why it is not
+    /// one ssbc can use: non-finite, orthographic, mirrored, skewed or with
+    /// pixels that are not square.
+    pub fn of(
+        view: Mat4,
+        projection: Mat4,
+        (w, h): (u32, u32),
+    ) -> std::result::Result<Self, String> {
+        if !view.is_finite() || !projection.is_finite() || view.determinant() == 0.0 {
+            return Err("matrices must be finite, the view invertible".into());
+        }
+        // A ray through clip (x, y) has, in view space, a direction d with
+        // row0.d = x row3.d and row1.d = y row3.d:
+        // d = (r0 - x r3) x (r1 - y r3) = C - y A - x B, affine in x, y.
+        let [r0, r1, r3] = [0, 1, 3].map(|i| projection.row(i).truncate());
+        let (c, a, b) = (r0.cross(r1), r0.cross(r3), r3.cross(r1));
+        // In pixel coordinates u = (x + 1) w / 2, v = (y + 1) h / 2.
+        let mut rays = [c + a + b, -b * (2.0 / w as f32), -a * (2.0 / h as f32)];
+        let centre = rays[0] + rays[1] * (0.5 * w as f32) + rays[2] * (0.5 * h as f32);
+        if centre.dot(r3) < 0.0 {
+            rays = rays.map(|r| -r); // the ray in front (clip w > 0)
+        }
+        let world = view.inverse();
+        let [r0w, du, dv] = rays.map(|r| world.transform_vector3(r));
+        let axis = du.cross(dv);
+        if axis.length_squared() <= 0.0 || !axis.is_finite() {
+            return Err("projection is not a perspective one (orthographic or degenerate)".into());
+        }
+        let forward = axis.normalize();
+        if r0w.dot(forward) <= 0.0 {
+            return Err("projection mirrors the image".into());
+        }
+        // Rays scaled to unit length along the axis.
+        let scale = r0w.dot(forward).recip();
+        let (r0w, du, dv) = (r0w * scale, du * scale, dv * scale);
+        let s = du.length();
+        if (dv.length() / s - 1.0).abs() > 1e-3 {
+            return Err(format!(
+                "projection's pixels are not square ({:.4} wide per high)",
+                s / dv.length()
+            ));
+        }
+        if du.dot(dv).abs() > 1e-3 * s * s {
+            return Err("projection is skewed".into());
+        }
+        // The axis meets the image where r0 + u du + v dv = forward.
+        let to_axis = forward - r0w;
+        let axis_at = Vec2::new(
+            to_axis.dot(du) / (s * s),
+            to_axis.dot(dv) / dv.length_squared(),
+        );
+        Ok(Self {
+            position: world.transform_point3(Vec3::ZERO),
+            forward,
+            up: -dv.normalize(),
+            pixel_side: s,
+            principal: axis_at - 0.5 * Vec2::new(w as f32, h as f32),
+        })
+    }
+}
+
+impl Camera {
+    /// The camera a host engine's view and projection matrices describe
+    /// (Vulkan clip space: x right, y down; reversed or infinite Z, an
+    /// off-centre or jittered frustum) for a `width` x `height` image: the
+    /// optical axis's offset from the image's centre becomes
+    /// [`Camera::jitter`]. A projection ssbc cannot draw (orthographic,
+    /// mirrored, skewed, non-square pixels) is an error naming why.
+    pub fn from_matrices(view: Mat4, projection: Mat4, width: u32, height: u32) -> Result<Self> {
+        let p = Perspective::of(view, projection, (width, height))
+            .map_err(|why| Error::InvalidParameter(format!("camera matrices: the {why}")))?;
+        Ok(Self {
+            position: p.position,
+            forward: p.forward,
+            up: p.up,
+            yfov: 2.0 * (0.5 * p.pixel_side * height as f32).atan(),
+            jitter: p.principal,
+        })
+    }
+}
+
 /// The aspect (w/h) the default camera frames the scene for: that of the
 /// CLI's default size (1024x768). Wider images show more around the scene;
 /// narrower ones fit its height and may cut its sides.

@@ -22,7 +22,7 @@ unstable_pub! {
 use glam::{Affine2, Mat3, Mat4, Vec2, Vec3, Vec4};
 
 use crate::error::{Error, Result};
-pub use camera::{Camera, DEFAULT_ASPECT};
+pub use camera::{Camera, Perspective, DEFAULT_ASPECT};
 pub use light::{Light, LightKind};
 pub use material::{AlphaMode, Material, Reflectance, Texture, TextureRef, TextureSampler, Wrap};
 pub use objects::{Instance, Instances, Mesh, Object, Placement};
