@@ -29,13 +29,12 @@ use ash::vk;
 use glam::{Mat4, Vec2, Vec3};
 use gpu_allocator::MemoryLocation;
 use host::{
-    array, compile, copy_buffer_to_image, copy_image_to_buffer, host_barrier, host_device_with,
-    memory_barrier, Buffer, Error, HostKernel, HostMemory, Image, GBUFFER_GLSL, PACKED_BYTES,
-    PACKED_FORMATS, PACK_GLSL,
+    array, compile, copy_image_to_buffer, host_barrier, host_device_with, memory_barrier, Buffer,
+    Error, HostKernel, HostMemory, Image, GBUFFER_GLSL, PACKED_BYTES, PACKED_FORMATS, PACK_GLSL,
 };
 use ssbc::postprocess::{
-    HostCamera, HostGeometry, HostImage, NormalEncoding, OutputWrite, PostOutput,
-    PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
+    HostCamera, HostGeometry, NormalEncoding, OutputWrite, PostOutput, PostProcessInputs,
+    PostProcessShape, ReceiverBrdf, SsbcPostProcess,
 };
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Light, LightKind, Scene};
@@ -248,16 +247,6 @@ impl Slot {
         // SAFETY: every write points at live descriptors of matching types.
         unsafe { device.raw.update_descriptor_sets(&writes, &[]) };
     }
-
-    fn host_image(image: &Image, layout: vk::ImageLayout) -> HostImage {
-        HostImage {
-            image: image.raw,
-            view: image.view,
-            format: image.format,
-            extent: (image.width, image.height),
-            layout,
-        }
-    }
 }
 
 /// The r-th point of the base-b Halton sequence, centred on 0 (TAA jitter).
@@ -430,7 +419,7 @@ pub fn run(w: u32, h: u32, frames: usize) -> Result<HostEngineReport, Error> {
             raw.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default())?;
         }
         // ssbc's resident frame: S0 into the host's lighting image.
-        let lighting = Slot::host_image(&slot.lighting, vk::ImageLayout::UNDEFINED);
+        let lighting = host::host_image(&slot.lighting, vk::ImageLayout::UNDEFINED);
         renderer.record_resident(
             &resident,
             &lighting_settings,
@@ -485,35 +474,14 @@ pub fn run(w: u32, h: u32, frames: usize) -> Result<HostEngineReport, Error> {
                 * projection;
         let pack_push = (jittered * view).to_cols_array();
         pack_kernel.dispatch(cmd, slot.sets[1], bytemuck::cast_slice(&pack_push), groups);
-        let storage_write = (compute, vk::AccessFlags2::SHADER_STORAGE_WRITE);
-        memory_barrier(
-            &device,
-            cmd,
-            storage_write,
-            (copy, vk::AccessFlags2::TRANSFER_READ),
-        );
-        let to_dst: Vec<_> = slot
-            .packed
-            .iter()
-            .map(|i| (i, vk::ImageLayout::UNDEFINED, transfer_dst))
-            .collect();
-        host_barrier(
-            &device,
-            cmd,
-            &to_dst,
-            copy,
-            vk::AccessFlags2::TRANSFER_WRITE,
-        );
-        for (image, staging) in slot.packed.iter().zip(&slot.staging) {
-            copy_buffer_to_image(&device, cmd, staging, image);
-        }
+        host::copy_packed(&device, cmd, &slot.staging[..3], &slot.packed);
 
         // SSBC on the host's G-buffer, added onto its lighting.
         let [depth, normal, albedo] = slot
             .packed
             .each_ref()
-            .map(|i| Slot::host_image(i, transfer_dst));
-        let lighting = Slot::host_image(&slot.lighting, general);
+            .map(|i| host::host_image(i, transfer_dst));
+        let lighting = host::host_image(&slot.lighting, general);
         let inputs = PostProcessInputs {
             geometry: HostGeometry::Depth {
                 image: depth,
@@ -562,16 +530,7 @@ pub fn run(w: u32, h: u32, frames: usize) -> Result<HostEngineReport, Error> {
             (copy, vk::AccessFlags2::TRANSFER_WRITE),
             host_read,
         );
-        // SAFETY: submitting the host's buffer with the slot's fence.
-        unsafe {
-            raw.end_command_buffer(cmd)?;
-            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-            raw.queue_submit2(
-                device.queue,
-                &[vk::SubmitInfo2::default().command_buffer_infos(&cmds)],
-                slot.fence,
-            )?;
-        }
+        host::submit(&device, cmd, slot.fence)?;
         slots[s].in_flight = true;
     }
 

@@ -26,8 +26,8 @@ use host::{
     HostMemory, Image, GBUFFER_GLSL, LIGHTING_GLSL, PACKED_BYTES, PACKED_FORMATS, PACK_GLSL,
 };
 use ssbc::postprocess::{
-    HostCamera, HostGeometry, HostImage, NormalEncoding, OutputWrite, PostOutput,
-    PostProcessInputs, PostProcessShape, ReceiverBrdf, SsbcPostProcess,
+    HostCamera, HostGeometry, NormalEncoding, OutputWrite, PostOutput, PostProcessInputs,
+    PostProcessShape, ReceiverBrdf, SsbcPostProcess,
 };
 use ssbc::reference::{BruteForceTwin, GBufferView, TwinCamera};
 use ssbc::settings::{Integration, SsbcSettings};
@@ -146,16 +146,6 @@ impl Resources {
             vpls,
             readback: array(readback),
         })
-    }
-
-    fn host_image(image: &Image, layout: vk::ImageLayout) -> HostImage {
-        HostImage {
-            image: image.raw,
-            view: image.view,
-            format: image.format,
-            extent: (image.width, image.height),
-            layout,
-        }
     }
 }
 
@@ -399,7 +389,7 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
         let [depth, normal, albedo, lighting] = r
             .packed
             .each_ref()
-            .map(|i| Resources::host_image(i, transfer_dst));
+            .map(|i| host::host_image(i, transfer_dst));
         let inputs = PostProcessInputs {
             geometry: HostGeometry::Depth {
                 image: depth,
@@ -412,7 +402,7 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
             sources: None,
             receivers: ReceiverBrdf::Lambertian,
             output: match run {
-                Run::Store => Resources::host_image(&r.output, general),
+                Run::Store => host::host_image(&r.output, general),
                 Run::Add => lighting,
             },
             write: match run {
@@ -484,24 +474,7 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
         );
         // The packed texels into the images the host keeps.
         let copy = vk::PipelineStageFlags2::COPY;
-        let write = vk::AccessFlags2::SHADER_STORAGE_WRITE;
-        let read = vk::AccessFlags2::TRANSFER_READ;
-        host::memory_barrier(&device, cmd, (compute, write), (copy, read));
-        let to_dst: Vec<_> = r
-            .packed
-            .iter()
-            .map(|i| (i, vk::ImageLayout::UNDEFINED, transfer_dst))
-            .collect();
-        host_barrier(
-            &device,
-            cmd,
-            &to_dst,
-            copy,
-            vk::AccessFlags2::TRANSFER_WRITE,
-        );
-        for (image, buffer) in r.packed.iter().zip(&r.staging) {
-            host::copy_buffer_to_image(&device, cmd, buffer, image);
-        }
+        host::copy_packed(&device, cmd, &r.staging, &r.packed);
 
         // --- SSBC, recorded into the host's command buffer. ---
         let output = match run {
@@ -546,25 +519,8 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
             (copy, vk::AccessFlags2::TRANSFER_WRITE),
             host_read,
         );
-        // SAFETY: one submission, waited on with the fence.
-        unsafe {
-            raw.end_command_buffer(cmd)?;
-            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-            raw.queue_submit2(
-                device.queue,
-                &[vk::SubmitInfo2::default().command_buffer_infos(&cmds)],
-                fence,
-            )?;
-            raw.wait_for_fences(&[fence], true, u64::MAX)?;
-            raw.reset_fences(&[fence])?;
-        }
-        if let Some(times) = post.timings(0)? {
-            report.passes = times
-                .passes
-                .iter()
-                .map(|p| (p.name.clone(), p.gpu_ms))
-                .collect();
-        }
+        host::submit_and_wait(&device, cmd, fence)?;
+        report.passes = host::pass_times(post.timings(0)?);
 
         // --- The CPU twin on the unpacked G-buffer, with the jitter. ---
         let read: Vec<Vec<f32>> = r.readback[..5].iter().map(|b| b.read::<f32>()).collect();

@@ -365,68 +365,33 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
         report.allocated_while_recording += device.memory_in_use() as i64 - before_recording as i64;
 
         // --- The host reads everything back with its own commands. ---
-        // SAFETY: as above.
-        unsafe {
-            let mut layouts: Vec<_> = all[..4]
-                .iter()
-                .chain(&hidden.iter().collect::<Vec<_>>())
-                .map(|&i| {
-                    (
-                        i,
-                        vk::ImageLayout::GENERAL,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    )
-                })
-                .collect();
-            layouts.push((&output, output_exit, vk::ImageLayout::TRANSFER_SRC_OPTIMAL));
-            host_barrier(
-                &device,
-                cmd,
-                &layouts,
-                vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::TRANSFER_READ,
-            );
-            let order: Vec<&Image> = all.iter().copied().chain(&hidden).collect();
-            for (img, buffer) in order.iter().zip(&readback) {
-                let region = vk::BufferImageCopy::default()
-                    .image_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: 1,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width: img.width,
-                        height: img.height,
-                        depth: 1,
-                    });
-                raw.cmd_copy_image_to_buffer(
-                    cmd,
-                    img.raw,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    buffer.raw,
-                    &[region],
-                );
-            }
-            let host_read = vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ);
-            raw.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().memory_barriers(&[host_read]),
-            );
-            raw.end_command_buffer(cmd)?;
-            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-            raw.queue_submit2(
-                device.queue,
-                &[vk::SubmitInfo2::default().command_buffer_infos(&cmds)],
-                fence,
-            )?;
-            raw.wait_for_fences(&[fence], true, u64::MAX)?;
-            raw.reset_fences(&[fence])?;
+        let src = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+        let mut layouts: Vec<_> = all[..4]
+            .iter()
+            .copied()
+            .chain(&hidden)
+            .map(|i| (i, vk::ImageLayout::GENERAL, src))
+            .collect();
+        layouts.push((&output, output_exit, src));
+        let copy = vk::PipelineStageFlags2::COPY;
+        host_barrier(
+            &device,
+            cmd,
+            &layouts,
+            copy,
+            vk::AccessFlags2::TRANSFER_READ,
+        );
+        let order: Vec<&Image> = all.iter().copied().chain(&hidden).collect();
+        for (image, buffer) in order.iter().zip(&readback) {
+            host::copy_image_to_buffer(&device, cmd, image, buffer);
         }
+        let host_read = (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ);
+        let copied = (
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        );
+        host::memory_barrier(&device, cmd, copied, host_read);
+        host::submit_and_wait(&device, cmd, fence)?;
         // The frame is done (the fence): its GPU times, without waiting.
         if let Some(times) = post.timings(0)? {
             report.passes = times
@@ -464,23 +429,13 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
             twin = twin.with_second_layer(&g1, &read[8], twin_camera, layer1);
         }
         let twin = twin.image();
-        let gpu = &read[4];
-        let (mut err, mut norm, mut sum_gpu, mut sum_twin) = (0f64, 0f64, 0f64, 0f64);
-        for (i, (a, b)) in gpu.iter().zip(&twin).enumerate() {
-            if i % 4 == 3 {
-                continue;
-            }
-            err += ((a - b) as f64).powi(2);
-            norm += (*b as f64).powi(2);
-            sum_gpu += *a as f64;
-            sum_twin += *b as f64;
-        }
-        report
-            .relative_rmse
-            .push((layers, integration, (err / norm.max(1e-30)).sqrt()));
-        report
-            .mean_ratio
-            .push((layers, integration, sum_gpu / sum_twin.max(1e-30)));
+        let (rmse, ratio) = host::compare(&read[4], &twin);
+        report.relative_rmse.push((layers, integration, rmse));
+        report.mean_ratio.push((layers, integration, ratio));
+        let sum_twin: f64 = twin
+            .chunks_exact(4)
+            .map(|p| (p[0] + p[1] + p[2]) as f64)
+            .sum();
         let pixels = w as f64 * h as f64;
         if layers == 1 {
             report.mean_residual = sum_twin / (pixels * 3.0);

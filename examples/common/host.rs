@@ -721,3 +721,89 @@ pub fn memory_barrier(
         )
     };
 }
+
+/// The host's command pool on `device`'s queue family (buffers resettable).
+pub fn command_pool(device: &Device) -> Result<vk::CommandPool, Error> {
+    let info = vk::CommandPoolCreateInfo::default()
+        .queue_family_index(device.queue_family)
+        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+    // SAFETY: a valid create info on a live device; the caller destroys it.
+    Ok(unsafe { device.raw.create_command_pool(&info, None)? })
+}
+
+/// Ends `cmd` and submits it to the queue, signalling `fence`.
+pub fn submit(device: &Device, cmd: vk::CommandBuffer, fence: vk::Fence) -> Result<(), Error> {
+    let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+    // SAFETY: the host's recording buffer and unsignalled fence.
+    unsafe {
+        device.raw.end_command_buffer(cmd)?;
+        device.raw.queue_submit2(
+            device.queue,
+            &[vk::SubmitInfo2::default().command_buffer_infos(&cmds)],
+            fence,
+        )?;
+    }
+    Ok(())
+}
+
+/// [`submit`], then waits for `fence` and resets it.
+pub fn submit_and_wait(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+) -> Result<(), Error> {
+    submit(device, cmd, fence)?;
+    // SAFETY: the fence was just submitted.
+    unsafe {
+        device.raw.wait_for_fences(&[fence], true, u64::MAX)?;
+        device.raw.reset_fences(&[fence])?;
+    }
+    Ok(())
+}
+
+/// The passes of a frame's GPU timings, as (name, ms).
+pub fn pass_times(times: Option<ssbc::vk::GpuFrameTimes>) -> Vec<(String, f64)> {
+    times
+        .map(|t| {
+            t.passes
+                .iter()
+                .map(|p| (p.name.clone(), p.gpu_ms))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// After the pack kernel: its buffers into the images the host keeps.
+pub fn copy_packed(device: &Device, cmd: vk::CommandBuffer, staging: &[Buffer], packed: &[Image]) {
+    let (compute, copy) = (
+        vk::PipelineStageFlags2::COMPUTE_SHADER,
+        vk::PipelineStageFlags2::COPY,
+    );
+    let written = (compute, vk::AccessFlags2::SHADER_STORAGE_WRITE);
+    memory_barrier(
+        device,
+        cmd,
+        written,
+        (copy, vk::AccessFlags2::TRANSFER_READ),
+    );
+    let dst = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+    let to_dst: Vec<_> = packed
+        .iter()
+        .map(|i| (i, vk::ImageLayout::UNDEFINED, dst))
+        .collect();
+    host_barrier(device, cmd, &to_dst, copy, vk::AccessFlags2::TRANSFER_WRITE);
+    for (image, buffer) in packed.iter().zip(staging) {
+        copy_buffer_to_image(device, cmd, buffer, image);
+    }
+}
+
+/// `image` as ssbc sees a host's image, in `layout` when ssbc's commands start.
+pub fn host_image(image: &Image, layout: vk::ImageLayout) -> ssbc::vk::HostImage {
+    ssbc::vk::HostImage {
+        image: image.raw,
+        view: image.view,
+        format: image.format,
+        extent: (image.width, image.height),
+        layout,
+    }
+}
