@@ -87,6 +87,22 @@ impl FrameMemory {
         self.parts().iter().map(|(_, b)| b).sum()
     }
 
+    /// Of [`FrameMemory::total`], what a frame slot carries from one of
+    /// its frames to a later one: the temporal history and, with it, the
+    /// G-buffer the next frame reprojects against; the shadow maps and
+    /// ISMs, kept while the lights and surfaces stay.
+    pub fn persistent(&self) -> u64 {
+        let gbuffer = if self.history > 0 { self.gbuffer } else { 0 };
+        self.history + gbuffer + self.ism + self.shadow_maps
+    }
+
+    /// Of [`FrameMemory::total`], what each frame rewrites before it reads
+    /// it: lighting, SSBC's pyramids, lists and images, read-back (and the
+    /// G-buffer without history).
+    pub fn transient(&self) -> u64 {
+        self.total() - self.persistent()
+    }
+
     /// Each part's name (as in the timings JSON) and bytes.
     pub fn parts(&self) -> [(&'static str, u64); 9] {
         let bytes = [

@@ -59,6 +59,9 @@ use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 /// let hd = ssbc::renderer::frame_memory(&scene, &ssbc::RenderSettings::new(1920, 1080));
 /// println!("1080p: {}", hd.summary(1920 * 1080));
 /// assert!(hd.ssbc_pyramids > 0 && hd.total() > hd.ssbc_pyramids);
+/// // With history: what the slot keeps between frames, and what it rewrites.
+/// assert_eq!(hd.persistent() + hd.transient(), hd.total());
+/// assert!(hd.persistent() >= hd.history + hd.gbuffer);
 /// ```
 pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> FrameMemory {
     limits::frame_memory(None, settings, scene.lights.len(), limits::FrameUse::ALL)
