@@ -5,32 +5,11 @@
 //! `cargo run --example embed` (set `SSBC_VALIDATION=1` for the Khronos
 //! validation layer; the tests run it that way).
 
-use std::ffi::{c_void, CStr};
-use std::sync::atomic::{AtomicU32, Ordering};
+#[path = "common/host.rs"]
+mod host;
 
 use ash::vk;
-use ssbc::vk::{Device, HostDevice, Instance, RequiredFeatures};
-
-/// Validation messages the host's messenger saw.
-static MESSAGES: AtomicU32 = AtomicU32::new(0);
-
-unsafe extern "system" fn on_message(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _kind: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    _user: *mut c_void,
-) -> vk::Bool32 {
-    if severity.intersects(
-        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-            | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-    ) {
-        MESSAGES.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: the layer passes a valid struct with a NUL-terminated message.
-        let text = unsafe { CStr::from_ptr((*data).p_message) };
-        eprintln!("[host validation] {}", text.to_string_lossy());
-    }
-    vk::FALSE
-}
+use ssbc::vk::RequiredFeatures;
 
 /// What the host saw: mean radiance of the frame, its passes, validation messages.
 pub struct EmbedReport {
@@ -172,96 +151,15 @@ fn host_reads_gpu_image(
 
 /// Runs the host: returns what it measured.
 pub fn run(validation: bool) -> Result<EmbedReport, Box<dyn std::error::Error>> {
-    // --- The host's own instance and device. ---
-    // SAFETY: loading the system Vulkan loader.
-    let entry = unsafe { ash::Entry::load()? };
-    let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
-    let layers = [c"VK_LAYER_KHRONOS_validation".as_ptr()];
-    let extensions = [
-        ash::ext::debug_utils::NAME.as_ptr(),
-        ash::ext::validation_features::NAME.as_ptr(),
-    ];
-    let sync = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync);
-    let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-        .message_severity(
-            vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-        )
-        .message_type(
-            vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL,
-        )
-        .pfn_user_callback(Some(on_message));
-    let mut info = vk::InstanceCreateInfo::default().application_info(&app);
-    if validation {
-        info = info
-            .enabled_layer_names(&layers)
-            .enabled_extension_names(&extensions)
-            .push_next(&mut features)
-            .push_next(&mut messenger_info);
-    }
-    // SAFETY: valid create info; the host destroys the instance at the end.
-    let instance = unsafe { entry.create_instance(&info, None)? };
-    let debug_utils = ash::ext::debug_utils::Instance::new(&entry, &instance);
-    let messenger = if validation {
-        let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-            .message_severity(
-                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                    | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-            )
-            .message_type(
-                vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                    | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL,
-            )
-            .pfn_user_callback(Some(on_message));
-        // SAFETY: valid instance with debug utils enabled; destroyed before the instance.
-        Some(unsafe { debug_utils.create_debug_utils_messenger(&info, None)? })
-    } else {
-        None
-    };
-    // SAFETY: enumeration on a live instance.
-    let physical = *unsafe { instance.enumerate_physical_devices()? }
-        .first()
-        .ok_or("no Vulkan device")?;
-    // SAFETY: valid physical device.
-    let family = unsafe { instance.get_physical_device_queue_family_properties(physical) }
-        .iter()
-        .position(|f| {
-            f.queue_flags
-                .contains(vk::QueueFlags::GRAPHICS | vk::QueueFlags::COMPUTE)
-        })
-        .ok_or("no graphics+compute queue")? as u32;
-    let priorities = [1.0];
-    let queues = [vk::DeviceQueueCreateInfo::default()
-        .queue_family_index(family)
-        .queue_priorities(&priorities)];
-    let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
-        .timeline_semaphore(true)
-        .host_query_reset(true);
-    let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
-        .synchronization2(true)
-        .dynamic_rendering(true);
-    let device_info = vk::DeviceCreateInfo::default()
-        .queue_create_infos(&queues)
-        .push_next(&mut f12)
-        .push_next(&mut f13);
-    // SAFETY: the features were requested from a device that reports them (lavapipe, any 1.3 GPU).
-    let device = unsafe { instance.create_device(physical, &device_info, None)? };
+    // --- The host's own instance and device (made with ash; ssbc's
+    // features merged into the device's). ---
+    let own = host::OwnInstance::new(validation)?;
+    let before = host::OwnInstance::messages();
+    let (ssbc_device, device) = host::host_device_with(&own.for_ssbc(), RequiredFeatures::ALL)?;
+    let (physical, family) = (ssbc_device.physical, ssbc_device.queue_family);
 
     // --- Embed ssbc. ---
     let report = {
-        let ssbc_instance = Instance::from_host(entry.clone(), instance.clone());
-        let ssbc_device = Device::from_host(
-            ssbc_instance,
-            HostDevice {
-                physical,
-                device: device.clone(),
-                queue_family: family,
-                queue_index: 0,
-                enabled_features: RequiredFeatures::ALL,
-            },
-        )?;
         let mut renderer = ssbc::Renderer::with_device(ssbc_device)?;
         // A scene from the host's own data: a floor and a wall under a point light.
         let mut scene = ssbc::Scene::new("host scene");
@@ -304,7 +202,7 @@ pub fn run(validation: bool) -> Result<EmbedReport, Box<dyn std::error::Error>> 
         let frame = renderer.render(&scene, &settings)?;
         // The same image, handed over on the GPU and read by the host's own commands.
         let gpu_image = renderer.output_image().ok_or("no output image")?;
-        let texels = host_reads_gpu_image(&instance, physical, &device, family, &gpu_image)?;
+        let texels = host_reads_gpu_image(&own.raw, physical, &device, family, &gpu_image)?;
         let handoff_max_difference = texels
             .iter()
             .zip(&frame.image.rgba)
@@ -332,17 +230,14 @@ pub fn run(validation: bool) -> Result<EmbedReport, Box<dyn std::error::Error>> 
     };
 
     // --- The host still owns a working device: use it, then destroy it. ---
-    // SAFETY: ssbc is gone; nothing else uses the device or the instance.
+    // SAFETY: ssbc is gone; nothing else uses the device.
     unsafe {
         device.device_wait_idle()?;
         device.destroy_device(None);
-        if let Some(m) = messenger {
-            debug_utils.destroy_debug_utils_messenger(m, None);
-        }
-        instance.destroy_instance(None);
     }
+    drop(own);
     Ok(EmbedReport {
-        validation_messages: MESSAGES.load(Ordering::SeqCst),
+        validation_messages: host::OwnInstance::messages() - before,
         ..report
     })
 }

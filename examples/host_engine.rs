@@ -39,7 +39,7 @@ use ssbc::postprocess::{
 use ssbc::resident::ResidentScene;
 use ssbc::scene::{Camera, Light, LightKind, Scene};
 use ssbc::settings::Bound;
-use ssbc::vk::{Instance, RequiredFeatures, Validation};
+use ssbc::vk::RequiredFeatures;
 use ssbc::{Layer, RenderSettings, Renderer};
 
 /// Frames in flight.
@@ -262,10 +262,11 @@ fn halton(mut index: u32, base: u32) -> f32 {
 
 /// Runs `frames` frames at `w` x `h` with two in flight.
 pub fn run(w: u32, h: u32, frames: usize) -> Result<HostEngineReport, Error> {
-    let instance = Instance::with_validation(Validation::Synchronization, &[])?;
-    let log = instance.validation_log();
-    // The resident renderer needs all of RequiredFeatures, merged into the
-    // host's device creation.
+    // The host's own instance (validation and synchronization validation),
+    // and its device with what the resident renderer needs merged in.
+    let own = host::OwnInstance::new(true)?;
+    let instance = own.for_ssbc();
+    let before = host::OwnInstance::messages();
     let (device, host_raw) = host_device_with(&instance, RequiredFeatures::ALL)?;
     let raw = &device.raw;
     let memory = HostMemory::new(&device)?;
@@ -308,12 +309,7 @@ pub fn run(w: u32, h: u32, frames: usize) -> Result<HostEngineReport, Error> {
                     .pool_sizes(&sizes),
                 None,
             )?,
-            raw.create_command_pool(
-                &vk::CommandPoolCreateInfo::default()
-                    .queue_family_index(device.queue_family)
-                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
-                None,
-            )?,
+            host::command_pool(&device)?,
         )
     };
     for slot in &mut slots {
@@ -580,7 +576,8 @@ pub fn run(w: u32, h: u32, frames: usize) -> Result<HostEngineReport, Error> {
     // SAFETY: ssbc's objects on it are gone; the instance outlives it.
     unsafe { host_raw.destroy_device(None) };
     drop(instance);
-    report.validation_messages = log.total();
+    drop(own);
+    report.validation_messages = host::OwnInstance::messages() - before;
     Ok(report)
 }
 

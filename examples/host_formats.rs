@@ -310,12 +310,7 @@ pub fn run(w: u32, h: u32) -> Result<HostFormatsReport, Error> {
     // SAFETY: plain object creation; destroyed below after the fence.
     let (command_pool, fence) = unsafe {
         (
-            raw.create_command_pool(
-                &vk::CommandPoolCreateInfo::default()
-                    .queue_family_index(device.queue_family)
-                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
-                None,
-            )?,
+            host::command_pool(&device)?,
             raw.create_fence(&vk::FenceCreateInfo::default(), None)?,
         )
     };

@@ -151,12 +151,7 @@ pub fn run(w: u32, h: u32, layer1: LayerResolution) -> Result<PostProcessReport,
                     .pool_sizes(&sizes),
                 None,
             )?,
-            raw.create_command_pool(
-                &vk::CommandPoolCreateInfo::default()
-                    .queue_family_index(device.queue_family)
-                    .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
-                None,
-            )?,
+            host::command_pool(&device)?,
             raw.create_fence(&vk::FenceCreateInfo::default(), None)?,
         )
     };

@@ -807,3 +807,109 @@ pub fn host_image(image: &Image, layout: vk::ImageLayout) -> ssbc::vk::HostImage
         layout,
     }
 }
+
+/// Validation messages the host's messenger saw.
+static MESSAGES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
+unsafe extern "system" fn on_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    _user: *mut std::ffi::c_void,
+) -> vk::Bool32 {
+    let counted = vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR;
+    if severity.intersects(counted) {
+        MESSAGES.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        // SAFETY: the layer passes a valid struct with a NUL-terminated message.
+        let text = unsafe { std::ffi::CStr::from_ptr((*data).p_message) };
+        eprintln!("[host validation] {}", text.to_string_lossy());
+    }
+    vk::FALSE
+}
+
+/// The host's own Vulkan 1.3 instance, made with `ash`: with the Khronos
+/// validation layer, synchronization validation and a messenger counting
+/// warnings and errors when asked. ssbc never destroys it; the host does
+/// (on drop), after everything made on it.
+pub struct OwnInstance {
+    pub entry: ash::Entry,
+    pub raw: ash::Instance,
+    debug_utils: ash::ext::debug_utils::Instance,
+    messenger: Option<vk::DebugUtilsMessengerEXT>,
+}
+
+impl OwnInstance {
+    pub fn new(validation: bool) -> Result<Self, Error> {
+        // SAFETY: loading the system Vulkan loader.
+        let entry = unsafe { ash::Entry::load()? };
+        let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+        let layers = [c"VK_LAYER_KHRONOS_validation".as_ptr()];
+        let extensions = [
+            ash::ext::debug_utils::NAME.as_ptr(),
+            ash::ext::validation_features::NAME.as_ptr(),
+        ];
+        let sync = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync);
+        let messenger_info = || {
+            vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::GENERAL,
+                )
+                .pfn_user_callback(Some(on_message))
+        };
+        // Also for messages while the instance is created and destroyed.
+        let mut creation_messenger = messenger_info();
+        let mut info = vk::InstanceCreateInfo::default().application_info(&app);
+        if validation {
+            info = info
+                .enabled_layer_names(&layers)
+                .enabled_extension_names(&extensions)
+                .push_next(&mut features)
+                .push_next(&mut creation_messenger);
+        }
+        // SAFETY: valid create info; destroyed in Drop.
+        let raw = unsafe { entry.create_instance(&info, None)? };
+        let debug_utils = ash::ext::debug_utils::Instance::new(&entry, &raw);
+        let messenger = if validation {
+            // SAFETY: debug utils are enabled; destroyed before the instance.
+            Some(unsafe { debug_utils.create_debug_utils_messenger(&messenger_info(), None)? })
+        } else {
+            None
+        };
+        Ok(Self {
+            entry,
+            raw,
+            debug_utils,
+            messenger,
+        })
+    }
+
+    /// The instance as ssbc sees a host's (never destroyed by ssbc).
+    pub fn for_ssbc(&self) -> Arc<Instance> {
+        Instance::from_host(self.entry.clone(), self.raw.clone())
+    }
+
+    /// Validation warnings and errors so far.
+    pub fn messages() -> u32 {
+        MESSAGES.load(std::sync::atomic::Ordering::SeqCst)
+    }
+}
+
+impl Drop for OwnInstance {
+    fn drop(&mut self) {
+        // SAFETY: everything made on the instance is gone (the host drops it
+        // last).
+        unsafe {
+            if let Some(m) = self.messenger.take() {
+                self.debug_utils.destroy_debug_utils_messenger(m, None);
+            }
+            self.raw.destroy_instance(None);
+        }
+    }
+}
