@@ -300,11 +300,24 @@ impl PostProcessInputs {
     /// Checks sizes, formats and parameters (not what the device supports:
     /// [`super::SsbcPostProcess`] does that).
     pub(crate) fn check(&self) -> Result<Checked> {
-        let bad = |what: String| {
-            Err(Error::InvalidParameter(format!(
-                "SSBC post-process: {what}"
-            )))
-        };
+        let (named, layer1) = self.named_images();
+        for image in named {
+            image.check()?;
+        }
+        self.check_semantics()?;
+        let extent = self.geometry.image().extent;
+        self.camera.ssbc(extent)?;
+        Ok(Checked {
+            extent,
+            layer1,
+            conversion: self.conversion(),
+        })
+    }
+
+    /// Every image with its name, its use in [`FORMATS`] and the size it
+    /// must have; and the second layer's resolution, which its position
+    /// image's size says.
+    fn named_images(&self) -> (Vec<NamedImage<'_>>, Option<LayerResolution>) {
         let geometry = self.geometry.image();
         let extent = geometry.extent;
         let same = format!("the size of the geometry image, {extent:?}");
@@ -321,85 +334,51 @@ impl PostProcessInputs {
             OutputWrite::Copy => "output (copy)",
             _ => "output (store, add)",
         };
+        let radiance = "radiance (s0, sources)";
+        let first = |name, role, image| NamedImage::new(name, role, image, extent, &same);
         let mut named = vec![
-            (geometry_role, geometry_role, geometry, extent, same.clone()),
-            ("normal", normal_role, &self.normal, extent, same.clone()),
-            ("albedo", "albedo", &self.albedo, extent, same.clone()),
-            (
-                "s0",
-                "radiance (s0, sources)",
-                &self.s0,
-                extent,
-                same.clone(),
-            ),
-            ("output", output_role, &self.output, extent, same.clone()),
+            first(geometry_role, geometry_role, geometry),
+            first("normal", normal_role, &self.normal),
+            first("albedo", "albedo", &self.albedo),
+            first("s0", radiance, &self.s0),
+            first("output", output_role, &self.output),
         ];
-        if let Some(sources) = &self.sources {
-            named.push((
-                "sources",
-                "radiance (s0, sources)",
-                sources,
-                extent,
-                same.clone(),
-            ));
-        }
-        // The second layer's position image says its resolution; the other
-        // three follow it.
-        let mut layer1 = None;
-        if let Some(hidden) = &self.hidden {
-            let half = LayerResolution::Half.extent(extent);
-            let r = if hidden.position.extent == half && half != extent {
-                LayerResolution::Half
-            } else {
-                LayerResolution::Full
-            };
-            let layer1_extent = r.extent(extent);
-            let either = format!(
-                "the size of the geometry image ({extent:?}) or half of it, rounded up ({half:?})"
-            );
-            let like = format!("{layer1_extent:?}, the size of the second layer's position image");
-            let role = "second layer (all four)";
-            named.extend([
-                (
-                    "second layer's position",
-                    role,
-                    &hidden.position,
-                    layer1_extent,
-                    either,
-                ),
-                (
-                    "second layer's normal",
-                    role,
-                    &hidden.normal,
-                    layer1_extent,
-                    like.clone(),
-                ),
-                (
-                    "second layer's albedo",
-                    role,
-                    &hidden.albedo,
-                    layer1_extent,
-                    like.clone(),
-                ),
-                ("second layer's s0", role, &hidden.s0, layer1_extent, like),
-            ]);
-            layer1 = Some(r);
-        }
-        for (name, role, image, wanted, what) in named {
-            let accepted = formats(role);
-            if !accepted.contains(&image.format) {
-                return bad(format!(
-                    "the {name} image is {:?}; as {role} it must be one of {accepted:?}",
-                    image.format
-                ));
-            }
-            if image.extent != wanted {
-                return bad(format!(
-                    "the {name} image is {:?}; it must be {what}",
-                    image.extent
-                ));
-            }
-        }
+        named.extend(self.sources.as_ref().map(|s| first("sources", radiance, s)));
+        let Some(hidden) = &self.hidden else {
+            return (named, None);
+        };
+        let half = LayerResolution::Half.extent(extent);
+        let r = if hidden.position.extent == half && half != extent {
+            LayerResolution::Half
+        } else {
+            LayerResolution::Full
+        };
+        let layer1_extent = r.extent(extent);
+        let either = format!(
+            "the size of the geometry image ({extent:?}) or half of it, rounded up ({half:?})"
+        );
+        let like = format!("{layer1_extent:?}, the size of the second layer's position image");
+        let second = |name, image, what: &String| {
+            NamedImage::new(name, "second layer (all four)", image, layer1_extent, what)
+        };
+        named.extend([
+            second("second layer's position", &hidden.position, &either),
+            second("second layer's normal", &hidden.normal, &like),
+            second("second layer's albedo", &hidden.albedo, &like),
+            second("second layer's s0", &hidden.s0, &like),
+        ]);
+        (named, Some(r))
+    }
+
+    /// What formats and sizes alone do not say: channels the receivers'
+    /// BRDF needs, depth without matrices, an output that is an input,
+    /// non-finite parameters.
+    fn check_semantics(&self) -> Result<()> {
+        let bad = |what: String| {
+            Err(Error::InvalidParameter(format!(
+                "SSBC post-process: {what}"
+            )))
+        };
         if self.receivers == ReceiverBrdf::MetallicRoughnessInW {
             if self.normal_encoding.two_channels() || narrow_alpha(self.normal.format) {
                 return bad(format!(
@@ -414,8 +393,8 @@ impl PostProcessInputs {
                 ));
             }
         }
-        if let (HostGeometry::Depth { background, .. }, camera) = (self.geometry, self.camera) {
-            if !matches!(camera, HostCamera::Matrices { .. }) {
+        if let HostGeometry::Depth { background, .. } = self.geometry {
+            if !matches!(self.camera, HostCamera::Matrices { .. }) {
                 return bad(
                     "a depth image needs the camera as matrices (HostCamera::Matrices)".into(),
                 );
@@ -424,21 +403,22 @@ impl PostProcessInputs {
                 return bad(format!("the background depth {background} is not finite"));
             }
         }
-        let aliased = [
-            Some(geometry),
+        let inputs = [
+            Some(self.geometry.image()),
             Some(&self.normal),
             Some(&self.albedo),
             self.sources.as_ref(),
-        ]
-        .into_iter()
-        .flatten()
-        .chain(
-            self.hidden
-                .iter()
-                .flat_map(|l| [&l.position, &l.normal, &l.albedo, &l.s0]),
-        )
-        .any(|i| i.image == self.output.image);
-        if aliased {
+        ];
+        let hidden = self
+            .hidden
+            .iter()
+            .flat_map(|l| [&l.position, &l.normal, &l.albedo, &l.s0]);
+        if inputs
+            .into_iter()
+            .flatten()
+            .chain(hidden)
+            .any(|i| i.image == self.output.image)
+        {
             return bad(
                 "the output image is one of the inputs (only the s0 image may be the output)"
                     .into(),
@@ -447,12 +427,55 @@ impl PostProcessInputs {
         if !self.typical_depth.is_finite() || self.bound.is_nan() || self.bound <= 0.0 {
             return bad("depth and bound must be finite and positive".into());
         }
-        self.camera.ssbc(extent)?;
-        Ok(Checked {
+        Ok(())
+    }
+}
+
+/// One of the host's images as checked: its name in messages, its use in
+/// [`FORMATS`], the size it must have and how to say it.
+struct NamedImage<'a> {
+    name: &'static str,
+    role: &'static str,
+    image: &'a HostImage,
+    extent: (u32, u32),
+    size_rule: String,
+}
+
+impl<'a> NamedImage<'a> {
+    fn new(
+        name: &'static str,
+        role: &'static str,
+        image: &'a HostImage,
+        extent: (u32, u32),
+        size_rule: &str,
+    ) -> Self {
+        Self {
+            name,
+            role,
+            image,
             extent,
-            layer1,
-            conversion: self.conversion(),
-        })
+            size_rule: size_rule.to_string(),
+        }
+    }
+
+    /// An error naming the image if its format is not one its use accepts
+    /// or its size is not the one it must have.
+    fn check(&self) -> Result<()> {
+        let (name, role, image) = (self.name, self.role, self.image);
+        let accepted = formats(role);
+        let what = if !accepted.contains(&image.format) {
+            format!(
+                "{:?}; as {role} it must be one of {accepted:?}",
+                image.format
+            )
+        } else if image.extent != self.extent {
+            format!("{:?}; it must be {}", image.extent, self.size_rule)
+        } else {
+            return Ok(());
+        };
+        Err(Error::InvalidParameter(format!(
+            "SSBC post-process: the {name} image is {what}"
+        )))
     }
 }
 
