@@ -86,6 +86,14 @@ pub struct FrameView {
     pub normal_maps: bool,
 }
 
+impl FrameView {
+    /// World to clip space and the eye: what temporal history keeps of a
+    /// frame's view.
+    pub fn eye(&self) -> (Mat4, glam::Vec3) {
+        (self.view_proj, self.camera.position)
+    }
+}
+
 /// What a pass records with besides its own resources and what it reads.
 pub struct Recording<'r, 'a> {
     /// The command buffer being recorded, with its barrier tracking.

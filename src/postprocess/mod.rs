@@ -258,6 +258,34 @@ pub struct SsbcPostProcess {
     device: Arc<Device>,
 }
 
+/// Writes `output` of `frame` into the host's output image (`images`) as
+/// `inputs.write` says (less `s0` where adding the compensation alone).
+fn write_result(
+    io: &HostIo,
+    (rec, profiler, pool): (&mut Recorder<'_>, &mut GpuProfiler, &DescriptorPool),
+    inputs: &PostProcessInputs,
+    (output, frame, images): (PostOutput, &SsbcFrame, &WrappedInputs),
+    s0: &Image,
+) -> Result<()> {
+    let result = match output {
+        PostOutput::Compensated => &frame.final_image,
+        PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
+    };
+    let out = images.output();
+    match inputs.write {
+        OutputWrite::Copy => {
+            let extent = inputs.geometry.image().extent;
+            rec.copy_image(result, (0, 0), out, extent);
+            Ok(())
+        }
+        write => {
+            let (add, subtract) = convert::write_mode(write, output, images.out_is_s0);
+            let subtract = subtract.then_some(s0);
+            io.record_write(rec, profiler, pool, result, subtract, out, add)
+        }
+    }
+}
+
 /// The host's images of one frame, wrapped for barriers.
 struct WrappedInputs {
     geometry: Image,
@@ -603,26 +631,14 @@ impl SsbcPostProcess {
                 },
                 frame,
             )?;
-            let result = match output {
-                PostOutput::Compensated => &frame.final_image,
-                PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
-            };
-            let out = images.output();
-            match inputs.write {
-                OutputWrite::Copy => rec.copy_image(result, (0, 0), out, (w, h)),
-                write => {
-                    let (add, subtract) = convert::write_mode(write, output, images.out_is_s0);
-                    self.io.record_write(
-                        &mut rec,
-                        &mut self.profiler,
-                        pool,
-                        result,
-                        subtract.then_some(s0),
-                        out,
-                        add,
-                    )?;
-                }
-            }
+            let target = (output, frame, &images);
+            write_result(
+                &self.io,
+                (&mut rec, &mut self.profiler, pool),
+                inputs,
+                target,
+                s0,
+            )?;
             Ok::<_, Error>(())
         })();
         if let Err(e) = recorded {

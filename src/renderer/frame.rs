@@ -296,9 +296,7 @@ impl Renderer {
             cache,
         };
         let history_frame = history.map(|plan| HistoryFrame {
-            step: self
-                .history
-                .step(&plan, settings, (view.view_proj, view.camera.position)),
+            step: self.history.step(&plan, settings, view.eye()),
             previous_slot: plan.previous_slot,
         });
         let renderer = (&mut self.passes, &mut self.profiler, &mut self.fault);
@@ -342,15 +340,10 @@ impl Renderer {
             },
         )?;
         if let Some(plan) = history {
-            let eye = (view.view_proj, view.camera.position);
-            self.history.commit(
-                &plan,
-                slot,
-                (scene, versions),
-                host_settings,
-                eye,
-                light_paths,
-            );
+            let frame = (scene, versions);
+            let (eye, paths) = (view.eye(), light_paths);
+            self.history
+                .commit(&plan, slot, frame, host_settings, eye, paths);
         }
         Ok(output)
     }
