@@ -22,7 +22,7 @@ use crate::error::{Error, Result};
 use crate::gpu_scene::{GpuScene, SlotScene};
 use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
 use crate::vk::{
-    declare_bindings, push_size, Access, BindingAccess, DescriptorPool, DescriptorSetLayout,
+    declare_bindings, push_size, BindingAccess, DescriptorPool, DescriptorSetLayout, RenderTargets,
     Device, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder, Shader, ShaderBindings,
     ShaderInterface,
 };
@@ -90,27 +90,14 @@ impl GBuffer {
         set: vk::DescriptorSet,
         push: &[u8],
     ) {
-        for target in self.targets() {
-            rec.use_image(target, Access::ColorAttachmentWrite);
-        }
-        rec.use_image(&self.emission, Access::ColorAttachmentWrite);
-        rec.use_image(&self.depth, Access::DepthAttachmentWrite);
-        rec.use_buffer(&scene.vertices, Access::VertexInput);
-        rec.use_buffer(&scene.indices, Access::VertexInput);
-        rec.flush_barriers();
-        super::begin_rendering(
-            rec.device,
-            rec.cmd,
-            self.extent(),
-            &[
-                self.position.view,
-                self.normal.view,
-                self.albedo.view,
-                self.emission.view,
-            ],
-            self.depth.view,
-            0.0,
-        );
+        let targets = RenderTargets {
+            colors: &[&self.position, &self.normal, &self.albedo, &self.emission],
+            depth: &self.depth,
+            depth_clear: 0.0,
+            vertex_input: &[&scene.vertices, &scene.indices],
+        };
+        rec.declare_targets(&targets);
+        rec.begin_rendering(&targets, None);
         pipeline.bind(rec.cmd, set, push);
         scene.bind_geometry(rec.device, rec.cmd);
         let object_offset = std::mem::offset_of!(Push, object) as u32;
@@ -118,8 +105,7 @@ impl GBuffer {
             let draws = scene.draws(masked);
             scene.record_draws(rec.device, rec.cmd, (pipeline, object_offset), draws);
         }
-        // SAFETY: closes the rendering scope begun above.
-        unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };
+        rec.end_rendering();
     }
 }
 

@@ -312,69 +312,6 @@ impl<P: Pass> Stage<P> {
     }
 }
 
-/// Begins dynamic rendering into `colors` and `depth` (colours cleared to
-/// zero, depth to `depth_clear`: 1, or 0 for reversed depth), with a
-/// full-size viewport and scissor.
-pub(crate) fn begin_rendering(
-    device: &Device,
-    cmd: vk::CommandBuffer,
-    extent: (u32, u32),
-    colors: &[vk::ImageView],
-    depth: vk::ImageView,
-    depth_clear: f32,
-) {
-    let color_attachments: Vec<_> = colors
-        .iter()
-        .map(|&view| {
-            vk::RenderingAttachmentInfo::default()
-                .image_view(view)
-                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(vk::ClearValue {
-                    color: vk::ClearColorValue { float32: [0.0; 4] },
-                })
-        })
-        .collect();
-    let depth_attachment = vk::RenderingAttachmentInfo::default()
-        .image_view(depth)
-        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-        .load_op(vk::AttachmentLoadOp::CLEAR)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            depth_stencil: vk::ClearDepthStencilValue {
-                depth: depth_clear,
-                stencil: 0,
-            },
-        });
-    let area = vk::Rect2D {
-        offset: vk::Offset2D::default(),
-        extent: vk::Extent2D {
-            width: extent.0,
-            height: extent.1,
-        },
-    };
-    let info = vk::RenderingInfo::default()
-        .render_area(area)
-        .layer_count(1)
-        .color_attachments(&color_attachments)
-        .depth_attachment(&depth_attachment);
-    let viewport = vk::Viewport {
-        x: 0.0,
-        y: 0.0,
-        width: extent.0 as f32,
-        height: extent.1 as f32,
-        min_depth: 0.0,
-        max_depth: 1.0,
-    };
-    // SAFETY: recording; attachments were transitioned by the caller.
-    unsafe {
-        device.raw.cmd_begin_rendering(cmd, &info);
-        device.raw.cmd_set_viewport(cmd, 0, &[viewport]);
-        device.raw.cmd_set_scissor(cmd, 0, &[area]);
-    }
-}
-
 /// A render-target image of the G-buffer or a lighting layer, as
 /// described before it exists (the memory estimates take the same).
 pub(crate) fn storage_desc(

@@ -16,7 +16,7 @@ use crate::gpu_types::{GpuLight, ShadowView};
 use crate::scene::{Bounds, Light, LightKind};
 use crate::shaders::{shadow_map_frag, shadow_map_vert};
 use crate::vk::{
-    declare_bindings, push_size, Access, BindingAccess, Buffer, DescriptorPool,
+    declare_bindings, push_size, BindingAccess, Buffer, DescriptorPool, RenderTargets,
     DescriptorSetLayout, Device, GraphicsDesc, Image, ImageDesc, Pipeline, ShaderBindings,
 };
 
@@ -280,20 +280,15 @@ impl Pass for ShadowMapPass {
         let scope = profiler.begin(rec.cmd, "shadow_maps");
         let stages = [&shadow_map_vert::SHADER, &shadow_map_frag::SHADER];
         declare_bindings(rec, &stages, &all, BindingAccess::in_graphics);
-        rec.use_image(&maps.depth, Access::DepthAttachmentWrite);
-        rec.use_buffer(&scene.vertices, Access::VertexInput);
-        rec.use_buffer(&scene.indices, Access::VertexInput);
-        rec.flush_barriers();
-        let size = maps.depth.desc.width;
+        let targets = RenderTargets {
+            colors: &[],
+            depth: &maps.depth,
+            depth_clear: 1.0,
+            vertex_input: &[&scene.vertices, &scene.indices],
+        };
+        rec.declare_targets(&targets);
         for (layer, view_proj) in maps.view_proj.iter().enumerate() {
-            super::begin_rendering(
-                rec.device,
-                rec.cmd,
-                (size, size),
-                &[],
-                maps.depth.layer_views[layer],
-                1.0,
-            );
+            rec.begin_rendering(&targets, Some(maps.depth.layer_views[layer]));
             let push = ShadowPush {
                 view_proj: view_proj.to_cols_array_2d(),
                 ..Default::default()
@@ -310,8 +305,7 @@ impl Pass for ShadowMapPass {
                 scene.bind_geometry(rec.device, rec.cmd);
                 scene.record_draws(rec.device, rec.cmd, (pipeline, object_offset), draws);
             }
-            // SAFETY: closes the rendering scope begun above.
-            unsafe { rec.device.raw.cmd_end_rendering(rec.cmd) };
+            rec.end_rendering();
         }
         profiler.end(rec.cmd, scope);
         Ok(())

@@ -38,6 +38,7 @@ unstable_pub! {
     mod image;
     mod pipeline;
     mod profiler;
+    mod rendering;
     mod shader;
 }
 
@@ -61,4 +62,5 @@ unstable_pub! {
     };
     use self::shader::{BindingAccess, BindingInfo, Shader};
     use self::profiler::GpuProfiler;
+    use self::rendering::RenderTargets;
 }
