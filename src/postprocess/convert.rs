@@ -213,11 +213,9 @@ impl HostIo {
     ) -> Result<()> {
         let (w, h) = (output.desc.width, output.desc.height);
         let scope = profiler.begin(rec.cmd, "ssbc_postprocess_write");
-        let push = postprocess_write_rgba32f_comp::Push {
-            size: [w, h],
-            add: u32::from(add),
-            subtract: u32::from(subtract_s0.is_some()),
-        };
+        // The three kernels differ only in the output's format qualifier:
+        // the same bindings and push block.
+        let (size, add, subtract_flag) = ([w, h], u32::from(add), u32::from(subtract_s0.is_some()));
         let subtract = subtract_s0.unwrap_or(result);
         let work = Work::pixels((w, h));
         macro_rules! write_with {
@@ -231,9 +229,9 @@ impl HostIo {
                         host_output: output,
                     },
                     &$module::Push {
-                        size: push.size,
-                        add: push.add,
-                        subtract: push.subtract,
+                        size,
+                        add,
+                        subtract: subtract_flag,
                     },
                     work,
                 )

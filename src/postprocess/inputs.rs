@@ -277,6 +277,8 @@ fn narrow_alpha(format: vk::Format) -> bool {
 /// What checking a frame's inputs found.
 pub(crate) struct Checked {
     pub extent: (u32, u32),
+    /// The camera as SSBC's kernels see it.
+    pub camera: crate::passes::ssbc::SsbcCamera,
     pub layer1: Option<LayerResolution>,
     pub conversion: Conversion,
 }
@@ -306,9 +308,9 @@ impl PostProcessInputs {
         }
         self.check_semantics()?;
         let extent = self.geometry.image().extent;
-        self.camera.ssbc(extent)?;
         Ok(Checked {
             extent,
+            camera: self.camera.ssbc(extent)?,
             layer1,
             conversion: self.conversion(),
         })

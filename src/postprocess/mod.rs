@@ -148,11 +148,14 @@ impl PostProcessShape {
     /// The shape `inputs` and `settings` need (their sizes, second layer
     /// and formats), or what is wrong with them.
     pub fn for_inputs(inputs: &PostProcessInputs, settings: &SsbcSettings) -> Result<Self> {
-        let checked = inputs.check()?;
-        Ok(Self {
+        Ok(Self::of(&inputs.check()?, settings))
+    }
+
+    fn of(checked: &inputs::Checked, settings: &SsbcSettings) -> Self {
+        Self {
             conversion: checked.conversion,
             ..Self::new(checked.extent, settings, checked.layer1)
-        })
+        }
     }
 }
 
@@ -567,10 +570,11 @@ impl SsbcPostProcess {
         settings: &SsbcSettings,
         output: PostOutput,
     ) -> Result<()> {
-        let shape = PostProcessShape::for_inputs(inputs, settings)?;
+        // Checked once: the shape and the camera.
+        let checked = inputs.check()?;
+        let shape = PostProcessShape::of(&checked, settings);
         Self::check_settings(settings, output)?;
         HostIo::check_device(&self.device, inputs, shape.conversion)?;
-        let (w, h) = shape.extent;
         let slot_count = self.slots.len();
         let entry = self
             .slots
@@ -588,7 +592,7 @@ impl SsbcPostProcess {
         let frame = &resources.frame;
 
         let images = WrappedInputs::new(&self.device, inputs, shape.conversion);
-        let camera = inputs.camera.ssbc((w, h))?;
+        let camera = checked.camera;
         let eval_level = SsbcPass::eval_level(
             &camera,
             inputs.typical_depth,
