@@ -89,6 +89,7 @@ pub struct EmbeddingDoctests;
 
 pub mod compare;
 pub mod error;
+mod layer;
 pub mod memory;
 pub mod output;
 pub mod postprocess;

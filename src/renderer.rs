@@ -27,6 +27,7 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 pub use crate::gpu_scene::FRAME_SLOTS;
+pub use crate::layer::Layer;
 pub use crate::memory::{FrameMemory, MemoryReport};
 use crate::resident::{ResidentScene, SceneVersions};
 use crate::scene::Scene;
@@ -40,7 +41,7 @@ use crate::vk::{
 use frame_passes::Passes;
 use history::History;
 use readback::ReadbackBuffers;
-pub use readback::{Frame, IsmReadback, Layer, LayerImage};
+pub use readback::{Frame, IsmReadback, LayerImage};
 pub use sink::GpuSubmission;
 use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 

@@ -11,6 +11,7 @@ use super::gbuffer::GBuffer;
 use super::shadow_maps::ShadowMaps;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
+use crate::layer::Layer;
 use crate::shaders::direct_lighting_comp;
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler, Work};
 
@@ -73,6 +74,13 @@ impl Pass for DirectLightingPass {
             radiance: image("lighting.direct")?,
             sources: image("lighting.direct_sources")?,
         })
+    }
+
+    fn layers<'r>(&self, direct: &'r DirectLight) -> Vec<(Layer, &'r Image)> {
+        match self.layer() {
+            0 => vec![(Layer::Direct, &direct.radiance)],
+            _ => Vec::new(),
+        }
     }
 
     fn set_layouts(&self, _: &DirectLight) -> Vec<&DescriptorSetLayout> {

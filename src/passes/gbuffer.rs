@@ -19,6 +19,7 @@ use ash::vk;
 use super::{Pass, Recording, SlotSetup};
 use crate::scene::Vertex;
 use crate::error::{Error, Result};
+use crate::layer::Layer;
 use crate::gpu_scene::{GpuScene, SlotScene};
 use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
 use crate::vk::{
@@ -219,6 +220,23 @@ impl Pass for GBufferPass {
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
         let name = super::layer_name("gbuffer", self.layer);
         GBuffer::new(setup.device, &name, setup.layer_extent(self.layer))
+    }
+
+    fn layers<'r>(&self, g: &'r GBuffer) -> Vec<(Layer, &'r Image)> {
+        if self.layer() == 0 {
+            vec![
+                (Layer::GBufferPosition, &g.position),
+                (Layer::GBufferNormal, &g.normal),
+                (Layer::GBufferAlbedo, &g.albedo),
+                (Layer::GBufferEmission, &g.emission),
+            ]
+        } else {
+            vec![
+                (Layer::Layer1Position, &g.position),
+                (Layer::Layer1Normal, &g.normal),
+                (Layer::Layer1Albedo, &g.albedo),
+            ]
+        }
     }
 
     fn set_layouts(&self, _: &GBuffer) -> Vec<&DescriptorSetLayout> {

@@ -26,6 +26,7 @@ use super::ssbc::{SsbcGBuffer, SsbcLayer};
 use super::ism::Ism;
 use super::{FrameView, Pass, Recording, SlotSetup};
 use crate::error::Result;
+use crate::layer::Layer;
 use crate::settings::Gather;
 use crate::shaders::{
     indirect_bounded_comp, indirect_bounded_exact_comp, indirect_creases_comp,
@@ -468,6 +469,18 @@ impl Pass for IndirectBoundedPass {
 
     /// The ISM gathers' sets, and the exact ones' where the device has
     /// them (a frame uses one kind or the other).
+    /// Layer 0's `S0` is the final image of a frame without SSBC steps.
+    fn layers<'r>(&self, lighting: &'r BoundedLighting) -> Vec<(Layer, &'r Image)> {
+        match self.layer() {
+            0 => vec![
+                (Layer::IndirectBounded, &lighting.indirect),
+                (Layer::Sources, &lighting.s0_sources),
+                (Layer::Final, &lighting.s0),
+            ],
+            _ => vec![(Layer::Layer1Sources, &lighting.s0_sources)],
+        }
+    }
+
     fn set_layouts(&self, out: &BoundedLighting) -> Vec<&DescriptorSetLayout> {
         let mut layouts = match out.interleaved {
             None => vec![self.full.set_layout()],

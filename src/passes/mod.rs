@@ -25,6 +25,7 @@ use ash::vk;
 use glam::Mat4;
 
 use crate::error::{Error, Result};
+use crate::layer::Layer;
 use crate::scene::Scene;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
@@ -158,6 +159,12 @@ pub trait Pass {
     /// when they must be made anew. The slot's previous frame is done.
     fn update(&self, _resources: &mut Self::Resources, _setup: &SlotSetup<'_>) -> Result<bool> {
         Ok(false)
+    }
+    /// The images of `resources` a frame can hand out ([`Layer`]: read
+    /// back, kept on the GPU, copied into a host's image). The frame's
+    /// `Final` is the last pass's that offers one.
+    fn layers<'r>(&self, _resources: &'r Self::Resources) -> Vec<(Layer, &'r Image)> {
+        Vec::new()
     }
     /// Layouts of every descriptor set one frame allocates (one entry per set).
     fn set_layouts(&self, resources: &Self::Resources) -> Vec<&DescriptorSetLayout>;
@@ -303,6 +310,13 @@ impl<P: Pass> Stage<P> {
     /// The slot's resources, if prepared.
     pub fn resources(&self, slot: usize) -> Option<&P::Resources> {
         self.slots[slot].as_ref().map(|s| &s.resources)
+    }
+
+    /// The layers the slot's resources offer ([`Pass::layers`]; none
+    /// without resources).
+    pub fn layers(&self, slot: usize) -> Vec<(Layer, &Image)> {
+        self.resources(slot)
+            .map_or_else(Vec::new, |r| self.pass.layers(r))
     }
 
     /// Drops the slot's resources (after a frame that was recorded but not

@@ -17,6 +17,7 @@ use glam::{Mat4, Vec3};
 use super::gbuffer::GBuffer;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
+use crate::layer::Layer;
 use crate::shaders::{temporal_blend_comp, temporal_reproject_comp};
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Work};
 
@@ -94,6 +95,11 @@ impl Pass for TemporalPass {
             history: image("temporal.history")?,
             reprojected: image("temporal.reprojected")?,
         })
+    }
+
+    /// The history's image replaces the frame's own final image.
+    fn layers<'r>(&self, temporal: &'r Temporal) -> Vec<(Layer, &'r Image)> {
+        vec![(Layer::Final, &temporal.output)]
     }
 
     fn set_layouts(&self, _: &Temporal) -> Vec<&DescriptorSetLayout> {

@@ -3,10 +3,11 @@
 
 use std::sync::Arc;
 
-use super::readback::{self, FrameImages};
+use super::readback::FrameImages;
 use super::FRAME_SLOTS;
 use crate::error::Result;
 use crate::gpu_scene::SlotScene;
+use crate::layer::Layer;
 use crate::passes::direct_lighting::{DirectLight, DirectLightingPass};
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass, VplVisibility};
@@ -15,7 +16,7 @@ use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
 use crate::passes::ssbc::SsbcPass;
 use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
 use crate::passes::{Recording, SlotSetup, Stage};
-use crate::vk::Device;
+use crate::vk::{Device, Image};
 
 /// The passes that run once per G-buffer layer: its G-buffer and its
 /// clamped lighting `S0`.
@@ -65,6 +66,14 @@ impl LayerStages {
             self.direct_lighting.resources(slot)?,
             self.indirect_bounded.resources(slot)?,
         ))
+    }
+
+    /// The layers its passes offer in the slot.
+    fn layers(&self, slot: usize) -> Vec<(Layer, &Image)> {
+        let mut layers = self.gbuffer.layers(slot);
+        layers.extend(self.direct_lighting.layers(slot));
+        layers.extend(self.indirect_bounded.layers(slot));
+        layers
     }
 
     fn forget(&mut self, slot: usize) {
@@ -150,9 +159,10 @@ impl Passes {
         history: HistoryFrame,
     ) -> Result<()> {
         let slot = setup.slot;
-        let (gbuffer, direct, bounded) = self.layers[0].images(slot).expect("recorded above");
-        let ssbc = self.ssbc.resources(slot).expect("recorded above");
-        let final_image = readback::frame_final(ssbc, bounded);
+        let (gbuffer, direct, _) = self.layers[0].images(slot).expect("recorded above");
+        let before = images_before_history(&self.layers, &self.ssbc, &self.ism, slot);
+        let before = before.expect("recorded above");
+        let final_image = before.layer(Layer::Final).expect("offered by S0");
         let previous_slot = history.previous_slot.filter(|&s| s != slot);
         let previous = previous_slot.and_then(|s| self.temporal.take(s));
         let previous_gbuffer = previous_slot.and_then(|s| self.layers[0].gbuffer.resources(s));
@@ -180,25 +190,11 @@ impl Passes {
 
     /// The images the slot's last recorded frame wrote.
     pub fn images(&self, slot: usize) -> Option<FrameImages<'_>> {
-        let ssbc = self.ssbc.resources(slot)?;
-        let (gbuffer, direct, bounded) = self.layers[0].images(slot)?;
-        // Stale resources of an earlier two-layer frame are not this frame's.
-        let layer1 = ssbc
-            .layer1()
-            .and_then(|_| self.layers[1].images(slot))
-            .map(|(gbuffer, _, bounded)| (gbuffer, bounded));
-        let temporal = self.temporal_ran[slot]
-            .then(|| self.temporal.resources(slot))
-            .flatten();
-        Some(FrameImages {
-            gbuffer,
-            direct,
-            bounded,
-            ssbc,
-            ism: self.ism.resources(slot)?,
-            layer1,
-            temporal,
-        })
+        let mut images = images_before_history(&self.layers, &self.ssbc, &self.ism, slot)?;
+        if self.temporal_ran[slot] {
+            images.layers.extend(self.temporal.layers(slot));
+        }
+        Some(images)
     }
 
     /// Drops the slot's resources (after a frame that was not submitted).
@@ -231,4 +227,27 @@ impl Passes {
             })
             .sum()
     }
+}
+
+/// What every pass but the temporal history wrote in the slot, each pass's
+/// layers in the frame's order.
+fn images_before_history<'p>(
+    [layer0, layer1]: &'p [LayerStages; 2],
+    ssbc: &'p Stage<SsbcPass>,
+    ism: &'p Stage<IsmPass>,
+    slot: usize,
+) -> Option<FrameImages<'p>> {
+    let frame = ssbc.resources(slot)?;
+    layer0.images(slot)?;
+    let mut layers = layer0.layers(slot);
+    // Stale resources of an earlier two-layer frame are not this frame's.
+    if frame.layer1().is_some() && layer1.images(slot).is_some() {
+        layers.extend(layer1.layers(slot));
+    }
+    layers.extend(ssbc.layers(slot));
+    Some(FrameImages {
+        layers,
+        ssbc: frame,
+        ism: ism.resources(slot)?,
+    })
 }

@@ -7,13 +7,10 @@ use gpu_allocator::MemoryLocation;
 
 use crate::cpu::vpl::Vpl;
 use crate::error::{Error, Result};
+use crate::layer::Layer;
 use crate::memory::{FrameMemory, MemoryReport};
-use crate::passes::direct_lighting::DirectLight;
-use crate::passes::gbuffer::GBuffer;
-use crate::passes::indirect_bounded::BoundedLighting;
 use crate::passes::ism::Ism;
 use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
-use crate::passes::temporal::Temporal;
 use crate::passes::FrameView;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
@@ -22,112 +19,6 @@ use crate::vk::HostImage;
 use crate::vk::{Buffer, Device, GpuFrameTimes, Image, Recorder};
 
 use super::guard_band::GuardBand;
-
-/// An image of a frame.
-///
-/// ```
-/// use ssbc::Layer;
-/// assert_eq!("residual_2".parse::<Layer>().unwrap(), Layer::Residual(2));
-/// assert_eq!(Layer::IndirectBounded.to_string(), "indirect_bounded");
-/// assert_eq!(Layer::outputs(1), [Layer::Final, Layer::Direct, Layer::IndirectBounded, Layer::Residual(1)]);
-/// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Layer {
-    /// `S0 + S_1 + ... + S_K` (`S0` without steps): the image.
-    Final,
-    /// Direct light `T Le`, with the emitters' own radiance.
-    Direct,
-    /// Bounded (clamped) VPL lighting `T_b L^`.
-    IndirectBounded,
-    /// The residual `S_k` of SSBC step k (1 to K).
-    Residual(u32),
-    /// G-buffer world position (w = 1 on geometry; debug read-back).
-    GBufferPosition,
-    /// G-buffer shading normal (debug read-back).
-    GBufferNormal,
-    /// G-buffer albedo (debug read-back).
-    GBufferAlbedo,
-    /// G-buffer emitted radiance (debug read-back).
-    GBufferEmission,
-    /// What each pixel sends as a source of SSBC's first step: its
-    /// reflected light made view-independent (`S0` itself on Lambertian
-    /// surfaces; debug read-back).
-    Sources,
-    /// The deep G-buffer's second layer: position, at its resolution (debug
-    /// read-back with `ssbc.layers` 2).
-    Layer1Position,
-    /// Its normal.
-    Layer1Normal,
-    /// Its albedo.
-    Layer1Albedo,
-    /// What it sends as SSBC sources.
-    Layer1Sources,
-}
-
-impl Layer {
-    /// The layers a frame with `steps` SSBC steps can hand over on the GPU
-    /// or into a host's image, and reads back: `Final`, `Direct`,
-    /// `IndirectBounded`, `Residual(1..=steps)`.
-    pub fn outputs(steps: u32) -> Vec<Layer> {
-        [Layer::Final, Layer::Direct, Layer::IndirectBounded]
-            .into_iter()
-            .chain((1..=steps).map(Layer::Residual))
-            .collect()
-    }
-
-    /// The debug layers of [`RenderSettings::debug_readback`].
-    fn debug() -> impl Iterator<Item = Layer> {
-        NAMED[3..].iter().map(|(l, _)| *l)
-    }
-
-    /// Whether a frame reads this layer back only with
-    /// [`RenderSettings::debug_readback`] (the G-buffers and sources), not
-    /// with [`RenderSettings::output_layers`].
-    pub fn is_debug(self) -> bool {
-        Self::debug().any(|l| l == self)
-    }
-}
-
-/// Every layer but the residuals, with its name.
-const NAMED: [(Layer, &str); 12] = [
-    (Layer::Final, "final"),
-    (Layer::Direct, "direct"),
-    (Layer::IndirectBounded, "indirect_bounded"),
-    (Layer::GBufferPosition, "gbuffer_position"),
-    (Layer::GBufferNormal, "gbuffer_normal"),
-    (Layer::GBufferAlbedo, "gbuffer_albedo"),
-    (Layer::GBufferEmission, "gbuffer_emission"),
-    (Layer::Sources, "sources"),
-    (Layer::Layer1Position, "layer1_position"),
-    (Layer::Layer1Normal, "layer1_normal"),
-    (Layer::Layer1Albedo, "layer1_albedo"),
-    (Layer::Layer1Sources, "layer1_sources"),
-];
-
-impl std::fmt::Display for Layer {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if let Layer::Residual(k) = self {
-            return write!(f, "residual_{k}");
-        }
-        let name = NAMED.iter().find(|(l, _)| l == self).map_or("", |(_, n)| n);
-        f.write_str(name)
-    }
-}
-
-impl std::str::FromStr for Layer {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Layer> {
-        if let Some((layer, _)) = NAMED.iter().find(|(_, n)| *n == s) {
-            return Ok(*layer);
-        }
-        match s.strip_prefix("residual_").map(str::parse::<u32>) {
-            Some(Ok(k)) if k >= 1 => Ok(Layer::Residual(k)),
-            _ => Err(Error::InvalidParameter(format!(
-                "no layer '{s}' (final, direct, indirect_bounded, residual_K, or a debug layer)"
-            ))),
-        }
-    }
-}
 
 /// One layer read back: linear radiance (or, for the debug layers, the
 /// G-buffer's values), RGBA f32 per pixel, rows top to bottom.
@@ -299,66 +190,41 @@ impl Frame {
     }
 }
 
-/// The images one frame slot's passes wrote.
+/// What one frame slot's passes wrote: the layers they offer
+/// ([`Pass::layers`](crate::passes::Pass::layers), in the frame's order),
+/// SSBC's per-step counts and the ISM atlas.
 pub(crate) struct FrameImages<'a> {
-    pub gbuffer: &'a GBuffer,
-    pub direct: &'a DirectLight,
-    pub bounded: &'a BoundedLighting,
+    pub layers: Vec<(Layer, &'a Image)>,
     pub ssbc: &'a SsbcFrame,
     pub ism: &'a Ism,
-    /// The deep G-buffer's second layer and its lighting, if the frame had one.
-    pub layer1: Option<(&'a GBuffer, &'a BoundedLighting)>,
-    /// The temporal history, if the frame folded into it (its output is
-    /// then the final image).
-    pub temporal: Option<&'a Temporal>,
-}
-
-/// A frame's own final image (before temporal history): SSBC's sum, or
-/// S0 without steps.
-pub(crate) fn frame_final<'a>(ssbc: &'a SsbcFrame, bounded: &'a BoundedLighting) -> &'a Image {
-    if ssbc.steps() > 0 {
-        &ssbc.final_image
-    } else {
-        &bounded.s0
-    }
 }
 
 impl<'a> FrameImages<'a> {
-    /// The image of `layer`, if the frame has it.
+    /// The image of `layer`, if the frame has it (of `Final`, the last
+    /// pass's).
     pub fn layer(&self, layer: Layer) -> Option<&'a Image> {
-        let g = self.gbuffer;
-        let layer1 = self.layer1;
-        Some(match layer {
-            Layer::Final => self
-                .temporal
-                .map_or_else(|| frame_final(self.ssbc, self.bounded), |t| &t.output),
-            Layer::Direct => &self.direct.radiance,
-            Layer::IndirectBounded => &self.bounded.indirect,
-            Layer::Residual(k) => self.ssbc.residuals.get((k as usize).checked_sub(1)?)?,
-            Layer::GBufferPosition => &g.position,
-            Layer::GBufferNormal => &g.normal,
-            Layer::GBufferAlbedo => &g.albedo,
-            Layer::GBufferEmission => &g.emission,
-            Layer::Sources => &self.bounded.s0_sources,
-            Layer::Layer1Position => &layer1?.0.position,
-            Layer::Layer1Normal => &layer1?.0.normal,
-            Layer::Layer1Albedo => &layer1?.0.albedo,
-            Layer::Layer1Sources => &layer1?.1.s0_sources,
-        })
+        let mut offered = self.layers.iter().rev();
+        offered.find(|(l, _)| *l == layer).map(|(_, image)| *image)
     }
 
     /// The images a read-back frame at `settings` copies to the host: the
     /// final image, with `output_layers` (or `debug_readback`) the other
-    /// outputs, with `debug_readback` the G-buffers too; the per-step sample
-    /// counts; with `debug_readback` the ISM atlas.
+    /// outputs, with `debug_readback` the debug layers too; the per-step
+    /// sample counts; with `debug_readback` the ISM atlas.
     pub fn readback(&self, settings: &RenderSettings) -> Vec<(Readback, &'a Image)> {
         let debug = settings.debug_readback;
         let outputs = settings.output_layers || debug;
-        let debug_layers = Layer::debug().filter(|_| debug);
-        let mut v: Vec<(Readback, &'a Image)> = Layer::outputs(self.ssbc.steps())
-            .into_iter()
-            .filter(|&l| outputs || l == Layer::Final)
-            .chain(debug_layers)
+        let mut others: Vec<Layer> = Vec::new();
+        for &(l, _) in &self.layers {
+            let wanted = if l.is_debug() { debug } else { outputs };
+            if wanted && l != Layer::Final && !others.contains(&l) {
+                others.push(l);
+            }
+        }
+        // The outputs first, then the debug layers, each in the frame's order.
+        others.sort_by_key(|l| l.is_debug());
+        let mut v: Vec<(Readback, &'a Image)> = std::iter::once(Layer::Final)
+            .chain(others)
             .filter_map(|l| Some((Readback::Layer(l), self.layer(l)?)))
             .collect();
         v.extend(

@@ -20,6 +20,7 @@ use std::sync::Arc;
 use super::gbuffer::GBuffer;
 use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
+use crate::layer::Layer;
 pub use crate::settings::{Integration, LayerResolution, ReceiverDispatch, SsbcSettings};
 use crate::shaders::{
     ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_geometry_base_comp, ssbc_geometry_mips_comp,
@@ -266,6 +267,17 @@ impl Pass for SsbcPass {
             ssbc.max_eval_level,
             ssbc.second_layer(),
         )
+    }
+
+    /// Each step's residual, and with steps their sum as the final image.
+    fn layers<'r>(&self, frame: &'r SsbcFrame) -> Vec<(Layer, &'r Image)> {
+        let residuals = (1..).zip(&frame.residuals);
+        let mut layers: Vec<(Layer, &Image)> =
+            residuals.map(|(k, r)| (Layer::Residual(k), r)).collect();
+        if frame.steps() > 0 {
+            layers.push((Layer::Final, &frame.final_image));
+        }
+        layers
     }
 
     fn set_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
