@@ -31,8 +31,7 @@ void main() {
         uint code = (a.flags >> 1) & 15u;
         vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.layer))) ? imageLoad(term, p).rgb : vec3(0.0);
         vec3 s_back = code > 0u ? imageLoad(term, p + CREASE_NEIGHBOURS[code - 1u]).rgb : vec3(0.0);
-        store_radiance(dst, 0u, a.front_area * s);
-        store_radiance(dst, 1u, a.back_area * s_back);
+        store_radiance(dst, a.front_area * s, a.back_area * s_back);
         return;
     }
     uint back_mask = geo_aux(dst).flags >> 8;
@@ -52,6 +51,5 @@ void main() {
             }
         }
     }
-    store_radiance(dst, 0u, front);
-    store_radiance(dst, 1u, back);
+    store_radiance(dst, front, back);
 }

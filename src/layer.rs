@@ -10,7 +10,10 @@ use crate::error::{Error, Result};
 /// use ssbc::Layer;
 /// assert_eq!("residual_2".parse::<Layer>().unwrap(), Layer::Residual(2));
 /// assert_eq!(Layer::IndirectBounded.to_string(), "indirect_bounded");
-/// assert_eq!(Layer::outputs(1), [Layer::Final, Layer::Direct, Layer::IndirectBounded, Layer::Residual(1)]);
+/// assert_eq!(
+///     Layer::outputs(1),
+///     [Layer::Final, Layer::Direct, Layer::IndirectBounded, Layer::Residual(1), Layer::Indirect]
+/// );
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Layer {
@@ -18,10 +21,17 @@ pub enum Layer {
     Final,
     /// Direct light `T Le`, with the emitters' own radiance.
     Direct,
-    /// Bounded (clamped) VPL lighting `T_b L^`.
+    /// Bounded (clamped) VPL lighting `T_b L^` (`S0` less `Direct`). Made
+    /// only in frames that hand out every output, as `Indirect` is.
     IndirectBounded,
     /// The residual `S_k` of SSBC step k (1 to K).
     Residual(u32),
+    /// All indirect light, `Final` less `Direct` (`T_b L^ + S_1 + ... +
+    /// S_K`, averaged by the history as `Final` is): what a host that
+    /// lights directly itself adds. Made only in frames that hand out
+    /// every output ([`RenderSettings::output_layers`](crate::RenderSettings::output_layers),
+    /// or a GPU frame that asks for it).
+    Indirect,
     /// G-buffer world position (w = 1 on geometry; debug read-back).
     GBufferPosition,
     /// G-buffer shading normal (debug read-back).
@@ -48,12 +58,20 @@ pub enum Layer {
 impl Layer {
     /// The layers a frame with `steps` SSBC steps can hand over on the GPU
     /// or into a host's image, and reads back: `Final`, `Direct`,
-    /// `IndirectBounded`, `Residual(1..=steps)`.
+    /// `IndirectBounded`, `Residual(1..=steps)`, `Indirect`.
     pub fn outputs(steps: u32) -> Vec<Layer> {
         [Layer::Final, Layer::Direct, Layer::IndirectBounded]
             .into_iter()
             .chain((1..=steps).map(Layer::Residual))
+            .chain([Layer::Indirect])
             .collect()
+    }
+
+    /// Whether a frame makes this layer only when it hands out every
+    /// output ([`RenderSettings::output_layers`](crate::RenderSettings::output_layers)),
+    /// or a GPU frame asks for it (which then makes them all).
+    pub fn on_request(self) -> bool {
+        matches!(self, Layer::IndirectBounded | Layer::Indirect)
     }
 
     /// Whether a frame reads this layer back only with
@@ -63,16 +81,21 @@ impl Layer {
     pub fn is_debug(self) -> bool {
         !matches!(
             self,
-            Layer::Final | Layer::Direct | Layer::IndirectBounded | Layer::Residual(_)
+            Layer::Final
+                | Layer::Direct
+                | Layer::IndirectBounded
+                | Layer::Residual(_)
+                | Layer::Indirect
         )
     }
 }
 
 /// Every layer but the residuals, with its name.
-const NAMED: [(Layer, &str); 12] = [
+const NAMED: [(Layer, &str); 13] = [
     (Layer::Final, "final"),
     (Layer::Direct, "direct"),
     (Layer::IndirectBounded, "indirect_bounded"),
+    (Layer::Indirect, "indirect"),
     (Layer::GBufferPosition, "gbuffer_position"),
     (Layer::GBufferNormal, "gbuffer_normal"),
     (Layer::GBufferAlbedo, "gbuffer_albedo"),
@@ -103,7 +126,7 @@ impl std::str::FromStr for Layer {
         match s.strip_prefix("residual_").map(str::parse::<u32>) {
             Some(Ok(k)) if k >= 1 => Ok(Layer::Residual(k)),
             _ => Err(Error::InvalidParameter(format!(
-                "no layer '{s}' (final, direct, indirect_bounded, residual_K, or a debug layer)"
+                "no layer '{s}' (final, direct, indirect_bounded, residual_K, indirect, or a debug layer)"
             ))),
         }
     }

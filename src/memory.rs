@@ -186,7 +186,7 @@ mod tests {
         for (name, part) in [
             ("gbuffer_layer1.position", "gbuffer"),
             ("lighting.interleaved_guide", "lighting"),
-            ("ssbc.s0_sources", "lighting"),
+            ("ssbc.s0", "lighting"),
             ("ssbc.eval_points.claims", "ssbc_pyramids"),
             ("ssbc.pending_b", "ssbc_lists"),
             ("ssbc.residual_sources_2", "ssbc_images"),
@@ -194,7 +194,7 @@ mod tests {
             ("vpls.subsets", "ism"),
             ("shadow_maps.depth", "shadow_maps"),
             ("temporal.history", "history"),
-            ("readback.ssbc.final", "readback"),
+            ("readback.ssbc.s0", "readback"),
         ] {
             assert_eq!(part_of(name).map(|i| PARTS[i]), Some(part), "{name}");
         }

@@ -289,6 +289,12 @@ impl RenderSettings {
         s.vpl.count = auto_vpl_count(width, height);
         s
     }
+
+    /// Whether the frame makes every output layer, those made on request
+    /// too ([`Layer::on_request`](crate::Layer::on_request)).
+    pub(crate) fn every_output(&self) -> bool {
+        self.output_layers || self.debug_readback
+    }
 }
 
 impl Default for RenderSettings {

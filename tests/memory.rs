@@ -64,8 +64,10 @@ fn memory_follows_what_is_on() {
     assert_eq!(m.readback, pixels * (16 + 4));
     let mut outputs = base.clone();
     outputs.output_layers = true;
-    // Direct, bounded indirect and the residual besides.
-    assert_eq!(memory(&outputs).readback, m.readback + pixels * 16 * 3);
+    // Direct, bounded indirect, the residual and the indirect light
+    // besides; the indirect light's image is made only then.
+    assert_eq!(memory(&outputs).readback, m.readback + pixels * 16 * 4);
+    assert_eq!(memory(&outputs).lighting, m.lighting + pixels * 16 * 2);
     // No SSBC step: no pyramids, lists or step images (a 1x1 frame's).
     let mut no_steps = base.clone();
     no_steps.ssbc.steps = 0;

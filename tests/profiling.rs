@@ -68,8 +68,8 @@ fn a_validation_message_names_the_object_by_its_ssbc_name() {
     let messages = log.messages();
     assert!(log.total() > 0, "the invalid clear was not reported");
     assert!(
-        messages.iter().any(|m| m.contains("ssbc.final")),
-        "no message names ssbc.final: {messages:#?}"
+        messages.iter().any(|m| m.contains("ssbc.s0")),
+        "no message names ssbc.s0: {messages:#?}"
     );
     drop(renderer);
 }

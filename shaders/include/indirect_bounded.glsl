@@ -1,8 +1,8 @@
 // Bounded VPL lighting T_b L^ by the full gather: every VPL at every pixel,
 // f_r(x) min(G, b) V_ISM f_r(z) Phi summed (the reference of the
-// interleaved gather). Also writes S0 = direct + bounded indirect, the term
-// SSBC compensates, and what each pixel sends as an SSBC source
-// (brdf_source_color).
+// interleaved gather), as S0 = direct + bounded indirect, the term SSBC
+// compensates; adds what each pixel sends as an SSBC source
+// (brdf_source_color) to the direct light's (s0_sources is that image).
 #include "common.glsl"
 #include "ism.glsl"
 
@@ -12,7 +12,6 @@ layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
-layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
@@ -40,7 +39,6 @@ void main() {
         radiance = brdf_diffuse_color(b) / PI * light.irradiance + light.glossy;
         source = brdf_source_color(b) / PI * light.irradiance;
     }
-    imageStore(indirect_bounded, pixel, vec4(radiance, position.w));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));
     imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, position.w));
 }

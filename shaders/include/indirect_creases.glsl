@@ -2,8 +2,8 @@
 // (indirect_filter.comp lists them) evaluate every VPL themselves. There
 // the bounded lighting changes within a pixel (the geometry term of VPLs
 // on the adjoining surface drops to zero at the crease line), so sums
-// borrowed from neighbours, however close, would be wrong. Overwrites
-// indirect_bounded and S0 at those pixels.
+// borrowed from neighbours, however close, would be wrong. Writes S0 and
+// its sources at those pixels (the filter skipped them).
 //
 // A workgroup takes 8 listed pixels (x) with 16 lanes each (y), a lane
 // summing every 16th VPL. A thread per pixel left a GPU nearly idle (a few
@@ -17,7 +17,6 @@ layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
-layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 7, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
@@ -73,7 +72,6 @@ void main() {
             vec3 irradiance = lane_irradiance[0][px];
             vec3 radiance = brdf_diffuse_color(b) / PI * irradiance + lane_glossy[0][px];
             vec3 source = brdf_source_color(b) / PI * irradiance;
-            imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
             imageStore(s0, pixel, vec4(imageLoad(direct, pixel).rgb + radiance, 1.0));
             imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
         }

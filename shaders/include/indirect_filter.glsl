@@ -44,7 +44,6 @@ layout(set = 0, binding = 0, rgba32ui) uniform readonly uimage2D guide;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D interleaved;
-layout(set = 0, binding = 4, rgba32f) uniform writeonly image2D indirect_bounded;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
@@ -54,13 +53,14 @@ layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
-// Writes the pixel's bounded indirect light from the filtered sums (the
-// diffuse part per unit diffuse colour, irradiance / pi; the glossy rest),
-// S0 and what the pixel sends as a source (brdf_source_color).
+// Writes S0, the direct light plus the pixel's bounded indirect light from
+// the filtered sums (the diffuse part per unit diffuse colour, irradiance /
+// pi; the glossy rest), and adds what the pixel sends as a source
+// (brdf_source_color) to the direct light's (s0_sources is that image: the
+// pixel's own texel, read then written once).
 void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weight) {
     Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), imageLoad(g_normal, pixel));
     vec3 radiance = brdf_diffuse_color(b) * sum / weight + glossy / weight;
-    imageStore(indirect_bounded, pixel, vec4(radiance, 1.0));
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
     vec3 source = brdf_source_color(b) * sum / weight;
     imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
@@ -87,7 +87,6 @@ void main() {
     uvec4 own = imageLoad(guide, pixel);
     vec4 direct_radiance = imageLoad(direct, pixel);
     if (own.w == NO_GEOMETRY) {
-        imageStore(indirect_bounded, pixel, vec4(0.0));
         imageStore(s0, pixel, vec4(direct_radiance.rgb, 0.0));
         imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb, 0.0));
         return;

@@ -10,7 +10,8 @@
 //   geo         what the traversal reads: each texel's surface as two clusters
 //   aux         areas, pixels with geometry, continuity, how the children's
 //               clusters were grouped (pyramid builds and evaluation points only)
-//   radiance    sum of A_y S_{k-1}(y) per cluster (rebuilt every step)
+//   radiance    sum of A_y S_{k-1}(y) per cluster (rebuilt every step; both
+//               of a texel's in one texel, pack_radiance)
 // With a second layer (a deep G-buffer's layer 1: the nearest surfaces at
 // least a separation behind the visible ones, at full or half resolution),
 // its pyramid follows the first in the same buffers; at half resolution

@@ -10,7 +10,7 @@
 
 layout(set = 0, binding = 0) uniform utextureBuffer geo_texels;       // four per GeoTexel
 layout(set = 0, binding = 1) uniform utextureBuffer aux_texels;       // one per GeoAux
-layout(set = 0, binding = 2) uniform textureBuffer radiance_texels;   // two per texel: front, back
+layout(set = 0, binding = 2) uniform utextureBuffer radiance_texels;  // one per texel: front, back packed
 
 // Cluster c (0 front, 1 back) of texel i.
 GeoCluster geo_cluster(uint i, uint c) {
@@ -27,7 +27,8 @@ GeoAux geo_aux(uint i) {
 
 // Sum of A_y S(y) over cluster c of texel i.
 vec3 cluster_radiance(uint i, uint c) {
-    return texelFetch(radiance_texels, int(2u * i + c)).rgb;
+    uvec4 t = texelFetch(radiance_texels, int(i));
+    return unpack_radiance(c == 0u ? t.xy : t.zw);
 }
 
 #endif

@@ -9,7 +9,7 @@
 
 layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // four per GeoTexel
 layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux
-layout(set = 0, binding = 2, rgba32f) uniform imageBuffer radiance_sums;  // two per texel: front, back
+layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed
 
 GeoCluster geo_cluster(uint i, uint c) {
     int at = int(4u * i + 2u * c);
@@ -34,11 +34,12 @@ void store_aux(uint i, GeoAux a) {
 }
 
 vec3 cluster_radiance(uint i, uint c) {
-    return imageLoad(radiance_sums, int(2u * i + c)).rgb;
+    uvec4 t = imageLoad(radiance_sums, int(i));
+    return unpack_radiance(c == 0u ? t.xy : t.zw);
 }
 
-void store_radiance(uint i, uint c, vec3 s) {
-    imageStore(radiance_sums, int(2u * i + c), vec4(s, 0.0));
+void store_radiance(uint i, vec3 front, vec3 back) {
+    imageStore(radiance_sums, int(i), uvec4(pack_radiance(front), pack_radiance(back)));
 }
 
 #endif

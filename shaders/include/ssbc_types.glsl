@@ -49,6 +49,28 @@ struct ResidualParams {
     uint pad;
 };
 
+// A cluster's radiance sum (`radiance` pyramid) in two words: three signed
+// 18-bit mantissas and their shared exponent, within 2^-17 of the largest
+// channel (half the bytes of three floats and their padding; f32's range).
+uvec2 pack_radiance(vec3 v) {
+    float largest = max(max(abs(v.r), abs(v.g)), abs(v.b));
+    if (!(largest > 0.0) || isinf(largest)) return uvec2(0u);
+    int e;
+    frexp(largest, e);  // largest = f 2^e, f in [0.5, 1)
+    e = clamp(e, -126, 129);
+    ivec3 q = clamp(ivec3(round(ldexp(v, ivec3(17 - e)))), ivec3(-131071), ivec3(131071));
+    uvec3 m = uvec3(q) & 0x3FFFFu;
+    return uvec2(m.r | (m.g << 18), (m.g >> 14) | (m.b << 4) | (uint(e + 126) << 22));
+}
+
+vec3 unpack_radiance(uvec2 w) {
+    int r = bitfieldExtract(int(w.x), 0, 18);
+    int g = bitfieldExtract(int((w.x >> 18) | (w.y << 14)), 0, 18);
+    int b = bitfieldExtract(int(w.y), 4, 18);
+    int e = int(w.y >> 22) - 126;
+    return ldexp(vec3(r, g, b), ivec3(e - 17));
+}
+
 struct GeoCluster {
     vec4 position_extent;     // xyz area-weighted mean position; w two halves (packHalf2x16,
                               // rounded up): the radius of a sphere around the mean holding

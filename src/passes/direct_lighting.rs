@@ -22,7 +22,8 @@ pub struct DirectLight {
     /// What the pixel sends as an SSBC source, view-independent: emission
     /// plus brdf_source_color / pi x the irradiance (its reflection spread
     /// evenly by its hemispherical albedo). The same as `radiance` on
-    /// Lambertian surfaces.
+    /// Lambertian surfaces. The bounded lighting adds its own in place:
+    /// then S0's sources, the `sources` layer.
     pub sources: Image,
 }
 
@@ -78,8 +79,8 @@ impl Pass for DirectLightingPass {
 
     fn layers<'r>(&self, direct: &'r DirectLight) -> Vec<(Layer, &'r Image)> {
         match self.layer() {
-            0 => vec![(Layer::Direct, &direct.radiance)],
-            _ => Vec::new(),
+            0 => vec![(Layer::Direct, &direct.radiance), (Layer::Sources, &direct.sources)],
+            _ => vec![(Layer::Layer1Sources, &direct.sources)],
         }
     }
 

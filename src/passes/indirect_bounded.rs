@@ -58,15 +58,17 @@ const CREASES_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 );
 
 /// Bytes of device memory a layer's bounded lighting takes at `extent` with
-/// `gather`: its three radiance images and, interleaved, two more, the
+/// `gather`: S0 (its sources are added in place to the direct light's;
+/// the `indirect_bounded` layer is made from it on request) and,
+/// interleaved, two more radiance images, the
 /// guide and the crease list (on `device` as its memory requirements say).
 pub(crate) fn memory_bytes(device: Option<&Device>, extent: (u32, u32), gather: Gather) -> u64 {
     let radiance = super::radiance_desc(extent).bytes(device);
     match gather {
-        Gather::Full => 3 * radiance,
+        Gather::Full => radiance,
         Gather::Interleaved => {
             let creases = crate::vk::buffer_bytes(device, creases_bytes(extent), CREASES_USAGE);
-            5 * radiance + guide_desc(extent).bytes(device) + creases
+            3 * radiance + guide_desc(extent).bytes(device) + creases
         }
     }
 }
@@ -156,22 +158,23 @@ const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
 
 /// What the pass writes.
 pub struct BoundedLighting {
-    /// `T_b L^`, the `indirect_bounded` layer.
-    pub indirect: Image,
-    /// `S0 = T Le + T_b L^`, what the SSBC steps start from.
+    /// `S0 = T Le + T_b L^`, what the SSBC steps start from (and sum
+    /// their residuals into: the final image).
     pub s0: Image,
-    /// What each pixel sends as a source of SSBC's first step,
-    /// view-independent (brdf_source_color; the same as `s0` on Lambertian
-    /// surfaces).
-    pub s0_sources: Image,
     /// The interleaved gather's intermediate images (None: full gather).
     pub interleaved: Option<Interleaved>,
 }
 
 impl BoundedLighting {
     /// The layer as SSBC gathers from it, with `gbuffer` (its geometric
-    /// normals read only if the scene has `normal_maps`).
-    pub fn ssbc_layer<'a>(&'a self, gbuffer: &'a GBuffer, normal_maps: bool) -> SsbcLayer<'a> {
+    /// normals read only if the scene has `normal_maps`) and the direct
+    /// light's sources, to which the pass added its own.
+    pub fn ssbc_layer<'a>(
+        &'a self,
+        gbuffer: &'a GBuffer,
+        direct: &'a DirectLight,
+        normal_maps: bool,
+    ) -> SsbcLayer<'a> {
         let mut gbuffer: SsbcGBuffer<'a> = gbuffer.into();
         if !normal_maps {
             gbuffer.geometric = None;
@@ -179,7 +182,7 @@ impl BoundedLighting {
         SsbcLayer {
             gbuffer,
             s0: &self.s0,
-            sources: &self.s0_sources,
+            sources: &direct.sources,
         }
     }
 }
@@ -301,9 +304,8 @@ impl IndirectBoundedPass {
                 g_albedo: &gbuffer.albedo,
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
-                indirect_bounded: &out.indirect,
                 s0: &out.s0,
-                s0_sources: &out.s0_sources,
+                s0_sources: &direct.sources,
                 vpl_texels: &ism.vpls,
                 g_emission: &gbuffer.emission,
             },
@@ -378,9 +380,8 @@ impl IndirectBoundedPass {
                 direct_sources: &direct.sources,
                 interleaved: &interleaved.sums,
                 interleaved_glossy: &interleaved.glossy,
-                indirect_bounded: &out.indirect,
                 s0: &out.s0,
-                s0_sources: &out.s0_sources,
+                s0_sources: &direct.sources,
                 creases: &interleaved.creases,
                 g_normal: &gbuffer.normal,
                 g_emission: &gbuffer.emission,
@@ -411,9 +412,8 @@ impl IndirectBoundedPass {
                 g_albedo: &gbuffer.albedo,
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
-                indirect_bounded: &out.indirect,
                 s0: &out.s0,
-                s0_sources: &out.s0_sources,
+                s0_sources: &direct.sources,
                 vpl_texels: &ism.vpls,
                 creases,
                 g_emission: &gbuffer.emission,
@@ -460,9 +460,7 @@ impl Pass for IndirectBoundedPass {
             }),
         };
         Ok(BoundedLighting {
-            indirect: image("lighting.indirect_bounded")?,
             s0: image("ssbc.s0")?,
-            s0_sources: image("ssbc.s0_sources")?,
             interleaved,
         })
     }
@@ -473,11 +471,9 @@ impl Pass for IndirectBoundedPass {
     fn layers<'r>(&self, lighting: &'r BoundedLighting) -> Vec<(Layer, &'r Image)> {
         match self.layer() {
             0 => vec![
-                (Layer::IndirectBounded, &lighting.indirect),
-                (Layer::Sources, &lighting.s0_sources),
                 (Layer::Final, &lighting.s0),
             ],
-            _ => vec![(Layer::Layer1Sources, &lighting.s0_sources)],
+            _ => Vec::new(),
         }
     }
 

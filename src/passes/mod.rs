@@ -14,6 +14,7 @@
 pub mod direct_lighting;
 pub mod gbuffer;
 pub mod indirect_bounded;
+pub mod indirect_light;
 pub mod ism;
 pub mod shadow_maps;
 pub mod ssbc;
@@ -151,6 +152,11 @@ pub trait Pass {
     fn layer(&self) -> u32 {
         0
     }
+    /// Its name in descriptor pools and injected faults: [`Pass::NAME`],
+    /// on layer 1 with `_layer1`.
+    fn label(&self) -> String {
+        layer_name(Self::NAME, self.layer())
+    }
     /// The key of the resources `setup` needs.
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key;
     /// Makes the resources.
@@ -267,7 +273,7 @@ impl<P: Pass> Stage<P> {
         reads: P::Reads<'_>,
     ) -> Result<&P::Resources> {
         let pass = &self.pass;
-        let name = layer_name(P::NAME, pass.layer());
+        let name = pass.label();
         let held = PassSlot::refresh(
             &mut self.slots[setup.slot],
             pass.key(setup),

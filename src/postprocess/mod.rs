@@ -88,7 +88,9 @@ use std::sync::Arc;
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::passes::ssbc::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings};
+use crate::passes::ssbc::{
+    FinalImage, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings,
+};
 use crate::passes::PassSlot;
 use crate::settings::LayerResolution;
 use crate::vk::{DescriptorPool, Device, GpuFrameTimes, GpuProfiler, Image, ImageDesc, Recorder};
@@ -271,7 +273,7 @@ fn write_result(
     s0: &Image,
 ) -> Result<()> {
     let result = match output {
-        PostOutput::Compensated => &frame.final_image,
+        PostOutput::Compensated => frame.final_image.as_ref().expect("FinalImage::Own"),
         PostOutput::Residual(k) => &frame.residuals[k as usize - 1],
     };
     let out = images.output();
@@ -467,7 +469,8 @@ impl SsbcPostProcess {
     }
 
     fn slot_bytes(device: Option<&Device>, shape: &PostProcessShape) -> u64 {
-        crate::passes::ssbc::frame_bytes(device, shape.extent, shape.steps, shape.layer1)
+        let (steps, layer1) = (shape.steps, shape.layer1);
+        crate::passes::ssbc::frame_bytes(device, shape.extent, (steps, layer1), FinalImage::Own)
             + ConvertedInputs::bytes(device, shape.conversion, shape.extent)
     }
 
@@ -518,6 +521,7 @@ impl SsbcPostProcess {
                             shape.steps,
                             shape.max_eval_level,
                             shape.layer1,
+                            FinalImage::Own,
                         )?,
                         converted: ConvertedInputs::new(
                             device,

@@ -13,6 +13,7 @@ use super::sink::{Finish, FrameSink};
 use super::{Renderer, FRAME_SLOTS};
 use crate::error::{Error, Result};
 use crate::gpu_scene::SlotScene;
+use crate::layer::Layer;
 use crate::passes::ssbc::SsbcCamera;
 use crate::passes::{FrameView, Recording, SlotSetup};
 use crate::resident::SceneVersions;
@@ -176,6 +177,19 @@ impl Renderer {
         host_slot: Option<usize>,
         resident: bool,
     ) -> Result<S::Output> {
+        // A GPU frame that hands out a layer made on request makes it as a
+        // frame that hands out every output does.
+        let every_output;
+        let on_request = sink.layer().is_some_and(Layer::on_request);
+        let settings = if on_request && !settings.output_layers {
+            every_output = RenderSettings {
+                output_layers: true,
+                ..settings.clone()
+            };
+            &every_output
+        } else {
+            settings
+        };
         let with_history = resident && settings.history.enabled;
         let uses = FrameUse::of::<S>(with_history);
         limits::check_settings(&self.device, settings, scene.lights.len(), uses)?;

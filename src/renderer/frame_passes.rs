@@ -11,9 +11,10 @@ use crate::layer::Layer;
 use crate::passes::direct_lighting::{DirectLight, DirectLightingPass};
 use crate::passes::gbuffer::{GBuffer, GBufferPass};
 use crate::passes::indirect_bounded::{BoundedLighting, IndirectBoundedPass, VplVisibility};
+use crate::passes::indirect_light::IndirectLightPass;
 use crate::passes::ism::{Ism, IsmPass};
 use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
-use crate::passes::ssbc::SsbcPass;
+use crate::passes::ssbc::{SsbcLayer, SsbcPass};
 use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
 use crate::passes::{Recording, SlotSetup, Stage};
 use crate::vk::{Device, Image};
@@ -47,7 +48,7 @@ impl LayerStages {
         setup: &SlotSetup<'_>,
         (scene, front): (SlotScene<'_>, Option<&GBuffer>),
         (shadows, ism): (&ShadowMaps, &Ism),
-    ) -> Result<(&GBuffer, &BoundedLighting)> {
+    ) -> Result<(&GBuffer, &DirectLight, SsbcLayer<'_>)> {
         let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
         let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
         let visibility = match scene.top_level {
@@ -57,7 +58,12 @@ impl LayerStages {
         let bounded = self
             .indirect_bounded
             .run(cx, setup, (gbuffer, direct, ism, visibility))?;
-        Ok((gbuffer, bounded))
+        let normal_maps = cx.view.normal_maps;
+        Ok((
+            gbuffer,
+            direct,
+            bounded.ssbc_layer(gbuffer, direct, normal_maps),
+        ))
     }
 
     fn images(&self, slot: usize) -> Option<LayerImages<'_>> {
@@ -93,6 +99,10 @@ pub(super) struct Passes {
     ssbc: Stage<SsbcPass>,
     /// Temporal history (resident frames).
     temporal: Stage<TemporalPass>,
+    /// The bounded and the whole indirect light as layers of their own
+    /// (frames that hand out every output).
+    indirect_bounded_layer: Stage<IndirectLightPass>,
+    indirect_light: Stage<IndirectLightPass>,
     /// Whether each slot's last frame ran `temporal` (its output is then
     /// the final image).
     temporal_ran: [bool; FRAME_SLOTS],
@@ -113,6 +123,14 @@ impl Passes {
             layers: [LayerStages::new(device, 0)?, LayerStages::new(device, 1)?],
             ssbc: Stage::new(SsbcPass::new(device)?, FRAME_SLOTS),
             temporal: Stage::new(TemporalPass::new(device)?, FRAME_SLOTS),
+            indirect_bounded_layer: Stage::new(
+                IndirectLightPass::new(device, Layer::IndirectBounded)?,
+                FRAME_SLOTS,
+            ),
+            indirect_light: Stage::new(
+                IndirectLightPass::new(device, Layer::Indirect)?,
+                FRAME_SLOTS,
+            ),
             temporal_ran: [false; FRAME_SLOTS],
         })
     }
@@ -131,13 +149,17 @@ impl Passes {
         let objects = (scene.objects, setup.cache.versions.objects);
         let ism = self.ism.run(cx, setup, objects)?;
         let [layer0, layer1] = &mut self.layers;
-        let (front, bounded) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
-        let normal_maps = cx.view.normal_maps;
-        let visible = bounded.ssbc_layer(front, normal_maps);
+        let (front, direct, visible) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
+        if setup.settings.every_output() {
+            let reads = (visible.s0, &direct.radiance);
+            self.indirect_bounded_layer.run(cx, setup, reads)?;
+        } else {
+            self.indirect_bounded_layer.forget(setup.slot);
+        }
         let ssbc = &setup.settings.ssbc;
         let hidden = if ssbc.layers == 2 && ssbc.steps > 0 {
-            let (gbuffer, bounded) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
-            Some(bounded.ssbc_layer(gbuffer, normal_maps))
+            let (_, _, hidden) = layer1.run(cx, setup, (scene, Some(front)), (shadows, ism))?;
+            Some(hidden)
         } else {
             // Not drawn this frame: free what an earlier frame held.
             layer1.forget(setup.slot);
@@ -147,6 +169,26 @@ impl Passes {
         if let Some(history) = history {
             self.temporal(cx, setup, history)?;
         }
+        self.indirect_light(cx, setup)
+    }
+
+    /// The indirect light as a layer, from the final image (the history's,
+    /// if the frame ran it): only in frames that make every output.
+    fn indirect_light(&mut self, cx: &mut Recording<'_, '_>, setup: &SlotSetup<'_>) -> Result<()> {
+        let slot = setup.slot;
+        if !setup.settings.every_output() {
+            self.indirect_light.forget(slot);
+            return Ok(());
+        }
+        let history = self.temporal_ran[slot].then_some(&self.temporal);
+        let images = written!(self, history, None).images(slot);
+        let images = images.expect("recorded above");
+        let reads = (images.layer(Layer::Final), images.layer(Layer::Direct));
+        let reads = reads
+            .0
+            .zip(reads.1)
+            .expect("offered by S0 and the direct light");
+        self.indirect_light.run(cx, setup, reads)?;
         Ok(())
     }
 
@@ -160,7 +202,7 @@ impl Passes {
     ) -> Result<()> {
         let slot = setup.slot;
         let (gbuffer, direct, _) = self.layers[0].images(slot).expect("recorded above");
-        let before = images_before_history(&self.layers, &self.ssbc, &self.ism, slot);
+        let before = written!(self, None, None).images(slot);
         let before = before.expect("recorded above");
         let final_image = before.layer(Layer::Final).expect("offered by S0");
         let previous_slot = history.previous_slot.filter(|&s| s != slot);
@@ -190,11 +232,8 @@ impl Passes {
 
     /// The images the slot's last recorded frame wrote.
     pub fn images(&self, slot: usize) -> Option<FrameImages<'_>> {
-        let mut images = images_before_history(&self.layers, &self.ssbc, &self.ism, slot)?;
-        if self.temporal_ran[slot] {
-            images.layers.extend(self.temporal.layers(slot));
-        }
-        Some(images)
+        let history = self.temporal_ran[slot].then_some(&self.temporal);
+        written!(self, history, Some(&self.indirect_light)).images(slot)
     }
 
     /// Drops the slot's resources (after a frame that was not submitted).
@@ -207,6 +246,8 @@ impl Passes {
         self.ssbc.forget(slot);
         self.temporal.forget(slot);
         self.temporal_ran[slot] = false;
+        self.indirect_bounded_layer.forget(slot);
+        self.indirect_light.forget(slot);
     }
 
     /// Frees every slot's temporal history (a frame without one).
@@ -229,25 +270,57 @@ impl Passes {
     }
 }
 
-/// What every pass but the temporal history wrote in the slot, each pass's
-/// layers in the frame's order.
-fn images_before_history<'p>(
-    [layer0, layer1]: &'p [LayerStages; 2],
+/// [`Written`] from `passes`' fields (each borrowed alone, so that another
+/// stage may record meanwhile), with the temporal and indirect-light stages
+/// given.
+macro_rules! written {
+    ($passes:expr, $temporal:expr, $indirect_light:expr) => {
+        Written {
+            layers: &$passes.layers,
+            bounded_layer: &$passes.indirect_bounded_layer,
+            ssbc: &$passes.ssbc,
+            ism: &$passes.ism,
+            temporal: $temporal,
+            indirect_light: $indirect_light,
+        }
+    };
+}
+use written;
+
+/// The stages a slot's images come from, borrowed apart from a stage that
+/// records (None: not part of the images asked for).
+struct Written<'p> {
+    layers: &'p [LayerStages; 2],
+    bounded_layer: &'p Stage<IndirectLightPass>,
     ssbc: &'p Stage<SsbcPass>,
     ism: &'p Stage<IsmPass>,
-    slot: usize,
-) -> Option<FrameImages<'p>> {
-    let frame = ssbc.resources(slot)?;
-    layer0.images(slot)?;
-    let mut layers = layer0.layers(slot);
-    // Stale resources of an earlier two-layer frame are not this frame's.
-    if frame.layer1().is_some() && layer1.images(slot).is_some() {
-        layers.extend(layer1.layers(slot));
+    temporal: Option<&'p Stage<TemporalPass>>,
+    indirect_light: Option<&'p Stage<IndirectLightPass>>,
+}
+
+impl<'p> Written<'p> {
+    /// What the slot's passes wrote, each pass's layers in the frame's order.
+    fn images(&self, slot: usize) -> Option<FrameImages<'p>> {
+        let frame = self.ssbc.resources(slot)?;
+        let [layer0, layer1] = self.layers;
+        layer0.images(slot)?;
+        let mut layers = layer0.layers(slot);
+        layers.extend(self.bounded_layer.layers(slot));
+        // Stale resources of an earlier two-layer frame are not this frame's.
+        if frame.layer1().is_some() && layer1.images(slot).is_some() {
+            layers.extend(layer1.layers(slot));
+        }
+        layers.extend(self.ssbc.layers(slot));
+        for stage in [
+            self.temporal.map(|t| t.layers(slot)),
+            self.indirect_light.map(|i| i.layers(slot)),
+        ] {
+            layers.extend(stage.unwrap_or_default());
+        }
+        Some(FrameImages {
+            layers,
+            ssbc: frame,
+            ism: self.ism.resources(slot)?,
+        })
     }
-    layers.extend(ssbc.layers(slot));
-    Some(FrameImages {
-        layers,
-        ssbc: frame,
-        ism: ism.resources(slot)?,
-    })
 }

@@ -110,7 +110,7 @@ impl History {
                     || last.versions.geometry != versions.geometry
                     || last.versions.materials != versions.materials
                     || last.versions.history != versions.history
-                    || last.settings != *settings =>
+                    || !same_image(&last.settings, settings) =>
             {
                 Motion::Reset
             }
@@ -184,4 +184,15 @@ impl History {
             light_paths,
         });
     }
+}
+
+/// Whether two frames' settings make the same image (what a frame reads
+/// back or hands out besides does not matter).
+fn same_image(a: &RenderSettings, b: &RenderSettings) -> bool {
+    let image = |s: &RenderSettings| RenderSettings {
+        output_layers: false,
+        debug_readback: false,
+        ..s.clone()
+    };
+    image(a) == image(b)
 }

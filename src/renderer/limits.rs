@@ -80,6 +80,11 @@ pub(super) fn frame_memory(
         lighting += 2 * radiance_desc(layer).bytes(device)
             + indirect_bounded::memory_bytes(device, layer, settings.gather);
     }
+    let outputs = settings.every_output();
+    if outputs {
+        // The layers made on request: the bounded and the whole indirect light.
+        lighting += 2 * crate::passes::indirect_light::desc(extent).bytes(device);
+    }
     let layer1_pixels = layer1.map_or(0, |r| {
         let (w, h) = r.extent(extent);
         w as u64 * h as u64
@@ -87,8 +92,8 @@ pub(super) fn frame_memory(
     let ssbc = crate::passes::ssbc::frame_memory(
         device,
         crate::passes::ssbc::SsbcPass::allocated_extent(extent, settings.ssbc.steps),
-        settings.ssbc.steps,
-        settings.ssbc.second_layer(),
+        (settings.ssbc.steps, settings.ssbc.second_layer()),
+        crate::passes::ssbc::FinalImage::InS0,
     );
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
@@ -118,17 +123,17 @@ pub(super) fn frame_memory(
         0
     };
     // The final image and the texels read per step; with output layers the
-    // direct, bounded indirect and residual layers; with debug read-back the
-    // G-buffer's four images, S0's sources, a second layer's three images
-    // and sources, and the ISM atlas.
-    let outputs = settings.output_layers || settings.debug_readback;
+    // others (`Layer::outputs`); with debug read-back the G-buffer's four
+    // images, S0's sources, a second layer's three images and sources, and
+    // the ISM atlas.
     let mut readback = if uses.readback {
         pixels * (16 + 4 * steps)
     } else {
         0
     };
     if uses.readback && outputs {
-        readback += pixels * 16 * (2 + steps);
+        let others = crate::layer::Layer::outputs(settings.ssbc.steps).len() as u64 - 1;
+        readback += pixels * 16 * others;
     }
     if uses.readback && settings.debug_readback {
         readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas_desc.bytes(None);

@@ -213,7 +213,7 @@ impl<'a> FrameImages<'a> {
     /// sample counts; with `debug_readback` the ISM atlas.
     pub fn readback(&self, settings: &RenderSettings) -> Vec<(Readback, &'a Image)> {
         let debug = settings.debug_readback;
-        let outputs = settings.output_layers || debug;
+        let outputs = settings.every_output();
         let mut others: Vec<Layer> = Vec::new();
         for &(l, _) in &self.layers {
             let wanted = if l.is_debug() { debug } else { outputs };

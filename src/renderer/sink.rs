@@ -48,6 +48,10 @@ pub(super) trait FrameSink {
     fn host_command_buffer(&self) -> Option<vk::CommandBuffer> {
         None
     }
+    /// The layer the frame hands over (None: read back).
+    fn layer(&self) -> Option<Layer> {
+        None
+    }
     /// Sends the frame recorded in `rec` on.
     fn finish(self, rec: Recorder<'_>, frame: Finish<'_>) -> Result<Self::Output>;
 }
@@ -154,6 +158,9 @@ impl FrameSink for ReadBack {
 
 impl FrameSink for KeepOnGpu {
     type Output = GpuSubmission;
+    fn layer(&self) -> Option<Layer> {
+        Some(self.0)
+    }
     fn finish(self, rec: Recorder<'_>, mut f: Finish<'_>) -> Result<GpuSubmission> {
         let value = f.submit(rec, self.0)?;
         Ok(GpuSubmission {
@@ -167,6 +174,9 @@ impl FrameSink for IntoHost<'_> {
     type Output = ();
     fn host_command_buffer(&self) -> Option<vk::CommandBuffer> {
         Some(self.cmd)
+    }
+    fn layer(&self) -> Option<Layer> {
+        Some(self.layer)
     }
     fn finish(self, mut rec: Recorder<'_>, f: Finish<'_>) -> Result<()> {
         hand_off_to_host(&mut rec, &f.images, self.output, self.layer, f.band)?;

@@ -92,6 +92,18 @@ impl HostFrames {
         settings: &RenderSettings,
         slot: usize,
     ) -> Vec<f32> {
+        let layer = ssbc::Layer::Final;
+        self.frame_layer(renderer, resident, settings, (slot, layer))
+    }
+
+    /// [`HostFrames::frame`], handing over `layer`.
+    pub fn frame_layer(
+        &mut self,
+        renderer: &mut Renderer,
+        resident: &ResidentScene,
+        settings: &RenderSettings,
+        (slot, layer): (usize, ssbc::Layer),
+    ) -> Vec<f32> {
         let (raw, cmd, (w, h)) = (&self.device.raw, self.cmd, self.extent);
         // SAFETY: the buffer's previous submission was waited for.
         unsafe {
@@ -108,7 +120,7 @@ impl HostFrames {
             layout: vk::ImageLayout::UNDEFINED,
         };
         renderer
-            .record_resident(resident, settings, cmd, slot, &host, ssbc::Layer::Final)
+            .record_resident(resident, settings, cmd, slot, &host, layer)
             .unwrap();
         // SAFETY: recording the host's own copy and submitting its buffer.
         unsafe {

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::layout::{BufferPlan, FramePlan};
+use super::layout::{BufferPlan, FinalImage, FramePlan};
 use super::SsbcPass;
 use crate::error::Result;
 use crate::settings::LayerResolution;
@@ -58,8 +58,9 @@ pub struct SsbcFrame {
     /// Texels read per pixel of each step (r32f: a pixel's own reads plus its
     /// share of the evaluation points whose blocks it is in).
     pub samples: Vec<Image>,
-    /// `S0 + residual_1 + ... + residual_K`.
-    pub final_image: Image,
+    /// `S0 + residual_1 + ... + residual_K` in an image of its own
+    /// ([`FinalImage::Own`]; None: summed into S0's).
+    pub final_image: Option<Image>,
     /// With a second layer: its `residual_k` for k = 1..K-1 (at its
     /// resolution), the next step's sources there.
     pub layer1_residuals: Vec<Image>,
@@ -113,8 +114,9 @@ impl SsbcPass {
         steps: u32,
         max_eval_level: u32,
         layer1: Option<LayerResolution>,
+        final_image: FinalImage,
     ) -> Result<SsbcFrame> {
-        let plan = FramePlan::new(extent, steps, layer1);
+        let plan = FramePlan::new(extent, steps, layer1, final_image);
         let buffer = |name: &str, b: &BufferPlan| Buffer::new(device, name, b.bytes, b.usage, b.location);
         let image = |name: String, desc: &ImageDesc| Image::new(device, &name, *desc);
         let per_step = |name: &str, desc: &ImageDesc| {
@@ -150,7 +152,7 @@ impl SsbcPass {
         Ok(SsbcFrame {
             geo: view(geo, uint4, 16, "ssbc.pyramid.geometry texels")?,
             aux: view(aux, uint4, 16, "ssbc.pyramid.aux texels")?,
-            radiance: view(radiance, float4, 16, "ssbc.pyramid.radiance texels")?,
+            radiance: view(radiance, uint4, 16, "ssbc.pyramid.radiance texels")?,
             points: view(points, uint4, 16, "ssbc.eval_points texels")?,
             point_glossy: view(point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
             claims,
@@ -165,7 +167,10 @@ impl SsbcPass {
             residuals,
             residual_sources,
             samples,
-            final_image: image("ssbc.final".into(), &plan.radiance_image)?,
+            final_image: match final_image {
+                FinalImage::Own => Some(image("ssbc.final".into(), &plan.radiance_image)?),
+                FinalImage::InS0 => None,
+            },
             layer1_residuals,
             layer1: plan.layer1,
             levels: plan.levels,

@@ -14,7 +14,8 @@ use crate::vk::{buffer_bytes, Device, ImageDesc};
 pub(super) const LIST_HEADER_BYTES: u64 = 48;
 pub(super) const GEO_TEXEL_BYTES: u64 = 64;
 pub(super) const AUX_BYTES: u64 = 16;
-pub(super) const RADIANCE_BYTES: u64 = 32;
+/// A texel's two radiance sums, packed (`pack_radiance` in ssbc_types.glsl).
+pub(super) const RADIANCE_BYTES: u64 = 16;
 pub(super) const EVAL_POINT_BYTES: u64 = 64;
 /// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
 pub(super) const POINT_GLOSSY_BYTES: u64 = 16;
@@ -78,6 +79,16 @@ pub(super) fn effective_layer1(
     layer1.filter(|r| levels > r.shift())
 }
 
+/// Where a frame's final image `S0 + S_1 + ... + S_K` is summed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FinalImage {
+    /// Into S0's own image, in place (the renderer's frames, where nothing
+    /// reads S0 after SSBC: a step adds its residual to it pixel by pixel).
+    InS0,
+    /// Into an image of its own (the post-process, whose S0 is the host's).
+    Own,
+}
+
 /// A buffer of a frame slot: its size, usage and memory.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BufferPlan {
@@ -94,6 +105,7 @@ pub(super) struct FramePlan {
     pub levels: u32,
     pub layer1: Option<LayerResolution>,
     pub steps: u32,
+    pub final_image: FinalImage,
     /// The pyramids (every layer's), as texel buffers.
     pub geo: BufferPlan,
     pub aux: BufferPlan,
@@ -109,7 +121,8 @@ pub(super) struct FramePlan {
     pub point_list: BufferPlan,
     /// The fallback lists' headers, read back.
     pub stats: BufferPlan,
-    /// The final image, each step's residual and what each but the last sends.
+    /// Each step's residual, what each but the last sends and an own
+    /// final image.
     pub radiance_image: ImageDesc,
     /// Per step, the texels read per pixel.
     pub samples_image: ImageDesc,
@@ -122,7 +135,12 @@ const PIXEL_LISTS: u64 = 3;
 const POINT_LISTS: u64 = 2;
 
 impl FramePlan {
-    pub fn new(extent: (u32, u32), steps: u32, layer1: Option<LayerResolution>) -> Self {
+    pub fn new(
+        extent: (u32, u32),
+        steps: u32,
+        layer1: Option<LayerResolution>,
+        final_image: FinalImage,
+    ) -> Self {
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
         let layer1 = effective_layer1(layer1, levels);
         // Evaluation points exist for layer 0's levels 1 and up only
@@ -155,6 +173,7 @@ impl FramePlan {
             levels,
             layer1,
             steps,
+            final_image,
             geo: gpu(all_texels * GEO_TEXEL_BYTES, texel_usage),
             aux: gpu(all_texels * AUX_BYTES, texel_usage),
             radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
@@ -199,8 +218,11 @@ impl FramePlan {
         let lists = PIXEL_LISTS * buffer(&self.pixel_list)
             + POINT_LISTS * buffer(&self.point_list)
             + buffer(&self.stats);
-        // Each step's residual, each but the last's sources, the final image.
-        let images = (2 * steps).max(1) * image(&self.radiance_image)
+        // Each step's residual, each but the last's sources, an own final
+        // image.
+        let own = (self.final_image == FinalImage::Own) as u64;
+        let radiance_images = steps + steps.saturating_sub(1) + own;
+        let images = radiance_images * image(&self.radiance_image)
             + steps * image(&self.samples_image)
             + self
                 .layer1_image
@@ -217,20 +239,20 @@ impl FramePlan {
 pub fn frame_memory(
     device: Option<&Device>,
     extent: (u32, u32),
-    steps: u32,
-    layer1: Option<LayerResolution>,
+    (steps, layer1): (u32, Option<LayerResolution>),
+    final_image: FinalImage,
 ) -> (u64, u64, u64) {
-    FramePlan::new(extent, steps, layer1).memory(device)
+    FramePlan::new(extent, steps, layer1, final_image).memory(device)
 }
 
 /// [`frame_memory`] in all.
 pub fn frame_bytes(
     device: Option<&Device>,
     extent: (u32, u32),
-    steps: u32,
-    layer1: Option<LayerResolution>,
+    (steps, layer1): (u32, Option<LayerResolution>),
+    final_image: FinalImage,
 ) -> u64 {
-    let (pyramids, lists, images) = frame_memory(device, extent, steps, layer1);
+    let (pyramids, lists, images) = frame_memory(device, extent, (steps, layer1), final_image);
     pyramids + lists + images
 }
 

@@ -29,7 +29,7 @@ use crate::shaders::{
 };
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
-pub use layout::{check_size, frame_bytes, frame_memory, pyramid_levels};
+pub use layout::{check_size, frame_bytes, frame_memory, pyramid_levels, FinalImage};
 pub use push::GLOSSY_RECEIVERS;
 
 /// Camera quantities the SSBC shaders need.
@@ -266,18 +266,14 @@ impl Pass for SsbcPass {
             ssbc.steps,
             ssbc.max_eval_level,
             ssbc.second_layer(),
+            FinalImage::InS0,
         )
     }
 
-    /// Each step's residual, and with steps their sum as the final image.
+    /// Each step's residual (the final image is S0's, summed in place).
     fn layers<'r>(&self, frame: &'r SsbcFrame) -> Vec<(Layer, &'r Image)> {
         let residuals = (1..).zip(&frame.residuals);
-        let mut layers: Vec<(Layer, &Image)> =
-            residuals.map(|(k, r)| (Layer::Residual(k), r)).collect();
-        if frame.steps() > 0 {
-            layers.push((Layer::Final, &frame.final_image));
-        }
-        layers
+        residuals.map(|(k, r)| (Layer::Residual(k), r)).collect()
     }
 
     fn set_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {

@@ -145,12 +145,11 @@ impl SsbcPass {
         profiler.end(rec.cmd, scope);
 
         let steps = inputs.settings.steps as usize;
+        // Each step adds its residual to the image before it: S0's own, or
+        // a copy of S0 in the frame's final image.
+        let final_image = frame.final_image.as_ref().unwrap_or(visible.s0);
         for step in 0..steps {
-            let previous = if step == 0 {
-                visible.s0
-            } else {
-                &frame.final_image
-            };
+            let previous = if step == 0 { visible.s0 } else { final_image };
             let term = if step == 0 {
                 visible.sources
             } else {
@@ -181,7 +180,7 @@ impl SsbcPass {
             let step_out = StepOutput {
                 gbuffer: visible.gbuffer,
                 previous,
-                final_image: &frame.final_image,
+                final_image,
                 residual: &frame.residuals[step],
                 // A last step's sources are never read (LAST_STEP).
                 residual_sources: frame.residual_sources.get(step).unwrap_or(&frame.residuals[step]),
