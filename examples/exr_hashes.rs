@@ -7,28 +7,15 @@
 use std::hash::{Hash, Hasher};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    use exr::prelude::*;
     let path = std::env::args()
         .nth(1)
         .ok_or("usage: exr_hashes IMAGE.exr")?;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(&path)?;
-    let mut lines = Vec::new();
-    for layer in &image.layer_data {
-        for channel in &layer.channel_data.list {
-            let mut hasher = std::collections::hash_map::DefaultHasher::new();
-            for v in channel.sample_data.values_as_f32() {
-                v.to_bits().hash(&mut hasher);
-            }
-            lines.push(format!("{} {:016x}", channel.name, hasher.finish()));
+    for (name, samples) in ssbc::output::read_exr_channels(path.as_ref())? {
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        for v in samples {
+            v.to_bits().hash(&mut hasher);
         }
+        println!("{name} {:016x}", hasher.finish());
     }
-    lines.sort();
-    println!("{}", lines.join("\n"));
     Ok(())
 }

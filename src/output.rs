@@ -257,6 +257,36 @@ pub fn read_exr_rgb(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     ))
 }
 
+/// Every channel of every layer of an EXR (`layer/channel`, or the
+/// channel's name, `residual_1.R` say, in a layer without a name), as f32,
+/// sorted by name.
+pub fn read_exr_channels(path: &Path) -> Result<Vec<(String, Vec<f32>)>> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| Error::Scene {
+            path: path.display().to_string(),
+            message: format!("cannot read EXR: {e}"),
+        })?;
+    let mut out = Vec::new();
+    for layer in &image.layer_data {
+        let prefix = match &layer.attributes.layer_name {
+            Some(name) => format!("{name}/"),
+            None => String::new(),
+        };
+        for channel in &layer.channel_data.list {
+            let name = format!("{prefix}{}", channel.name);
+            out.push((name, channel.sample_data.values_as_f32().collect()));
+        }
+    }
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::auto_exposure;

@@ -8,7 +8,7 @@ mod common;
 use ssbc::resident::ResidentScene;
 use ssbc::Layer;
 
-fn rgba<'f>(frame: &'f ssbc::Frame, layer: Layer) -> &'f [f32] {
+fn rgba(frame: &ssbc::Frame, layer: Layer) -> &[f32] {
     &frame
         .layer(layer)
         .unwrap_or_else(|| panic!("{layer} read back"))

@@ -421,28 +421,7 @@ pub fn normal_map(side: u32, slope: impl Fn(u32, u32) -> (f32, f32)) -> ssbc::sc
 /// Every channel of every layer of an EXR, by name (`layer/channel`),
 /// sorted by name.
 pub fn exr_channels(path: &std::path::Path) -> Vec<(String, Vec<f32>)> {
-    use exr::prelude::*;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .expect("read EXR");
-    let mut out = Vec::new();
-    for layer in &image.layer_data {
-        let prefix = match &layer.attributes.layer_name {
-            Some(name) => format!("{name}/"),
-            None => String::new(),
-        };
-        for channel in &layer.channel_data.list {
-            let name = format!("{prefix}{}", channel.name);
-            out.push((name, channel.sample_data.values_as_f32().collect()));
-        }
-    }
-    out.sort_by(|a, b| a.0.cmp(&b.0));
-    out
+    ssbc::output::read_exr_channels(path).expect("read EXR")
 }
 
 /// The previous lavapipe (Debian 12's own Mesa 22.3, unpacked by
