@@ -99,7 +99,7 @@ void main() {
     }
     vec4 xp = imageLoad(g_position, p);
     if (xp.w == 0.0) {
-        imageStore(residual, p, vec4(0.0));
+        if (keeps_residual()) imageStore(residual, p, vec4(0.0));
         if (keeps_sources()) imageStore(residual_sources, p, vec4(0.0));
         imageStore(final_image, p, imageLoad(previous, p));
         imageStore(samples, p, vec4(-1.0)); // no geometry (read back as 0)

@@ -24,7 +24,9 @@ pub enum Layer {
     /// Bounded (clamped) VPL lighting `T_b L^` (`S0` less `Direct`). Made
     /// only in frames that hand out every output, as `Indirect` is.
     IndirectBounded,
-    /// The residual `S_k` of SSBC step k (1 to K).
+    /// The residual `S_k` of SSBC step k (1 to K). Kept only in frames
+    /// that hand out every output, as `Indirect` is (otherwise each step
+    /// only adds it to the final image).
     Residual(u32),
     /// All indirect light, `Final` less `Direct` (`T_b L^ + S_1 + ... +
     /// S_K`, averaged by the history as `Final` is): what a host that
@@ -71,7 +73,10 @@ impl Layer {
     /// output ([`RenderSettings::output_layers`](crate::RenderSettings::output_layers)),
     /// or a GPU frame asks for it (which then makes them all).
     pub fn on_request(self) -> bool {
-        matches!(self, Layer::IndirectBounded | Layer::Indirect)
+        matches!(
+            self,
+            Layer::IndirectBounded | Layer::Residual(_) | Layer::Indirect
+        )
     }
 
     /// Whether a frame reads this layer back only with

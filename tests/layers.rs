@@ -131,3 +131,21 @@ fn a_host_frame_hands_over_the_indirect_light() {
         assert_eq!(log.total(), 0);
     }
 }
+
+/// A frame that keeps no residual images (no output asks for them) sums the
+/// same final image: each step adds its residual to S0's image either way.
+#[test]
+fn the_final_image_does_not_depend_on_the_layers_kept() {
+    let mut scene = ssbc::scene::load("spheres").unwrap();
+    scene.ensure_light();
+    let mut s = common::tiny_settings();
+    s.ssbc.layers = 2;
+    let every = common::render_validated(&scene, &s);
+    s.output_layers = false;
+    let final_only = common::render_validated(&scene, &s);
+    assert!(final_only.layers.is_empty());
+    assert_eq!(final_only.image.rgba, every.image.rgba);
+    let held = |f: &ssbc::Frame| f.timings.memory.measured;
+    assert!(held(&final_only).ssbc_images < held(&every).ssbc_images);
+    assert!(held(&final_only).lighting < held(&every).lighting);
+}

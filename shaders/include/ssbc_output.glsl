@@ -24,12 +24,18 @@ bool keeps_sources() {
     return (pc.frame.layers & LAST_STEP) == 0u;
 }
 
+// Whether S_k is kept in an image of its own (an output layer): without
+// (NO_RESIDUAL) the step binds its final image there and only adds S_k to it.
+bool keeps_residual() {
+    return (pc.frame.layers & NO_RESIDUAL) == 0u;
+}
+
 // S_k(p) = diffuse colour / pi * I + the glossy rest (0 on a Lambertian
 // receiver); what the pixel sends in the next step, view-independent
 // (brdf_source_color); final = previous + S_k; `reads`: the pixel's own.
 void write_residual(ivec2 p, Brdf b, vec3 integral, vec3 rest, float reads) {
     vec3 s = brdf_diffuse_color(b) / PI * integral + rest;
-    imageStore(residual, p, vec4(s, 1.0));
+    if (keeps_residual()) imageStore(residual, p, vec4(s, 1.0));
     if (keeps_sources()) imageStore(residual_sources, p, vec4(brdf_source_color(b) / PI * integral, 1.0));
     imageStore(final_image, p, vec4(imageLoad(previous, p).rgb + s, 1.0));
     imageStore(samples, p, vec4(reads));
@@ -38,7 +44,7 @@ void write_residual(ivec2 p, Brdf b, vec3 integral, vec3 rest, float reads) {
 // Adds a glossy rest to what write_residual wrote for the pixel (what it
 // sends is unchanged: it depends on I alone); `reads`: the pixel's own.
 void add_glossy_rest(ivec2 p, vec3 rest, float reads) {
-    imageStore(residual, p, imageLoad(residual, p) + vec4(rest, 0.0));
+    if (keeps_residual()) imageStore(residual, p, imageLoad(residual, p) + vec4(rest, 0.0));
     imageStore(final_image, p, imageLoad(final_image, p) + vec4(rest, 0.0));
     imageStore(samples, p, vec4(reads));
 }

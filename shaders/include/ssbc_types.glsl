@@ -28,7 +28,9 @@ struct SsbcFrame {
                               // G-buffer's w channels (brdf_from_gbuffer), else Lambertian;
                               // bit 9 (ONE_DISPATCH): glossy and other receivers' points and
                               // fallback pixels in one dispatch (ssbc_eval.glsl); bit 10
-                              // (LAST_STEP): no later step reads what this one sends
+                              // (LAST_STEP): no later step reads what this one sends;
+                              // bit 11 (NO_RESIDUAL): S_k is not kept in an image of its
+                              // own (ssbc_output.glsl)
     float bound;              // b [1/m^2]
     float min_cos_view;       // lower clamp of cos(theta_view) in A_y
 };
@@ -36,6 +38,7 @@ struct SsbcFrame {
 const uint GLOSSY_RECEIVERS = 256u;
 const uint ONE_DISPATCH = 512u;
 const uint LAST_STEP = 1024u;
+const uint NO_RESIDUAL = 2048u;
 
 const uint INTEGRATION_HIERARCHICAL = 0u;
 const uint INTEGRATION_BRUTE = 1u;
@@ -51,24 +54,26 @@ struct ResidualParams {
 
 // A cluster's radiance sum (`radiance` pyramid) in two words: three signed
 // 18-bit mantissas and their shared exponent, within 2^-17 of the largest
-// channel (half the bytes of three floats and their padding; f32's range).
+// channel (half the bytes of three floats and their padding; sums under
+// 2^-109 are flushed to zero). Powers of two are made from exponent bits:
+// ldexp and frexp cost lavapipe calls.
 uvec2 pack_radiance(vec3 v) {
     float largest = max(max(abs(v.r), abs(v.g)), abs(v.b));
     if (!(largest > 0.0) || isinf(largest)) return uvec2(0u);
-    int e;
-    frexp(largest, e);  // largest = f 2^e, f in [0.5, 1)
-    e = clamp(e, -126, 129);
-    ivec3 q = clamp(ivec3(round(ldexp(v, ivec3(17 - e)))), ivec3(-131071), ivec3(131071));
+    // largest = f 2^e with f in [0.5, 1).
+    int e = clamp(int(floatBitsToUint(largest) >> 23) - 126, -108, 128);
+    float to_mantissa = uintBitsToFloat(uint(144 - e) << 23);  // 2^(17 - e)
+    ivec3 q = clamp(ivec3(round(v * to_mantissa)), ivec3(-131071), ivec3(131071));
     uvec3 m = uvec3(q) & 0x3FFFFu;
-    return uvec2(m.r | (m.g << 18), (m.g >> 14) | (m.b << 4) | (uint(e + 126) << 22));
+    return uvec2(m.r | (m.g << 18), (m.g >> 14) | (m.b << 4) | (uint(e + 108) << 22));
 }
 
 vec3 unpack_radiance(uvec2 w) {
     int r = bitfieldExtract(int(w.x), 0, 18);
     int g = bitfieldExtract(int((w.x >> 18) | (w.y << 14)), 0, 18);
     int b = bitfieldExtract(int(w.y), 4, 18);
-    int e = int(w.y >> 22) - 126;
-    return ldexp(vec3(r, g, b), ivec3(e - 17));
+    int e = int(w.y >> 22) - 108;
+    return vec3(r, g, b) * uintBitsToFloat(uint(e + 110) << 23);  // 2^(e - 17)
 }
 
 struct GeoCluster {

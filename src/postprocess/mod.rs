@@ -89,7 +89,7 @@ use ash::vk;
 
 use crate::error::{Error, Result};
 use crate::passes::ssbc::{
-    FinalImage, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings,
+    FinalImage, Kept, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass, SsbcSettings,
 };
 use crate::passes::PassSlot;
 use crate::settings::LayerResolution;
@@ -106,6 +106,13 @@ pub use camera::HostCamera;
 pub use inputs::{
     Conversion, HostGeometry, NormalEncoding, OutputWrite, PostOutput, PostProcessInputs,
     PostProcessLayer, ReceiverBrdf, FORMATS,
+};
+
+/// The post-process keeps its own final image (S0 is the host's) and each
+/// step's residual (`PostOutput::Residual`).
+const KEPT: Kept = Kept {
+    final_image: FinalImage::Own,
+    residuals: true,
 };
 
 /// What a post-process's frame slots are made for: the image size, SSBC's
@@ -470,7 +477,7 @@ impl SsbcPostProcess {
 
     fn slot_bytes(device: Option<&Device>, shape: &PostProcessShape) -> u64 {
         let (steps, layer1) = (shape.steps, shape.layer1);
-        crate::passes::ssbc::frame_bytes(device, shape.extent, (steps, layer1), FinalImage::Own)
+        crate::passes::ssbc::frame_bytes(device, shape.extent, (steps, layer1), KEPT)
             + ConvertedInputs::bytes(device, shape.conversion, shape.extent)
     }
 
@@ -521,7 +528,7 @@ impl SsbcPostProcess {
                             shape.steps,
                             shape.max_eval_level,
                             shape.layer1,
-                            FinalImage::Own,
+                            KEPT,
                         )?,
                         converted: ConvertedInputs::new(
                             device,

@@ -93,7 +93,7 @@ pub(super) fn frame_memory(
         device,
         crate::passes::ssbc::SsbcPass::allocated_extent(extent, settings.ssbc.steps),
         (settings.ssbc.steps, settings.ssbc.second_layer()),
-        crate::passes::ssbc::FinalImage::InS0,
+        crate::passes::ssbc::SsbcPass::kept(settings),
     );
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets

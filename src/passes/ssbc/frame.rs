@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::layout::{BufferPlan, FinalImage, FramePlan};
+use super::layout::{BufferPlan, FinalImage, FramePlan, Kept};
 use super::SsbcPass;
 use crate::error::Result;
 use crate::settings::LayerResolution;
@@ -49,7 +49,8 @@ pub struct SsbcFrame {
     /// Per step, the fallback list's header (dispatch x, y, z, pixel count),
     /// for the host.
     pub stats: Buffer,
-    /// `residual_k` for k = 1..=K.
+    /// `residual_k` for k = 1..=K, where kept ([`Kept::residuals`]; else
+    /// none).
     pub residuals: Vec<Image>,
     /// What the pixels send as sources of the next step, view-independent
     /// (brdf_source_color; the same as `residuals` on Lambertian
@@ -66,6 +67,7 @@ pub struct SsbcFrame {
     pub layer1_residuals: Vec<Image>,
     /// The second layer's resolution, if the pyramids hold one.
     pub(super) layer1: Option<LayerResolution>,
+    pub(super) steps: u32,
     pub(super) levels: u32,
     pub(super) pyramid_size: (u32, u32),
     /// The coarsest evaluation level the descriptor sets are counted for.
@@ -78,9 +80,9 @@ impl SsbcFrame {
         self.levels
     }
 
-    /// Steps the frame holds residuals for.
+    /// SSBC steps the frame is made for.
     pub fn steps(&self) -> u32 {
-        self.residuals.len() as u32
+        self.steps
     }
 
     /// G-buffer layers the pyramids hold (1, or 2 with a deep G-buffer's
@@ -114,9 +116,9 @@ impl SsbcPass {
         steps: u32,
         max_eval_level: u32,
         layer1: Option<LayerResolution>,
-        final_image: FinalImage,
+        kept: Kept,
     ) -> Result<SsbcFrame> {
-        let plan = FramePlan::new(extent, steps, layer1, final_image);
+        let plan = FramePlan::new(extent, steps, layer1, kept);
         let buffer = |name: &str, b: &BufferPlan| Buffer::new(device, name, b.bytes, b.usage, b.location);
         let image = |name: String, desc: &ImageDesc| Image::new(device, &name, *desc);
         let per_step = |name: &str, desc: &ImageDesc| {
@@ -124,7 +126,10 @@ impl SsbcPass {
                 .map(|k| image(format!("{name}_{k}"), desc))
                 .collect::<Result<Vec<_>>>()
         };
-        let residuals = per_step("ssbc.residual", &plan.radiance_image)?;
+        let residuals = match kept.residuals {
+            true => per_step("ssbc.residual", &plan.radiance_image)?,
+            false => Vec::new(),
+        };
         // What each step but the last sends to the next.
         let residual_sources = (1..steps)
             .map(|k| image(format!("ssbc.residual_sources_{k}"), &plan.radiance_image))
@@ -167,12 +172,13 @@ impl SsbcPass {
             residuals,
             residual_sources,
             samples,
-            final_image: match final_image {
+            final_image: match kept.final_image {
                 FinalImage::Own => Some(image("ssbc.final".into(), &plan.radiance_image)?),
                 FinalImage::InS0 => None,
             },
             layer1_residuals,
             layer1: plan.layer1,
+            steps,
             levels: plan.levels,
             pyramid_size: plan.pyramid_size,
             max_eval_level: max_eval_level.min(plan.levels - 1),

@@ -89,6 +89,17 @@ pub enum FinalImage {
     Own,
 }
 
+/// What a frame slot's SSBC keeps beyond what its steps read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Kept {
+    /// Where the final image is summed.
+    pub final_image: FinalImage,
+    /// Each step's residual `S_k` in an image of its own (the `residual_k`
+    /// output layers); without, a step writes only what it sends to the
+    /// next (`NO_RESIDUAL`).
+    pub residuals: bool,
+}
+
 /// A buffer of a frame slot: its size, usage and memory.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BufferPlan {
@@ -105,7 +116,7 @@ pub(super) struct FramePlan {
     pub levels: u32,
     pub layer1: Option<LayerResolution>,
     pub steps: u32,
-    pub final_image: FinalImage,
+    pub kept: Kept,
     /// The pyramids (every layer's), as texel buffers.
     pub geo: BufferPlan,
     pub aux: BufferPlan,
@@ -121,7 +132,7 @@ pub(super) struct FramePlan {
     pub point_list: BufferPlan,
     /// The fallback lists' headers, read back.
     pub stats: BufferPlan,
-    /// Each step's residual, what each but the last sends and an own
+    /// Each kept residual, what each step but the last sends and an own
     /// final image.
     pub radiance_image: ImageDesc,
     /// Per step, the texels read per pixel.
@@ -139,7 +150,7 @@ impl FramePlan {
         extent: (u32, u32),
         steps: u32,
         layer1: Option<LayerResolution>,
-        final_image: FinalImage,
+        kept: Kept,
     ) -> Self {
         let (pyramid_size, levels) = pyramid_layout(extent.0, extent.1);
         let layer1 = effective_layer1(layer1, levels);
@@ -173,7 +184,7 @@ impl FramePlan {
             levels,
             layer1,
             steps,
-            final_image,
+            kept,
             geo: gpu(all_texels * GEO_TEXEL_BYTES, texel_usage),
             aux: gpu(all_texels * AUX_BYTES, texel_usage),
             radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
@@ -218,10 +229,11 @@ impl FramePlan {
         let lists = PIXEL_LISTS * buffer(&self.pixel_list)
             + POINT_LISTS * buffer(&self.point_list)
             + buffer(&self.stats);
-        // Each step's residual, each but the last's sources, an own final
-        // image.
-        let own = (self.final_image == FinalImage::Own) as u64;
-        let radiance_images = steps + steps.saturating_sub(1) + own;
+        // Each kept residual, each step but the last's sources, an own
+        // final image.
+        let own = (self.kept.final_image == FinalImage::Own) as u64;
+        let residuals = if self.kept.residuals { steps } else { 0 };
+        let radiance_images = residuals + steps.saturating_sub(1) + own;
         let images = radiance_images * image(&self.radiance_image)
             + steps * image(&self.samples_image)
             + self
@@ -240,9 +252,9 @@ pub fn frame_memory(
     device: Option<&Device>,
     extent: (u32, u32),
     (steps, layer1): (u32, Option<LayerResolution>),
-    final_image: FinalImage,
+    kept: Kept,
 ) -> (u64, u64, u64) {
-    FramePlan::new(extent, steps, layer1, final_image).memory(device)
+    FramePlan::new(extent, steps, layer1, kept).memory(device)
 }
 
 /// [`frame_memory`] in all.
@@ -250,9 +262,9 @@ pub fn frame_bytes(
     device: Option<&Device>,
     extent: (u32, u32),
     (steps, layer1): (u32, Option<LayerResolution>),
-    final_image: FinalImage,
+    kept: Kept,
 ) -> u64 {
-    let (pyramids, lists, images) = frame_memory(device, extent, (steps, layer1), final_image);
+    let (pyramids, lists, images) = frame_memory(device, extent, (steps, layer1), kept);
     pyramids + lists + images
 }
 

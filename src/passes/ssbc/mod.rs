@@ -29,7 +29,7 @@ use crate::shaders::{
 };
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
-pub use layout::{check_size, frame_bytes, frame_memory, pyramid_levels, FinalImage};
+pub use layout::{check_size, frame_bytes, frame_memory, pyramid_levels, FinalImage, Kept};
 pub use push::GLOSSY_RECEIVERS;
 
 /// Camera quantities the SSBC shaders need.
@@ -166,6 +166,15 @@ impl SsbcPass {
         }
     }
 
+    /// What the renderer's frames keep: the final image summed into S0's,
+    /// and each step's residual only in frames that hand out every output.
+    pub(crate) fn kept(settings: &crate::settings::RenderSettings) -> Kept {
+        Kept {
+            final_image: FinalImage::InS0,
+            residuals: settings.every_output(),
+        }
+    }
+
     /// The coarsest level of evaluation points: the coarsest (at most
     /// `max_eval_level`) that puts `texels_per_radius` texels across the
     /// bounding radius 1/sqrt(b) at `depth` (the distance along the optical
@@ -246,8 +255,9 @@ pub struct SsbcLayer<'a> {
 
 impl Pass for SsbcPass {
     const NAME: &'static str = "ssbc";
-    /// (width, height, steps, coarsest evaluation level, second layer).
-    type Key = (u32, u32, u32, u32, Option<LayerResolution>);
+    /// (width, height, steps, coarsest evaluation level, second layer,
+    /// residuals kept).
+    type Key = (u32, u32, u32, u32, Option<LayerResolution>, bool);
     type Resources = SsbcFrame;
     /// The visible layer and, with `layers` 2, the hidden one.
     type Reads<'a> = (SsbcLayer<'a>, Option<SsbcLayer<'a>>);
@@ -255,7 +265,8 @@ impl Pass for SsbcPass {
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let (w, h) = setup.extent();
         let ssbc = &setup.settings.ssbc;
-        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.second_layer())
+        let residuals = Self::kept(setup.settings).residuals;
+        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.second_layer(), residuals)
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<SsbcFrame> {
@@ -266,11 +277,12 @@ impl Pass for SsbcPass {
             ssbc.steps,
             ssbc.max_eval_level,
             ssbc.second_layer(),
-            FinalImage::InS0,
+            Self::kept(setup.settings),
         )
     }
 
-    /// Each step's residual (the final image is S0's, summed in place).
+    /// Each step's residual where kept (the final image is S0's, summed in
+    /// place).
     fn layers<'r>(&self, frame: &'r SsbcFrame) -> Vec<(Layer, &'r Image)> {
         let residuals = (1..).zip(&frame.residuals);
         residuals.map(|(k, r)| (Layer::Residual(k), r)).collect()

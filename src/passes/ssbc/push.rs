@@ -21,6 +21,12 @@ pub(crate) const ONE_DISPATCH: u32 = 512;
 /// residual there; LAST_STEP in shaders/include/ssbc_types.glsl).
 pub(crate) const LAST_STEP: u32 = 1024;
 
+/// `SsbcFrame.layers` bit: the step's residual is not kept in an image of
+/// its own (no output asks for it): the step binds its final image in its
+/// place and only adds the residual to it (NO_RESIDUAL in
+/// shaders/include/ssbc_types.glsl).
+pub(crate) const NO_RESIDUAL: u32 = 2048;
+
 /// What every SSBC kernel reads of the frame (`SsbcFrame` in the shaders).
 pub(crate) use crate::shaders::blocks::SsbcFrame as FrameBlock;
 pub(crate) use crate::shaders::blocks::{
@@ -67,6 +73,15 @@ impl FrameBlock {
     /// Whether both kinds of receiver run in one dispatch (`ONE_DISPATCH`).
     pub fn one_dispatch(&self) -> bool {
         self.layers & ONE_DISPATCH != 0
+    }
+
+    /// The same frame, marked as keeping no residual image unless `kept`
+    /// (`NO_RESIDUAL`).
+    pub fn with_residual_kept(mut self, kept: bool) -> Self {
+        if !kept {
+            self.layers |= NO_RESIDUAL;
+        }
+        self
     }
 
     /// The same frame, marked as its last step's if `last` (`LAST_STEP`).

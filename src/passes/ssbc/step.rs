@@ -157,7 +157,9 @@ impl SsbcPass {
             };
             let last = step + 1 == steps;
             let push = StepPush {
-                frame: frame_block.with_last_step(last),
+                frame: frame_block
+                    .with_last_step(last)
+                    .with_residual_kept(!frame.residuals.is_empty()),
                 residual: ResidualParams::new(inputs),
                 generation: step as u32 + 1,
                 eval_level: inputs.eval_level,
@@ -181,9 +183,14 @@ impl SsbcPass {
                 gbuffer: visible.gbuffer,
                 previous,
                 final_image,
-                residual: &frame.residuals[step],
-                // A last step's sources are never read (LAST_STEP).
-                residual_sources: frame.residual_sources.get(step).unwrap_or(&frame.residuals[step]),
+                // Without residual images, the final image (NO_RESIDUAL);
+                // a last step's sources are never read (LAST_STEP).
+                residual: frame.residuals.get(step).unwrap_or(final_image),
+                residual_sources: frame
+                    .residual_sources
+                    .get(step)
+                    .or(frame.residuals.get(step))
+                    .unwrap_or(final_image),
                 samples: &frame.samples[step],
             };
             self.record_residual(rec, profiler, &name, pool, &step_out, &push, frame)?;
