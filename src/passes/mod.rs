@@ -7,9 +7,11 @@
 //! records its commands. [`Stage`] keeps a pass's resources for every frame
 //! slot and remakes them only when their key changes.
 //!
-//! Adding a pass: a file here implementing [`Pass`], a [`Stage`] of it in
-//! the renderer's `Passes`, and one line in the renderer's list of passes,
-//! naming what it reads.
+//! Adding a pass: a file here implementing [`Pass`] (with the layers it
+//! offers, [`Pass::layers`], which the read-back, GPU hand-off and host
+//! copies pick from), a [`Stage`] of it in the renderer's `Passes`, and one
+//! line in the renderer's list of passes, naming what it reads
+//! (`passes/indirect_light.rs` is a small example).
 
 pub mod direct_lighting;
 pub mod gbuffer;
