@@ -2,7 +2,7 @@
 //! pixel: against image size (320x240 to 3840x2160, cornell's one light)
 //! and against the VPL count (1920x1080). Hardware-independent counts,
 //! estimated from the settings before anything is allocated
-//! (`ssbc::renderer::frame_memory`, as `ssbc render` refuses a frame that
+//! (`ssbc::renderer::frame_memory_of`, as `ssbc render` refuses a frame that
 //! does not fit); then measured from the allocator after one frame at the
 //! sizes this machine renders in seconds, against the estimate on the same
 //! device. Run with `cargo bench --bench memory` (`-- --quick`: no
@@ -12,7 +12,7 @@
 mod common;
 
 use ssbc::memory::FrameMemory;
-use ssbc::renderer::{frame_memory, RenderSettings};
+use ssbc::renderer::{frame_memory_of, RenderSettings, SlotUse};
 
 const SIZES: [(u32, u32); 4] = [(320, 240), (1024, 768), (1920, 1080), (3840, 2160)];
 
@@ -55,16 +55,14 @@ fn main() -> ssbc::Result<()> {
     header();
     for (w, h) in SIZES {
         let s = RenderSettings::new(w, h);
-        let mut m = frame_memory(&scene, &s);
-        m.history = 0;
+        let m = frame_memory_of(&scene, &s, SlotUse::Immediate);
         row(&format!("{w}x{h}, {} VPLs", s.vpl.count), &m, pixels(&s));
     }
     println!("\nResident frames add the temporal history and read nothing back:\n");
     header();
     for (w, h) in SIZES {
         let s = RenderSettings::new(w, h);
-        let mut m = frame_memory(&scene, &s);
-        m.readback = 0;
+        let m = frame_memory_of(&scene, &s, SlotUse::Resident);
         row(&format!("{w}x{h} resident"), &m, pixels(&s));
     }
 
@@ -73,8 +71,7 @@ fn main() -> ssbc::Result<()> {
     for vpls in [256, 1024, 2048, 4096, 8192, 16384] {
         let mut s = RenderSettings::new(1920, 1080);
         s.vpl.count = vpls;
-        let mut m = frame_memory(&scene, &s);
-        m.history = 0;
+        let m = frame_memory_of(&scene, &s, SlotUse::Immediate);
         row(&format!("{vpls} VPLs"), &m, pixels(&s));
     }
 

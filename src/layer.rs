@@ -71,11 +71,13 @@ impl Layer {
 
     /// Whether a frame makes this layer only when it hands out every
     /// output ([`RenderSettings::output_layers`](crate::RenderSettings::output_layers)),
-    /// or a GPU frame asks for it (which then makes them all).
+    /// or a GPU frame asks for it (which then makes them all). The direct
+    /// light is one: without, its image shares memory with SSBC's pyramids
+    /// (unless temporal history reads it).
     pub fn on_request(self) -> bool {
         matches!(
             self,
-            Layer::IndirectBounded | Layer::Residual(_) | Layer::Indirect
+            Layer::Direct | Layer::IndirectBounded | Layer::Residual(_) | Layer::Indirect
         )
     }
 

@@ -68,6 +68,38 @@ pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> FrameMemory {
     limits::frame_memory(None, settings, scene.lights.len(), limits::FrameUse::ALL)
 }
 
+/// How a frame slot is used, for [`frame_memory_of`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlotUse {
+    /// [`Renderer::render`]'s frames: read back, no history.
+    Immediate,
+    /// Resident frames ([`Renderer::render_resident`], the viewer, a
+    /// host's): the temporal history where `history.enabled`, nothing
+    /// read back.
+    Resident,
+}
+
+/// [`frame_memory`] of a slot used one way: what such a slot allocates
+/// (the direct light's image shares memory with SSBC's pyramids where
+/// neither history nor output layers read it later).
+///
+/// ```
+/// use ssbc::renderer::{frame_memory_of, SlotUse};
+/// let scene = ssbc::scene::load("cornell").unwrap();
+/// let s = ssbc::RenderSettings::new(1920, 1080);
+/// let immediate = frame_memory_of(&scene, &s, SlotUse::Immediate);
+/// let resident = frame_memory_of(&scene, &s, SlotUse::Resident);
+/// assert!(immediate.history == 0 && resident.readback == 0 && resident.history > 0);
+/// ```
+pub fn frame_memory_of(scene: &Scene, settings: &RenderSettings, slot: SlotUse) -> FrameMemory {
+    let resident = slot == SlotUse::Resident;
+    let uses = limits::FrameUse {
+        history: resident && settings.history.enabled,
+        readback: !resident,
+    };
+    limits::frame_memory(None, settings, scene.lights.len(), uses)
+}
+
 /// The renderer: a device, its passes, and a command pool per frame slot.
 pub struct Renderer {
     // Field order is drop order: passes and pools before the device.

@@ -5,6 +5,7 @@
 mod common;
 
 use ssbc::memory::FrameMemory;
+use ssbc::renderer::{frame_memory_of, SlotUse};
 use ssbc::settings::LayerResolution;
 use ssbc::RenderSettings;
 
@@ -97,11 +98,40 @@ fn memory_follows_what_is_on() {
 /// Today's figure at 1920x1080, resident (issue 64 aims at 160 bytes per
 /// pixel): a regression guard, from `cargo bench --bench memory`.
 #[test]
-fn a_1080p_frame_slot_takes_at_most_445_bytes_per_pixel() {
+fn a_1080p_frame_slot_takes_at_most_340_bytes_per_pixel() {
     let mut scene = ssbc::scene::load("cornell").expect("cornell");
     scene.ensure_light();
-    let mut m = ssbc::renderer::frame_memory(&scene, &RenderSettings::new(1920, 1080));
-    m.readback = 0;
+    let s = RenderSettings::new(1920, 1080);
+    let m = frame_memory_of(&scene, &s, SlotUse::Resident);
     let per_pixel = m.total() as f64 / (1920.0 * 1080.0);
-    assert!(per_pixel <= 445.0, "{per_pixel:.1} bytes per pixel: {m:?}");
+    assert!(per_pixel <= 340.0, "{per_pixel:.1} bytes per pixel: {m:?}");
+}
+
+/// What never lives at once shares memory: the interleaved gather's
+/// intermediates (and, in an immediate frame, the direct light's image)
+/// lie in SSBC's pyramids' memory, the history's reprojection too.
+#[test]
+fn transient_images_share_the_pyramids_memory() {
+    let mut scene = ssbc::scene::load("cornell").expect("cornell");
+    scene.ensure_light();
+    let s = RenderSettings::new(640, 480);
+    let radiance = 640 * 480 * 16;
+    // S0 and the direct light's sources (the direct light too, resident).
+    let immediate = frame_memory_of(&scene, &s, SlotUse::Immediate);
+    assert_eq!(immediate.lighting, 2 * radiance);
+    let resident = frame_memory_of(&scene, &s, SlotUse::Resident);
+    assert_eq!(resident.lighting, 3 * radiance);
+    // Output and history; the reprojection is transient.
+    assert_eq!(resident.history, 2 * radiance);
+    // The pyramids are the larger part: sharing adds nothing to them.
+    assert_eq!(immediate.ssbc_pyramids, resident.ssbc_pyramids);
+    let mut full = s.clone();
+    full.gather = ssbc::settings::Gather::Full;
+    let alone = frame_memory_of(&scene, &full, SlotUse::Immediate);
+    assert_eq!(alone.ssbc_pyramids, immediate.ssbc_pyramids);
+    // Every output read back keeps the direct light apart.
+    let mut outputs = s.clone();
+    outputs.output_layers = true;
+    let kept = frame_memory_of(&scene, &outputs, SlotUse::Immediate);
+    assert_eq!(kept.lighting, 3 * radiance + 2 * radiance);
 }

@@ -8,15 +8,22 @@
 
 #include "ssbc_types.glsl"
 
-layout(set = 0, binding = 0) uniform utextureBuffer geo_texels;       // four per GeoTexel
+layout(set = 0, binding = 0) uniform utextureBuffer geo_texels;       // three per GeoTexel
 layout(set = 0, binding = 1) uniform utextureBuffer aux_texels;       // one per GeoAux
 layout(set = 0, binding = 2) uniform utextureBuffer radiance_texels;  // one per texel: front, back packed
 
 // Cluster c (0 front, 1 back) of texel i.
 GeoCluster geo_cluster(uint i, uint c) {
-    int at = int(4u * i + 2u * c);
-    return GeoCluster(uintBitsToFloat(texelFetch(geo_texels, at)),
-                      uintBitsToFloat(texelFetch(geo_texels, at + 1)));
+    int at = int(3u * i);
+    return unpack_cluster(texelFetch(geo_texels, at + int(c)), texelFetch(geo_texels, at + 2), c);
+}
+
+// Both clusters of texel i (three fetches).
+GeoTexel geo_texel(uint i) {
+    int at = int(3u * i);
+    uvec4 normals = texelFetch(geo_texels, at + 2);
+    return GeoTexel(unpack_cluster(texelFetch(geo_texels, at), normals, 0u),
+                    unpack_cluster(texelFetch(geo_texels, at + 1), normals, 1u));
 }
 
 // The areas, pixels and flags of texel i.

@@ -7,21 +7,20 @@
 
 #include "ssbc_types.glsl"
 
-layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // four per GeoTexel
+layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // three per GeoTexel
 layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux
 layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed
 
 GeoCluster geo_cluster(uint i, uint c) {
-    int at = int(4u * i + 2u * c);
-    return GeoCluster(uintBitsToFloat(imageLoad(geo_words, at)), uintBitsToFloat(imageLoad(geo_words, at + 1)));
+    int at = int(3u * i);
+    return unpack_cluster(imageLoad(geo_words, at + int(c)), imageLoad(geo_words, at + 2), c);
 }
 
 void store_geo(uint i, GeoTexel t) {
-    int at = int(4u * i);
+    int at = int(3u * i);
     imageStore(geo_words, at, floatBitsToUint(t.front.position_extent));
-    imageStore(geo_words, at + 1, floatBitsToUint(t.front.normal_cone));
-    imageStore(geo_words, at + 2, floatBitsToUint(t.back.position_extent));
-    imageStore(geo_words, at + 3, floatBitsToUint(t.back.normal_cone));
+    imageStore(geo_words, at + 1, floatBitsToUint(t.back.position_extent));
+    imageStore(geo_words, at + 2, pack_normals(t));
 }
 
 GeoAux geo_aux(uint i) {

@@ -91,12 +91,17 @@ struct GeoTexel {
     GeoCluster back;          // children hold members of each cluster (children_bits)
 };
 
+// In memory a GeoTexel is three uvec4 words (48 bytes): the front
+// cluster's position_extent, the back cluster's, then both normal_cones
+// packed (front in .xy, back in .zw, pack_normal_cone).
+
 // A texel's children (bit k: child k, in the order (0,0) (1,0) (0,1) (1,1))
 // that hold members of its front (bits 0..3) and back (bits 4..7) cluster,
-// kept in the low 8 mantissa bits of the front cluster's mean normal's z:
-// the traversal reads them with the texel, and skips the children that
-// only hold members of clusters it skipped. Changing those bits moves the
-// normal's direction by less than 2^-15 radians, well within the 1e-3
+// kept in the low 8 mantissa bits of the front cluster's mean normal's z
+// while in registers (in memory, a nibble of each cluster's packed
+// normal): the traversal reads them with the texel, and skips the children
+// that only hold members of clusters it skipped. Changing those bits moves
+// the normal's direction by less than 2^-15 radians, well within the 1e-3
 // radians its cone is widened by for rounding (ssbc_geometry_mips.comp).
 // A z of 0 (axis-aligned normals are common) would become a denormal,
 // which costs lavapipe's x86 code a microcode assist per operation
@@ -113,6 +118,42 @@ GeoCluster with_children_bits(GeoCluster g, uint bits) {
 
 uint children_bits(GeoCluster front) {
     return floatBitsToUint(front.normal_cone.z) & 255u;
+}
+
+// A cluster's normal_cone in two words, with a nibble of children bits:
+// the mean normal's components (|n| <= 1) as signed 16-bit fixed point
+// (within 1.6e-5, inside the 1e-3 radians cones are widened by for
+// rounding), and the cone as sin(half-angle) in 12 bits, rounded up (a
+// cone that is wider by at most 5e-4 radians still holds every member; a
+// pixel's zero cone stays exact).
+const float CONE_STEPS = 4095.0;
+
+uvec2 pack_normal_cone(vec4 normal_cone, uint nibble) {
+    vec3 n = normal_cone.xyz;
+    float half_sine = sqrt(clamp(0.5 - 0.5 * normal_cone.w, 0.0, 1.0));
+    uint cone = uint(min(ceil(half_sine * CONE_STEPS), CONE_STEPS));
+    uint z = packSnorm2x16(vec2(n.z, 0.0)) & 0xFFFFu;
+    return uvec2(packSnorm2x16(n.xy), z | (cone << 16) | (nibble << 28));
+}
+
+vec4 unpack_normal_cone(uvec2 w) {
+    vec2 xy = unpackSnorm2x16(w.x);
+    float z = unpackSnorm2x16(w.y).x;
+    float half_sine = float((w.y >> 16) & 4095u) * (1.0 / CONE_STEPS);
+    return vec4(xy, z, 1.0 - 2.0 * half_sine * half_sine);
+}
+
+// Cluster c (0 front, 1 back) from its position_extent word and its
+// texel's packed normals (the front cluster with its children bits).
+GeoCluster unpack_cluster(uvec4 position_extent, uvec4 normals, uint c) {
+    GeoCluster g = GeoCluster(uintBitsToFloat(position_extent), unpack_normal_cone(c == 0u ? normals.xy : normals.zw));
+    return c == 0u ? with_children_bits(g, (normals.y >> 28) | ((normals.w >> 28) << 4)) : g;
+}
+
+// The packed normals of a texel's clusters (children bits from the front's).
+uvec4 pack_normals(GeoTexel t) {
+    uint bits = children_bits(t.front);
+    return uvec4(pack_normal_cone(t.front.normal_cone, bits & 15u), pack_normal_cone(t.back.normal_cone, bits >> 4));
 }
 
 // (radius, thickness) of a cluster.

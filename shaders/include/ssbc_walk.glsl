@@ -275,10 +275,10 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
     while (more) {
         count++;
         uint i = texel_index_in(w.p, t.xy, t.z);
-        GeoCluster front_cluster = geo_cluster(i, 0u);
-        Visit front = visit(front_cluster, x, nx, r_world, t.z);
-        Visit back = visit(geo_cluster(i, 1u), x, nx, r_world, t.z);
-        uint bits = children_bits(front_cluster);
+        GeoTexel texel = geo_texel(i);
+        Visit front = visit(texel.front, x, nx, r_world, t.z);
+        Visit back = visit(texel.back, x, nx, r_world, t.z);
+        uint bits = children_bits(texel.front);
         uint visit_children = (front.action != SKIP ? bits & 15u : 0u) | (back.action != SKIP ? bits >> 4 : 0u);
         bool refine = (front.action == REFINE || back.action == REFINE) && visit_children != 0u;
         if (!refine) {

@@ -66,20 +66,26 @@ impl Pass for DirectLightingPass {
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<DirectLight> {
-        let extent = setup.layer_extent(self.layer);
-        let image = |base: &str| {
-            let name = super::layer_name(base, self.layer);
-            super::radiance_image(setup.device, &name, extent)
+        let (device, extent) = (setup.device, setup.layer_extent(self.layer));
+        let name = |base: &str| super::layer_name(base, self.layer);
+        let (direct, desc) = (name("lighting.direct"), super::radiance_desc(extent));
+        let radiance = match setup.region(super::transient::Tenancy::Direct(self.layer)) {
+            Some(mut region) => Image::new_aliased(device, &direct, desc, &mut region)?,
+            None => Image::new(device, &direct, desc)?,
         };
         Ok(DirectLight {
-            radiance: image("lighting.direct")?,
-            sources: image("lighting.direct_sources")?,
+            radiance,
+            sources: super::radiance_image(device, &name("lighting.direct_sources"), extent)?,
         })
     }
 
+    /// The direct light only where it outlives the frame's bounded
+    /// lighting (not in the slot's transient memory).
     fn layers<'r>(&self, direct: &'r DirectLight) -> Vec<(Layer, &'r Image)> {
+        let kept = direct.radiance.shared.is_none();
         match self.layer() {
-            0 => vec![(Layer::Direct, &direct.radiance), (Layer::Sources, &direct.sources)],
+            0 if kept => vec![(Layer::Direct, &direct.radiance), (Layer::Sources, &direct.sources)],
+            0 => vec![(Layer::Sources, &direct.sources)],
             _ => vec![(Layer::Layer1Sources, &direct.sources)],
         }
     }

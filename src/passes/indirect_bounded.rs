@@ -35,8 +35,8 @@ use crate::shaders::{
 };
 use crate::shaders::blocks::{FilterPush, GatherPush};
 use crate::vk::{
-    AccelerationStructure, Buffer, ComputeKernel, DescriptorPool, DescriptorSetLayout,
-    Device, Image, Work, ImageDesc,
+    AccelerationStructure, AliasRegion, Buffer, ComputeKernel, DescriptorPool,
+    DescriptorSetLayout, Device, Image, ImageDesc, Planned, Tenant, Work,
 };
 
 /// The interleaved gather's guide: a pixel's position and packed normal
@@ -57,20 +57,46 @@ const CREASES_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
         | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
 );
 
-/// Bytes of device memory a layer's bounded lighting takes at `extent` with
-/// `gather`: S0 (its sources are added in place to the direct light's;
-/// the `indirect_bounded` layer is made from it on request) and,
-/// interleaved, two more radiance images, the
-/// guide and the crease list (on `device` as its memory requirements say).
-pub(crate) fn memory_bytes(device: Option<&Device>, extent: (u32, u32), gather: Gather) -> u64 {
-    let radiance = super::radiance_desc(extent).bytes(device);
+/// What the interleaved gather hands its filter at `extent` (nothing for
+/// the full gather), in the order [`IndirectBoundedPass`] makes it: the
+/// subsets' sums, their glossy part, the guide and the crease list. It
+/// lives in the frame slot's transient memory (`passes::transient`).
+pub(crate) fn transient_resources(extent: (u32, u32), gather: Gather) -> Tenant {
     match gather {
-        Gather::Full => radiance,
-        Gather::Interleaved => {
-            let creases = crate::vk::buffer_bytes(device, creases_bytes(extent), CREASES_USAGE);
-            3 * radiance + guide_desc(extent).bytes(device) + creases
-        }
+        Gather::Full => Vec::new(),
+        Gather::Interleaved => vec![
+            Planned::Image(super::radiance_desc(extent)),
+            Planned::Image(super::radiance_desc(extent)),
+            Planned::Image(guide_desc(extent)),
+            Planned::Buffer {
+                bytes: creases_bytes(extent),
+                usage: CREASES_USAGE,
+            },
+        ],
     }
+}
+
+/// Bytes of device memory a layer's bounded lighting takes at `extent` with
+/// `gather` (on `device` as its memory requirements say): S0 (its sources
+/// are added in place to the direct light's; the `indirect_bounded` layer
+/// is made from it on request) and, interleaved, the intermediates
+/// ([`transient_resources`]) unless they live in the slot's `transient`
+/// memory.
+pub(crate) fn memory_bytes(
+    device: Option<&Device>,
+    extent: (u32, u32),
+    gather: Gather,
+    transient: bool,
+) -> u64 {
+    let s0 = super::radiance_desc(extent).bytes(device);
+    if transient {
+        return s0;
+    }
+    let intermediates = transient_resources(extent, gather).into_iter().map(|r| match r {
+        Planned::Image(desc) => desc.bytes(device),
+        Planned::Buffer { bytes, usage } => crate::vk::buffer_bytes(device, bytes, usage),
+    });
+    s0 + intermediates.sum::<u64>()
 }
 
 /// Relative depth tolerance of the ISM visibility test: trades false
@@ -199,6 +225,37 @@ pub struct Interleaved {
     /// The pixels beside a crease or contact (dispatch header, count, then
     /// one `x | y << 16` per pixel), which evaluate every VPL.
     pub creases: Buffer,
+}
+
+impl Interleaved {
+    /// The intermediates at `extent`, named by `name`: in `region` of the
+    /// slot's transient memory (as [`transient_resources`] plans them), or
+    /// each in memory of its own.
+    fn new(
+        device: &Arc<Device>,
+        extent: (u32, u32),
+        name: &dyn Fn(&str) -> String,
+        mut region: Option<AliasRegion>,
+    ) -> Result<Self> {
+        let mut image = |base: &str, desc: ImageDesc| match region.as_mut() {
+            Some(r) => Image::new_aliased(device, &name(base), desc, r),
+            None => Image::new(device, &name(base), desc),
+        };
+        let sums = image("lighting.interleaved", super::radiance_desc(extent))?;
+        let glossy = image("lighting.interleaved_glossy", super::radiance_desc(extent))?;
+        let guide = image("lighting.interleaved_guide", guide_desc(extent))?;
+        let (bytes, creases) = (creases_bytes(extent), name("lighting.creases"));
+        let creases = match region.as_mut() {
+            Some(r) => Buffer::new_aliased(device, &creases, bytes, CREASES_USAGE, r)?,
+            None => Buffer::new(device, &creases, bytes, CREASES_USAGE, MemoryLocation::GpuOnly)?,
+        };
+        Ok(Self {
+            sums,
+            glossy,
+            guide,
+            creases,
+        })
+    }
 }
 
 /// The gathers, the reconstruction filter and the crease kernel, for one
@@ -443,24 +500,13 @@ impl Pass for IndirectBoundedPass {
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<BoundedLighting> {
         let (device, extent) = (setup.device, setup.layer_extent(self.layer));
         let name = |base: &str| super::layer_name(base, self.layer);
-        let image = |base: &str| super::radiance_image(device, &name(base), extent);
+        let region = setup.region(super::transient::Tenancy::Gather(self.layer));
         let interleaved = match setup.settings.gather {
             Gather::Full => None,
-            Gather::Interleaved => Some(Interleaved {
-                sums: image("lighting.interleaved")?,
-                glossy: image("lighting.interleaved_glossy")?,
-                guide: Image::new(device, &name("lighting.interleaved_guide"), guide_desc(extent))?,
-                creases: Buffer::new(
-                    device,
-                    &name("lighting.creases"),
-                    creases_bytes(extent),
-                    CREASES_USAGE,
-                    MemoryLocation::GpuOnly,
-                )?,
-            }),
+            Gather::Interleaved => Some(Interleaved::new(device, extent, &name, region)?),
         };
         Ok(BoundedLighting {
-            s0: image("ssbc.s0")?,
+            s0: super::radiance_image(device, &name("ssbc.s0"), extent)?,
             interleaved,
         })
     }

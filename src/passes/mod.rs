@@ -21,6 +21,7 @@ pub mod ism;
 pub mod shadow_maps;
 pub mod ssbc;
 pub mod temporal;
+pub mod transient;
 
 use std::sync::Arc;
 
@@ -50,6 +51,12 @@ pub struct SlotSetup<'a> {
     pub scene: &'a Scene,
     /// Its bounds, VPLs, ISM points and GPU copy.
     pub cache: &'a SceneCache,
+    /// The slot's transient memory, which passes whose resources never
+    /// live at once share (None: each pass allocates its own).
+    pub transient: Option<&'a transient::SlotTransient>,
+    /// Whether the slot's frames keep temporal history (resident frames
+    /// with `history.enabled`).
+    pub history: bool,
 }
 
 impl SlotSetup<'_> {
@@ -65,6 +72,12 @@ impl SlotSetup<'_> {
     /// The image size.
     pub fn extent(&self) -> (u32, u32) {
         (self.settings.width, self.settings.height)
+    }
+
+    /// Where `tenant` places its transient resources (None: in memory of
+    /// their own).
+    pub fn region(&self, tenant: transient::Tenancy) -> Option<crate::vk::AliasRegion> {
+        self.transient?.region(tenant)
     }
 }
 

@@ -90,10 +90,15 @@ impl Pass for TemporalPass {
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<Temporal> {
         let image = |name: &str| super::radiance_image(setup.device, name, setup.extent());
+        let (name, desc) = ("temporal.reprojected", super::radiance_desc(setup.extent()));
+        let reprojected = match setup.region(super::transient::Tenancy::Temporal) {
+            Some(mut region) => Image::new_aliased(setup.device, name, desc, &mut region)?,
+            None => Image::new(setup.device, name, desc)?,
+        };
         Ok(Temporal {
             output: image("temporal.output")?,
             history: image("temporal.history")?,
-            reprojected: image("temporal.reprojected")?,
+            reprojected,
         })
     }
 
@@ -164,8 +169,16 @@ impl Pass for TemporalPass {
     }
 }
 
+/// What the pass places in the slot's transient memory
+/// (`passes::transient`): the reprojected history.
+pub(crate) fn transient_resources(extent: (u32, u32)) -> crate::vk::Tenant {
+    vec![crate::vk::Planned::Image(super::radiance_desc(extent))]
+}
+
 /// The extent's history images in one slot (bytes; on `device` as its
-/// memory requirements say): output, history and reprojection.
-pub fn slot_bytes(device: Option<&crate::vk::Device>, extent: (u32, u32)) -> u64 {
-    3 * super::radiance_desc(extent).bytes(device)
+/// memory requirements say): output and history, and the reprojection
+/// unless it lives in the slot's `transient` memory.
+pub fn slot_bytes(device: Option<&crate::vk::Device>, extent: (u32, u32), transient: bool) -> u64 {
+    let images = if transient { 2 } else { 3 };
+    images * super::radiance_desc(extent).bytes(device)
 }

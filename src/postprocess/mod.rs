@@ -529,6 +529,7 @@ impl SsbcPostProcess {
                             shape.max_eval_level,
                             shape.layer1,
                             KEPT,
+                            None,
                         )?,
                         converted: ConvertedInputs::new(
                             device,

@@ -308,6 +308,8 @@ impl Renderer {
             settings,
             scene,
             cache,
+            transient: None,
+            history: uses.history,
         };
         let history_frame = history.map(|plan| HistoryFrame {
             step: self.history.step(&plan, settings, view.eye()),

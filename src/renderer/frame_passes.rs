@@ -16,6 +16,7 @@ use crate::passes::ism::{Ism, IsmPass};
 use crate::passes::shadow_maps::{ShadowMapPass, ShadowMaps};
 use crate::passes::ssbc::{SsbcLayer, SsbcPass};
 use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
+use crate::passes::transient::{self, SlotTransient};
 use crate::passes::{Recording, SlotSetup, Stage};
 use crate::vk::{Device, Image};
 
@@ -106,6 +107,9 @@ pub(super) struct Passes {
     /// Whether each slot's last frame ran `temporal` (its output is then
     /// the final image).
     temporal_ran: [bool; FRAME_SLOTS],
+    /// Each slot's memory the gathers' intermediates and SSBC's pyramids
+    /// share (`passes::transient`).
+    transient: [Option<SlotTransient>; FRAME_SLOTS],
 }
 
 /// How a frame uses temporal history: its fold, and the slot it reads.
@@ -132,7 +136,34 @@ impl Passes {
                 FRAME_SLOTS,
             ),
             temporal_ran: [false; FRAME_SLOTS],
+            transient: [const { None }; FRAME_SLOTS],
         })
+    }
+
+    /// Brings the slot's transient memory up to `setup`'s plan (its
+    /// previous frame is done). New memory drops its tenants' resources,
+    /// which are made anew in it.
+    fn refresh_transient(&mut self, setup: &SlotSetup<'_>) -> Result<()> {
+        let plan = transient::plan(setup.settings, setup.history);
+        let slot = setup.slot;
+        if self.transient[slot]
+            .as_ref()
+            .is_some_and(|t| t.plan == plan)
+        {
+            return Ok(());
+        }
+        for layer in &mut self.layers {
+            layer.direct_lighting.forget(slot);
+            layer.indirect_bounded.forget(slot);
+        }
+        self.ssbc.forget(slot);
+        // (Its history restarts: the plan changes with the size, the
+        // gather or the SSBC layers and steps.)
+        self.temporal.forget(slot);
+        self.temporal_ran[slot] = false;
+        self.transient[slot] = None;
+        self.transient[slot] = Some(SlotTransient::new(setup.device, slot, plan)?);
+        Ok(())
     }
 
     /// The frame: every pass in order, each given what it reads from the
@@ -145,6 +176,35 @@ impl Passes {
         history: Option<HistoryFrame>,
     ) -> Result<()> {
         self.temporal_ran[setup.slot] = false;
+        self.refresh_transient(setup)?;
+        // Out of `self` while the stages record (put back after).
+        let slot = setup.slot;
+        let transient = self.transient[slot].take();
+        let with_transient = SlotSetup {
+            transient: transient.as_ref(),
+            ..*setup
+        };
+        let result = self.record_stages(cx, &with_transient, scene, history);
+        self.transient[slot] = transient;
+        result
+    }
+
+    /// [`Passes::record`] with the slot's transient memory in `setup`:
+    /// each of its phases begins with a hand-over.
+    fn record_stages(
+        &mut self,
+        cx: &mut Recording<'_, '_>,
+        setup: &SlotSetup<'_>,
+        scene: SlotScene<'_>,
+        history: Option<HistoryFrame>,
+    ) -> Result<()> {
+        let memory = setup.transient.and_then(|t| t.memory.as_deref());
+        let begin = |cx: &mut Recording<'_, '_>, phase| {
+            if let Some(memory) = memory {
+                cx.rec.hand_over(memory, phase);
+            }
+        };
+        begin(cx, transient::GATHER_PHASE);
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
         let objects = (scene.objects, setup.cache.versions.objects);
         let ism = self.ism.run(cx, setup, objects)?;
@@ -165,8 +225,10 @@ impl Passes {
             layer1.forget(setup.slot);
             None
         };
+        begin(cx, transient::SSBC_PHASE);
         self.ssbc.run(cx, setup, (visible, hidden))?;
         if let Some(history) = history {
+            begin(cx, transient::TEMPORAL_PHASE);
             self.temporal(cx, setup, history)?;
         }
         self.indirect_light(cx, setup)
@@ -248,6 +310,7 @@ impl Passes {
         self.temporal_ran[slot] = false;
         self.indirect_bounded_layer.forget(slot);
         self.indirect_light.forget(slot);
+        self.transient[slot] = None;
     }
 
     /// Frees every slot's temporal history (a frame without one).
@@ -264,7 +327,8 @@ impl Passes {
             .filter_map(|slot| self.temporal.resources(slot))
             .map(|t| {
                 let (w, h) = (t.output.desc.width, t.output.desc.height);
-                crate::passes::temporal::slot_bytes(None, (w, h))
+                let transient = t.reprojected.shared.is_some();
+                crate::passes::temporal::slot_bytes(None, (w, h), transient)
             })
             .sum()
     }

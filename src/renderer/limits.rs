@@ -70,15 +70,22 @@ pub(super) fn frame_memory(
     // layer, the hidden ones at its resolution.
     let layer1 = settings.ssbc.second_layer().filter(|_| steps > 0);
     let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
+    // The gathers' intermediates and SSBC's pyramids share memory.
+    let transient = crate::passes::transient::plan(settings, uses.history);
+    let shared = transient.shares();
     let (mut gbuffer, mut lighting) = (0, 0);
     for layer in layers {
         gbuffer += GBuffer::descs(layer)
             .iter()
             .map(|d| d.bytes(device))
             .sum::<u64>();
-        // Direct light and what it sends; the bounded lighting.
-        lighting += 2 * radiance_desc(layer).bytes(device)
-            + indirect_bounded::memory_bytes(device, layer, settings.gather);
+        // Direct light (unless transient) and what it sends; the bounded
+        // lighting.
+        let direct =
+            shared && crate::passes::transient::direct_is_transient(settings, uses.history);
+        let images = if direct { 1 } else { 2 };
+        lighting += images * radiance_desc(layer).bytes(device)
+            + indirect_bounded::memory_bytes(device, layer, settings.gather, shared);
     }
     let outputs = settings.every_output();
     if outputs {
@@ -118,7 +125,7 @@ pub(super) fn frame_memory(
     };
     // Resident frames' temporal history.
     let history = if uses.history && settings.history.enabled {
-        crate::passes::temporal::slot_bytes(device, extent)
+        crate::passes::temporal::slot_bytes(device, extent, shared)
     } else {
         0
     };
@@ -138,7 +145,21 @@ pub(super) fn frame_memory(
     if uses.readback && settings.debug_readback {
         readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas_desc.bytes(None);
     }
-    let (ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc;
+    let (mut ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc;
+    let mut history = history;
+    if shared {
+        // SSBC's pyramids lie in it (with a step), and it counts as its
+        // largest phase's part.
+        if settings.ssbc.steps > 0 {
+            ssbc_pyramids = 0;
+        }
+        let bytes = transient.bytes(device);
+        match crate::passes::transient::part_name(&transient, device) {
+            "lighting" => lighting += bytes,
+            "temporal" => history += bytes,
+            _ => ssbc_pyramids += bytes,
+        }
+    }
     FrameMemory {
         gbuffer,
         lighting,

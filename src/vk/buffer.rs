@@ -7,6 +7,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
+use super::aliasing::{AliasRegion, SharedUse};
 use super::barrier::ResourceState;
 use super::device::{Device, Garbage};
 use crate::error::{Error, Result, VkResultExt};
@@ -17,6 +18,8 @@ pub struct Buffer {
     /// The raw handle.
     pub raw: vk::Buffer,
     allocation: Option<Allocation>,
+    /// Its place in memory other phases' resources share (none: its own).
+    pub(crate) shared: Option<SharedUse>,
     /// Size in bytes.
     pub size: u64,
     pub(crate) state: Cell<ResourceState>,
@@ -27,9 +30,19 @@ pub struct Buffer {
 /// before it exists (Vulkan 1.3); without one, `size` (as
 /// [`ImageDesc::bytes`](super::ImageDesc::bytes) for images).
 pub fn buffer_bytes(device: Option<&Device>, size: u64, usage: vk::BufferUsageFlags) -> u64 {
-    let Some(device) = device.filter(|_| size > 0) else {
-        return size;
-    };
+    match device.filter(|_| size > 0) {
+        Some(device) => requirements(device, size, usage).size,
+        None => size,
+    }
+}
+
+/// The memory requirements of a buffer [`Buffer::new`] would make on
+/// `device`, asked before it exists (Vulkan 1.3).
+pub(crate) fn requirements(
+    device: &Device,
+    size: u64,
+    usage: vk::BufferUsageFlags,
+) -> vk::MemoryRequirements {
     let info = create_info(size, usage);
     let query = vk::DeviceBufferMemoryRequirements::default().create_info(&info);
     let mut requirements = vk::MemoryRequirements2::default();
@@ -39,7 +52,7 @@ pub fn buffer_bytes(device: Option<&Device>, size: u64, usage: vk::BufferUsageFl
             .raw
             .get_device_buffer_memory_requirements(&query, &mut requirements)
     };
-    requirements.memory_requirements.size
+    requirements.memory_requirements
 }
 
 /// How [`Buffer::new`] creates a buffer of `size` bytes (at least 4).
@@ -90,10 +103,50 @@ impl Buffer {
             device: device.clone(),
             raw,
             allocation: Some(allocation),
+            shared: None,
             size,
             state: Cell::new(ResourceState::default()),
         };
         bound.vk("vkBindBufferMemory")?;
+        device.set_name(raw, name);
+        device.count_resource();
+        Ok(buffer)
+    }
+
+    /// Creates a device-local buffer of `size` bytes (at least 4) in
+    /// `region` of memory other phases' resources share (see
+    /// [`AliasedMemory`](super::AliasedMemory)).
+    pub fn new_aliased(
+        device: &Arc<Device>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        region: &mut AliasRegion,
+    ) -> Result<Self> {
+        let info = create_info(size, usage);
+        let size = info.size;
+        // SAFETY: valid create info on a live device.
+        let raw = unsafe { device.raw.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
+        // SAFETY: `raw` was just created from this device.
+        let requirements = unsafe { device.raw.get_buffer_memory_requirements(raw) };
+        let (memory, offset, shared) = match region.place(name, requirements) {
+            Ok(p) => p,
+            Err(e) => {
+                // SAFETY: never used or bound.
+                unsafe { device.raw.destroy_buffer(raw, None) };
+                return Err(e);
+            }
+        };
+        let buffer = Self {
+            device: device.clone(),
+            raw,
+            allocation: None,
+            shared: Some(shared),
+            size,
+            state: Cell::new(ResourceState::default()),
+        };
+        // SAFETY: memory placed for these requirements.
+        unsafe { device.raw.bind_buffer_memory(raw, memory, offset) }.vk("vkBindBufferMemory")?;
         device.set_name(raw, name);
         device.count_resource();
         Ok(buffer)
@@ -176,9 +229,9 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        if let Some(allocation) = self.allocation.take() {
-            self.device
-                .defer_destroy(Garbage::Buffer(self.raw, allocation));
-        }
+        // Its own memory is freed with it; aliased memory after its last
+        // resource (queued when `shared` drops, after this).
+        self.device
+            .defer_destroy(Garbage::Buffer(self.raw, self.allocation.take()));
     }
 }

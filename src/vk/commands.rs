@@ -7,6 +7,7 @@ use ash::vk;
 
 use std::cell::Cell;
 
+use super::aliasing::{AliasedMemory, SharedUse};
 use super::barrier::{transition, Access, ResourceState};
 use super::buffer::Buffer;
 use super::device::{Device, Garbage};
@@ -38,6 +39,10 @@ pub trait TrackedImage {
     fn tracked_state(&self) -> &Cell<ResourceState>;
     /// The subresources barriers cover.
     fn tracked_range(&self) -> vk::ImageSubresourceRange;
+    /// Its place in aliased memory, if it has one.
+    fn tracked_shared(&self) -> Option<&SharedUse> {
+        None
+    }
 }
 
 impl TrackedImage for Image {
@@ -49,6 +54,9 @@ impl TrackedImage for Image {
     }
     fn tracked_range(&self) -> vk::ImageSubresourceRange {
         self.full_range()
+    }
+    fn tracked_shared(&self) -> Option<&SharedUse> {
+        self.shared.as_ref()
     }
 }
 
@@ -158,7 +166,11 @@ impl Recorder<'_> {
     /// Declares the next use of `image`; a barrier is queued if needed.
     pub fn use_image(&mut self, image: &impl TrackedImage, access: Access) {
         let state = image.tracked_state();
-        let (barrier, after) = transition(state.get(), access, true);
+        let before = match image.tracked_shared() {
+            Some(shared) => shared.state(state.get()),
+            None => state.get(),
+        };
+        let (barrier, after) = transition(before, access, true);
         state.set(after);
         if let Some(b) = barrier {
             self.image_barriers.push(
@@ -210,7 +222,11 @@ impl Recorder<'_> {
 
     /// Declares the next use of `buffer`; a barrier is queued if needed.
     pub fn use_buffer(&mut self, buffer: &Buffer, access: Access) {
-        let (barrier, after) = transition(buffer.state.get(), access, false);
+        let before = match &buffer.shared {
+            Some(shared) => shared.state(buffer.state.get()),
+            None => buffer.state.get(),
+        };
+        let (barrier, after) = transition(before, access, false);
         buffer.state.set(after);
         if let Some(b) = barrier {
             self.buffer_barriers.push(
@@ -226,6 +242,26 @@ impl Recorder<'_> {
                     .size(vk::WHOLE_SIZE),
             );
         }
+    }
+
+    /// Starts `phase` of aliased memory: if another phase held it, one
+    /// barrier after every command so far (whatever that phase's resources
+    /// did), and the phase's resources start over from an undefined layout
+    /// at their next use.
+    pub fn hand_over(&mut self, memory: &AliasedMemory, phase: u32) {
+        if !memory.begin_phase(phase) {
+            return;
+        }
+        self.flush_barriers();
+        let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+        let barrier = vk::MemoryBarrier2::default()
+            .src_stage_mask(all)
+            .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+            .dst_stage_mask(all)
+            .dst_access_mask(vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE);
+        let info = vk::DependencyInfo::default().memory_barriers(std::slice::from_ref(&barrier));
+        // SAFETY: recording; a global barrier references no resource.
+        unsafe { self.device.raw.cmd_pipeline_barrier2(self.cmd, &info) };
     }
 
     /// Emits every queued barrier in one call.

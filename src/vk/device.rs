@@ -19,9 +19,13 @@ use crate::error::{Error, Result, VkResultExt};
 
 /// A Vulkan object waiting for the GPU to finish with it.
 pub(crate) enum Garbage {
-    Buffer(vk::Buffer, Allocation),
+    /// A buffer and its own memory (none: it was bound to aliased memory).
+    Buffer(vk::Buffer, Option<Allocation>),
     BufferView(vk::BufferView),
-    Image(vk::Image, Allocation),
+    /// An image and its own memory (as a buffer's).
+    Image(vk::Image, Option<Allocation>),
+    /// Memory resources of several phases shared (queued after them).
+    Memory(Allocation),
     ImageView(vk::ImageView),
     Sampler(vk::Sampler),
     Pipeline(vk::Pipeline),
@@ -914,14 +918,19 @@ impl Device {
             match garbage {
                 Garbage::Buffer(b, a) => {
                     self.raw.destroy_buffer(b, None);
-                    self.free_allocation(a);
+                    if let Some(a) = a {
+                        self.free_allocation(a);
+                    }
                     self.resources_destroyed.fetch_add(1, Ordering::Relaxed);
                 }
                 Garbage::Image(i, a) => {
                     self.raw.destroy_image(i, None);
-                    self.free_allocation(a);
+                    if let Some(a) = a {
+                        self.free_allocation(a);
+                    }
                     self.resources_destroyed.fetch_add(1, Ordering::Relaxed);
                 }
+                Garbage::Memory(a) => self.free_allocation(a),
                 Garbage::BufferView(v) => self.raw.destroy_buffer_view(v, None),
                 Garbage::ImageView(v) => self.raw.destroy_image_view(v, None),
                 Garbage::Sampler(s) => self.raw.destroy_sampler(s, None),

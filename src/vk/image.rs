@@ -7,12 +7,13 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
+use super::aliasing::{AliasRegion, SharedUse};
 use super::barrier::ResourceState;
 use super::device::{Device, Garbage};
 use crate::error::{Error, Result, VkResultExt};
 
 /// What to create.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ImageDesc {
     /// Texel format.
     pub format: vk::Format,
@@ -50,9 +51,9 @@ impl ImageDesc {
             .initial_layout(vk::ImageLayout::UNDEFINED)
     }
 
-    /// Bytes of device memory such an image takes on `device` (its memory
-    /// requirements, asked before it exists: Vulkan 1.3).
-    pub fn memory_bytes(&self, device: &Device) -> u64 {
+    /// The memory requirements of such an image on `device`, asked before
+    /// it exists (Vulkan 1.3).
+    pub fn memory_requirements(&self, device: &Device) -> vk::MemoryRequirements {
         let info = self.create_info();
         let query = vk::DeviceImageMemoryRequirements::default().create_info(&info);
         let mut requirements = vk::MemoryRequirements2::default();
@@ -62,7 +63,12 @@ impl ImageDesc {
                 .raw
                 .get_device_image_memory_requirements(&query, &mut requirements)
         };
-        requirements.memory_requirements.size
+        requirements.memory_requirements
+    }
+
+    /// Bytes of device memory such an image takes on `device`.
+    pub fn memory_bytes(&self, device: &Device) -> u64 {
+        self.memory_requirements(device).size
     }
 
     /// Bytes it takes: on `device`, its memory requirements there;
@@ -114,6 +120,8 @@ pub struct Image {
     /// The raw handle.
     pub raw: vk::Image,
     allocation: Option<Allocation>,
+    /// Its place in memory other phases' resources share (none: its own).
+    pub(crate) shared: Option<SharedUse>,
     /// How it was created.
     pub desc: ImageDesc,
     /// A view of all layers and mips (2D, or 2D array when `layers > 1`).
@@ -166,6 +174,7 @@ impl Image {
             device: device.clone(),
             raw,
             allocation: None,
+            shared: None,
             desc,
             view,
             mip_views: Vec::new(),
@@ -184,8 +193,62 @@ impl Image {
         }
     }
 
-    /// Creates the image in device memory, with its views.
+    /// Creates the image in device memory of its own, with its views.
     pub fn new(device: &Arc<Device>, name: &str, desc: ImageDesc) -> Result<Self> {
+        let raw = Self::create_raw(device, name, &desc)?;
+        // SAFETY: created above from this device.
+        let requirements = unsafe { device.raw.get_image_memory_requirements(raw) };
+        let allocation = match device.allocator().allocate(&AllocationCreateDesc {
+            name,
+            requirements,
+            location: MemoryLocation::GpuOnly,
+            linear: false,
+            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+        }) {
+            Ok(a) => a,
+            Err(e) => {
+                // SAFETY: never bound or used.
+                unsafe { device.raw.destroy_image(raw, None) };
+                return Err(e.into());
+            }
+        };
+        // SAFETY: the handle is only bound to this image; the allocation
+        // is freed after the image is destroyed.
+        let (memory, offset) = (unsafe { allocation.memory() }, allocation.offset());
+        let mut image = Self::unbound(device, name, raw, desc);
+        image.allocation = Some(allocation);
+        image.bind(memory, offset)?;
+        Ok(image)
+    }
+
+    /// Creates the image in `region` of memory other phases' resources
+    /// share (see [`AliasedMemory`](super::AliasedMemory)), with its views.
+    pub fn new_aliased(
+        device: &Arc<Device>,
+        name: &str,
+        desc: ImageDesc,
+        region: &mut AliasRegion,
+    ) -> Result<Self> {
+        let raw = Self::create_raw(device, name, &desc)?;
+        // SAFETY: created above from this device.
+        let requirements = unsafe { device.raw.get_image_memory_requirements(raw) };
+        let (memory, offset, shared) = match region.place(name, requirements) {
+            Ok(p) => p,
+            Err(e) => {
+                // SAFETY: never bound or used.
+                unsafe { device.raw.destroy_image(raw, None) };
+                return Err(e);
+            }
+        };
+        let mut image = Self::unbound(device, name, raw, desc);
+        image.shared = Some(shared);
+        image.bind(memory, offset)?;
+        Ok(image)
+    }
+
+    /// Creates the image handle, its size checked against the device's
+    /// limits.
+    fn create_raw(device: &Arc<Device>, name: &str, desc: &ImageDesc) -> Result<vk::Image> {
         let limits = device.limits();
         if desc.width == 0 || desc.height == 0 {
             return Err(Error::InvalidParameter(format!(
@@ -207,39 +270,27 @@ impl Image {
         }
         let info = desc.create_info();
         // SAFETY: valid create info; sizes checked against the limits.
-        let raw =
-            unsafe { device.raw.create_image(&info, None) }.map_err(|result| match result {
-                vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                    Error::InvalidParameter(format!(
-                        "image '{name}' ({}x{}x{}) does not fit in memory",
-                        desc.width, desc.height, desc.layers
-                    ))
-                }
-                result => Error::Vulkan {
-                    call: "vkCreateImage",
-                    result,
-                },
-            })?;
-        // SAFETY: created above from this device.
-        let requirements = unsafe { device.raw.get_image_memory_requirements(raw) };
-        let allocation = match device.allocator().allocate(&AllocationCreateDesc {
-            name,
-            requirements,
-            location: MemoryLocation::GpuOnly,
-            linear: false,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        }) {
-            Ok(a) => a,
-            Err(e) => {
-                // SAFETY: never bound or used.
-                unsafe { device.raw.destroy_image(raw, None) };
-                return Err(e.into());
+        unsafe { device.raw.create_image(&info, None) }.map_err(|result| match result {
+            vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
+                Error::InvalidParameter(format!(
+                    "image '{name}' ({}x{}x{}) does not fit in memory",
+                    desc.width, desc.height, desc.layers
+                ))
             }
-        };
-        let mut image = Self {
+            result => Error::Vulkan {
+                call: "vkCreateImage",
+                result,
+            },
+        })
+    }
+
+    /// The wrapper of a created, unbound image (its drop destroys it).
+    fn unbound(device: &Arc<Device>, name: &str, raw: vk::Image, desc: ImageDesc) -> Self {
+        Self {
             device: device.clone(),
             raw,
             allocation: None,
+            shared: None,
             desc,
             view: vk::ImageView::null(),
             mip_views: Vec::new(),
@@ -247,36 +298,35 @@ impl Image {
             state: Cell::new(ResourceState::default()),
             name: name.to_string(),
             owned: true,
-        };
-        // SAFETY: memory allocated for this image's requirements.
-        let bound = unsafe {
-            device
-                .raw
-                .bind_image_memory(raw, allocation.memory(), allocation.offset())
-        };
-        image.allocation = Some(allocation);
-        bound.vk("vkBindImageMemory")?;
+        }
+    }
 
+    /// Binds the image to `memory` at `offset` and makes its views.
+    fn bind(&mut self, memory: vk::DeviceMemory, offset: u64) -> Result<()> {
+        let (device, name, desc) = (self.device.clone(), self.name.clone(), self.desc);
+        // SAFETY: memory placed for this image's requirements.
+        unsafe { device.raw.bind_image_memory(self.raw, memory, offset) }
+            .vk("vkBindImageMemory")?;
         let array = desc.layers > 1 || desc.array;
-        image.view = image.create_view(0, desc.mip_levels, 0, desc.layers, array)?;
-        device.set_name(image.raw, name);
+        self.view = self.create_view(0, desc.mip_levels, 0, desc.layers, array)?;
+        device.set_name(self.raw, &name);
         device.count_resource();
-        device.set_name(image.view, &format!("{name} view"));
+        device.set_name(self.view, &format!("{name} view"));
         if desc.mip_levels > 1 {
             for level in 0..desc.mip_levels {
-                let v = image.create_view(level, 1, 0, desc.layers, array)?;
+                let v = self.create_view(level, 1, 0, desc.layers, array)?;
                 device.set_name(v, &format!("{name} mip {level}"));
-                image.mip_views.push(v);
+                self.mip_views.push(v);
             }
         }
         if array {
             for layer in 0..desc.layers {
-                let v = image.create_view(0, 1, layer, 1, false)?;
+                let v = self.create_view(0, 1, layer, 1, false)?;
                 device.set_name(v, &format!("{name} layer {layer}"));
-                image.layer_views.push(v);
+                self.layer_views.push(v);
             }
         }
-        Ok(image)
+        Ok(())
     }
 
     fn create_view(
@@ -337,10 +387,10 @@ impl Drop for Image {
         for v in views.filter(|v| *v != vk::ImageView::null()) {
             self.device.defer_destroy(Garbage::ImageView(v));
         }
-        if let Some(allocation) = self.allocation.take() {
-            self.device
-                .defer_destroy(Garbage::Image(self.raw, allocation));
-        }
+        // Its own memory is freed with it; aliased memory after its last
+        // resource (queued when `shared` drops, after this).
+        self.device
+            .defer_destroy(Garbage::Image(self.raw, self.allocation.take()));
     }
 }
 

@@ -30,6 +30,7 @@ mod driver_libraries;
 mod instance;
 unstable_pub! {
     mod acceleration;
+    mod aliasing;
     mod barrier;
     mod buffer;
     mod buffer_view;
@@ -50,6 +51,7 @@ pub use instance::{Instance, Validation, ValidationLog};
 pub use profiler::{GpuFrameTimes, PassTiming};
 unstable_pub! {
     use self::acceleration::{AccelerationStructure, TriangleRange};
+    use self::aliasing::{AliasPlan, AliasRegion, AliasedMemory, Planned, Tenant};
     use self::barrier::Access;
     use self::buffer::{buffer_bytes, Buffer};
     use self::buffer_view::BufferView;

@@ -545,10 +545,13 @@ fn show_pose(resident: &mut ssbc::resident::ResidentScene, t: f32) -> Result<(),
 /// bytes asked for, whatever the settings (the device's checks come
 /// later, with their own errors).
 fn log_memory(scene: &ssbc::Scene, settings: &RenderSettings, resident: bool) {
-    let mut m = ssbc::renderer::frame_memory(scene, settings);
-    if !resident {
-        m.history = 0;
-    }
+    use ssbc::renderer::SlotUse;
+    let slot = if resident {
+        SlotUse::Resident
+    } else {
+        SlotUse::Immediate
+    };
+    let m = ssbc::renderer::frame_memory_of(scene, settings, slot);
     let pixels = settings.width as u64 * settings.height as u64;
     log::info!("a frame slot will take {}", m.summary(pixels));
 }

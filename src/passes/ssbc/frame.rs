@@ -10,7 +10,7 @@ use super::layout::{BufferPlan, FinalImage, FramePlan, Kept};
 use super::SsbcPass;
 use crate::error::Result;
 use crate::settings::LayerResolution;
-use crate::vk::{Buffer, BufferView, Device, Image, ImageDesc};
+use crate::vk::{AliasRegion, Buffer, BufferView, Device, Image, ImageDesc};
 
 /// One frame's SSBC resources. The pyramids and the evaluation points are
 /// read and written through texel views (their size is then capped by
@@ -18,7 +18,7 @@ use crate::vk::{Buffer, BufferView, Device, Image, ImageDesc};
 /// maxStorageBufferRange).
 pub struct SsbcFrame {
     /// Geometry pyramid, every level in one buffer (`GeoTexel` in
-    /// ssbc_types.glsl), as `R32G32B32A32_UINT` texels (four per texel).
+    /// ssbc_types.glsl), as `R32G32B32A32_UINT` texels (three per texel).
     pub geo: BufferView,
     /// Summed area, pixel count and continuity per texel (`GeoAux`), as
     /// `R32G32B32A32_UINT` texels.
@@ -108,7 +108,10 @@ impl SsbcFrame {
 impl SsbcPass {
     /// Allocates one frame's resources for `steps` steps, with descriptor
     /// sets counted for evaluation points from `max_eval_level` (at most)
-    /// down ([`SsbcPass::frame_layouts`]).
+    /// down ([`SsbcPass::frame_layouts`]). The pyramids and evaluation
+    /// points go to `transient` (a frame slot's transient memory) where
+    /// given.
+    #[allow(clippy::too_many_arguments)]
     pub fn allocate(
         &self,
         device: &Arc<Device>,
@@ -117,9 +120,14 @@ impl SsbcPass {
         max_eval_level: u32,
         layer1: Option<LayerResolution>,
         kept: Kept,
+        mut transient: Option<AliasRegion>,
     ) -> Result<SsbcFrame> {
         let plan = FramePlan::new(extent, steps, layer1, kept);
         let buffer = |name: &str, b: &BufferPlan| Buffer::new(device, name, b.bytes, b.usage, b.location);
+        let mut pyramid = |name: &str, b: &BufferPlan| match transient.as_mut() {
+            Some(region) => Buffer::new_aliased(device, name, b.bytes, b.usage, region),
+            None => buffer(name, b),
+        };
         let image = |name: String, desc: &ImageDesc| Image::new(device, &name, *desc);
         let per_step = |name: &str, desc: &ImageDesc| {
             (1..=steps)
@@ -135,12 +143,13 @@ impl SsbcPass {
             .map(|k| image(format!("ssbc.residual_sources_{k}"), &plan.radiance_image))
             .collect::<Result<Vec<_>>>()?;
         let samples = per_step("ssbc.samples", &plan.samples_image)?;
-        let geo = buffer("ssbc.pyramid.geometry", &plan.geo)?;
-        let aux = buffer("ssbc.pyramid.aux", &plan.aux)?;
-        let radiance = buffer("ssbc.pyramid.radiance", &plan.radiance)?;
-        let points = buffer("ssbc.eval_points", &plan.points)?;
-        let point_glossy = buffer("ssbc.eval_points.glossy", &plan.point_glossy)?;
-        let claims = buffer("ssbc.eval_points.claims", &plan.claims)?;
+        // In the order of `FramePlan::pyramids` (the transient plan's).
+        let geo = pyramid("ssbc.pyramid.geometry", &plan.geo)?;
+        let aux = pyramid("ssbc.pyramid.aux", &plan.aux)?;
+        let radiance = pyramid("ssbc.pyramid.radiance", &plan.radiance)?;
+        let points = pyramid("ssbc.eval_points", &plan.points)?;
+        let point_glossy = pyramid("ssbc.eval_points.glossy", &plan.point_glossy)?;
+        let claims = pyramid("ssbc.eval_points.claims", &plan.claims)?;
         let layer1_residuals = match &plan.layer1_image {
             Some(desc) => (1..steps)
                 .map(|k| image(format!("ssbc.layer1_residual_{k}"), desc))

@@ -7,12 +7,14 @@ use gpu_allocator::MemoryLocation;
 
 use crate::error::{Error, Result};
 use crate::settings::{LayerResolution, SsbcSettings};
-use crate::vk::{buffer_bytes, Device, ImageDesc};
+use crate::vk::{buffer_bytes, Device, ImageDesc, Planned, Tenant};
 
 /// Sizes of the GLSL structs, in bytes.
 /// `ListHeader` (ssbc_types.glsl).
 pub(super) const LIST_HEADER_BYTES: u64 = 48;
-pub(super) const GEO_TEXEL_BYTES: u64 = 64;
+/// `GeoTexel` in memory: two clusters' positions and extents, their
+/// normals and cones packed (`pack_normals` in ssbc_types.glsl).
+pub(super) const GEO_TEXEL_BYTES: u64 = 48;
 pub(super) const AUX_BYTES: u64 = 16;
 /// A texel's two radiance sums, packed (`pack_radiance` in ssbc_types.glsl).
 pub(super) const RADIANCE_BYTES: u64 = 16;
@@ -218,14 +220,6 @@ impl FramePlan {
         let buffer = |b: &BufferPlan| buffer_bytes(device, b.bytes, b.usage);
         let image = |i: &ImageDesc| i.bytes(device);
         let steps = self.steps as u64;
-        let pyramids = [
-            &self.geo,
-            &self.aux,
-            &self.radiance,
-            &self.points,
-            &self.point_glossy,
-            &self.claims,
-        ];
         let lists = PIXEL_LISTS * buffer(&self.pixel_list)
             + POINT_LISTS * buffer(&self.point_list)
             + buffer(&self.stats);
@@ -240,8 +234,40 @@ impl FramePlan {
                 .layer1_image
                 .as_ref()
                 .map_or(0, |i| steps.saturating_sub(1) * image(i));
-        (pyramids.iter().map(|b| buffer(b)).sum(), lists, images)
+        let pyramids = self.pyramids().iter().map(|b| buffer(b)).sum();
+        (pyramids, lists, images)
     }
+
+    /// The pyramids and evaluation points, in the order they are made.
+    pub fn pyramids(&self) -> [&BufferPlan; 6] {
+        [
+            &self.geo,
+            &self.aux,
+            &self.radiance,
+            &self.points,
+            &self.point_glossy,
+            &self.claims,
+        ]
+    }
+}
+
+/// What SSBC places in a frame slot's transient memory
+/// (`passes::transient`), in the order [`super::SsbcPass::allocate`] makes
+/// them: the pyramids, the evaluation points, their glossy rests and
+/// claims.
+pub fn transient_resources(
+    extent: (u32, u32),
+    (steps, layer1): (u32, Option<LayerResolution>),
+    kept: Kept,
+) -> Tenant {
+    FramePlan::new(extent, steps, layer1, kept)
+        .pyramids()
+        .iter()
+        .map(|b| Planned::Buffer {
+            bytes: b.bytes,
+            usage: b.usage,
+        })
+        .collect()
 }
 
 /// Bytes of device memory one frame slot's SSBC resources take at `extent`
@@ -285,7 +311,7 @@ fn check_list_coordinates(width: u32, height: u32) -> Result<()> {
 }
 
 /// Fails with a clear message if SSBC's largest texel view (the geometry
-/// pyramid, four texels per texel of every pyramid) or work list exceeds
+/// pyramid, three texels per texel of every pyramid) or work list exceeds
 /// what the device can view or bind (maxTexelBufferElements, 2^27 texels on
 /// lavapipe; maxStorageBufferRange for the lists, 128 MiB there).
 /// Or if the image is larger than the lists can address.
@@ -298,7 +324,7 @@ pub fn check_size(
     check_list_coordinates(width, height)?;
     let (size, levels) = pyramid_layout(width, height);
     let layer1 = effective_layer1(layer1, levels);
-    let texels = 4 * all_layers_texels(size, levels, layer1);
+    let texels = GEO_TEXEL_BYTES / 16 * all_layers_texels(size, levels, layer1);
     let limits = device.limits();
     let max_texels = limits.max_texel_buffer_elements as u64;
     let list_bytes = LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64;

@@ -29,7 +29,9 @@ use crate::shaders::{
 };
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
-pub use layout::{check_size, frame_bytes, frame_memory, pyramid_levels, FinalImage, Kept};
+pub use layout::{
+    check_size, frame_bytes, frame_memory, pyramid_levels, transient_resources, FinalImage, Kept,
+};
 pub use push::GLOSSY_RECEIVERS;
 
 /// Camera quantities the SSBC shaders need.
@@ -278,6 +280,7 @@ impl Pass for SsbcPass {
             ssbc.max_eval_level,
             ssbc.second_layer(),
             Self::kept(setup.settings),
+            setup.region(super::transient::Tenancy::Ssbc),
         )
     }
 

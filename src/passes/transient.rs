@@ -1,0 +1,137 @@
+//! A frame slot's transient memory: what the interleaved gather hands its
+//! filter, SSBC's pyramids and the temporal history's reprojection never
+//! live at once, so they share one block of device memory
+//! ([`AliasedMemory`]). The gather's phase holds its intermediate images
+//! and crease list, and in frames without history or output layers the
+//! direct light's image (every G-buffer layer's, one after another); SSBC's
+//! phase its pyramids, evaluation points and claims; the history's its
+//! reprojected image. The frame starts each phase with
+//! [`Recorder::hand_over`](crate::vk::Recorder::hand_over).
+
+use std::sync::Arc;
+
+use crate::error::Result;
+use crate::settings::RenderSettings;
+use crate::vk::{AliasPlan, AliasRegion, AliasedMemory, Device, Planned, Tenant};
+
+/// The gather's phase: its intermediates, until the filter and the crease
+/// kernel have read them.
+pub const GATHER_PHASE: u32 = 0;
+/// SSBC's phase: its pyramids and evaluation points, every step.
+pub const SSBC_PHASE: u32 = 1;
+/// The temporal history's phase: the previous frame's history
+/// reprojected, which its blend reads.
+pub const TEMPORAL_PHASE: u32 = 2;
+
+/// Who places resources in a slot's transient memory.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tenancy {
+    /// The direct light of G-buffer layer `0` or `1` (its image, which
+    /// only the bounded lighting reads in a frame without history or
+    /// output layers; what it sends to SSBC stays).
+    Direct(u32),
+    /// The bounded lighting of G-buffer layer `0` or `1`.
+    Gather(u32),
+    /// SSBC.
+    Ssbc,
+    /// The temporal history.
+    Temporal,
+}
+
+/// Whether the direct light's image is transient: read after SSBC by the
+/// history and the output layers only.
+pub fn direct_is_transient(settings: &RenderSettings, history: bool) -> bool {
+    !history && !settings.every_output()
+}
+
+/// The plan of a slot's transient memory for `settings`, in a slot whose
+/// frames keep temporal `history` or not: per phase, its tenants'
+/// resources in the order they make them.
+pub fn plan(settings: &RenderSettings, history: bool) -> AliasPlan {
+    let extent = (settings.width, settings.height);
+    let ssbc = &settings.ssbc;
+    let layer1 = ssbc.second_layer().filter(|_| ssbc.steps > 0);
+    let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
+    let direct_is_transient = direct_is_transient(settings, history);
+    let gather: Vec<Tenant> = layers
+        .flat_map(|e| {
+            let direct = match direct_is_transient {
+                true => vec![Planned::Image(super::radiance_desc(e))],
+                false => Vec::new(),
+            };
+            [direct, super::indirect_bounded::transient_resources(e, settings.gather)]
+        })
+        .collect();
+    // Without a step SSBC holds a 1x1 frame's resources: nothing to share.
+    let ssbc = match ssbc.steps {
+        0 => Vec::new(),
+        steps => super::ssbc::transient_resources(
+            extent,
+            (steps, ssbc.second_layer()),
+            super::ssbc::SsbcPass::kept(settings),
+        ),
+    };
+    // (A frame without history leaves it unused: it is never the largest.)
+    let temporal = match history {
+        true => super::temporal::transient_resources(extent),
+        false => Vec::new(),
+    };
+    AliasPlan {
+        phases: vec![gather, vec![ssbc], vec![temporal]],
+    }
+}
+
+/// The prefix of the part of frame memory the plan's memory counts as: its
+/// largest phase's (`memory::part_of`).
+pub fn part_name(plan: &AliasPlan, device: Option<&Device>) -> &'static str {
+    match plan.largest_phase(device) as u32 {
+        GATHER_PHASE => "lighting",
+        SSBC_PHASE => "ssbc.pyramid",
+        _ => "temporal",
+    }
+}
+
+/// A frame slot's transient memory, as made for its plan.
+pub struct SlotTransient {
+    /// What it was made for.
+    pub plan: AliasPlan,
+    /// The memory (None: the plan shares nothing; each pass allocates its
+    /// own).
+    pub memory: Option<Arc<AliasedMemory>>,
+    regions: Vec<Vec<AliasRegion>>,
+}
+
+impl SlotTransient {
+    /// Memory for `plan` in frame slot `slot`, if it shares anything.
+    pub fn new(device: &Arc<Device>, slot: usize, plan: AliasPlan) -> Result<Self> {
+        if !plan.shares() {
+            return Ok(Self {
+                plan,
+                memory: None,
+                regions: Vec::new(),
+            });
+        }
+        // Named for the largest part it holds (frame memory by part).
+        let name = format!("{}.transient slot {slot}", part_name(&plan, Some(device)));
+        let (memory, regions) = AliasedMemory::new(device, &name, &plan)?;
+        Ok(Self {
+            plan,
+            memory: Some(memory),
+            regions,
+        })
+    }
+
+    /// Where `tenant` places its resources (None: in memory of their own).
+    pub fn region(&self, tenant: Tenancy) -> Option<AliasRegion> {
+        let (phase, index) = match tenant {
+            Tenancy::Direct(layer) => (GATHER_PHASE, 2 * layer as usize),
+            Tenancy::Gather(layer) => (GATHER_PHASE, 2 * layer as usize + 1),
+            Tenancy::Ssbc => (SSBC_PHASE, 0),
+            Tenancy::Temporal => (TEMPORAL_PHASE, 0),
+        };
+        let planned = self.plan.phases.get(phase as usize)?.get(index)?;
+        let region = self.regions.get(phase as usize)?.get(index)?;
+        // (A tenant that places nothing makes what it makes on its own.)
+        (!planned.is_empty()).then(|| region.clone())
+    }
+}
