@@ -75,6 +75,30 @@ fn main() -> ssbc::Result<()> {
         row(&format!("{vpls} VPLs"), &m, pixels(&s));
     }
 
+    println!(
+        "\n## By scene, 1920x1080, immediate (glossy materials keep the evaluation points' glossy \
+         rests; normal maps keep the G-buffer's emission image, whose geometric normals SSBC \
+         reads)\n"
+    );
+    header();
+    for name in ["cornell", "spheres"] {
+        let mut scene = ssbc::scene::load(name)?;
+        scene.ensure_light();
+        let s = RenderSettings::new(1920, 1080);
+        let m = frame_memory_of(&scene, &s, SlotUse::Immediate);
+        let kind = if scene.has_glossy_materials() {
+            "glossy"
+        } else {
+            "Lambertian"
+        };
+        let maps = if scene.has_normal_maps() {
+            ", normal maps"
+        } else {
+            ""
+        };
+        row(&format!("{name} ({kind}{maps})"), &m, pixels(&s));
+    }
+
     if quick {
         return Ok(());
     }

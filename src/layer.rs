@@ -72,12 +72,16 @@ impl Layer {
     /// Whether a frame makes this layer only when it hands out every
     /// output ([`RenderSettings::output_layers`](crate::RenderSettings::output_layers)),
     /// or a GPU frame asks for it (which then makes them all). The direct
-    /// light is one: without, its image shares memory with SSBC's pyramids
-    /// (unless temporal history reads it).
+    /// light and the G-buffer's emission are: without, their images may
+    /// share memory with SSBC's pyramids (`passes::transient`).
     pub fn on_request(self) -> bool {
         matches!(
             self,
-            Layer::Direct | Layer::IndirectBounded | Layer::Residual(_) | Layer::Indirect
+            Layer::Direct
+                | Layer::GBufferEmission
+                | Layer::IndirectBounded
+                | Layer::Residual(_)
+                | Layer::Indirect
         )
     }
 

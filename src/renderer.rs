@@ -65,7 +65,8 @@ use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 /// assert!(hd.persistent() >= hd.history + hd.gbuffer);
 /// ```
 pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> FrameMemory {
-    limits::frame_memory(None, settings, scene.lights.len(), limits::FrameUse::ALL)
+    let uses = limits::FrameUse::ALL.with_scene(scene);
+    limits::frame_memory(None, settings, scene.lights.len(), uses)
 }
 
 /// How a frame slot is used, for [`frame_memory_of`].
@@ -96,7 +97,9 @@ pub fn frame_memory_of(scene: &Scene, settings: &RenderSettings, slot: SlotUse) 
     let uses = limits::FrameUse {
         history: resident && settings.history.enabled,
         readback: !resident,
-    };
+        ..limits::FrameUse::ALL
+    }
+    .with_scene(scene);
     limits::frame_memory(None, settings, scene.lights.len(), uses)
 }
 
@@ -265,12 +268,8 @@ impl Renderer {
     /// (what the allocator then takes), for settings the device accepts
     /// (an image beyond its limits is counted by its texels).
     pub fn frame_memory(&self, scene: &Scene, settings: &RenderSettings) -> FrameMemory {
-        limits::frame_memory(
-            Some(&self.device),
-            settings,
-            scene.lights.len(),
-            limits::FrameUse::ALL,
-        )
+        let uses = limits::FrameUse::ALL.with_scene(scene);
+        limits::frame_memory(Some(&self.device), settings, scene.lights.len(), uses)
     }
 
     /// Validation messages so far (stays readable after the renderer is dropped).

@@ -23,9 +23,9 @@ use crate::layer::Layer;
 use crate::gpu_scene::{GpuScene, SlotScene};
 use crate::shaders::{gbuffer_frag, gbuffer_peel_frag, gbuffer_vert};
 use crate::vk::{
-    declare_bindings, push_size, BindingAccess, DescriptorPool, DescriptorSetLayout, RenderTargets,
-    Device, GraphicsDesc, Image, ImageDesc, Pipeline, Recorder, Shader, ShaderBindings,
-    ShaderInterface,
+    declare_bindings, push_size, AliasRegion, BindingAccess, DescriptorPool, DescriptorSetLayout,
+    Device, GraphicsDesc, Image, ImageDesc, Pipeline, Planned, Recorder, RenderTargets, Shader,
+    ShaderBindings, ShaderInterface, Tenant,
 };
 
 /// Format of every G-buffer colour target (storage-image compatible).
@@ -56,17 +56,45 @@ impl GBuffer {
         [color, color, color, color, depth]
     }
 
-    /// Allocates the images for `extent`, named `{prefix}.position` etc.
-    pub fn new(device: &Arc<Device>, prefix: &str, extent: (u32, u32)) -> Result<Self> {
+    /// Allocates the images for `extent`, named `{prefix}.position` etc.;
+    /// in `transient` (a frame slot's transient memory) where given, as
+    /// `GBuffer::transient_resources` plans them: the depth buffer,
+    /// which only the draw uses, and with `emission_transient` the
+    /// emission image.
+    pub fn new(
+        device: &Arc<Device>,
+        prefix: &str,
+        extent: (u32, u32),
+        mut transient: Option<AliasRegion>,
+        emission_transient: bool,
+    ) -> Result<Self> {
         let [color, _, _, _, depth] = Self::descs(extent);
-        let image = |name: &str, desc| Image::new(device, &format!("{prefix}.{name}"), desc);
+        let mut image = |name: &str, desc, shared: bool| {
+            let name = format!("{prefix}.{name}");
+            match transient.as_mut().filter(|_| shared) {
+                Some(region) => Image::new_aliased(device, &name, desc, region),
+                None => Image::new(device, &name, desc),
+            }
+        };
+        // In the order of `transient_resources`.
+        let emission = image("emission", color, emission_transient)?;
+        let depth = image("depth", depth, true)?;
         Ok(Self {
-            position: image("position", color)?,
-            normal: image("normal", color)?,
-            albedo: image("albedo", color)?,
-            emission: image("emission", color)?,
-            depth: image("depth", depth)?,
+            position: image("position", color, false)?,
+            normal: image("normal", color, false)?,
+            albedo: image("albedo", color, false)?,
+            emission,
+            depth,
         })
+    }
+
+    /// What the G-buffer places in a frame slot's transient memory
+    /// (`passes::transient`): with `emission` its emission image, and its
+    /// depth buffer.
+    pub(crate) fn transient_resources(extent: (u32, u32), emission: bool) -> Tenant {
+        let [color, _, _, _, depth] = Self::descs(extent);
+        let emission = emission.then_some(Planned::Image(color));
+        emission.into_iter().chain([Planned::Image(depth)]).collect()
     }
 
     /// The three colour targets: position, normal, albedo.
@@ -219,17 +247,26 @@ impl Pass for GBufferPass {
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
         let name = super::layer_name("gbuffer", self.layer);
-        GBuffer::new(setup.device, &name, setup.layer_extent(self.layer))
+        let transient = setup.region(super::transient::Tenancy::GBuffer(self.layer));
+        let traits = super::transient::SlotTraits::of(setup.scene, setup.history);
+        let emission = transient.is_some()
+            && super::transient::emission_is_transient(setup.settings, traits);
+        GBuffer::new(setup.device, &name, setup.layer_extent(self.layer), transient, emission)
     }
 
+    /// (The emission image only where it outlives the gathers, not in the
+    /// slot's transient memory.)
     fn layers<'r>(&self, g: &'r GBuffer) -> Vec<(Layer, &'r Image)> {
         if self.layer() == 0 {
-            vec![
+            let mut layers = vec![
                 (Layer::GBufferPosition, &g.position),
                 (Layer::GBufferNormal, &g.normal),
                 (Layer::GBufferAlbedo, &g.albedo),
-                (Layer::GBufferEmission, &g.emission),
-            ]
+            ];
+            if g.emission.shared.is_none() {
+                layers.push((Layer::GBufferEmission, &g.emission));
+            }
+            layers
         } else {
             vec![
                 (Layer::Layer1Position, &g.position),

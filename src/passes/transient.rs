@@ -1,9 +1,11 @@
 //! A frame slot's transient memory: what the interleaved gather hands its
 //! filter, SSBC's pyramids and the temporal history's reprojection never
 //! live at once, so they share one block of device memory
-//! ([`AliasedMemory`]). The gather's phase holds its intermediate images
-//! and crease list, and in frames without history or output layers the
-//! direct light's image (every G-buffer layer's, one after another); SSBC's
+//! ([`AliasedMemory`]). The gather's phase holds the G-buffer's depth
+//! buffer, the gather's intermediate images and crease list, in frames
+//! without history or output layers the direct light's image, and in
+//! scenes without normal maps the G-buffer's emission image (every
+//! G-buffer layer's, one after another); SSBC's
 //! phase its pyramids, evaluation points and claims; the history's its
 //! reprojected image. The frame starts each phase with
 //! [`Recorder::hand_over`](crate::vk::Recorder::hand_over).
@@ -26,6 +28,9 @@ pub const TEMPORAL_PHASE: u32 = 2;
 /// Who places resources in a slot's transient memory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Tenancy {
+    /// The G-buffer's depth buffer on layer `0` or `1` (only its draw
+    /// uses it), and its emission image where that is transient.
+    GBuffer(u32),
     /// The direct light of G-buffer layer `0` or `1` (its image, which
     /// only the bounded lighting reads in a frame without history or
     /// output layers; what it sends to SSBC stays).
@@ -38,28 +43,63 @@ pub enum Tenancy {
     Temporal,
 }
 
-/// Whether the direct light's image is transient: read after SSBC by the
-/// history and the output layers only.
-pub fn direct_is_transient(settings: &RenderSettings, history: bool) -> bool {
-    !history && !settings.every_output()
+/// What a slot's transient memory depends on besides the settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SlotTraits {
+    /// The slot's frames keep temporal history (resident frames).
+    pub history: bool,
+    /// The scene has glossy materials (SSBC's evaluation points keep
+    /// glossy rests).
+    pub glossy: bool,
+    /// The scene has normal maps (SSBC reads the geometric normals kept
+    /// in the G-buffer's emission image).
+    pub normal_maps: bool,
 }
 
-/// The plan of a slot's transient memory for `settings`, in a slot whose
-/// frames keep temporal `history` or not: per phase, its tenants'
-/// resources in the order they make them.
-pub fn plan(settings: &RenderSettings, history: bool) -> AliasPlan {
+impl SlotTraits {
+    /// Those of `scene`'s frames, keeping `history` or not.
+    pub fn of(scene: &crate::scene::Scene, history: bool) -> Self {
+        Self {
+            history,
+            glossy: scene.has_glossy_materials(),
+            normal_maps: scene.has_normal_maps(),
+        }
+    }
+}
+
+/// Whether the direct light's image is transient: read after SSBC by the
+/// history and the output layers only.
+pub fn direct_is_transient(settings: &RenderSettings, traits: SlotTraits) -> bool {
+    !traits.history && !settings.every_output()
+}
+
+/// Whether the G-buffer's emission image is transient: read after the
+/// gathers by SSBC only for the geometric normals of normal-mapped
+/// scenes, and by the debug read-back.
+pub fn emission_is_transient(settings: &RenderSettings, traits: SlotTraits) -> bool {
+    !traits.normal_maps && !settings.every_output()
+}
+
+/// The plan of a slot's transient memory for `settings` and `traits`: per
+/// phase, its tenants' resources in the order they make them.
+pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     let extent = (settings.width, settings.height);
     let ssbc = &settings.ssbc;
     let layer1 = ssbc.second_layer().filter(|_| ssbc.steps > 0);
     let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
-    let direct_is_transient = direct_is_transient(settings, history);
+    let direct_is_transient = direct_is_transient(settings, traits);
+    let emission_is_transient = emission_is_transient(settings, traits);
     let gather: Vec<Tenant> = layers
         .flat_map(|e| {
             let direct = match direct_is_transient {
                 true => vec![Planned::Image(super::radiance_desc(e))],
                 false => Vec::new(),
             };
-            [direct, super::indirect_bounded::transient_resources(e, settings.gather)]
+            [
+                super::gbuffer::GBuffer::transient_resources(e, emission_is_transient),
+                direct,
+                super::indirect_bounded::transient_resources(e, settings.gather),
+            ]
         })
         .collect();
     // Without a step SSBC holds a 1x1 frame's resources: nothing to share.
@@ -68,11 +108,11 @@ pub fn plan(settings: &RenderSettings, history: bool) -> AliasPlan {
         steps => super::ssbc::transient_resources(
             extent,
             (steps, ssbc.second_layer()),
-            super::ssbc::SsbcPass::kept(settings),
+            super::ssbc::SsbcPass::kept(settings, traits.glossy),
         ),
     };
     // (A frame without history leaves it unused: it is never the largest.)
-    let temporal = match history {
+    let temporal = match traits.history {
         true => super::temporal::transient_resources(extent),
         false => Vec::new(),
     };
@@ -124,8 +164,9 @@ impl SlotTransient {
     /// Where `tenant` places its resources (None: in memory of their own).
     pub fn region(&self, tenant: Tenancy) -> Option<AliasRegion> {
         let (phase, index) = match tenant {
-            Tenancy::Direct(layer) => (GATHER_PHASE, 2 * layer as usize),
-            Tenancy::Gather(layer) => (GATHER_PHASE, 2 * layer as usize + 1),
+            Tenancy::GBuffer(layer) => (GATHER_PHASE, 3 * layer as usize),
+            Tenancy::Direct(layer) => (GATHER_PHASE, 3 * layer as usize + 1),
+            Tenancy::Gather(layer) => (GATHER_PHASE, 3 * layer as usize + 2),
             Tenancy::Ssbc => (SSBC_PHASE, 0),
             Tenancy::Temporal => (TEMPORAL_PHASE, 0),
         };

@@ -113,6 +113,8 @@ pub use inputs::{
 const KEPT: Kept = Kept {
     final_image: FinalImage::Own,
     residuals: true,
+    // (The host's receivers may be glossy.)
+    glossy_rests: true,
 };
 
 /// What a post-process's frame slots are made for: the image size, SSBC's

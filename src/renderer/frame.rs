@@ -58,11 +58,8 @@ fn frame_view(
         centre_depth: (bounds.center() - camera.position).dot(camera.forward),
         bound: settings.bound.resolve(cache.diagonal()),
         diagonal: cache.diagonal(),
-        glossy: scene
-            .materials
-            .iter()
-            .any(|m| m.reflectance != crate::scene::Reflectance::Lambertian),
-        normal_maps: scene.materials.iter().any(|m| m.normal_texture.is_some()),
+        glossy: scene.has_glossy_materials(),
+        normal_maps: scene.has_normal_maps(),
     })
 }
 
@@ -191,7 +188,7 @@ impl Renderer {
             settings
         };
         let with_history = resident && settings.history.enabled;
-        let uses = FrameUse::of::<S>(with_history);
+        let uses = FrameUse::of::<S>(with_history, scene);
         limits::check_settings(&self.device, settings, scene.lights.len(), uses)?;
         let (slot, previous_timings) = match host_slot {
             Some(slot) => (slot, None),
@@ -274,7 +271,7 @@ impl Renderer {
             previous_timings,
             history,
         } = request;
-        let uses = FrameUse::of::<S>(history.is_some());
+        let uses = FrameUse::of::<S>(history.is_some(), scene);
         let host_settings = settings;
         let shifted = self.history_settings(scene, settings, history);
         let settings = shifted.as_ref().unwrap_or(settings);

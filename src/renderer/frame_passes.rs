@@ -144,7 +144,8 @@ impl Passes {
     /// previous frame is done). New memory drops its tenants' resources,
     /// which are made anew in it.
     fn refresh_transient(&mut self, setup: &SlotSetup<'_>) -> Result<()> {
-        let plan = transient::plan(setup.settings, setup.history);
+        let traits = transient::SlotTraits::of(setup.scene, setup.history);
+        let plan = transient::plan(setup.settings, traits);
         let slot = setup.slot;
         if self.transient[slot]
             .as_ref()
@@ -153,8 +154,7 @@ impl Passes {
             return Ok(());
         }
         for layer in &mut self.layers {
-            layer.direct_lighting.forget(slot);
-            layer.indirect_bounded.forget(slot);
+            layer.forget(slot);
         }
         self.ssbc.forget(slot);
         // (Its history restarts: the plan changes with the size, the

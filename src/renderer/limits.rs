@@ -3,6 +3,7 @@
 use crate::error::{Error, Result};
 use crate::memory::FrameMemory;
 use crate::passes::gbuffer::GBuffer;
+use crate::passes::transient::{self, SlotTraits};
 use crate::passes::{indirect_bounded, radiance_desc};
 use crate::settings::{Bound, RenderSettings, SsbcSettings};
 use crate::vk::Device;
@@ -34,14 +35,39 @@ pub(super) struct FrameUse {
     pub history: bool,
     /// Read-back buffers ([`super::Renderer::render`]'s frames).
     pub readback: bool,
+    /// Glossy receivers (a scene with glossy materials): SSBC's
+    /// evaluation points keep their glossy rests.
+    pub glossy: bool,
+    /// Normal maps (SSBC reads the G-buffer's geometric normals).
+    pub normal_maps: bool,
 }
 
 impl FrameUse {
     /// A frame sent on by `S`, with or without a temporal history.
-    pub fn of<S: super::sink::FrameSink>(history: bool) -> Self {
+    pub fn of<S: super::sink::FrameSink>(history: bool, scene: &crate::scene::Scene) -> Self {
         Self {
             history,
             readback: S::READS_BACK,
+            glossy: scene.has_glossy_materials(),
+            normal_maps: scene.has_normal_maps(),
+        }
+    }
+
+    /// With `scene`'s materials.
+    pub fn with_scene(self, scene: &crate::scene::Scene) -> Self {
+        Self {
+            glossy: scene.has_glossy_materials(),
+            normal_maps: scene.has_normal_maps(),
+            ..self
+        }
+    }
+
+    /// What the slot's transient memory depends on.
+    fn traits(self) -> SlotTraits {
+        SlotTraits {
+            history: self.history,
+            glossy: self.glossy,
+            normal_maps: self.normal_maps,
         }
     }
 
@@ -49,6 +75,8 @@ impl FrameUse {
     pub const ALL: Self = Self {
         history: true,
         readback: true,
+        glossy: true,
+        normal_maps: true,
     };
 }
 
@@ -65,42 +93,20 @@ pub(super) fn frame_memory(
 ) -> FrameMemory {
     let extent = (settings.width, settings.height);
     let pixels = extent.0 as u64 * extent.1 as u64;
-    let steps = settings.ssbc.steps as u64;
-    // The G-buffer layers: the visible surfaces and, with a second SSBC
-    // layer, the hidden ones at its resolution.
-    let layer1 = settings.ssbc.second_layer().filter(|_| steps > 0);
-    let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
-    // The gathers' intermediates and SSBC's pyramids share memory.
-    let transient = crate::passes::transient::plan(settings, uses.history);
-    let shared = transient.shares();
-    let (mut gbuffer, mut lighting) = (0, 0);
-    for layer in layers {
-        gbuffer += GBuffer::descs(layer)
-            .iter()
-            .map(|d| d.bytes(device))
-            .sum::<u64>();
-        // Direct light (unless transient) and what it sends; the bounded
-        // lighting.
-        let direct =
-            shared && crate::passes::transient::direct_is_transient(settings, uses.history);
-        let images = if direct { 1 } else { 2 };
-        lighting += images * radiance_desc(layer).bytes(device)
-            + indirect_bounded::memory_bytes(device, layer, settings.gather, shared);
-    }
+    // What never lives at once shares memory (`passes::transient`).
+    let plan = transient::plan(settings, uses.traits());
+    let shared = plan.shares();
+    let (gbuffer, mut lighting) = layer_memory(device, settings, uses, shared);
     let outputs = settings.every_output();
     if outputs {
         // The layers made on request: the bounded and the whole indirect light.
         lighting += 2 * crate::passes::indirect_light::desc(extent).bytes(device);
     }
-    let layer1_pixels = layer1.map_or(0, |r| {
-        let (w, h) = r.extent(extent);
-        w as u64 * h as u64
-    });
     let ssbc = crate::passes::ssbc::frame_memory(
         device,
         crate::passes::ssbc::SsbcPass::allocated_extent(extent, settings.ssbc.steps),
         (settings.ssbc.steps, settings.ssbc.second_layer()),
-        crate::passes::ssbc::SsbcPass::kept(settings),
+        crate::passes::ssbc::SsbcPass::kept(settings, uses.glossy),
     );
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
@@ -129,22 +135,16 @@ pub(super) fn frame_memory(
     } else {
         0
     };
-    // The final image and the texels read per step; with output layers the
-    // others (`Layer::outputs`); with debug read-back the G-buffer's four
-    // images, S0's sources, a second layer's three images and sources, and
-    // the ISM atlas.
-    let mut readback = if uses.readback {
-        pixels * (16 + 4 * steps)
+    // One staging buffer the read-back images go through in bands: as
+    // large as the largest of them (an RGBA32F image of the frame's size;
+    // with debug read-back the ISM atlas too), at most STAGING_BYTES.
+    let readback = if uses.readback {
+        let debug = settings.debug_readback;
+        let atlas = if debug { atlas_desc.bytes(None) } else { 0 };
+        super::readback::staging_bytes((pixels * 16).max(atlas))
     } else {
         0
     };
-    if uses.readback && outputs {
-        let others = crate::layer::Layer::outputs(settings.ssbc.steps).len() as u64 - 1;
-        readback += pixels * 16 * others;
-    }
-    if uses.readback && settings.debug_readback {
-        readback += pixels * 16 * 5 + layer1_pixels * 16 * 4 + atlas_desc.bytes(None);
-    }
     let (mut ssbc_pyramids, ssbc_lists, ssbc_images) = ssbc;
     let mut history = history;
     if shared {
@@ -153,12 +153,11 @@ pub(super) fn frame_memory(
         if settings.ssbc.steps > 0 {
             ssbc_pyramids = 0;
         }
-        let bytes = transient.bytes(device);
-        match crate::passes::transient::part_name(&transient, device) {
-            "lighting" => lighting += bytes,
-            "temporal" => history += bytes,
-            _ => ssbc_pyramids += bytes,
-        }
+        *match transient::part_name(&plan, device) {
+            "lighting" => &mut lighting,
+            "temporal" => &mut history,
+            _ => &mut ssbc_pyramids,
+        } += plan.bytes(device);
     }
     FrameMemory {
         gbuffer,
@@ -171,6 +170,44 @@ pub(super) fn frame_memory(
         history,
         readback,
     }
+}
+
+/// The G-buffers' and the lighting images' bytes of every G-buffer layer
+/// (the visible surfaces and, with a second SSBC layer, the hidden ones at
+/// its resolution), less what lies in `shared` transient memory.
+fn layer_memory(
+    device: Option<&Device>,
+    settings: &RenderSettings,
+    uses: FrameUse,
+    shared: bool,
+) -> (u64, u64) {
+    let extent = (settings.width, settings.height);
+    let layer1 = settings
+        .ssbc
+        .second_layer()
+        .filter(|_| settings.ssbc.steps > 0);
+    let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
+    let (mut gbuffer, mut lighting) = (0, 0);
+    for layer in layers {
+        // (Where memory is shared the depth buffer is transient, and the
+        // emission image may be.)
+        let emission = shared && transient::emission_is_transient(settings, uses.traits());
+        let [position, normal, albedo, emission_desc, depth] = GBuffer::descs(layer);
+        let own = [(position, true), (normal, true), (albedo, true)]
+            .into_iter()
+            .chain([(emission_desc, !emission), (depth, !shared)]);
+        gbuffer += own
+            .filter(|(_, kept)| *kept)
+            .map(|(d, _)| d.bytes(device))
+            .sum::<u64>();
+        // Direct light (unless transient) and what it sends; the bounded
+        // lighting.
+        let direct = shared && transient::direct_is_transient(settings, uses.traits());
+        let images = if direct { 1 } else { 2 };
+        lighting += images * radiance_desc(layer).bytes(device)
+            + indirect_bounded::memory_bytes(device, layer, settings.gather, shared);
+    }
+    (gbuffer, lighting)
 }
 
 /// Fails, before anything is allocated, if one frame slot's resources

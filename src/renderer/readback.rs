@@ -16,7 +16,7 @@ use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
 use crate::timings::{CpuSpan, CpuTimings, SsbcStepTiming, Timings};
 use crate::vk::HostImage;
-use crate::vk::{Buffer, Device, GpuFrameTimes, Image, Recorder};
+use crate::vk::{Access, Buffer, CommandPool, Device, GpuFrameTimes, Image, Recorder};
 
 use super::guard_band::GuardBand;
 
@@ -248,41 +248,88 @@ pub(crate) enum Readback {
     IsmAtlas,
 }
 
-/// Host-visible buffers for a slot's read-back, one per image.
-pub(crate) type ReadbackBuffers = Vec<(Readback, Buffer)>;
+/// Bytes of a slot's host-visible staging buffer: what the largest image
+/// to read back takes, at most [`STAGING_BYTES`].
+pub(crate) fn staging_bytes(largest_image: u64) -> u64 {
+    largest_image.clamp(4, STAGING_BYTES)
+}
+
+/// The most a slot's read-back staging takes: images larger than it are
+/// copied through it in bands of rows, one submission each, after the
+/// frame is done (a 3840x2160 RGBA32F image in 8 bands). A copy per band
+/// costs a submission and a wait; a buffer per image cost 20 bytes per
+/// pixel of host-visible memory in every slot.
+pub(crate) const STAGING_BYTES: u64 = 16 << 20;
+
+/// A slot's read-back: a host-visible staging buffer and the command pool
+/// its copies are recorded in.
+pub(crate) struct ReadbackBuffers {
+    staging: Buffer,
+    commands: CommandPool,
+}
 
 /// Bytes of a tightly packed host copy of `image`'s first level.
 fn readback_size(image: &Image) -> u64 {
     image.desc.bytes(None)
 }
 
-/// Makes `held` fit `images` (kept while every size matches).
+/// Makes `held` fit `images` (kept while its staging's size is right).
 pub(crate) fn ensure_buffers(
     device: &std::sync::Arc<Device>,
     held: &mut Option<ReadbackBuffers>,
     images: &[(Readback, &Image)],
 ) -> Result<()> {
-    let sizes: Vec<u64> = images.iter().map(|(_, img)| readback_size(img)).collect();
-    let fits = held
-        .as_ref()
-        .is_some_and(|r| r.iter().map(|(_, b)| b.size).eq(sizes.iter().copied()));
-    if !fits {
-        let buffers = images
-            .iter()
-            .map(|(what, img)| {
-                Buffer::new(
-                    device,
-                    &format!("readback.{}", img.name()),
-                    readback_size(img),
-                    vk::BufferUsageFlags::TRANSFER_DST,
-                    MemoryLocation::GpuToCpu,
-                )
-                .map(|b| (*what, b))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        *held = Some(buffers);
+    let largest = images.iter().map(|(_, img)| readback_size(img)).max();
+    let bytes = staging_bytes(largest.unwrap_or(0));
+    if held.as_ref().is_some_and(|r| r.staging.size == bytes) {
+        return Ok(());
     }
+    *held = None;
+    let staging = Buffer::new(
+        device,
+        "readback.staging",
+        bytes,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuToCpu,
+    )?;
+    let commands = CommandPool::new(device)?;
+    commands.name("readback");
+    *held = Some(ReadbackBuffers { staging, commands });
     Ok(())
+}
+
+/// Copies `images` (whose frame is done) to the host through the staging
+/// buffer, band by band: each one's bytes, tightly packed.
+pub(crate) fn read_images(
+    device: &Device,
+    buffers: &mut ReadbackBuffers,
+    images: &[(Readback, &Image)],
+) -> Result<Vec<(Readback, Vec<u8>)>> {
+    let mut out = Vec::with_capacity(images.len());
+    for &(what, image) in images {
+        let (w, h) = (image.desc.width, image.desc.height);
+        let row = readback_size(image) / h as u64;
+        let rows_per_band = (buffers.staging.size / row).clamp(1, h as u64) as u32;
+        let mut bytes = Vec::with_capacity(readback_size(image) as usize);
+        for start in (0..h).step_by(rows_per_band as usize) {
+            let rows = start..(start + rows_per_band).min(h);
+            let mut rec = buffers.commands.begin()?;
+            rec.copy_image_rows_to_buffer(image, rows.clone(), &buffers.staging);
+            rec.use_buffer(&buffers.staging, Access::HostRead);
+            rec.flush_barriers();
+            device.wait(rec.submit()?)?;
+            let len = row * (rows.end - rows.start) as u64;
+            buffers.staging.read_into(len as usize, &mut bytes)?;
+        }
+        debug_assert_eq!(
+            bytes.len() as u64,
+            row * h as u64,
+            "{} of {w}x{h}",
+            image.name()
+        );
+        out.push((what, bytes));
+    }
+    Ok(out)
 }
 
 /// What besides the read-back buffers goes into a [`Frame`].
@@ -314,8 +361,8 @@ fn span_ms(spans: &[CpuSpan], name: &str) -> f64 {
         .map_or(0.0, CpuSpan::ms)
 }
 
-/// Assembles the frame from its read-back `buffers` (the frame is done).
-pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> Result<Frame> {
+/// Assembles the frame from what was read back (`read_images`).
+pub(crate) fn read_frame(read: Vec<(Readback, Vec<u8>)>, record: FrameRecord<'_>) -> Result<Frame> {
     let mut layers = Vec::new();
     let mut samples = Vec::new();
     let mut ism_depth = None;
@@ -324,16 +371,16 @@ pub(crate) fn read_frame(buffers: &ReadbackBuffers, record: FrameRecord<'_>) -> 
         Some(band) => band.crop(&data, channels, extent),
         None => data,
     };
-    for (what, buffer) in buffers {
-        match *what {
+    for (what, bytes) in read {
+        match what {
             Readback::Samples(k) => {
                 debug_assert_eq!(k as usize, samples.len() + 1);
-                samples.push(buffer.read::<f32>()?);
+                samples.push(bytemuck::pod_collect_to_vec::<u8, f32>(&bytes));
             }
-            Readback::IsmAtlas => ism_depth = Some(buffer.read::<u32>()?),
+            Readback::IsmAtlas => ism_depth = Some(bytemuck::pod_collect_to_vec::<u8, u32>(&bytes)),
             Readback::Layer(layer) => layers.push(LayerImage {
                 layer,
-                rgba: crop(buffer.read::<f32>()?, 4),
+                rgba: crop(bytemuck::pod_collect_to_vec::<u8, f32>(&bytes), 4),
             }),
         }
     }

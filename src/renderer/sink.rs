@@ -14,7 +14,7 @@ use crate::passes::FrameView;
 use crate::scene_cache::SceneCache;
 use crate::settings::RenderSettings;
 use crate::timings::{monotonic_ns, CpuSpan};
-use crate::vk::{Access, Device, GpuFrameTimes, GpuProfiler, HostImage, Recorder};
+use crate::vk::{Device, GpuFrameTimes, GpuProfiler, HostImage, Recorder};
 
 /// The image a frame handed over.
 pub(super) struct FrameOutput {
@@ -124,21 +124,21 @@ impl Finish<'_> {
 impl FrameSink for ReadBack {
     type Output = Frame;
     const READS_BACK: bool = true;
-    fn finish(self, mut rec: Recorder<'_>, mut f: Finish<'_>) -> Result<Frame> {
+    fn finish(self, rec: Recorder<'_>, mut f: Finish<'_>) -> Result<Frame> {
         let wanted = f.images.readback(f.settings);
         readback::ensure_buffers(f.device, f.readback, &wanted)?;
-        let buffers = f.readback.as_ref().expect("made above");
-        for ((_, image), (_, buffer)) in wanted.iter().zip(buffers) {
-            rec.copy_image_to_buffer(image, buffer);
-            rec.use_buffer(buffer, Access::HostRead);
-        }
         let done = f.submit(rec, Layer::Final)?;
         let wait_start = monotonic_ns();
         f.device.wait(done)?;
+        let read_start = monotonic_ns();
         f.spans
-            .push(CpuSpan::between("wait_for_gpu", wait_start, monotonic_ns()));
+            .push(CpuSpan::between("wait_for_gpu", wait_start, read_start));
+        let buffers = f.readback.as_mut().expect("made above");
+        let read = readback::read_images(f.device, buffers, &wanted)?;
+        f.spans
+            .push(CpuSpan::between("read_back", read_start, monotonic_ns()));
         readback::read_frame(
-            f.readback.as_ref().expect("made above"),
+            read,
             FrameRecord {
                 device: f.device,
                 settings: f.inner,

@@ -119,6 +119,19 @@ pub struct Scene {
 pub const MAX_TRIANGLES: usize = 1 << 24;
 
 impl Scene {
+    /// Whether any material is glossy (not Lambertian): SSBC's receivers
+    /// may then need their BRDF.
+    pub fn has_glossy_materials(&self) -> bool {
+        self.materials
+            .iter()
+            .any(|m| m.reflectance != Reflectance::Lambertian)
+    }
+
+    /// Whether any material has a normal map.
+    pub fn has_normal_maps(&self) -> bool {
+        self.materials.iter().any(|m| m.normal_texture.is_some())
+    }
+
     /// An empty scene.
     pub fn new(name: impl Into<String>) -> Self {
         Self {

@@ -208,6 +208,17 @@ impl Buffer {
         Ok(())
     }
 
+    /// Appends the first `len` bytes of the host-visible buffer to `out`
+    /// (after the GPU finished).
+    pub fn read_into(&self, len: usize, out: &mut Vec<u8>) -> Result<()> {
+        let (ptr, size) = self.mapped()?;
+        assert!(len <= size, "buffer read out of range");
+        // SAFETY: `len` bytes are inside the mapping, which is valid while
+        // `self` lives; memory is host coherent (GpuToCpu).
+        out.extend_from_slice(unsafe { std::slice::from_raw_parts(ptr, len) });
+        Ok(())
+    }
+
     /// Reads the whole host-visible buffer as `T`s (after the GPU finished).
     pub fn read<T: bytemuck::Pod>(&self) -> Result<Vec<T>> {
         let (ptr, _) = self.mapped()?;

@@ -296,6 +296,36 @@ impl Recorder<'_> {
         };
     }
 
+    /// Copies rows `rows` of mip 0 / layer 0 of a colour image to the start
+    /// of a buffer (tightly packed).
+    pub fn copy_image_rows_to_buffer(
+        &mut self,
+        image: &Image,
+        rows: std::ops::Range<u32>,
+        buffer: &Buffer,
+    ) {
+        self.use_image(image, Access::TransferRead);
+        self.use_buffer(buffer, Access::TransferWrite);
+        self.flush_barriers();
+        let extent = (image.desc.width, rows.end - rows.start);
+        let region = color_region(extent, 1, 0).image_offset(vk::Offset3D {
+            x: 0,
+            y: rows.start as i32,
+            z: 0,
+        });
+        // SAFETY: layouts set by the barrier above; the rows lie in the
+        // image and the buffer is sized by the caller.
+        unsafe {
+            self.device.raw.cmd_copy_image_to_buffer(
+                self.cmd,
+                image.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.raw,
+                &[region],
+            )
+        };
+    }
+
     /// Copies `size` bytes from `src` at `src_offset` to `dst` at `dst_offset`.
     pub fn copy_buffer(
         &mut self,

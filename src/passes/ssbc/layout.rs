@@ -100,6 +100,9 @@ pub struct Kept {
     /// output layers); without, a step writes only what it sends to the
     /// next (`NO_RESIDUAL`).
     pub residuals: bool,
+    /// The evaluation points' glossy rests (receivers may be glossy);
+    /// without, one texel, never read.
+    pub glossy_rests: bool,
 }
 
 /// A buffer of a frame slot: its size, usage and memory.
@@ -191,7 +194,10 @@ impl FramePlan {
             aux: gpu(all_texels * AUX_BYTES, texel_usage),
             radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
             points: gpu(points * EVAL_POINT_BYTES, cleared),
-            point_glossy: gpu(points * POINT_GLOSSY_BYTES, cleared),
+            point_glossy: gpu(
+                if kept.glossy_rests { points } else { 1 } * POINT_GLOSSY_BYTES,
+                cleared,
+            ),
             claims: gpu(
                 points * 4,
                 vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,

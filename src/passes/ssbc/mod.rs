@@ -169,11 +169,14 @@ impl SsbcPass {
     }
 
     /// What the renderer's frames keep: the final image summed into S0's,
-    /// and each step's residual only in frames that hand out every output.
-    pub(crate) fn kept(settings: &crate::settings::RenderSettings) -> Kept {
+    /// each step's residual only in frames that hand out every output, the
+    /// evaluation points' glossy rests only in scenes with `glossy`
+    /// materials.
+    pub(crate) fn kept(settings: &crate::settings::RenderSettings, glossy: bool) -> Kept {
         Kept {
             final_image: FinalImage::InS0,
             residuals: settings.every_output(),
+            glossy_rests: glossy,
         }
     }
 
@@ -258,8 +261,8 @@ pub struct SsbcLayer<'a> {
 impl Pass for SsbcPass {
     const NAME: &'static str = "ssbc";
     /// (width, height, steps, coarsest evaluation level, second layer,
-    /// residuals kept).
-    type Key = (u32, u32, u32, u32, Option<LayerResolution>, bool);
+    /// what is kept).
+    type Key = (u32, u32, u32, u32, Option<LayerResolution>, Kept);
     type Resources = SsbcFrame;
     /// The visible layer and, with `layers` 2, the hidden one.
     type Reads<'a> = (SsbcLayer<'a>, Option<SsbcLayer<'a>>);
@@ -267,8 +270,8 @@ impl Pass for SsbcPass {
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let (w, h) = setup.extent();
         let ssbc = &setup.settings.ssbc;
-        let residuals = Self::kept(setup.settings).residuals;
-        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.second_layer(), residuals)
+        let kept = Self::kept(setup.settings, setup.scene.has_glossy_materials());
+        (w, h, ssbc.steps, ssbc.max_eval_level, ssbc.second_layer(), kept)
     }
 
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<SsbcFrame> {
@@ -279,7 +282,7 @@ impl Pass for SsbcPass {
             ssbc.steps,
             ssbc.max_eval_level,
             ssbc.second_layer(),
-            Self::kept(setup.settings),
+            Self::kept(setup.settings, setup.scene.has_glossy_materials()),
             setup.region(super::transient::Tenancy::Ssbc),
         )
     }
