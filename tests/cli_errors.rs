@@ -174,19 +174,19 @@ fn size_above_device_limit() {
 
 #[test]
 fn guard_band_beyond_the_device_is_named() {
-    // Tori's band at 1920x1080 is 544 pixels each side: the wider frame
-    // needs more memory than a 2 GiB heap, and the error says it is the
-    // band's doing.
+    // Tori's band at 2560x1440 is 720 pixels each side: the wider frame
+    // needs more memory than a 2 GiB heap (2583 MiB; the frame alone 885),
+    // and the error says it is the band's doing.
     fails_on_a_2gib_heap_with(
         &[
             "tori",
             "--size",
-            "1920x1080",
+            "2560x1440",
             "--guard-band",
             "-o",
             "/tmp/never.exr",
         ],
-        "the guard band (544 pixels each side) makes the frame 3008x2168",
+        "the guard band (720 pixels each side) makes the frame 4000x2880",
     );
 }
 
@@ -252,14 +252,14 @@ fn bad_instant_radiosity_parameters() {
         &[],
         "--ssbc-layer1",
     );
-    // SSBC's buffers above Mesa 22.3's 128 MiB storage-buffer range: the
+    // A full-resolution second layer beyond Mesa 22.3's 2 GiB heap: the
     // error names the cheaper second layer.
     fails_on_a_2gib_heap_with(
         &[
             "--size",
-            // Fits a 2 GiB heap with one layer or a second at half
-            // resolution, not with a second at full (2926 MiB).
-            "2560x1440",
+            // Fits a 2 GiB heap with one layer (1335 MiB) or a second at
+            // half resolution (1591), not with a second at full (2360).
+            "3200x1800",
             "--ssbc-layers",
             "2",
             "-o",
