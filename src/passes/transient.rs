@@ -89,6 +89,7 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
     let direct_is_transient = direct_is_transient(settings, traits);
     let emission_is_transient = emission_is_transient(settings, traits);
+    // Three tenants a layer, in `SlotTransient::region`'s order.
     let gather: Vec<Tenant> = layers
         .flat_map(|e| {
             let direct = match direct_is_transient {
@@ -121,10 +122,10 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     }
 }
 
-/// The prefix of the part of frame memory the plan's memory counts as: its
-/// largest phase's (`memory::part_of`).
-pub fn part_name(plan: &AliasPlan, device: Option<&Device>) -> &'static str {
-    match plan.largest_phase(device) as u32 {
+/// The prefix of the part of frame memory a plan's memory counts as: that
+/// of its largest phase, `phase` (`AliasPlan::largest`; `memory::part_of`).
+pub fn part_name(phase: usize) -> &'static str {
+    match phase as u32 {
         GATHER_PHASE => "lighting",
         SSBC_PHASE => "ssbc.pyramid",
         _ => "temporal",
@@ -152,7 +153,8 @@ impl SlotTransient {
             });
         }
         // Named for the largest part it holds (frame memory by part).
-        let name = format!("{}.transient slot {slot}", part_name(&plan, Some(device)));
+        let (largest, _) = plan.largest(Some(device));
+        let name = format!("{}.transient slot {slot}", part_name(largest));
         let (memory, regions) = AliasedMemory::new(device, &name, &plan)?;
         Ok(Self {
             plan,

@@ -161,7 +161,7 @@ impl Passes {
         // gather or the SSBC layers and steps.)
         self.temporal.forget(slot);
         self.temporal_ran[slot] = false;
-        self.transient[slot] = None;
+        self.transient[slot] = None; // the old memory first
         self.transient[slot] = Some(SlotTransient::new(setup.device, slot, plan)?);
         Ok(())
     }

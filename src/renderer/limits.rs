@@ -153,11 +153,12 @@ pub(super) fn frame_memory(
         if settings.ssbc.steps > 0 {
             ssbc_pyramids = 0;
         }
-        *match transient::part_name(&plan, device) {
+        let (largest, bytes) = plan.largest(device);
+        *match transient::part_name(largest) {
             "lighting" => &mut lighting,
             "temporal" => &mut history,
             _ => &mut ssbc_pyramids,
-        } += plan.bytes(device);
+        } += bytes;
     }
     FrameMemory {
         gbuffer,

@@ -93,9 +93,10 @@ impl AliasPlan {
         used.count() >= 2
     }
 
-    /// The phase that takes the most bytes (on `device` as placed, without
-    /// one as asked for): what the memory is counted as.
-    pub fn largest_phase(&self, device: Option<&Device>) -> usize {
+    /// The phase that takes the most bytes (the first of equals) and its
+    /// bytes, the memory's size: on `device` as [`AliasedMemory::new`]
+    /// places it, without one as asked for.
+    pub fn largest(&self, device: Option<&Device>) -> (usize, u64) {
         let sizes: Vec<u64> = match device {
             Some(d) => {
                 let placed = self.place(d);
@@ -107,9 +108,8 @@ impl AliasPlan {
                 .map(|p| p.iter().flatten().map(Planned::bytes).sum())
                 .collect(),
         };
-        // The first of equals.
         let most = sizes.iter().copied().max().unwrap_or(0);
-        sizes.iter().position(|&b| b == most).unwrap_or(0)
+        (sizes.iter().position(|&b| b == most).unwrap_or(0), most)
     }
 
     fn place(&self, device: &Device) -> Placement {
@@ -139,20 +139,6 @@ impl AliasPlan {
             size,
             alignment,
             memory_type_bits,
-        }
-    }
-
-    /// Bytes of the memory: on `device` as [`AliasedMemory::new`] allocates
-    /// it; without one, the largest phase's bytes as asked for.
-    pub fn bytes(&self, device: Option<&Device>) -> u64 {
-        match device {
-            Some(d) => self.place(d).size,
-            None => self
-                .phases
-                .iter()
-                .map(|p| p.iter().flatten().map(Planned::bytes).sum::<u64>())
-                .max()
-                .unwrap_or(0),
         }
     }
 }
@@ -346,6 +332,6 @@ mod tests {
         assert!(plan(vec![vec![vec![buffer]], vec![vec![buffer, buffer]]]).shares());
         assert!(!plan(vec![vec![vec![buffer]], vec![vec![]]]).shares());
         let two = plan(vec![vec![vec![buffer], vec![buffer]], vec![vec![buffer]]]);
-        assert_eq!(two.bytes(None), 200, "the larger phase's bytes");
+        assert_eq!(two.largest(None), (0, 200), "the larger phase and its bytes");
     }
 }
