@@ -55,7 +55,7 @@ const float GLOSSY_POINT_MATERIAL = 0.02;
 // theirs on a smooth surface. The weighted mean rather than the largest
 // deviation: a pixel on a point takes its rest, whatever its neighbours
 // say (measured: docs/accuracy.md, "Tuned constants").
-const float AGREE = 0.05;
+const float AGREE = 0.02;
 
 // Whether an evaluation point with a glossy rest (at pixel q) computed it
 // for the material of a glossy pixel (base colour and roughness
