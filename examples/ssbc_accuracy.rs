@@ -3,8 +3,9 @@
 //! of pixels), texels read per pixel, the fraction of pixels evaluated alone,
 //! and the step's GPU time, for the built-in scenes and an open-front box.
 //!
-//! `cargo run --release --example ssbc_accuracy -- [WxH ...]`
-//! (default 256x192 320x240 640x480; bounds: auto and 10 /m²).
+//! `cargo run --release --example ssbc_accuracy -- [WxH ...] [SCENE.gltf ...]`
+//! (default 256x192 320x240 640x480; bounds: auto and 10 /m²; scene files
+//! after the built-ins).
 //!
 //! Tuning and diagnosis, from the environment: `SSBC_<SETTING>=value`
 //! overrides an `SsbcSettings` field (see `tests/common/ssbc_accuracy.rs`),
@@ -30,7 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sizes = vec![(256, 192), (320, 240), (640, 480)];
     }
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    let scenes = [
+    let mut scenes = vec![
         ssbc::scene::builtin::cornell(),
         ssbc::scene::builtin::tori(),
         ssbc_accuracy::open_box(),
@@ -38,6 +39,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // glTF materials: rough dielectrics, nearly Lambertian receivers.
         ssbc::scene::load("assets/open-front-box.gltf").expect("the open-front box"),
     ];
+    // Scene files named on the command line are measured after them.
+    for path in std::env::args()
+        .skip(1)
+        .filter(|a| a.ends_with(".gltf") || a.ends_with(".glb"))
+    {
+        let mut scene = ssbc::scene::load(&path)?;
+        scene.ensure_light();
+        scenes.push(scene);
+    }
     let only = std::env::var("SSBC_SCENES").ok();
     let scenes: Vec<_> = scenes
         .into_iter()
