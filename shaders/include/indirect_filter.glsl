@@ -81,7 +81,99 @@ vec3 mirror(vec3 x, vec3 n) {
     return reflect(normalize(x - pc.camera_position.xyz), n);
 }
 
+#ifdef EXACT_VISIBILITY
+// A wall thinner than the surface tests resolve (two rooms' floors either
+// side of it) separates a pixel from neighbours on its plane. Rays between
+// adjacent pixels find it: one per pair in the work group's tile and its
+// apron, shared through `links` by every window that holds the pair (a ray
+// from each pixel to each neighbour cast 48 per pixel, 8x these), and a
+// neighbour counts as the pixel's surface only if a chain of free links
+// reaches it within the window.
+const int APRON = MAX_SIDE - 1;
+const int TILE = 8 + 2 * APRON;
+// Per pixel of the tile: bit 0, nothing between it and its right
+// neighbour; bit 1, nor its lower one (both on one surface).
+shared uint links[TILE * TILE];
+
+// Whether guide texels a and b are on one surface (the filter's tests, from a).
+bool same_surface(uvec4 a, uvec4 b) {
+    if (b.w == NO_GEOMETRY) return false;
+    vec3 d = guide_position(b) - guide_position(a);
+    vec3 na = guide_normal(a);
+    return abs(dot(na, d)) <= pc.max_plane_slope * length(d) && dot(na, guide_normal(b)) >= pc.min_normal_cos;
+}
+
+// Casts the tile's links (every invocation of the group takes part).
+void cast_links() {
+    ivec2 origin = ivec2(gl_WorkGroupID.xy) * 8 - APRON;
+    for (int i = int(gl_LocalInvocationIndex); i < TILE * TILE; i += 64) {
+        ivec2 t = ivec2(i % TILE, i / TILE);
+        ivec2 c = origin + t;
+        uint bits = 0u;
+        if (all(greaterThanEqual(c, ivec2(0))) && all(lessThan(uvec2(c), pc.size))) {
+            uvec4 a = imageLoad(guide, c);
+            for (int k = 0; k < 2 && a.w != NO_GEOMETRY; k++) {
+                ivec2 step = k == 0 ? ivec2(1, 0) : ivec2(0, 1);
+                ivec2 q = c + step;
+                // (Links out of the tile are never read.)
+                if (any(greaterThanEqual(t + step, ivec2(TILE))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
+                uvec4 b = imageLoad(guide, q);
+                if (same_surface(a, b)
+                    && segment_free(guide_position(a), guide_normal(a), guide_position(b), guide_normal(b))) {
+                    bits |= 1u << uint(k);
+                }
+            }
+        }
+        links[i] = bits;
+    }
+    barrier();
+}
+
+// Which pixels of the (2 reach + 1)^2 window (bit dx of reached[dy]) free
+// links join to its centre, the invocation's pixel.
+void window_reached(int reach, out uint reached[MAX_WINDOW]) {
+    ivec2 centre = ivec2(gl_LocalInvocationID.xy) + APRON;
+    int side = 2 * reach + 1;
+    uint right[MAX_WINDOW];
+    uint down[MAX_WINDOW];
+    for (int dy = 0; dy < side; dy++) {
+        uint r = 0u;
+        uint d = 0u;
+        for (int dx = 0; dx < side; dx++) {
+            ivec2 t = centre + ivec2(dx, dy) - reach;
+            uint bits = links[t.y * TILE + t.x];
+            r |= (bits & 1u) << uint(dx);
+            d |= ((bits >> 1) & 1u) << uint(dx);
+        }
+        right[dy] = r;
+        down[dy] = d;
+        reached[dy] = 0u;
+    }
+    uint full = (1u << uint(side)) - 1u;
+    reached[reach] = 1u << uint(reach);
+    // Grown a step a round until nothing is added.
+    for (int round = 0; round < side * side; round++) {
+        bool grew = false;
+        for (int dy = 0; dy < side; dy++) {
+            uint c = reached[dy];
+            uint grown = c | ((c & right[dy]) << 1) | ((c >> 1) & right[dy]);
+            if (dy > 0) grown |= reached[dy - 1] & down[dy - 1];
+            if (dy + 1 < side) grown |= reached[dy + 1] & down[dy];
+            grown &= full;
+            if (grown != c) {
+                reached[dy] = grown;
+                grew = true;
+            }
+        }
+        if (!grew) break;
+    }
+}
+#endif
+
 void main() {
+#ifdef EXACT_VISIBILITY
+    cast_links();
+#endif
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
     uvec4 own = imageLoad(guide, pixel);
@@ -95,6 +187,10 @@ void main() {
     vec3 n = guide_normal(own);
     vec3 surface = geometric_normal(imageLoad(g_emission, pixel).w, n);
     int reach = pc.side - 1;
+#ifdef EXACT_VISIBILITY
+    uint reached[MAX_WINDOW];
+    window_reached(reach, reached);
+#endif
     // Which pixels of the (2N - 1)^2 window around the pixel are on its
     // surface: bit dx of rows[dy].
     // Among the 8 neighbours: the nearest in space on the surface (per
@@ -131,9 +227,13 @@ void main() {
                 continue;
             }
 #ifdef EXACT_VISIBILITY
-            // A wall between them thinner than the surface tests resolve
-            // (two rooms' floors either side of it): another surface.
-            if (!segment_free(x, surface, guide_position(g), guide_normal(g))) {
+            // A wall between them (see cast_links): another surface. An
+            // adjacent neighbour no chain reaches (around a thin feature
+            // in front, at a corner of the surface) asks a ray of its own:
+            // only it decides whether the pixel lies beside a crease.
+            bool linked = ((reached[dy] >> uint(dx)) & 1u) != 0u;
+            if (!linked && adjacent) linked = segment_free(x, surface, guide_position(g), guide_normal(g));
+            if (!linked) {
                 if (adjacent) other = min(other, per_pixel);
                 edge = true;
                 continue;
