@@ -81,6 +81,13 @@ vec3 mirror(vec3 x, vec3 n) {
     return reflect(normalize(x - pc.camera_position.xyz), n);
 }
 
+// The filter's surface test: a point at offset d (|d| = distance) with
+// normal `other` lies on the surface of the plane normal `plane` and the
+// shading normal n.
+bool on_surface(vec3 plane, vec3 n, vec3 d, float distance, vec3 other) {
+    return abs(dot(plane, d)) <= pc.max_plane_slope * distance && dot(n, other) >= pc.min_normal_cos;
+}
+
 #ifdef EXACT_VISIBILITY
 // A wall thinner than the surface tests resolve (two rooms' floors either
 // side of it) separates a pixel from neighbours on its plane. Rays between
@@ -100,7 +107,7 @@ bool same_surface(uvec4 a, uvec4 b) {
     if (b.w == NO_GEOMETRY) return false;
     vec3 d = guide_position(b) - guide_position(a);
     vec3 na = guide_normal(a);
-    return abs(dot(na, d)) <= pc.max_plane_slope * length(d) && dot(na, guide_normal(b)) >= pc.min_normal_cos;
+    return on_surface(na, na, d, length(d), guide_normal(b));
 }
 
 // Casts the tile's links (every invocation of the group takes part).
@@ -220,8 +227,7 @@ void main() {
             float distance = length(d);
             bool adjacent = max(abs(offset.x), abs(offset.y)) == 1;
             float per_pixel = distance / length(vec2(offset));
-            if (abs(dot(surface, d)) > pc.max_plane_slope * distance
-                || dot(n, guide_normal(g)) < pc.min_normal_cos) {
+            if (!on_surface(surface, n, d, distance, guide_normal(g))) {
                 if (adjacent) other = min(other, per_pixel);
                 edge = true;
                 continue;
