@@ -57,18 +57,18 @@ fn memory_follows_what_is_on() {
     let mut scene = ssbc::scene::load("cornell").expect("cornell");
     scene.ensure_light();
     let memory = |s: &RenderSettings| ssbc::renderer::frame_memory(&scene, s);
-    let base = RenderSettings::new(640, 480);
-    let pixels = 640 * 480;
+    let base = RenderSettings::new(480, 360);
+    let pixels = 480 * 360;
     let m = memory(&base);
     // Read back through one staging buffer, as large as the largest image
-    // (the final image, RGBA32F), at most 16 MiB: the same with every
+    // (the final image, RGBA32F), at most 4 MiB: the same with every
     // output read back.
     assert_eq!(m.readback, pixels * 16);
     let mut outputs = base.clone();
     outputs.output_layers = true;
     assert_eq!(memory(&outputs).readback, m.readback);
     let huge = RenderSettings::new(3840, 2160);
-    assert_eq!(memory(&huge).readback, 16 << 20);
+    assert_eq!(memory(&huge).readback, 4 << 20);
     // The bounded indirect and the indirect light's images are made only
     // with the output layers.
     assert_eq!(memory(&outputs).lighting, m.lighting + pixels * 16 * 2);

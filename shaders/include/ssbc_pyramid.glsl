@@ -100,6 +100,59 @@ uint texel_index(uint layer, ivec2 t, int l) {
     return texel_index_in(pyramid_of(layer), t, l);
 }
 
+// Where texel i lies in the geometry and aux buffers. Level 0 of each
+// layer takes two geometry words a texel and nothing in aux (its areas and
+// flags are in its words: ssbc_types.glsl, "Level 0"); the other levels
+// three and one. In the order of the texel indices: layer 0's level 0,
+// its levels 1 and up, then layer 1's (with a second layer). The level-0
+// ranges are summed once per invocation, with the level starts: the walk
+// maps every texel it reads.
+uvec3 level0_ranges_;  // layer 0's level-0 texels, layer 1's first texel, its level-0 texels
+bool level0_ranges_ready_ = false;
+
+uvec3 level0_ranges() {
+    if (!level0_ranges_ready_) {
+        uint layer1 = 0u;
+        if (layer_count() > 1u) {
+            ivec2 s = level_size_of(pc.frame.pyramid_size, int(layer_shift(1u)));
+            layer1 = uint(s.x * s.y);
+        }
+        level0_ranges_ = uvec3(pc.frame.pyramid_size.x * pc.frame.pyramid_size.y, level_start(int(pc.frame.levels)), layer1);
+        level0_ranges_ready_ = true;
+    }
+    return level0_ranges_;
+}
+
+// Level-0 texels with an index below i.
+uint level0_texels_before(uint i) {
+    uvec3 r = level0_ranges();
+    return min(i, r.x) + min(uint(max(int(i) - int(r.y), 0)), r.z);
+}
+
+// Whether texel i is at level 0 of its layer.
+bool is_level0(uint i) {
+    uvec3 r = level0_ranges();
+    return i < r.x || i - r.y < r.z;
+}
+
+// The first geometry word of texel i.
+int geo_word(uint i) {
+    return int(3u * i - level0_texels_before(i));
+}
+
+// The aux texel of texel i (not at level 0).
+int aux_texel(uint i) {
+    return int(i - level0_texels_before(i));
+}
+
+// Texel i's neighbour k at level 0 (inside its layer's image).
+uint level0_neighbour(uint i, uint k) {
+    uint first = pc.frame.pyramid_size.x * pc.frame.pyramid_size.y;
+    int width = i < first ? int(pc.frame.pyramid_size.x) : level_size(1u, 0).x;
+    ivec2 d = CREASE_NEIGHBOURS[k];
+    return uint(int(i) + d.y * width + d.x);
+}
+
 // Whether texel t of level l's evaluation pixel (eval_pixel) lies in the
 // image: in the last row or column of a level that overhangs the image it
 // may not (such a texel has no evaluation point).

@@ -7,29 +7,50 @@
 
 #include "ssbc_types.glsl"
 
-layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // three per GeoTexel
-layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux
+layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // three per GeoTexel (level 0: two)
+layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux (none at level 0)
 layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed
 
 GeoCluster geo_cluster(uint i, uint c) {
-    int at = int(3u * i);
+    int at = geo_word(i);
+    if (is_level0(i)) {
+        uvec4 b = imageLoad(geo_words, at + 1);
+        if (c == 0u) return level0_front(imageLoad(geo_words, at), b);
+        uint code = level0_back_code(b);
+        if (code == 0u) return empty_cluster();
+        int q = geo_word(level0_neighbour(i, code - 1u));
+        return level0_back(b, imageLoad(geo_words, q), imageLoad(geo_words, q + 1));
+    }
     return unpack_cluster(imageLoad(geo_words, at + int(c)), imageLoad(geo_words, at + 2), c);
 }
 
+// Levels 1 and up.
 void store_geo(uint i, GeoTexel t) {
-    int at = int(3u * i);
+    int at = geo_word(i);
     imageStore(geo_words, at, floatBitsToUint(t.front.position_extent));
     imageStore(geo_words, at + 1, floatBitsToUint(t.back.position_extent));
     imageStore(geo_words, at + 2, pack_normals(t));
 }
 
+// Level 0: a pixel's words (ssbc_types.glsl, "Level 0").
+void store_level0(uint i, uvec4 a, uvec4 b) {
+    int at = geo_word(i);
+    imageStore(geo_words, at, a);
+    imageStore(geo_words, at + 1, b);
+}
+
 GeoAux geo_aux(uint i) {
-    uvec4 a = imageLoad(aux_words, int(i));
+    if (is_level0(i)) {
+        int at = geo_word(i);
+        return level0_aux(imageLoad(geo_words, at), imageLoad(geo_words, at + 1));
+    }
+    uvec4 a = imageLoad(aux_words, aux_texel(i));
     return GeoAux(uintBitsToFloat(a.x), uintBitsToFloat(a.y), a.z, a.w);
 }
 
+// Levels 1 and up.
 void store_aux(uint i, GeoAux a) {
-    imageStore(aux_words, int(i), uvec4(floatBitsToUint(a.front_area), floatBitsToUint(a.back_area), a.pixels, a.flags));
+    imageStore(aux_words, aux_texel(i), uvec4(floatBitsToUint(a.front_area), floatBitsToUint(a.back_area), a.pixels, a.flags));
 }
 
 vec3 cluster_radiance(uint i, uint c) {

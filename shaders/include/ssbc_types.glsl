@@ -193,6 +193,84 @@ struct GeoAux {
 const ivec2 CREASE_NEIGHBOURS[8] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -1), ivec2(0, 1),
                                            ivec2(-1, -1), ivec2(1, -1), ivec2(-1, 1), ivec2(1, 1));
 
+// Level 0 (a pixel) in two uvec4 words instead of a GeoTexel's three and
+// a GeoAux's one (32 instead of 64 bytes a pixel): a pixel has one
+// cluster, with no extent or cone, and at most the part beyond a crease
+// on a neighbour's surface, whose normal and plane are that neighbour's.
+//   a  xyz the pixel's world position, w its area A_y (floats);
+//   b  x, y's low half: the normal as pack_normal_cone's snorm16 (no cone,
+//      no children); y's high half: GeoAux.flags (level 0 uses bits 0..5);
+//      z: the back cluster's centroid in the neighbour's plane, two halves
+//      along plane_basis of the neighbour's stored normal from its
+//      position; w: the back cluster's area (float).
+// The back cluster's position costs two halves instead of three floats:
+// within 2^-11 of its distance from the neighbour's pixel (a pixel's
+// footprint or two), on the neighbour's plane as stored.
+
+// A normal as the pyramids store it: three signed 16-bit fixed-point numbers.
+uvec2 pack_level0_normal(vec3 n) {
+    return uvec2(packSnorm2x16(n.xy), packSnorm2x16(vec2(n.z, 0.0)) & 0xFFFFu);
+}
+
+vec3 level0_normal(uvec4 b) {
+    return vec3(unpackSnorm2x16(b.x), unpackSnorm2x16(b.y).x);
+}
+
+uint level0_flags(uvec4 b) {
+    return b.y >> 16;
+}
+
+// Two unit tangents of a plane with normal n (n need not be unit).
+void plane_basis(vec3 n, out vec3 t1, out vec3 t2) {
+    t1 = normalize(cross(n, abs(n.x) < 0.6 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
+    t2 = normalize(cross(n, t1));
+}
+
+// Word b of a pixel with normal n and flags; its back cluster at
+// `back_position` with area back_area lies on the plane of the neighbour
+// at cq whose stored normal is nq.
+uvec4 pack_level0_b(vec3 n, uint flags, vec3 back_position, vec3 cq, vec3 nq, float back_area) {
+    uvec2 normal = pack_level0_normal(n);
+    uint back = 0u;
+    if (back_area > 0.0) {
+        vec3 t1, t2;
+        plane_basis(nq, t1, t2);
+        vec3 d = back_position - cq;
+        back = packHalf2x16(clamp(vec2(dot(d, t1), dot(d, t2)), vec2(-65504.0), vec2(65504.0)));
+    }
+    return uvec4(normal.x, normal.y | (flags << 16), back, floatBitsToUint(back_area));
+}
+
+// The pixel's cluster (the front; with its children bits, none).
+GeoCluster level0_front(uvec4 a, uvec4 b) {
+    GeoCluster g = (level0_flags(b) & 1u) != 0u
+        ? make_cluster(uintBitsToFloat(a.xyz), 0.0, 0.0, level0_normal(b), 1.0)
+        : empty_cluster();
+    return with_children_bits(g, 0u);
+}
+
+// The neighbour code (k + 1 for CREASE_NEIGHBOURS[k]) of the pixel's back
+// cluster, 0 if it has none.
+uint level0_back_code(uvec4 b) {
+    return (level0_flags(b) >> 1) & 15u;
+}
+
+// The pixel's back cluster, given its neighbour's words (qa, qb).
+GeoCluster level0_back(uvec4 b, uvec4 qa, uvec4 qb) {
+    if (level0_back_code(b) == 0u) return empty_cluster();
+    vec3 nq = level0_normal(qb);
+    vec3 t1, t2;
+    plane_basis(nq, t1, t2);
+    vec2 uv = unpackHalf2x16(b.z);
+    return make_cluster(uintBitsToFloat(qa.xyz) + uv.x * t1 + uv.y * t2, 0.0, 0.0, nq, 1.0);
+}
+
+// The pixel's areas, pixels with geometry (0 or 1) and flags.
+GeoAux level0_aux(uvec4 a, uvec4 b) {
+    uint flags = level0_flags(b);
+    return GeoAux(uintBitsToFloat(a.w), uintBitsToFloat(b.w), flags & 1u, flags);
+}
+
 // One layer's pyramid: where it starts in the buffers, its level 0 and its
 // levels. Level l is ceil(size / 2^l) texels (texel t of it covers the
 // pixels t 2^l .. (t + 1) 2^l - 1; the last row and column may overhang the

@@ -15,6 +15,9 @@ pub(super) const LIST_HEADER_BYTES: u64 = 48;
 /// `GeoTexel` in memory: two clusters' positions and extents, their
 /// normals and cones packed (`pack_normals` in ssbc_types.glsl).
 pub(super) const GEO_TEXEL_BYTES: u64 = 48;
+/// A level-0 texel (a pixel) in memory: its geometry and aux in two words
+/// ("Level 0" in ssbc_types.glsl); it has no `GeoAux` texel.
+pub(super) const LEVEL0_TEXEL_BYTES: u64 = 32;
 pub(super) const AUX_BYTES: u64 = 16;
 /// A texel's two radiance sums, packed (`pack_radiance` in ssbc_types.glsl).
 pub(super) const RADIANCE_BYTES: u64 = 16;
@@ -69,6 +72,20 @@ pub(super) fn all_layers_texels(
             first + pyramid_texels(level_size(size, shift), levels - shift)
         }
     }
+}
+
+/// Level-0 texels of layer 0's pyramid and of layer 1's, if any (stored
+/// more compactly: [`LEVEL0_TEXEL_BYTES`]; `level0_texels_before` in
+/// ssbc_pyramid.glsl).
+pub(super) fn level0_texels(size: (u32, u32), layer1: Option<LayerResolution>) -> u64 {
+    let texels = |(w, h): (u32, u32)| w as u64 * h as u64;
+    texels(size) + layer1.map_or(0, |r| texels(level_size(size, r.shift())))
+}
+
+/// Bytes of the geometry buffer: every texel's `GeoTexel`, a level-0
+/// texel's two words instead.
+pub(super) fn geo_bytes(all_texels: u64, level0: u64) -> u64 {
+    all_texels * GEO_TEXEL_BYTES - level0 * (GEO_TEXEL_BYTES - LEVEL0_TEXEL_BYTES)
 }
 
 /// The second layer a pyramid of `levels` levels can hold: at half
@@ -164,6 +181,7 @@ impl FramePlan {
         let level0 = pyramid_size.0 as u64 * pyramid_size.1 as u64;
         let points = (pyramid_texels(pyramid_size, levels) - level0).max(1);
         let all_texels = all_layers_texels(pyramid_size, levels, layer1);
+        let level0 = level0_texels(pyramid_size, layer1);
         let gpu = |bytes, usage| BufferPlan {
             bytes,
             usage,
@@ -190,8 +208,8 @@ impl FramePlan {
             layer1,
             steps,
             kept,
-            geo: gpu(all_texels * GEO_TEXEL_BYTES, texel_usage),
-            aux: gpu(all_texels * AUX_BYTES, texel_usage),
+            geo: gpu(geo_bytes(all_texels, level0), texel_usage),
+            aux: gpu((all_texels - level0).max(1) * AUX_BYTES, texel_usage),
             radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
             points: gpu(points * EVAL_POINT_BYTES, cleared),
             point_glossy: gpu(
@@ -317,7 +335,7 @@ fn check_list_coordinates(width: u32, height: u32) -> Result<()> {
 }
 
 /// Fails with a clear message if SSBC's largest texel view (the geometry
-/// pyramid, three texels per texel of every pyramid) or work list exceeds
+/// pyramid, three texels per texel of every pyramid, two at level 0) or work list exceeds
 /// what the device can view or bind (maxTexelBufferElements, 2^27 texels on
 /// lavapipe; maxStorageBufferRange for the lists, 128 MiB there).
 /// Or if the image is larger than the lists can address.
@@ -330,7 +348,7 @@ pub fn check_size(
     check_list_coordinates(width, height)?;
     let (size, levels) = pyramid_layout(width, height);
     let layer1 = effective_layer1(layer1, levels);
-    let texels = GEO_TEXEL_BYTES / 16 * all_layers_texels(size, levels, layer1);
+    let texels = geo_bytes(all_layers_texels(size, levels, layer1), level0_texels(size, layer1)) / 16;
     let limits = device.limits();
     let max_texels = limits.max_texel_buffer_elements as u64;
     let list_bytes = LIST_HEADER_BYTES + 4 * size.0 as u64 * size.1 as u64;

@@ -26,7 +26,6 @@ impl SsbcPass {
             if level == 0 {
                 let bindings = ssbc_geometry_base_comp::Bindings {
                     geo_words: &frame.geo,
-                    aux_words: &frame.aux,
                     g_position: gbuffer.position,
                     g_normal: gbuffer.normal,
                     g_albedo: gbuffer.albedo,
@@ -66,6 +65,7 @@ impl SsbcPass {
     ) -> Result<()> {
         for level in 0..frame.levels - Self::layer_shift(frame, layer) {
             let bindings = ssbc_radiance_mips_comp::Bindings {
+                geo_words: &frame.geo,
                 aux_words: &frame.aux,
                 radiance_sums: &frame.radiance,
                 term,

@@ -218,6 +218,7 @@ impl SsbcPass {
     ) -> Result<()> {
         rec.update_buffer(&frame.top_points, 0, bytemuck::bytes_of(&LIST_HEADER));
         let bindings = ssbc_list_points_comp::Bindings {
+            geo_texels: &frame.geo,
             aux_texels: &frame.aux,
             points: &frame.top_points,
         };
@@ -362,6 +363,7 @@ impl SsbcPass {
         frame: &SsbcFrame,
     ) -> Result<()> {
         let bindings = ssbc_samples_comp::Bindings {
+            geo_texels: &frame.geo,
             aux_texels: &frame.aux,
             point_texels: &frame.points,
             samples: out.samples,
