@@ -1,7 +1,7 @@
 #version 460
 // SSBC radiance pyramid of the term being compensated, S_{k-1}, one level
 // per dispatch (pc.level): level 0 holds A_y S_{k-1}(y) per pixel (its one
-// cluster), level l sums its children's clusters into the cluster each was
+// cluster; the part beyond a crease carries the neighbour's), level l sums its children's clusters into the cluster each was
 // grouped into (GeoAux.flags), so a cluster carries sum(A_y S(y)) over its
 // pixels.
 #include "ssbc_types.glsl"
@@ -19,21 +19,33 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D term;  // S_{k-1} of layer pc.layer
 
+// S at pixel j (linear index) of layer pc.layer's level 0 times its area.
+vec3 pixel_sum(uint j, uint width, uint base) {
+    ivec2 p = ivec2(j % width, j / width);
+    vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.layer))) ? imageLoad(term, p).rgb : vec3(0.0);
+    return geo_aux(base + j).front_area * s;
+}
+
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     int level = int(pc.level);
-    if (any(greaterThanEqual(p, level_size(pc.layer, level)))) return;
-    uint dst = texel_index(pc.layer, p, level);
     if (level == 0) {
-        // The back cluster is a neighbour's surface beyond a crease and
-        // carries that neighbour's term (ssbc_geometry_base.comp).
-        GeoAux a = geo_aux(dst);
-        uint code = (a.flags >> 1) & 15u;
-        vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.layer))) ? imageLoad(term, p).rgb : vec3(0.0);
-        vec3 s_back = code > 0u ? imageLoad(term, p + CREASE_NEIGHBOURS[code - 1u]).rgb : vec3(0.0);
-        store_radiance(dst, a.front_area * s, a.back_area * s_back);
+        // Two pixels a texel (ssbc_pyramid.glsl, radiance_texel), by linear
+        // index: this invocation's are 2m and 2m + 1, m counted over a grid
+        // of ceil(width / 2) x height invocations. A pixel's back cluster
+        // keeps no sum of its own (it carries its neighbour's S).
+        ivec2 size = level_size(pc.layer, 0);
+        uint m = uint(p.y) * uint((size.x + 1) / 2) + uint(p.x);
+        uint texels = uint(size.x * size.y);
+        if (p.x >= (size.x + 1) / 2 || 2u * m >= texels) return;
+        uint base = texel_index(pc.layer, ivec2(0), 0);
+        uint j = 2u * m;
+        vec3 next = j + 1u < texels ? pixel_sum(j + 1u, uint(size.x), base) : vec3(0.0);
+        store_level0_radiance(base + j, pixel_sum(j, uint(size.x), base), next);
         return;
     }
+    if (any(greaterThanEqual(p, level_size(pc.layer, level)))) return;
+    uint dst = texel_index(pc.layer, p, level);
     uint back_mask = geo_aux(dst).flags >> 8;
     vec3 front = vec3(0.0);
     vec3 back = vec3(0.0);

@@ -147,5 +147,7 @@ fn the_final_image_does_not_depend_on_the_layers_kept() {
     assert_eq!(final_only.image.rgba, every.image.rgba);
     let held = |f: &ssbc::Frame| f.timings.memory.measured;
     assert!(held(&final_only).ssbc_images < held(&every).ssbc_images);
-    assert!(held(&final_only).lighting < held(&every).lighting);
+    // (The slot's transient memory counts as its largest phase's part:
+    // the gather's, lighting, once the direct light is transient in it.)
+    assert!(held(&final_only).total() < held(&every).total());
 }

@@ -145,6 +145,29 @@ int aux_texel(uint i) {
     return int(i - level0_texels_before(i));
 }
 
+// The radiance texel of texel i: both sums of a texel of levels 1 and up,
+// or the front sums of two level-0 texels (`half_`: 0 the even index's, in
+// xy; 1 the odd's, in zw). A pixel's back cluster is a neighbour's surface
+// and carries its radiance: that neighbour's front sum, scaled by their
+// areas (`level0_back_radiance`), so level 0 keeps 8 bytes a pixel.
+int radiance_texel(uint i, out uint half_) {
+    uvec3 r = level0_ranges();
+    uint first_half = (r.x + 1u) >> 1;
+    half_ = 0u;
+    if (i < r.x) {
+        half_ = i & 1u;
+        return int(i >> 1);
+    }
+    uint base = first_half + (i - r.x);
+    if (i < r.y) return int(base);
+    uint j = i - r.y;
+    if (j < r.z) {
+        half_ = j & 1u;
+        return int(first_half + (r.y - r.x) + (j >> 1));
+    }
+    return int(base - r.z + ((r.z + 1u) >> 1));
+}
+
 // Texel i's neighbour k at level 0 (inside its layer's image).
 uint level0_neighbour(uint i, uint k) {
     uint first = pc.frame.pyramid_size.x * pc.frame.pyramid_size.y;

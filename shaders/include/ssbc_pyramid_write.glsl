@@ -9,7 +9,7 @@
 
 layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // three per GeoTexel (level 0: two)
 layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux (none at level 0)
-layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed
+layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed (level 0: half, the front's)
 
 GeoCluster geo_cluster(uint i, uint c) {
     int at = geo_word(i);
@@ -53,13 +53,35 @@ void store_aux(uint i, GeoAux a) {
     imageStore(aux_words, aux_texel(i), uvec4(floatBitsToUint(a.front_area), floatBitsToUint(a.back_area), a.pixels, a.flags));
 }
 
+// Levels 1 and up read (the level-0 sums are only read by level 1's build).
 vec3 cluster_radiance(uint i, uint c) {
-    uvec4 t = imageLoad(radiance_sums, int(i));
+    uint half_;
+    if (is_level0(i)) {
+        uvec4 b = imageLoad(geo_words, geo_word(i) + 1);
+        uint code = level0_back_code(b);
+        float scale = 1.0;
+        if (c == 1u) {
+            if (code == 0u) return vec3(0.0);
+            i = level0_neighbour(i, code - 1u);
+            scale = uintBitsToFloat(b.w) / uintBitsToFloat(imageLoad(geo_words, geo_word(i)).w);
+        }
+        uvec4 t = imageLoad(radiance_sums, radiance_texel(i, half_));
+        return unpack_radiance(half_ == 0u ? t.xy : t.zw) * scale;
+    }
+    uvec4 t = imageLoad(radiance_sums, radiance_texel(i, half_));
     return unpack_radiance(c == 0u ? t.xy : t.zw);
 }
 
+// Levels 1 and up.
 void store_radiance(uint i, vec3 front, vec3 back) {
-    imageStore(radiance_sums, int(i), uvec4(pack_radiance(front), pack_radiance(back)));
+    uint half_;
+    imageStore(radiance_sums, radiance_texel(i, half_), uvec4(pack_radiance(front), pack_radiance(back)));
+}
+
+// Level 0: the front sums of texels i (even) and i + 1.
+void store_level0_radiance(uint i, vec3 front, vec3 next_front) {
+    uint half_;
+    imageStore(radiance_sums, radiance_texel(i, half_), uvec4(pack_radiance(front), pack_radiance(next_front)));
 }
 
 #endif

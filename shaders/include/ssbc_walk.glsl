@@ -282,8 +282,10 @@ void integrate_hierarchical(inout Residual acc, vec3 x, vec3 nx, vec2 center, fl
         uint visit_children = (front.action != SKIP ? bits & 15u : 0u) | (back.action != SKIP ? bits >> 4 : 0u);
         bool refine = (front.action == REFINE || back.action == REFINE) && visit_children != 0u;
         if (!refine) {
-            vec3 front_weighted = add_visit(acc, front, cluster_radiance(i, 0u), nx, scale);
-            vec3 back_weighted = add_visit(acc, back, cluster_radiance(i, 1u), nx, scale);
+            vec3 front_radiance, back_radiance;
+            texel_radiance(i, front_radiance, back_radiance);
+            vec3 front_weighted = add_visit(acc, front, front_radiance, nx, scale);
+            vec3 back_weighted = add_visit(acc, back, back_radiance, nx, scale);
             add_glossy_visits(t.z, float(1 << (2 * w.p.shift)), front, front_weighted, back, back_weighted);
         }
         int z = t.z - 1;

@@ -19,7 +19,9 @@ pub(super) const GEO_TEXEL_BYTES: u64 = 48;
 /// ("Level 0" in ssbc_types.glsl); it has no `GeoAux` texel.
 pub(super) const LEVEL0_TEXEL_BYTES: u64 = 32;
 pub(super) const AUX_BYTES: u64 = 16;
-/// A texel's two radiance sums, packed (`pack_radiance` in ssbc_types.glsl).
+/// A texel's two radiance sums, packed (`pack_radiance` in ssbc_types.glsl);
+/// at level 0 its front sum only, two texels in one (`radiance_texel` in
+/// ssbc_pyramid.glsl).
 pub(super) const RADIANCE_BYTES: u64 = 16;
 pub(super) const EVAL_POINT_BYTES: u64 = 64;
 /// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
@@ -80,6 +82,18 @@ pub(super) fn all_layers_texels(
 pub(super) fn level0_texels(size: (u32, u32), layer1: Option<LayerResolution>) -> u64 {
     let texels = |(w, h): (u32, u32)| w as u64 * h as u64;
     texels(size) + layer1.map_or(0, |r| texels(level_size(size, r.shift())))
+}
+
+/// Texels of the radiance buffer: one a texel, two level-0 texels of a
+/// layer in one.
+pub(super) fn radiance_texels(
+    size: (u32, u32),
+    all_texels: u64,
+    layer1: Option<LayerResolution>,
+) -> u64 {
+    let texels = |(w, h): (u32, u32)| w as u64 * h as u64;
+    let halved = |n: u64| n - n.div_ceil(2);
+    all_texels - halved(texels(size)) - layer1.map_or(0, |r| halved(texels(level_size(size, r.shift()))))
 }
 
 /// Bytes of the geometry buffer: every texel's `GeoTexel`, a level-0
@@ -210,7 +224,10 @@ impl FramePlan {
             kept,
             geo: gpu(geo_bytes(all_texels, level0), texel_usage),
             aux: gpu((all_texels - level0).max(1) * AUX_BYTES, texel_usage),
-            radiance: gpu(all_texels * RADIANCE_BYTES, texel_usage),
+            radiance: gpu(
+                radiance_texels(pyramid_size, all_texels, layer1) * RADIANCE_BYTES,
+                texel_usage,
+            ),
             points: gpu(points * EVAL_POINT_BYTES, cleared),
             point_glossy: gpu(
                 if kept.glossy_rests { points } else { 1 } * POINT_GLOSSY_BYTES,

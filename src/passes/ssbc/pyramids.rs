@@ -75,7 +75,12 @@ impl SsbcPass {
                 layer,
                 level,
             };
-            let texels = Work::pixels(Self::level_extent(frame, layer, level));
+            let (w, h) = Self::level_extent(frame, layer, level);
+            // Level 0: an invocation for two pixels (ssbc_radiance_mips.comp).
+            let texels = match level {
+                0 => Work::pixels((w.div_ceil(2), h)),
+                _ => Work::pixels((w, h)),
+            };
             self.radiance.dispatch(rec, pool, &bindings, &push, texels)?;
         }
         Ok(())
