@@ -43,11 +43,10 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0, rgba32ui) uniform readonly uimage2D guide;
 layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_albedo;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D direct;
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D interleaved;
+layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D interleaved;  // pack_sums (guide.glsl)
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
-layout(set = 0, binding = 7, rgba32f) uniform readonly image2D interleaved_glossy;
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
@@ -259,7 +258,7 @@ void main() {
     // Its width: GGX alpha as the gather widened it by the VPLs' radii
     // (the mean spread of the glossy light of the pixel's own subset).
     float alpha = max(roughness, BRDF_MIN_ROUGHNESS);
-    float widened = sqrt(alpha * alpha * alpha * alpha + max(imageLoad(interleaved_glossy, pixel).w, 0.0));
+    float widened = sqrt(alpha * alpha * alpha * alpha + max(sums_widening(imageLoad(interleaved, pixel)), 0.0));
     bool narrow_lobe = glossy_receiver && turn > (edge ? RIM_TURN : 1.0) * pc.lobe_turn * min(widened, 1.0);
     if (other <= pc.crease_footprints * footprint || narrow_lobe) {
         uint slot = atomicAdd(creases.header.w, 1u);
@@ -286,8 +285,9 @@ void main() {
             for (int dx = 0; dx <= 2 * reach; dx++) {
                 float w = wy * float(pc.side - abs(dx - reach));
                 ivec2 q = pixel + ivec2(dx, dy) - reach;
-                sum += w * imageLoad(interleaved, q).rgb;
-                glossy += w * imageLoad(interleaved_glossy, q).rgb;
+                uvec4 sums = imageLoad(interleaved, q);
+                sum += w * sums_diffuse(sums);
+                glossy += w * sums_glossy(sums);
                 weights += w;
             }
         }
@@ -319,8 +319,9 @@ void main() {
         for (int dx = 0; dx < pc.side; dx++) {
             if ((row & (1u << uint(dx))) == 0u) continue;
             ivec2 q = pixel + ivec2(best_box.x + dx, dy) - reach;
-            sum += imageLoad(interleaved, q).rgb;
-            glossy += imageLoad(interleaved_glossy, q).rgb;
+            uvec4 sums = imageLoad(interleaved, q);
+            sum += sums_diffuse(sums);
+            glossy += sums_glossy(sums);
         }
     }
     // The pixel itself is in every box: best >= 1.

@@ -3,10 +3,10 @@
 // an N x N block evaluates one subset, the one of its position in the
 // block. The dispatch is de-interleaved: work group z = subset, so a
 // group's invocations share one subset and loop over the same VPLs. It
-// writes N^2 x its subset's sum: the diffuse part without the receiver's
-// diffuse colour (`interleaved`), the glossy rest (`interleaved_glossy`,
-// with w the mean widening of its lobe by the VPLs' radii, vpl_gather.glsl),
-// and the pixel's position and normal for the filter (indirect_filter.comp).
+// writes N^2 x its subset's sum, packed (`pack_sums` in guide.glsl): the
+// diffuse part without the receiver's diffuse colour, the glossy rest, and
+// the mean widening of its lobe by the VPLs' radii (vpl_gather.glsl); and
+// the pixel's position and normal for the filter (indirect_filter.comp).
 #include "common.glsl"
 #include "ism.glsl"
 #include "guide.glsl"
@@ -18,10 +18,9 @@ layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
 layout(set = 0, binding = 2) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
 layout(set = 0, binding = 4) readonly buffer Subsets { uint subset_start[]; };
-layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D interleaved;
+layout(set = 0, binding = 5, rgba32ui) uniform writeonly uimage2D interleaved;  // pack_sums
 layout(set = 0, binding = 6, rgba32ui) uniform writeonly uimage2D guide;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
-layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D interleaved_glossy;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 #include "gather_push.glsl"
@@ -35,8 +34,7 @@ void main() {
     if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
     vec4 position = imageLoad(g_position, pixel);
     if (position.w == 0.0) {
-        imageStore(interleaved, pixel, vec4(0.0));
-        imageStore(interleaved_glossy, pixel, vec4(0.0));
+        imageStore(interleaved, pixel, uvec4(0u));
         imageStore(guide, pixel, uvec4(0u, 0u, 0u, NO_GEOMETRY));
         return;
     }
@@ -46,7 +44,6 @@ void main() {
     vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
     VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
     float subsets = float(pc.count * pc.count);
-    imageStore(interleaved, pixel, vec4(light.irradiance * (subsets / PI), 1.0));
-    imageStore(interleaved_glossy, pixel, vec4(light.glossy * subsets, light.spread2));
+    imageStore(interleaved, pixel, pack_sums(light.irradiance * (subsets / PI), light.glossy * subsets, light.spread2));
     imageStore(guide, pixel, pack_guide(position.xyz, n.xyz));
 }

@@ -39,9 +39,10 @@ use crate::vk::{
     DescriptorSetLayout, Device, Image, ImageDesc, Planned, Tenant, Work,
 };
 
-/// The interleaved gather's guide: a pixel's position and packed normal
+/// The interleaved gather's guide (a pixel's position and packed normal)
+/// and its sums (the diffuse and glossy parts, packed): one texel each
 /// (guide.glsl).
-fn guide_desc(extent: (u32, u32)) -> ImageDesc {
+fn packed_desc(extent: (u32, u32)) -> ImageDesc {
     let usage = vk::ImageUsageFlags::empty();
     super::storage_desc(vk::Format::R32G32B32A32_UINT, extent, usage)
 }
@@ -59,15 +60,14 @@ const CREASES_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 
 /// What the interleaved gather hands its filter at `extent` (nothing for
 /// the full gather), in the order [`IndirectBoundedPass`] makes it: the
-/// subsets' sums, their glossy part, the guide and the crease list. It
+/// subsets' sums, the guide and the crease list. It
 /// lives in the frame slot's transient memory (`passes::transient`).
 pub(crate) fn transient_resources(extent: (u32, u32), gather: Gather) -> Tenant {
     match gather {
         Gather::Full => Vec::new(),
         Gather::Interleaved => vec![
-            Planned::Image(super::radiance_desc(extent)),
-            Planned::Image(super::radiance_desc(extent)),
-            Planned::Image(guide_desc(extent)),
+            Planned::Image(packed_desc(extent)),
+            Planned::Image(packed_desc(extent)),
             Planned::Buffer {
                 bytes: creases_bytes(extent),
                 usage: CREASES_USAGE,
@@ -215,11 +215,10 @@ impl BoundedLighting {
 
 /// What the interleaved gather hands its filter.
 pub struct Interleaved {
-    /// N² x each pixel's own subset's sum: its diffuse part per unit
-    /// diffuse colour.
+    /// N² x each pixel's own subset's sum, packed (`pack_sums` in
+    /// guide.glsl): its diffuse part per unit diffuse colour, the glossy
+    /// rest (zero on Lambertian receivers) and its lobe's widening.
     pub sums: Image,
-    /// N² x the rest, the glossy part (zero on Lambertian receivers).
-    pub glossy: Image,
     /// Each pixel's position and normal, packed (`guide.glsl`).
     pub guide: Image,
     /// The pixels beside a crease or contact (dispatch header, count, then
@@ -241,9 +240,8 @@ impl Interleaved {
             Some(r) => Image::new_aliased(device, &name(base), desc, r),
             None => Image::new(device, &name(base), desc),
         };
-        let sums = image("lighting.interleaved", super::radiance_desc(extent))?;
-        let glossy = image("lighting.interleaved_glossy", super::radiance_desc(extent))?;
-        let guide = image("lighting.interleaved_guide", guide_desc(extent))?;
+        let sums = image("lighting.interleaved", packed_desc(extent))?;
+        let guide = image("lighting.interleaved_guide", packed_desc(extent))?;
         let (bytes, creases) = (creases_bytes(extent), name("lighting.creases"));
         let creases = match region.as_mut() {
             Some(r) => Buffer::new_aliased(device, &creases, bytes, CREASES_USAGE, r)?,
@@ -251,7 +249,6 @@ impl Interleaved {
         };
         Ok(Self {
             sums,
-            glossy,
             guide,
             creases,
         })
@@ -395,7 +392,6 @@ impl IndirectBoundedPass {
                 vpl_texels: &ism.vpls,
                 subsets: &ism.subsets,
                 interleaved: &interleaved.sums,
-                interleaved_glossy: &interleaved.glossy,
                 guide: &interleaved.guide,
                 g_emission: &gbuffer.emission,
             },
@@ -436,7 +432,6 @@ impl IndirectBoundedPass {
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
                 interleaved: &interleaved.sums,
-                interleaved_glossy: &interleaved.glossy,
                 s0: &out.s0,
                 s0_sources: &direct.sources,
                 creases: &interleaved.creases,
