@@ -97,6 +97,7 @@ pub fn frame_memory_of(scene: &Scene, settings: &RenderSettings, slot: SlotUse) 
     let uses = limits::FrameUse {
         history: resident && settings.history.enabled,
         readback: !resident,
+        resident,
         ..limits::FrameUse::ALL
     }
     .with_scene(scene);

@@ -152,7 +152,11 @@ impl Pass for IsmPass {
         let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
         check_atlas(device, vpl_count, tile)?;
         let points_per_vpl = points.points_per_block as u32;
-        let atlas = Image::new(device, "ism.atlas", atlas_desc(vpl_count, tile))?;
+        let desc = atlas_desc(vpl_count, tile);
+        let atlas = match setup.region(super::transient::Tenancy::Ism) {
+            Some(mut region) => Image::new_aliased(device, "ism.atlas", desc, &mut region)?,
+            None => Image::new(device, "ism.atlas", desc)?,
+        };
         let vpl_data = if vpls.is_empty() {
             vec![GpuVpl::default()]
         } else {

@@ -57,6 +57,9 @@ pub struct SlotSetup<'a> {
     /// Whether the slot's frames keep temporal history (resident frames
     /// with `history.enabled`).
     pub history: bool,
+    /// Whether they are a resident scene's (view-independent passes may
+    /// keep their output for the slot's next frame).
+    pub resident: bool,
 }
 
 impl SlotSetup<'_> {

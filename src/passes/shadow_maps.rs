@@ -204,7 +204,11 @@ impl Pass for ShadowMapPass {
         let (device, resolution) = (setup.device, setup.settings.shadow_map_size);
         let (gpu_lights, views) = light_table(&setup.scene.lights, &setup.cache.bounds, resolution);
         let layers = views.len().max(1) as u32;
-        let depth = Image::new(device, "shadow_maps.depth", depth_desc(resolution, layers))?;
+        let desc = depth_desc(resolution, layers);
+        let depth = match setup.region(super::transient::Tenancy::ShadowMaps) {
+            Some(mut region) => Image::new_aliased(device, "shadow_maps.depth", desc, &mut region)?,
+            None => Image::new(device, "shadow_maps.depth", desc)?,
+        };
         let packed: Vec<ShadowView> = views.iter().map(|&(m, p)| ShadowView::new(m, p)).collect();
         let packed = if packed.is_empty() {
             vec![ShadowView::default()]

@@ -1,8 +1,9 @@
 //! A frame slot's transient memory: what the interleaved gather hands its
 //! filter, SSBC's pyramids and the temporal history's reprojection never
 //! live at once, so they share one block of device memory
-//! ([`AliasedMemory`]). The gather's phase holds the G-buffer's depth
-//! buffer, the gather's intermediate images and crease list, in frames
+//! ([`AliasedMemory`]). The gather's phase holds, in frames that are not
+//! a resident scene's, the shadow maps and the ISM atlas, then the
+//! G-buffer's depth buffer, the gather's intermediate images and crease list, in frames
 //! without history or output layers the direct light's image, and in
 //! scenes without normal maps the G-buffer's emission image (every
 //! G-buffer layer's, one after another); SSBC's
@@ -41,6 +42,10 @@ pub enum Tenancy {
     Ssbc,
     /// The temporal history.
     Temporal,
+    /// The shadow maps' depth images (frames that do not keep them).
+    ShadowMaps,
+    /// The ISM atlas (frames that do not keep it).
+    Ism,
 }
 
 /// What a slot's transient memory depends on besides the settings.
@@ -54,15 +59,23 @@ pub struct SlotTraits {
     /// The scene has normal maps (SSBC reads the geometric normals kept
     /// in the G-buffer's emission image).
     pub normal_maps: bool,
+    /// The slot's frames are a resident scene's: the shadow maps and ISMs
+    /// may be kept for its next frame (`reuse_unchanged`).
+    pub resident: bool,
+    /// Punctual lights (cube shadow maps).
+    pub lights: usize,
 }
 
 impl SlotTraits {
-    /// Those of `scene`'s frames, keeping `history` or not.
-    pub fn of(scene: &crate::scene::Scene, history: bool) -> Self {
+    /// Those of `scene`'s frames, keeping `history` or not, `resident`
+    /// or not.
+    pub fn of(scene: &crate::scene::Scene, history: bool, resident: bool) -> Self {
         Self {
             history,
             glossy: scene.has_glossy_materials(),
             normal_maps: scene.has_normal_maps(),
+            resident,
+            lights: scene.lights.len(),
         }
     }
 }
@@ -71,6 +84,14 @@ impl SlotTraits {
 /// history and the output layers only.
 pub fn direct_is_transient(settings: &RenderSettings, traits: SlotTraits) -> bool {
     !traits.history && !settings.every_output()
+}
+
+/// Whether the shadow maps and the ISM atlas are transient: written and
+/// read before SSBC in every frame that is not a resident scene's (an
+/// immediate frame never keeps them for the next; `reuse_unchanged`), and
+/// not read back (`debug_readback` reads the atlas after the frame).
+pub fn visibility_is_transient(settings: &RenderSettings, traits: SlotTraits) -> bool {
+    !traits.resident && !settings.debug_readback
 }
 
 /// Whether the G-buffer's emission image is transient: read after the
@@ -89,8 +110,19 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
     let direct_is_transient = direct_is_transient(settings, traits);
     let emission_is_transient = emission_is_transient(settings, traits);
-    // Three tenants a layer, in `SlotTransient::region`'s order.
-    let gather: Vec<Tenant> = layers
+    // The shadow maps and the ISM atlas, as their passes make them.
+    let visibility = visibility_is_transient(settings, traits);
+    let shadow_views = (6 * traits.lights as u32).max(1);
+    let shadow_maps = super::shadow_maps::depth_desc(settings.shadow_map_size, shadow_views);
+    let atlas = super::ism::atlas_desc(settings.vpl.count as u32, settings.ism_tile);
+    let visibility = [shadow_maps, atlas].map(|desc| match visibility {
+        true => vec![Planned::Image(desc)],
+        false => Vec::new(),
+    });
+    // Two tenants, then three a layer, in `SlotTransient::region`'s order.
+    let gather: Vec<Tenant> = visibility
+        .into_iter()
+        .chain(layers
         .flat_map(|e| {
             let direct = match direct_is_transient {
                 true => vec![Planned::Image(super::radiance_desc(e))],
@@ -101,7 +133,7 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
                 direct,
                 super::indirect_bounded::transient_resources(e, settings.gather),
             ]
-        })
+        }))
         .collect();
     // Without a step SSBC holds a 1x1 frame's resources: nothing to share.
     let ssbc = match ssbc.steps {
@@ -166,9 +198,11 @@ impl SlotTransient {
     /// Where `tenant` places its resources (None: in memory of their own).
     pub fn region(&self, tenant: Tenancy) -> Option<AliasRegion> {
         let (phase, index) = match tenant {
-            Tenancy::GBuffer(layer) => (GATHER_PHASE, 3 * layer as usize),
-            Tenancy::Direct(layer) => (GATHER_PHASE, 3 * layer as usize + 1),
-            Tenancy::Gather(layer) => (GATHER_PHASE, 3 * layer as usize + 2),
+            Tenancy::ShadowMaps => (GATHER_PHASE, 0),
+            Tenancy::Ism => (GATHER_PHASE, 1),
+            Tenancy::GBuffer(layer) => (GATHER_PHASE, 2 + 3 * layer as usize),
+            Tenancy::Direct(layer) => (GATHER_PHASE, 3 + 3 * layer as usize),
+            Tenancy::Gather(layer) => (GATHER_PHASE, 4 + 3 * layer as usize),
             Tenancy::Ssbc => (SSBC_PHASE, 0),
             Tenancy::Temporal => (TEMPORAL_PHASE, 0),
         };

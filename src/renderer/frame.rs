@@ -188,7 +188,7 @@ impl Renderer {
             settings
         };
         let with_history = resident && settings.history.enabled;
-        let uses = FrameUse::of::<S>(with_history, scene);
+        let uses = FrameUse::of::<S>(with_history, resident, scene);
         limits::check_settings(&self.device, settings, scene.lights.len(), uses)?;
         let (slot, previous_timings) = match host_slot {
             Some(slot) => (slot, None),
@@ -215,6 +215,7 @@ impl Renderer {
             slot,
             previous_timings,
             history,
+            resident,
         };
         let result = self.frame(scene, settings, sink, frame);
         if result.is_err() {
@@ -270,8 +271,9 @@ impl Renderer {
             slot,
             previous_timings,
             history,
+            resident,
         } = request;
-        let uses = FrameUse::of::<S>(history.is_some(), scene);
+        let uses = FrameUse::of::<S>(history.is_some(), resident, scene);
         let host_settings = settings;
         let shifted = self.history_settings(scene, settings, history);
         let settings = shifted.as_ref().unwrap_or(settings);
@@ -307,6 +309,7 @@ impl Renderer {
             cache,
             transient: None,
             history: uses.history,
+            resident: uses.resident,
         };
         let history_frame = history.map(|plan| HistoryFrame {
             step: self.history.step(&plan, settings, view.eye()),
@@ -369,4 +372,6 @@ struct FrameRequest {
     slot: usize,
     previous_timings: Option<GpuFrameTimes>,
     history: Option<HistoryPlan>,
+    /// A resident scene's frame (its shadow maps and ISMs may be kept).
+    resident: bool,
 }

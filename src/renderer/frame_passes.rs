@@ -144,7 +144,7 @@ impl Passes {
     /// previous frame is done). New memory drops its tenants' resources,
     /// which are made anew in it.
     fn refresh_transient(&mut self, setup: &SlotSetup<'_>) -> Result<()> {
-        let traits = transient::SlotTraits::of(setup.scene, setup.history);
+        let traits = transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
         let plan = transient::plan(setup.settings, traits);
         let slot = setup.slot;
         if self.transient[slot]
@@ -153,6 +153,8 @@ impl Passes {
         {
             return Ok(());
         }
+        self.shadow_maps.forget(slot);
+        self.ism.forget(slot);
         for layer in &mut self.layers {
             layer.forget(slot);
         }
@@ -184,6 +186,13 @@ impl Passes {
             transient: transient.as_ref(),
             ..*setup
         };
+        // Shadow maps and ISMs in transient memory are not there to keep.
+        let visibility = transient
+            .as_ref()
+            .and_then(|t| t.region(transient::Tenancy::Ism));
+        if visibility.is_some() {
+            cx.reuse = false;
+        }
         let result = self.record_stages(cx, &with_transient, scene, history);
         self.transient[slot] = transient;
         result

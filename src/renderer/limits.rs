@@ -40,13 +40,22 @@ pub(super) struct FrameUse {
     pub glossy: bool,
     /// Normal maps (SSBC reads the G-buffer's geometric normals).
     pub normal_maps: bool,
+    /// Frames of a resident scene, whose view-independent passes (shadow
+    /// maps, ISMs) keep their output for the slot's next frame. An
+    /// immediate frame's never match it: their images are transient.
+    pub resident: bool,
 }
 
 impl FrameUse {
     /// A frame sent on by `S`, with or without a temporal history.
-    pub fn of<S: super::sink::FrameSink>(history: bool, scene: &crate::scene::Scene) -> Self {
+    pub fn of<S: super::sink::FrameSink>(
+        history: bool,
+        resident: bool,
+        scene: &crate::scene::Scene,
+    ) -> Self {
         Self {
             history,
+            resident,
             readback: S::READS_BACK,
             glossy: scene.has_glossy_materials(),
             normal_maps: scene.has_normal_maps(),
@@ -62,12 +71,15 @@ impl FrameUse {
         }
     }
 
-    /// What the slot's transient memory depends on.
-    fn traits(self) -> SlotTraits {
+    /// What the slot's transient memory depends on, with `lights`
+    /// punctual lights.
+    fn traits(self, lights: usize) -> SlotTraits {
         SlotTraits {
             history: self.history,
             glossy: self.glossy,
             normal_maps: self.normal_maps,
+            resident: self.resident,
+            lights,
         }
     }
 
@@ -77,6 +89,7 @@ impl FrameUse {
         readback: true,
         glossy: true,
         normal_maps: true,
+        resident: true,
     };
 }
 
@@ -94,7 +107,8 @@ pub(super) fn frame_memory(
     let extent = (settings.width, settings.height);
     let pixels = extent.0 as u64 * extent.1 as u64;
     // What never lives at once shares memory (`passes::transient`).
-    let plan = transient::plan(settings, uses.traits());
+    let traits = uses.traits(lights);
+    let plan = transient::plan(settings, traits);
     let shared = plan.shares();
     let (gbuffer, mut lighting) = layer_memory(device, settings, uses, shared);
     let outputs = settings.every_output();
@@ -118,12 +132,15 @@ pub(super) fn frame_memory(
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
     let subsets = 4 * (settings.pattern_side() as u64).pow(2) + 4;
     let gpu_vpl = std::mem::size_of::<crate::gpu_types::GpuVpl>() as u64;
-    let ism = atlas
+    // (The atlas and the shadow maps of a frame whose passes cannot keep
+    // them lie in the slot's transient memory.)
+    let visibility_shared = shared && transient::visibility_is_transient(settings, traits);
+    let ism = if visibility_shared { 0 } else { atlas }
         + vpls * (gpu_vpl + 512)
         + subsets
         + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
     // A cube (six views) per light.
-    let shadow_maps = if lights == 0 {
+    let shadow_maps = if lights == 0 || visibility_shared {
         0
     } else {
         let views = 6 * lights as u32;
@@ -192,7 +209,7 @@ fn layer_memory(
     for layer in layers {
         // (Where memory is shared the depth buffer is transient, and the
         // emission image may be.)
-        let emission = shared && transient::emission_is_transient(settings, uses.traits());
+        let emission = shared && transient::emission_is_transient(settings, uses.traits(0));
         let [position, normal, albedo, emission_desc, depth] = GBuffer::descs(layer);
         let own = [(position, true), (normal, true), (albedo, true)]
             .into_iter()
@@ -203,7 +220,7 @@ fn layer_memory(
             .sum::<u64>();
         // Direct light (unless transient) and what it sends; the bounded
         // lighting.
-        let direct = shared && transient::direct_is_transient(settings, uses.traits());
+        let direct = shared && transient::direct_is_transient(settings, uses.traits(0));
         let images = if direct { 1 } else { 2 };
         lighting += images * radiance_desc(layer).bytes(device)
             + indirect_bounded::memory_bytes(device, layer, settings.gather, shared);
