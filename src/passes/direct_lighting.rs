@@ -17,8 +17,13 @@ use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Imag
 
 /// What the pass writes.
 pub struct DirectLight {
-    /// `T Le` towards the camera, the `direct` layer.
+    /// `T Le` towards the camera, the `direct` layer; where nothing reads
+    /// it after the bounded lighting ([`DirectLight::is_s0`]), that pass
+    /// adds its light in place: then `S0`.
     pub radiance: Image,
+    /// Whether `radiance` becomes `S0` (`transient::s0_in_direct`: frames
+    /// without history or output layers).
+    pub is_s0: bool,
     /// What the pixel sends as an SSBC source, view-independent: emission
     /// plus brdf_source_color / pi x the irradiance (its reflection spread
     /// evenly by its hemispherical albedo). The same as `radiance` on
@@ -68,24 +73,22 @@ impl Pass for DirectLightingPass {
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<DirectLight> {
         let (device, extent) = (setup.device, setup.layer_extent(self.layer));
         let name = |base: &str| super::layer_name(base, self.layer);
-        let (direct, desc) = (name("lighting.direct"), super::radiance_desc(extent));
-        let radiance = match setup.region(super::transient::Tenancy::Direct(self.layer)) {
-            Some(mut region) => Image::new_aliased(device, &direct, desc, &mut region)?,
-            None => Image::new(device, &direct, desc)?,
-        };
+        let traits = super::transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
+        let is_s0 = super::transient::s0_in_direct(setup.settings, traits);
+        let direct = name(if is_s0 { "ssbc.s0" } else { "lighting.direct" });
         Ok(DirectLight {
-            radiance,
+            radiance: super::radiance_image(device, &direct, extent)?,
+            is_s0,
             sources: super::radiance_image(device, &name("lighting.direct_sources"), extent)?,
         })
     }
 
-    /// The direct light only where it outlives the frame's bounded
-    /// lighting (not in the slot's transient memory).
+    /// The direct light where it outlives the frame's bounded lighting;
+    /// else it is S0, the final image of a frame without SSBC steps.
     fn layers<'r>(&self, direct: &'r DirectLight) -> Vec<(Layer, &'r Image)> {
-        let kept = direct.radiance.shared.is_none();
         match self.layer() {
-            0 if kept => vec![(Layer::Direct, &direct.radiance), (Layer::Sources, &direct.sources)],
-            0 => vec![(Layer::Sources, &direct.sources)],
+            0 if !direct.is_s0 => vec![(Layer::Direct, &direct.radiance), (Layer::Sources, &direct.sources)],
+            0 => vec![(Layer::Final, &direct.radiance), (Layer::Sources, &direct.sources)],
             _ => vec![(Layer::Layer1Sources, &direct.sources)],
         }
     }

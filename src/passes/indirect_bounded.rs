@@ -185,13 +185,19 @@ const LIST_HEADER: [u32; 4] = [0, 1, 1, 0];
 /// What the pass writes.
 pub struct BoundedLighting {
     /// `S0 = T Le + T_b L^`, what the SSBC steps start from (and sum
-    /// their residuals into: the final image).
-    pub s0: Image,
+    /// their residuals into: the final image), in an image of its own
+    /// where the direct light's is not S0 ([`DirectLight::is_s0`]).
+    pub own_s0: Option<Image>,
     /// The interleaved gather's intermediate images (None: full gather).
     pub interleaved: Option<Interleaved>,
 }
 
 impl BoundedLighting {
+    /// S0: its own image, or the direct light's (summed in place).
+    pub fn s0<'a>(&'a self, direct: &'a DirectLight) -> &'a Image {
+        self.own_s0.as_ref().unwrap_or(&direct.radiance)
+    }
+
     /// The layer as SSBC gathers from it, with `gbuffer` (its geometric
     /// normals read only if the scene has `normal_maps`) and the direct
     /// light's sources, to which the pass added its own.
@@ -207,7 +213,7 @@ impl BoundedLighting {
         }
         SsbcLayer {
             gbuffer,
-            s0: &self.s0,
+            s0: self.s0(direct),
             sources: &direct.sources,
         }
     }
@@ -358,7 +364,7 @@ impl IndirectBoundedPass {
                 g_albedo: &gbuffer.albedo,
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
-                s0: &out.s0,
+                s0: out.s0(direct),
                 s0_sources: &direct.sources,
                 vpl_texels: &ism.vpls,
                 g_emission: &gbuffer.emission,
@@ -432,7 +438,7 @@ impl IndirectBoundedPass {
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
                 interleaved: &interleaved.sums,
-                s0: &out.s0,
+                s0: out.s0(direct),
                 s0_sources: &direct.sources,
                 creases: &interleaved.creases,
                 g_normal: &gbuffer.normal,
@@ -464,7 +470,7 @@ impl IndirectBoundedPass {
                 g_albedo: &gbuffer.albedo,
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
-                s0: &out.s0,
+                s0: out.s0(direct),
                 s0_sources: &direct.sources,
                 vpl_texels: &ism.vpls,
                 creases,
@@ -500,20 +506,24 @@ impl Pass for IndirectBoundedPass {
             Gather::Full => None,
             Gather::Interleaved => Some(Interleaved::new(device, extent, &name, region)?),
         };
+        let traits = super::transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
+        let own_s0 = match super::transient::s0_in_direct(setup.settings, traits) {
+            true => None,
+            false => Some(super::radiance_image(device, &name("ssbc.s0"), extent)?),
+        };
         Ok(BoundedLighting {
-            s0: super::radiance_image(device, &name("ssbc.s0"), extent)?,
+            own_s0,
             interleaved,
         })
     }
 
     /// The ISM gathers' sets, and the exact ones' where the device has
     /// them (a frame uses one kind or the other).
-    /// Layer 0's `S0` is the final image of a frame without SSBC steps.
+    /// Layer 0's `S0` is the final image of a frame without SSBC steps
+    /// (the direct light's pass offers it where it is that image).
     fn layers<'r>(&self, lighting: &'r BoundedLighting) -> Vec<(Layer, &'r Image)> {
-        match self.layer() {
-            0 => vec![
-                (Layer::Final, &lighting.s0),
-            ],
+        match (self.layer(), &lighting.own_s0) {
+            (0, Some(s0)) => vec![(Layer::Final, s0)],
             _ => Vec::new(),
         }
     }

@@ -3,8 +3,7 @@
 //! live at once, so they share one block of device memory
 //! ([`AliasedMemory`]). The gather's phase holds, in frames that are not
 //! a resident scene's, the shadow maps and the ISM atlas, then the
-//! G-buffer's depth buffer, the gather's intermediate images and crease list, in frames
-//! without history or output layers the direct light's image, and in
+//! G-buffer's depth buffer, the gather's intermediate images and crease list, and in
 //! scenes without normal maps the G-buffer's emission image (every
 //! G-buffer layer's, one after another); SSBC's
 //! phase its pyramids, evaluation points and claims; the history's its
@@ -32,10 +31,6 @@ pub enum Tenancy {
     /// The G-buffer's depth buffer on layer `0` or `1` (only its draw
     /// uses it), and its emission image where that is transient.
     GBuffer(u32),
-    /// The direct light of G-buffer layer `0` or `1` (its image, which
-    /// only the bounded lighting reads in a frame without history or
-    /// output layers; what it sends to SSBC stays).
-    Direct(u32),
     /// The bounded lighting of G-buffer layer `0` or `1`.
     Gather(u32),
     /// SSBC.
@@ -80,9 +75,10 @@ impl SlotTraits {
     }
 }
 
-/// Whether the direct light's image is transient: read after SSBC by the
-/// history and the output layers only.
-pub fn direct_is_transient(settings: &RenderSettings, traits: SlotTraits) -> bool {
+/// Whether S0 is summed in the direct light's image, in place: nothing
+/// reads the direct light after the bounded lighting but the history and
+/// the output layers.
+pub fn s0_in_direct(settings: &RenderSettings, traits: SlotTraits) -> bool {
     !traits.history && !settings.every_output()
 }
 
@@ -108,7 +104,6 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     let ssbc = &settings.ssbc;
     let layer1 = ssbc.second_layer().filter(|_| ssbc.steps > 0);
     let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
-    let direct_is_transient = direct_is_transient(settings, traits);
     let emission_is_transient = emission_is_transient(settings, traits);
     // The shadow maps and the ISM atlas, as their passes make them.
     let visibility = visibility_is_transient(settings, traits);
@@ -119,18 +114,13 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
         true => vec![Planned::Image(desc)],
         false => Vec::new(),
     });
-    // Two tenants, then three a layer, in `SlotTransient::region`'s order.
+    // Two tenants, then two a layer, in `SlotTransient::region`'s order.
     let gather: Vec<Tenant> = visibility
         .into_iter()
         .chain(layers
         .flat_map(|e| {
-            let direct = match direct_is_transient {
-                true => vec![Planned::Image(super::radiance_desc(e))],
-                false => Vec::new(),
-            };
             [
                 super::gbuffer::GBuffer::transient_resources(e, emission_is_transient),
-                direct,
                 super::indirect_bounded::transient_resources(e, settings.gather),
             ]
         }))
@@ -200,9 +190,8 @@ impl SlotTransient {
         let (phase, index) = match tenant {
             Tenancy::ShadowMaps => (GATHER_PHASE, 0),
             Tenancy::Ism => (GATHER_PHASE, 1),
-            Tenancy::GBuffer(layer) => (GATHER_PHASE, 2 + 3 * layer as usize),
-            Tenancy::Direct(layer) => (GATHER_PHASE, 3 + 3 * layer as usize),
-            Tenancy::Gather(layer) => (GATHER_PHASE, 4 + 3 * layer as usize),
+            Tenancy::GBuffer(layer) => (GATHER_PHASE, 2 + 2 * layer as usize),
+            Tenancy::Gather(layer) => (GATHER_PHASE, 3 + 2 * layer as usize),
             Tenancy::Ssbc => (SSBC_PHASE, 0),
             Tenancy::Temporal => (TEMPORAL_PHASE, 0),
         };

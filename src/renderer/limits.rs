@@ -218,12 +218,16 @@ fn layer_memory(
             .filter(|(_, kept)| *kept)
             .map(|(d, _)| d.bytes(device))
             .sum::<u64>();
-        // Direct light (unless transient) and what it sends; the bounded
-        // lighting.
-        let direct = shared && transient::direct_is_transient(settings, uses.traits(0));
-        let images = if direct { 1 } else { 2 };
-        lighting += images * radiance_desc(layer).bytes(device)
-            + indirect_bounded::memory_bytes(device, layer, settings.gather, shared);
+        // Direct light and what it sends; the bounded lighting (S0 in the
+        // direct light's image, where nothing reads that later).
+        let s0_in_direct = transient::s0_in_direct(settings, uses.traits(0));
+        lighting += 2 * radiance_desc(layer).bytes(device)
+            + indirect_bounded::memory_bytes(device, layer, settings.gather, shared)
+            - if s0_in_direct {
+                radiance_desc(layer).bytes(device)
+            } else {
+                0
+            };
     }
     (gbuffer, lighting)
 }
