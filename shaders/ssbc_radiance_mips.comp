@@ -19,11 +19,10 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D term;  // S_{k-1} of layer pc.layer
 
-// S at pixel j (linear index) of layer pc.layer's level 0 times its area.
-vec3 pixel_sum(uint j, uint width, uint base) {
-    ivec2 p = ivec2(j % width, j / width);
+// S at pixel p (linear index j) of layer pc.layer's level 0 times its area.
+vec3 pixel_sum(ivec2 p, uint j, uint base) {
     vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.layer))) ? imageLoad(term, p).rgb : vec3(0.0);
-    return geo_aux(base + j).front_area * s;
+    return uintBitsToFloat(imageLoad(geo_words, geo_word(base + j)).w) * s;  // its area
 }
 
 void main() {
@@ -40,8 +39,10 @@ void main() {
         if (p.x >= (size.x + 1) / 2 || 2u * m >= texels) return;
         uint base = texel_index(pc.layer, ivec2(0), 0);
         uint j = 2u * m;
-        vec3 next = j + 1u < texels ? pixel_sum(j + 1u, uint(size.x), base) : vec3(0.0);
-        store_level0_radiance(base + j, pixel_sum(j, uint(size.x), base), next);
+        ivec2 first = ivec2(j % uint(size.x), j / uint(size.x));
+        ivec2 second = first.x + 1 < size.x ? first + ivec2(1, 0) : ivec2(0, first.y + 1);
+        vec3 next = j + 1u < texels ? pixel_sum(second, j + 1u, base) : vec3(0.0);
+        store_level0_radiance(base + j, pixel_sum(first, j, base), next);
         return;
     }
     if (any(greaterThanEqual(p, level_size(pc.layer, level)))) return;
@@ -54,8 +55,10 @@ void main() {
         ivec2 child = p * 2 + ivec2(k & 1, k >> 1);
         bool exists = all(lessThan(child, below));  // else empty
         uint c = texel_index(pc.layer, child, level - 1);
+        vec3 sums[2] = vec3[2](vec3(0.0), vec3(0.0));
+        if (exists) texel_sums(c, sums[0], sums[1]);
         [[unroll]] for (int j = 0; j < 2; j++) {
-            vec3 s = exists ? cluster_radiance(c, uint(j)) : vec3(0.0);
+            vec3 s = sums[j];
             if ((back_mask & (1u << (2 * k + j))) != 0u) {
                 back += s;
             } else {

@@ -53,23 +53,26 @@ void store_aux(uint i, GeoAux a) {
     imageStore(aux_words, aux_texel(i), uvec4(floatBitsToUint(a.front_area), floatBitsToUint(a.back_area), a.pixels, a.flags));
 }
 
-// Levels 1 and up read (the level-0 sums are only read by level 1's build).
-vec3 cluster_radiance(uint i, uint c) {
+// Both sums of texel i: at level 0 its front's, and its back cluster's
+// from its neighbour's front, scaled by their areas.
+void texel_sums(uint i, out vec3 front, out vec3 back) {
     uint half_;
-    if (is_level0(i)) {
-        uvec4 b = imageLoad(geo_words, geo_word(i) + 1);
-        uint code = level0_back_code(b);
-        float scale = 1.0;
-        if (c == 1u) {
-            if (code == 0u) return vec3(0.0);
-            i = level0_neighbour(i, code - 1u);
-            scale = uintBitsToFloat(b.w) / uintBitsToFloat(imageLoad(geo_words, geo_word(i)).w);
-        }
-        uvec4 t = imageLoad(radiance_sums, radiance_texel(i, half_));
-        return unpack_radiance(half_ == 0u ? t.xy : t.zw) * scale;
-    }
     uvec4 t = imageLoad(radiance_sums, radiance_texel(i, half_));
-    return unpack_radiance(c == 0u ? t.xy : t.zw);
+    if (!is_level0(i)) {
+        front = unpack_radiance(t.xy);
+        back = unpack_radiance(t.zw);
+        return;
+    }
+    front = unpack_radiance(half_ == 0u ? t.xy : t.zw);
+    back = vec3(0.0);
+    uvec4 b = imageLoad(geo_words, geo_word(i) + 1);
+    uint code = level0_back_code(b);
+    if (code != 0u) {
+        uint q = level0_neighbour(i, code - 1u);
+        float area_q = uintBitsToFloat(imageLoad(geo_words, geo_word(q)).w);
+        uvec4 tq = imageLoad(radiance_sums, radiance_texel(q, half_));
+        back = unpack_radiance(half_ == 0u ? tq.xy : tq.zw) * (uintBitsToFloat(b.w) / area_q);
+    }
 }
 
 // Levels 1 and up.
