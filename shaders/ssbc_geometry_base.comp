@@ -297,5 +297,5 @@ void main() {
         nq = level0_normal(uvec4(pack_level0_normal(surface_normal(q)), 0u, 0u));
     }
     uvec4 a = uvec4(floatBitsToUint(geometry ? position.xyz : vec3(0.0)), floatBitsToUint(geometry ? area : 0.0));
-    store_level0(dst, a, pack_level0_b(n, flags, back.position_extent.xyz, cq, nq, back_area));
+    store_level0(dst, a, pack_level0_b(position.xyz, n, flags, back.position_extent.xyz, cq, nq, back_area));
 }

@@ -94,7 +94,10 @@ fn gpu_brute_force_step_equals_cpu_twin() {
         energy > 0.0,
         "the default bound should leave something to compensate"
     );
-    assert!(err < 1e-3, "relative RMSE {err}");
+    // 8e-6 with the pyramid's level 0 in floats, 1.2e-5 in its packed
+    // words; halves from the neighbour's position gave 2.9e-4, which
+    // 1e-3 let through (docs/performance.md, "fourth round").
+    assert!(err < 1e-4, "relative RMSE {err}");
 }
 
 /// A residual sum that a device's loop budget cuts short is an error, not a

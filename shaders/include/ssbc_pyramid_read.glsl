@@ -12,20 +12,21 @@ layout(set = 0, binding = 0) uniform utextureBuffer geo_texels;       // three p
 layout(set = 0, binding = 1) uniform utextureBuffer aux_texels;       // one per GeoAux (none at level 0)
 layout(set = 0, binding = 2) uniform utextureBuffer radiance_texels;  // one per texel: front, back packed (level 0: half, the front's)
 
-// A pixel's back cluster from its level-0 word b.
-GeoCluster level0_back_of(uint i, uvec4 b) {
+// A pixel's back cluster from its level-0 words a and b.
+GeoCluster level0_back_of(uint i, uvec4 a, uvec4 b) {
     uint code = level0_back_code(b);
     if (code == 0u) return empty_cluster();
     int q = geo_word(level0_neighbour(i, code - 1u));
-    return level0_back(b, texelFetch(geo_texels, q), texelFetch(geo_texels, q + 1));
+    return level0_back(a, b, texelFetch(geo_texels, q), texelFetch(geo_texels, q + 1));
 }
 
 // Cluster c (0 front, 1 back) of texel i.
 GeoCluster geo_cluster(uint i, uint c) {
     int at = geo_word(i);
     if (is_level0(i)) {
+        uvec4 a = texelFetch(geo_texels, at);
         uvec4 b = texelFetch(geo_texels, at + 1);
-        return c == 0u ? level0_front(texelFetch(geo_texels, at), b) : level0_back_of(i, b);
+        return c == 0u ? level0_front(a, b) : level0_back_of(i, a, b);
     }
     return unpack_cluster(texelFetch(geo_texels, at + int(c)), texelFetch(geo_texels, at + 2), c);
 }
@@ -36,7 +37,7 @@ GeoTexel geo_texel(uint i) {
     int at = geo_word(i);
     uvec4 a = texelFetch(geo_texels, at);
     uvec4 b = texelFetch(geo_texels, at + 1);
-    if (is_level0(i)) return GeoTexel(level0_front(a, b), level0_back_of(i, b));
+    if (is_level0(i)) return GeoTexel(level0_front(a, b), level0_back_of(i, a, b));
     uvec4 normals = texelFetch(geo_texels, at + 2);
     return GeoTexel(unpack_cluster(a, normals, 0u), unpack_cluster(b, normals, 1u));
 }

@@ -14,12 +14,13 @@ layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // on
 GeoCluster geo_cluster(uint i, uint c) {
     int at = geo_word(i);
     if (is_level0(i)) {
+        uvec4 a = imageLoad(geo_words, at);
         uvec4 b = imageLoad(geo_words, at + 1);
-        if (c == 0u) return level0_front(imageLoad(geo_words, at), b);
+        if (c == 0u) return level0_front(a, b);
         uint code = level0_back_code(b);
         if (code == 0u) return empty_cluster();
         int q = geo_word(level0_neighbour(i, code - 1u));
-        return level0_back(b, imageLoad(geo_words, q), imageLoad(geo_words, q + 1));
+        return level0_back(a, b, imageLoad(geo_words, q), imageLoad(geo_words, q + 1));
     }
     return unpack_cluster(imageLoad(geo_words, at + int(c)), imageLoad(geo_words, at + 2), c);
 }
