@@ -81,8 +81,9 @@ pub enum SlotUse {
 }
 
 /// [`frame_memory`] of a slot used one way: what such a slot allocates
-/// (the direct light's image shares memory with SSBC's pyramids where
-/// neither history nor output layers read it later).
+/// (an immediate slot's shadow maps and ISM atlas share memory with SSBC's
+/// pyramids, and S0 is summed in the direct light's image where neither
+/// history nor output layers read it later).
 ///
 /// ```
 /// use ssbc::renderer::{frame_memory_of, SlotUse};

@@ -1,14 +1,13 @@
 //! A frame slot's transient memory: what the interleaved gather hands its
 //! filter, SSBC's pyramids and the temporal history's reprojection never
 //! live at once, so they share one block of device memory
-//! ([`AliasedMemory`]). The gather's phase holds, in frames that are not
-//! a resident scene's, the shadow maps and the ISM atlas, then the
-//! G-buffer's depth buffer, the gather's intermediate images and crease list, and in
-//! scenes without normal maps the G-buffer's emission image (every
-//! G-buffer layer's, one after another); SSBC's
-//! phase its pyramids, evaluation points and claims; the history's its
-//! reprojected image. The frame starts each phase with
-//! [`Recorder::hand_over`](crate::vk::Recorder::hand_over).
+//! ([`AliasedMemory`]). The gather's phase holds, in frames that are not a
+//! resident scene's, the shadow maps and the ISM atlas, then the G-buffer's
+//! depth buffer, the gather's intermediate images and crease list, and in
+//! scenes without normal maps the G-buffer's emission image (every G-buffer
+//! layer's, one after another); SSBC's phase its pyramids, evaluation
+//! points and claims; the history's its reprojected image. The frame starts
+//! each phase with [`Recorder::hand_over`](crate::vk::Recorder::hand_over).
 
 use std::sync::Arc;
 
