@@ -257,9 +257,11 @@ fn bad_instant_radiosity_parameters() {
     fails_on_a_2gib_heap_with(
         &[
             "--size",
-            // Fits a 2 GiB heap with one layer (1335 MiB) or a second at
-            // half resolution (1591), not with a second at full (2360).
-            "3200x1800",
+            // Fits a 2 GiB heap with one layer (1499 MiB) or a second at
+            // half resolution (1813), not with a second at full (2755).
+            // (3200x1800 with a full-resolution second layer, refused
+            // before, takes 1918 MiB since issue 64's fourth round.)
+            "3840x2160",
             "--ssbc-layers",
             "2",
             "-o",
