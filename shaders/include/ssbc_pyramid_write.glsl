@@ -11,19 +11,11 @@ layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // thr
 layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux (none at level 0)
 layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed (level 0: half, the front's)
 
-GeoCluster geo_cluster(uint i, uint c) {
-    int at = geo_word(i);
-    if (is_level0(i)) {
-        uvec4 a = imageLoad(geo_words, at);
-        uvec4 b = imageLoad(geo_words, at + 1);
-        if (c == 0u) return level0_front(a, b);
-        uint code = level0_back_code(b);
-        if (code == 0u) return empty_cluster();
-        int q = geo_word(level0_neighbour(i, code - 1u));
-        return level0_back(a, b, imageLoad(geo_words, q), imageLoad(geo_words, q + 1));
-    }
-    return unpack_cluster(imageLoad(geo_words, at + int(c)), imageLoad(geo_words, at + 2), c);
-}
+uvec4 geo_load(int at) { return imageLoad(geo_words, at); }
+uvec4 aux_load(int at) { return imageLoad(aux_words, at); }
+uvec4 radiance_load(int at) { return imageLoad(radiance_sums, at); }
+
+#include "ssbc_pyramid_access.glsl"
 
 // Levels 1 and up.
 void store_geo(uint i, GeoTexel t) {
@@ -40,40 +32,22 @@ void store_level0(uint i, uvec4 a, uvec4 b) {
     imageStore(geo_words, at + 1, b);
 }
 
-GeoAux geo_aux(uint i) {
-    if (is_level0(i)) {
-        int at = geo_word(i);
-        return level0_aux(imageLoad(geo_words, at), imageLoad(geo_words, at + 1));
-    }
-    uvec4 a = imageLoad(aux_words, aux_texel(i));
-    return GeoAux(uintBitsToFloat(a.x), uintBitsToFloat(a.y), a.z, a.w);
-}
-
 // Levels 1 and up.
 void store_aux(uint i, GeoAux a) {
     imageStore(aux_words, aux_texel(i), uvec4(floatBitsToUint(a.front_area), floatBitsToUint(a.back_area), a.pixels, a.flags));
 }
 
-// Both sums of texel i: at level 0 its front's, and its back cluster's
-// from its neighbour's front, scaled by their areas.
+// Both sums of texel i (the level-1 build reads each child's once).
 void texel_sums(uint i, out vec3 front, out vec3 back) {
-    uint half_;
-    uvec4 t = imageLoad(radiance_sums, radiance_texel(i, half_));
-    if (!is_level0(i)) {
-        front = unpack_radiance(t.xy);
-        back = unpack_radiance(t.zw);
+    if (is_level0(i)) {
+        front = level0_front_radiance(i);
+        back = level0_back_radiance(i, imageLoad(geo_words, geo_word(i) + 1));
         return;
     }
-    front = unpack_radiance(half_ == 0u ? t.xy : t.zw);
-    back = vec3(0.0);
-    uvec4 b = imageLoad(geo_words, geo_word(i) + 1);
-    uint code = level0_back_code(b);
-    if (code != 0u) {
-        uint q = level0_neighbour(i, code - 1u);
-        float area_q = uintBitsToFloat(imageLoad(geo_words, geo_word(q)).w);
-        uvec4 tq = imageLoad(radiance_sums, radiance_texel(q, half_));
-        back = unpack_radiance(half_ == 0u ? tq.xy : tq.zw) * (uintBitsToFloat(b.w) / area_q);
-    }
+    uint half_;
+    uvec4 t = imageLoad(radiance_sums, radiance_texel(i, half_));
+    front = unpack_radiance(t.xy);
+    back = unpack_radiance(t.zw);
 }
 
 // Levels 1 and up.

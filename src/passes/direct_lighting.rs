@@ -73,7 +73,7 @@ impl Pass for DirectLightingPass {
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<DirectLight> {
         let (device, extent) = (setup.device, setup.layer_extent(self.layer));
         let name = |base: &str| super::layer_name(base, self.layer);
-        let traits = super::transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
+        let traits = setup.traits();
         let is_s0 = super::transient::s0_in_direct(setup.settings, traits);
         let direct = name(if is_s0 { "ssbc.s0" } else { "lighting.direct" });
         Ok(DirectLight {

@@ -248,7 +248,7 @@ impl Pass for GBufferPass {
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
         let name = super::layer_name("gbuffer", self.layer);
         let transient = setup.region(super::transient::Tenancy::GBuffer(self.layer));
-        let traits = super::transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
+        let traits = setup.traits();
         let emission = transient.is_some()
             && super::transient::emission_is_transient(setup.settings, traits);
         GBuffer::new(setup.device, &name, setup.layer_extent(self.layer), transient, emission)

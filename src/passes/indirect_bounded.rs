@@ -506,7 +506,7 @@ impl Pass for IndirectBoundedPass {
             Gather::Full => None,
             Gather::Interleaved => Some(Interleaved::new(device, extent, &name, region)?),
         };
-        let traits = super::transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
+        let traits = setup.traits();
         let own_s0 = match super::transient::s0_in_direct(setup.settings, traits) {
             true => None,
             false => Some(super::radiance_image(device, &name("ssbc.s0"), extent)?),

@@ -77,6 +77,11 @@ impl SlotSetup<'_> {
         (self.settings.width, self.settings.height)
     }
 
+    /// What the slot's transient memory depends on besides the settings.
+    pub fn traits(&self) -> transient::SlotTraits {
+        transient::SlotTraits::of(self.scene, self.history, self.resident)
+    }
+
     /// Where `tenant` places its transient resources (None: in memory of
     /// their own).
     pub fn region(&self, tenant: transient::Tenancy) -> Option<crate::vk::AliasRegion> {

@@ -144,7 +144,7 @@ impl Passes {
     /// previous frame is done). New memory drops its tenants' resources,
     /// which are made anew in it.
     fn refresh_transient(&mut self, setup: &SlotSetup<'_>) -> Result<()> {
-        let traits = transient::SlotTraits::of(setup.scene, setup.history, setup.resident);
+        let traits = setup.traits();
         let plan = transient::plan(setup.settings, traits);
         let slot = setup.slot;
         if self.transient[slot]
