@@ -8,8 +8,8 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_normal;
+layout(set = 0, binding = 2, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2D direct;
 layout(set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
 layout(set = 0, binding = 5) readonly buffer ShadowViews { ShadowView shadow_views[]; };
@@ -45,7 +45,7 @@ vec3 normal_step(ivec2 pixel, ivec2 e, vec3 p, vec3 n, out vec3 dp) {
         ivec2 q = pixel + side * e;
         if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
         vec4 pq = imageLoad(g_position, q);
-        vec3 nq = imageLoad(g_normal, q).xyz;
+        vec3 nq = unpack_gbuffer_normal(imageLoad(g_normal, q)).xyz;
         vec3 chord = pq.xyz - p;
         vec3 sum = n + nq;
         bool smooth_surface = pq.w != 0.0 && abs(dot(sum, chord)) <= 0.1 * length(sum) * length(chord);
@@ -76,8 +76,8 @@ void main() {
         imageStore(direct_sources, pixel, vec4(0.0));
         return;
     }
-    vec4 normal = imageLoad(g_normal, pixel);
-    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), normal);
+    vec4 normal = unpack_gbuffer_normal(imageLoad(g_normal, pixel));
+    Brdf b = brdf_from_gbuffer(unpack_gbuffer_albedo(imageLoad(g_albedo, pixel)), normal);
     // Geometric specular anti-aliasing for point-like lights: across the
     // pixel the normal relative to the half vector spans n +- d_x / 2 +-
     // d_y / 2 (d: the normal's step per pixel less the half vector's); the

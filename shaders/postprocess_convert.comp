@@ -4,6 +4,7 @@
 // so sRGB, UNORM/SNORM and packed formats arrive decoded by the sampler;
 // here depth becomes a world position and packed normals unit vectors.
 // (src/postprocess/convert.rs; the accepted formats: docs/embedding.md.)
+#include "common.glsl"
 #include "octahedral.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -16,8 +17,8 @@ layout(set = 0, binding = 3) uniform sampler2D host_s0;
 // The host's sources if pc.sources, else host_s0 again (not read).
 layout(set = 0, binding = 4) uniform sampler2D host_sources;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D g_position;
-layout(set = 0, binding = 6, rgba32f) uniform writeonly image2D g_normal;
-layout(set = 0, binding = 7, rgba32f) uniform writeonly image2D g_albedo;
+layout(set = 0, binding = 6, rg32ui) uniform writeonly uimage2D g_normal;
+layout(set = 0, binding = 7, rg32ui) uniform writeonly uimage2D g_albedo;
 layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D s0;
 // Written if pc.sources (else s0 again).
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D sources;
@@ -70,8 +71,8 @@ void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(p), pc.size))) return;
     imageStore(g_position, p, position_at(p));
-    imageStore(g_normal, p, normal_at(p));
-    imageStore(g_albedo, p, texelFetch(host_albedo, p, 0));
+    imageStore(g_normal, p, uvec4(pack_gbuffer_normal(normal_at(p)), 0u, 0u));
+    imageStore(g_albedo, p, uvec4(pack_gbuffer_albedo(texelFetch(host_albedo, p, 0)), 0u, 0u));
     imageStore(s0, p, vec4(texelFetch(host_s0, p, 0).rgb, 1.0));
     if (pc.sources != 0u) imageStore(sources, p, vec4(texelFetch(host_sources, p, 0).rgb, 1.0));
 }

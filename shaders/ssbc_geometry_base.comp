@@ -31,8 +31,8 @@ layout(push_constant) uniform GeometryBasePush {
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 4, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 5, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 4, rg32ui) uniform readonly uimage2D g_normal;
+layout(set = 0, binding = 5, rg32ui) uniform readonly uimage2D g_albedo;
 // Its w: the geometric normal where a normal map turned g_normal's
 // (geometric_normal.glsl), if pc.geometric (a host's G-buffer has none).
 layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_geometric;
@@ -42,7 +42,7 @@ layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_geometric;
 // surface the positions lie on); g_normal's shading normal decides only
 // how the pixel reflects.
 vec3 surface_normal(ivec2 q) {
-    vec3 shading = imageLoad(g_normal, q).xyz;
+    vec3 shading = unpack_gbuffer_normal(imageLoad(g_normal, q)).xyz;
     return pc.geometric != 0u ? geometric_normal(imageLoad(g_geometric, q).w, shading) : shading;
 }
 
@@ -281,8 +281,8 @@ void main() {
     // Layer 0's glossy receivers, for the evaluation points (ssbc_eval.glsl).
     bool glossy = false;
     if (geometry && pc.layer == 0u && (pc.frame.layers & GLOSSY_RECEIVERS) != 0u) {
-        vec4 shading = imageLoad(g_normal, p);
-        Brdf b = receiver_brdf(imageLoad(g_albedo, p), shading);
+        vec4 shading = unpack_gbuffer_normal(imageLoad(g_normal, p));
+        Brdf b = receiver_brdf(unpack_gbuffer_albedo(imageLoad(g_albedo, p)), shading);
         vec3 wo = normalize(pc.frame.camera_position.xyz - position.xyz);
         glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, shading.xyz, wo);
     }

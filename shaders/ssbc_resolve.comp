@@ -61,8 +61,8 @@ const float AGREE = 0.02;
 // for the material of a glossy pixel (base colour and roughness
 // `material`, BRDF b).
 bool same_material(ivec2 q, vec4 material, Brdf b) {
-    vec4 albedo = imageLoad(g_albedo, q);
-    vec4 other = vec4(albedo.rgb, imageLoad(g_normal, q).w);
+    vec4 albedo = unpack_gbuffer_albedo(imageLoad(g_albedo, q));
+    vec4 other = vec4(albedo.rgb, unpack_gbuffer_normal(imageLoad(g_normal, q)).w);
     vec4 diff = abs(other - material);
     float metal = abs(albedo.w - b.metallic);
     return max(max(diff.x, diff.y), max(max(diff.z, diff.w), metal)) <= GLOSSY_POINT_MATERIAL;
@@ -106,7 +106,7 @@ void main() {
         return;
     }
     vec3 x = xp.xyz;
-    vec3 nx = imageLoad(g_normal, p).xyz;
+    vec3 nx = unpack_gbuffer_normal(imageLoad(g_normal, p)).xyz;
     Brdf b = pixel_brdf(p);
     // A glossy receiver's BRDF depends on each source's direction, which an
     // evaluation point's linear form does not keep. If its BRDF hardly
@@ -119,7 +119,7 @@ void main() {
     // (The geometry pass marked the pixel if it is not nearly Lambertian.)
     bool glossy = (geo_aux(texel_index(0u, p, 0)).flags & GLOSSY_RECEIVER) != 0u;
     vec3 mirror = reflect(-wo, nx);
-    vec4 material = vec4(imageLoad(g_albedo, p).rgb, b.roughness);
+    vec4 material = vec4(unpack_gbuffer_albedo(imageLoad(g_albedo, p)).rgb, b.roughness);
     vec3 rest_blend = vec3(0.0);
     int l = int(pc.level);
     if (l == 0) {
@@ -165,7 +165,7 @@ void main() {
                     vec4 point_rest = texelFetch(point_glossy, int(point_index(t, l)));
                     ok = floatBitsToUint(point_rest.w) == pc.generation && same_material(eval_pixel(t, l), material, b);
                     // The point's lobe: about its shading normal.
-                    vec3 n_point = imageLoad(g_normal, eval_pixel(t, l)).xyz;
+                    vec3 n_point = unpack_gbuffer_normal(imageLoad(g_normal, eval_pixel(t, l))).xyz;
                     lobes = lobes && same_lobe(g.position_extent.xyz, n_point, mirror, b);
                     rests[k] = point_rest.xyz;
                     rest_blend += w * point_rest.xyz;

@@ -11,14 +11,14 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_normal;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D previous_position;
-layout(set = 0, binding = 3, rgba32f) uniform readonly image2D previous_normal;
+layout(set = 0, binding = 3, rg32ui) uniform readonly uimage2D previous_normal;
 // rgb: the previous frame's mean indirect light; a: frames it averages.
 layout(set = 0, binding = 4, rgba32f) uniform readonly image2D previous_history;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D reprojected;
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_albedo;
-layout(set = 0, binding = 7, rgba32f) uniform readonly image2D previous_albedo;
+layout(set = 0, binding = 6, rg32ui) uniform readonly uimage2D g_albedo;
+layout(set = 0, binding = 7, rg32ui) uniform readonly uimage2D previous_albedo;
 
 layout(push_constant) uniform Push {
     mat4 previous_view_proj;   // world to clip space of the previous frame
@@ -53,9 +53,9 @@ void main() {
         return;
     }
     vec3 x = xp.xyz;
-    vec4 nr = imageLoad(g_normal, p);
+    vec4 nr = unpack_gbuffer_normal(imageLoad(g_normal, p));
     vec3 n = nr.xyz;
-    vec4 albedo = imageLoad(g_albedo, p);
+    vec4 albedo = unpack_gbuffer_albedo(imageLoad(g_albedo, p));
     vec4 clip = pc.previous_view_proj * vec4(x, 1.0);
     vec4 result = vec4(0.0);
     if (clip.w > 0.0) {
@@ -74,11 +74,11 @@ void main() {
             }
             vec4 y = imageLoad(previous_position, q);
             vec4 h = imageLoad(previous_history, q);
-            vec4 m = imageLoad(previous_normal, q);
+            vec4 m = unpack_gbuffer_normal(imageLoad(previous_normal, q));
             bool same = y.w != 0.0 && h.a > 0.0
                 && dot(m.xyz, n) >= MIN_NORMAL_COS
                 && abs(dot(n, y.xyz - x)) <= tolerance
-                && same_material(imageLoad(previous_albedo, q), m.w, albedo, nr.w);
+                && same_material(unpack_gbuffer_albedo(imageLoad(previous_albedo, q)), m.w, albedo, nr.w);
             if (same) {
                 sum += w * h;
                 total += w;

@@ -386,7 +386,11 @@ fn bad_host_inputs_are_clear_errors() {
     assert_eq!(shape.conversion, ssbc::postprocess::Conversion::Inputs);
     let extra = SsbcPostProcess::memory(&shape, 1).per_slot
         - SsbcPostProcess::memory(&PostProcessShape::new((64, 48), &one, None), 1).per_slot;
-    assert_eq!(extra, 64 * 64 * 48, "the four RGBA32F copies");
+    assert_eq!(
+        extra,
+        64 * 48 * 32,
+        "RGBA32F copies of position and S0 (normal and albedo are packed either way)"
+    );
     check(
         &mut post,
         (

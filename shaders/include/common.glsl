@@ -11,6 +11,30 @@
 
 const float PI = 3.14159265358979;
 
+// The G-buffer's normal and albedo images are R32G32_UINT, two words a
+// pixel (src/passes/gbuffer.rs): the normal's xyz and its w (the roughness,
+// -1 for Lambertian) as four snorm16, the albedo's rgb and its w (the
+// metallic) as four unorm16 (an albedo above 1 is clamped). 16 bytes a
+// pixel less than RGBA32F for both; snorm16 puts a unit normal within
+// 2^-15 per component, which unpack_gbuffer_normal renormalises.
+uvec2 pack_gbuffer_normal(vec4 n) {
+    return uvec2(packSnorm2x16(n.xy), packSnorm2x16(n.zw));
+}
+
+vec4 unpack_gbuffer_normal(uvec4 words) {
+    vec4 n = vec4(unpackSnorm2x16(words.x), unpackSnorm2x16(words.y));
+    float l2 = dot(n.xyz, n.xyz);
+    return vec4(l2 > 0.0 ? n.xyz * inversesqrt(l2) : n.xyz, n.w);
+}
+
+uvec2 pack_gbuffer_albedo(vec4 a) {
+    return uvec2(packUnorm2x16(a.xy), packUnorm2x16(a.zw));
+}
+
+vec4 unpack_gbuffer_albedo(uvec4 words) {
+    return vec4(unpackUnorm2x16(words.x), unpackUnorm2x16(words.y));
+}
+
 const uint LIGHT_POINT = 0u;
 const uint LIGHT_SPOT = 1u;
 const uint LIGHT_DIRECTIONAL = 2u;

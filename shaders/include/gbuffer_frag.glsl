@@ -75,8 +75,8 @@ bool behind_layer0() {
 #endif
 
 layout(location = 0) out vec4 out_position;
-layout(location = 1) out vec4 out_normal;
-layout(location = 2) out vec4 out_albedo;
+layout(location = 1) out uvec2 out_normal;  // pack_gbuffer_normal (common.glsl)
+layout(location = 2) out uvec2 out_albedo;  // pack_gbuffer_albedo
 layout(location = 3) out vec4 out_emission;
 
 void main() {
@@ -126,8 +126,8 @@ void main() {
     vec3 reflectance = material_reflectance(m, v_uv, duv_dx, duv_dy);
     bool lambertian = reflectance.z == 0.0 && reflectance.x == 0.0;
     out_position = vec4(v_position, 1.0);
-    out_normal = vec4(n, lambertian ? -1.0 : reflectance.y);
-    out_albedo = vec4(material_base_color(m, v_uv, duv_dx, duv_dy, v_color).rgb, reflectance.x);
+    out_normal = pack_gbuffer_normal(vec4(n, lambertian ? -1.0 : reflectance.y));
+    out_albedo = pack_gbuffer_albedo(vec4(material_base_color(m, v_uv, duv_dx, duv_dy, v_color).rgb, reflectance.x));
     // w: the geometric normal where the normal map turned n (geometric_normal.glsl).
     out_emission = vec4(material_emission(m, v_uv, duv_dx, duv_dy), mapped_normal ? encode_geometric_normal(geometric) : 1.0);
 }

@@ -9,8 +9,8 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_normal;
+layout(set = 0, binding = 2, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform textureBuffer vpl_texels;
@@ -31,8 +31,8 @@ void main() {
     vec3 radiance = vec3(0.0);
     vec3 source = vec3(0.0);
     if (position.w != 0.0) {
-        vec4 n = imageLoad(g_normal, pixel);
-        Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+        vec4 n = unpack_gbuffer_normal(imageLoad(g_normal, pixel));
+        Brdf b = brdf_from_gbuffer(unpack_gbuffer_albedo(imageLoad(g_albedo, pixel)), n);
         vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
         vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
         VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, 0u, pc.count, 1u);

@@ -14,8 +14,8 @@
 #include "ism.glsl"
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 2, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_normal;
+layout(set = 0, binding = 2, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 3, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) uniform textureBuffer vpl_texels;
@@ -52,8 +52,8 @@ void main() {
             uint packed = creases.pixels[item];
             pixel = ivec2(packed & 0xFFFFu, packed >> 16);
             vec3 x = imageLoad(g_position, pixel).xyz;
-            vec4 n = imageLoad(g_normal, pixel);
-            b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+            vec4 n = unpack_gbuffer_normal(imageLoad(g_normal, pixel));
+            b = brdf_from_gbuffer(unpack_gbuffer_albedo(imageLoad(g_albedo, pixel)), n);
             vec3 wo = normalize(pc.camera_position.xyz - x);
             vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
             light = vpl_sum(x, n.xyz, ng, b, wo, lane, pc.count, LANES);

@@ -41,7 +41,7 @@ const int MAX_WINDOW = 2 * MAX_SIDE - 1;
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32ui) uniform readonly uimage2D guide;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D direct;
 layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D interleaved;  // pack_sums (guide.glsl)
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
@@ -49,7 +49,7 @@ layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
 layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
-layout(set = 0, binding = 10, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 10, rg32ui) uniform readonly uimage2D g_normal;
 layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 // Writes S0, the direct light plus the pixel's bounded indirect light from
@@ -58,7 +58,7 @@ layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w
 // (brdf_source_color) to the direct light's (s0_sources is that image: the
 // pixel's own texel, read then written once).
 void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weight) {
-    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), imageLoad(g_normal, pixel));
+    Brdf b = brdf_from_gbuffer(unpack_gbuffer_albedo(imageLoad(g_albedo, pixel)), unpack_gbuffer_normal(imageLoad(g_normal, pixel)));
     vec3 radiance = brdf_diffuse_color(b) * sum / weight + glossy / weight;
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
     vec3 source = brdf_source_color(b) * sum / weight;
@@ -206,7 +206,7 @@ void main() {
     float other = 1e30;
     // How far the glossy lobe's axis turns across the surface's pixels
     // (chord of the mirror directions, ~ the angle).
-    float roughness = imageLoad(g_normal, pixel).w;
+    float roughness = unpack_gbuffer_normal(imageLoad(g_normal, pixel)).w;
     bool glossy_receiver = roughness >= 0.0;
     vec3 own_mirror = glossy_receiver ? mirror(x, n) : vec3(0.0);
     float turn = 0.0;

@@ -14,13 +14,13 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 1, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_normal;
 layout(set = 0, binding = 2) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
 layout(set = 0, binding = 4) readonly buffer Subsets { uint subset_start[]; };
 layout(set = 0, binding = 5, rgba32ui) uniform writeonly uimage2D interleaved;  // pack_sums
 layout(set = 0, binding = 6, rgba32ui) uniform writeonly uimage2D guide;
-layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 7, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
 #include "gather_push.glsl"
@@ -38,8 +38,8 @@ void main() {
         imageStore(guide, pixel, uvec4(0u, 0u, 0u, NO_GEOMETRY));
         return;
     }
-    vec4 n = imageLoad(g_normal, pixel);
-    Brdf b = brdf_from_gbuffer(imageLoad(g_albedo, pixel), n);
+    vec4 n = unpack_gbuffer_normal(imageLoad(g_normal, pixel));
+    Brdf b = brdf_from_gbuffer(unpack_gbuffer_albedo(imageLoad(g_albedo, pixel)), n);
     vec3 wo = normalize(pc.camera_position.xyz - position.xyz);
     vec3 ng = geometric_normal(imageLoad(g_emission, pixel).w, n.xyz);
     VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);

@@ -45,9 +45,9 @@ layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_point
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
 // The shading normal: how the receiver reflects (the pyramid's clusters
 // carry the surface's geometric normal, geometric_normal.glsl).
-layout(set = 0, binding = 6, rgba32f) uniform readonly image2D g_normal;
+layout(set = 0, binding = 6, rg32ui) uniform readonly uimage2D g_normal;
 #ifdef SSBC_GLOSSY_POINTS
-layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 7, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 8, rgba32f) uniform writeonly imageBuffer point_glossy;  // one per point
 #endif
 
@@ -73,7 +73,7 @@ void evaluate(ivec2 t, bool glossy) {
     bool inside = eval_pixel_inside(t, l);
     GeoCluster g = inside ? geo_cluster(q_index, 0u) : empty_cluster();
     vec3 x = g.position_extent.xyz;
-    vec3 nx = inside ? imageLoad(g_normal, q).xyz : vec3(0.0);
+    vec3 nx = inside ? unpack_gbuffer_normal(imageLoad(g_normal, q)).xyz : vec3(0.0);
     float r_world = inversesqrt(pc.frame.bound);
     // A point stands for its block only on one smooth surface, except at
     // level 1: there a pixel is at most a pixel from the points it
@@ -90,7 +90,7 @@ void evaluate(ivec2 t, bool glossy) {
     }
 #ifdef SSBC_GLOSSY_POINTS
     if (glossy) {
-        begin_glossy(receiver_brdf(imageLoad(g_albedo, q), imageLoad(g_normal, q)), x, nx);
+        begin_glossy(receiver_brdf(unpack_gbuffer_albedo(imageLoad(g_albedo, q)), unpack_gbuffer_normal(imageLoad(g_normal, q))), x, nx);
         // The lobe refined at half its scale within 3 alpha of its mirror
         // direction, at its whole scale beyond (as the fallback does)
         // (measured: docs/accuracy.md, "Tuned constants").

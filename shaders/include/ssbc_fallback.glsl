@@ -34,7 +34,7 @@ const bool GLOSSY_KERNEL = false;
 // A receiver that is not glossy.
 void fallback(ivec2 p) {
     vec3 x = imageLoad(g_position, p).xyz;
-    vec3 nx = imageLoad(g_normal, p).xyz;
+    vec3 nx = unpack_gbuffer_normal(imageLoad(g_normal, p)).xyz;
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(p), count, variation);
@@ -59,7 +59,7 @@ void fallback(ivec2 p) {
 // scale near the mirror (measured: docs/accuracy.md, "Tuned constants").
 void fallback_glossy(ivec2 p, bool rest_only) {
     vec3 x = imageLoad(g_position, p).xyz;
-    vec3 nx = imageLoad(g_normal, p).xyz;
+    vec3 nx = unpack_gbuffer_normal(imageLoad(g_normal, p)).xyz;
     Brdf b = pixel_brdf(p);
     begin_glossy(b, x, nx);
     glossy_refine = 1.0;

@@ -9,8 +9,8 @@ layout(set = 0, binding = 4) readonly buffer PendingIn { ListHeader header; uint
 layout(set = 0, binding = 5) buffer PendingOut { ListHeader header; uint items[]; } pending_out;
 layout(set = 0, binding = 6) buffer Requests { ListHeader header; uint items[]; } requests;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_position;
-layout(set = 0, binding = 8, rgba32f) uniform readonly image2D g_normal;
-layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_albedo;
+layout(set = 0, binding = 8, rg32ui) uniform readonly uimage2D g_normal;
+layout(set = 0, binding = 9, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 10, rgba32f) uniform readonly image2D previous;   // S0 + S1 + ... + S_{k-1}
 layout(set = 0, binding = 11, rgba32f) uniform image2D final_image;
 layout(set = 0, binding = 12, rgba32f) uniform image2D residual;           // S_k
@@ -51,7 +51,7 @@ void add_glossy_rest(ivec2 p, vec3 rest, float reads) {
 
 // The pixel's BRDF.
 Brdf pixel_brdf(ivec2 p) {
-    return receiver_brdf(imageLoad(g_albedo, p), imageLoad(g_normal, p));
+    return receiver_brdf(unpack_gbuffer_albedo(imageLoad(g_albedo, p)), unpack_gbuffer_normal(imageLoad(g_normal, p)));
 }
 
 // The glossy rest of a nearly Lambertian receiver whose integral I came

@@ -28,16 +28,45 @@ use crate::vk::{
     ShaderBindings, ShaderInterface, Tenant,
 };
 
-/// Format of every G-buffer colour target (storage-image compatible).
+/// Format of the position and emission targets (storage-image compatible).
 pub const GBUFFER_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// Format of the normal and albedo targets: two words a pixel, four 16-bit
+/// normalized values each (`pack_gbuffer_normal` / `pack_gbuffer_albedo`
+/// in shaders/include/common.glsl; [`unpack_normal`], [`unpack_albedo`]).
+pub const GBUFFER_PACKED_FORMAT: vk::Format = vk::Format::R32G32_UINT;
+
+/// The colour targets' formats, in attachment order.
+const TARGET_FORMATS: [vk::Format; 4] = [
+    GBUFFER_FORMAT,
+    GBUFFER_PACKED_FORMAT,
+    GBUFFER_PACKED_FORMAT,
+    GBUFFER_FORMAT,
+];
+
+/// A packed normal texel's (xyz, roughness) as the shaders read it.
+pub fn unpack_normal(words: [u32; 2]) -> [f32; 4] {
+    let snorm = |w: u32| (w as u16 as i16 as f32 / 32767.0).max(-1.0);
+    let [x, y, z, w] = [words[0], words[0] >> 16, words[1], words[1] >> 16].map(snorm);
+    let l = (x * x + y * y + z * z).sqrt();
+    let s = if l > 0.0 { 1.0 / l } else { 0.0 };
+    [x * s, y * s, z * s, w]
+}
+
+/// A packed albedo texel's (rgb, metallic).
+pub fn unpack_albedo(words: [u32; 2]) -> [f32; 4] {
+    let unorm = |w: u32| (w & 0xFFFF) as f32 / 65535.0;
+    [words[0], words[0] >> 16, words[1], words[1] >> 16].map(unorm)
+}
 
 /// The G-buffer images of one frame.
 pub struct GBuffer {
     /// xyz world position (m), w = 1 where there is geometry, 0 for background.
     pub position: Image,
-    /// xyz unit normal facing the camera; w free for later passes.
+    /// xyz unit normal facing the camera, w the roughness (-1: Lambertian),
+    /// packed ([`GBUFFER_PACKED_FORMAT`]).
     pub normal: Image,
-    /// rgb linear albedo.
+    /// rgb linear albedo, w the metallic, packed ([`GBUFFER_PACKED_FORMAT`]).
     pub albedo: Image,
     /// rgb radiance emitted towards the camera (W/(m² sr)); w < 0: the
     /// geometric normal where a normal map turned `normal`'s
@@ -48,12 +77,16 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
-    /// What it allocates for `extent`: the four colour targets, then depth.
+    /// What it allocates for `extent`: the four colour targets (position,
+    /// normal, albedo, emission), then depth.
     pub fn descs(extent: (u32, u32)) -> [ImageDesc; 5] {
-        let color = super::storage_desc(GBUFFER_FORMAT, extent, vk::ImageUsageFlags::COLOR_ATTACHMENT);
+        let color = |format| {
+            super::storage_desc(format, extent, vk::ImageUsageFlags::COLOR_ATTACHMENT)
+        };
+        let [position, normal, albedo, emission] = TARGET_FORMATS.map(color);
         let depth = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
         let depth = ImageDesc::new_2d(vk::Format::D32_SFLOAT, extent.0, extent.1, depth);
-        [color, color, color, color, depth]
+        [position, normal, albedo, emission, depth]
     }
 
     /// Allocates the images for `extent`, named `{prefix}.position` etc.;
@@ -68,7 +101,7 @@ impl GBuffer {
         mut transient: Option<AliasRegion>,
         emission_transient: bool,
     ) -> Result<Self> {
-        let [color, _, _, _, depth] = Self::descs(extent);
+        let [position, normal, albedo, emission, depth] = Self::descs(extent);
         let mut image = |name: &str, desc, shared: bool| {
             let name = format!("{prefix}.{name}");
             match transient.as_mut().filter(|_| shared) {
@@ -77,12 +110,12 @@ impl GBuffer {
             }
         };
         // In the order of `transient_resources`.
-        let emission = image("emission", color, emission_transient)?;
+        let emission = image("emission", emission, emission_transient)?;
         let depth = image("depth", depth, true)?;
         Ok(Self {
-            position: image("position", color, false)?,
-            normal: image("normal", color, false)?,
-            albedo: image("albedo", color, false)?,
+            position: image("position", position, false)?,
+            normal: image("normal", normal, false)?,
+            albedo: image("albedo", albedo, false)?,
             emission,
             depth,
         })
@@ -92,7 +125,7 @@ impl GBuffer {
     /// (`passes::transient`): with `emission` its emission image, and its
     /// depth buffer.
     pub(crate) fn transient_resources(extent: (u32, u32), emission: bool) -> Tenant {
-        let [color, _, _, _, depth] = Self::descs(extent);
+        let [_, _, _, color, depth] = Self::descs(extent);
         let emission = emission.then_some(Planned::Image(color));
         emission.into_iter().chain([Planned::Image(depth)]).collect()
     }
@@ -152,7 +185,7 @@ pub(crate) fn pipeline_desc(fragment: &Shader) -> GraphicsDesc<'_> {
             (4, vk::Format::R32G32B32A32_SFLOAT, offset_of!(Vertex, tangent)),
             (5, vk::Format::R16G16B16A16_UNORM, offset_of!(Vertex, color)),
         ],
-        color_formats: &[GBUFFER_FORMAT; 4],
+        color_formats: &TARGET_FORMATS,
         depth_format: vk::Format::D32_SFLOAT,
         depth_bias: (0.0, 0.0),
         // Float depth keeps its precision near 0: far from the camera a

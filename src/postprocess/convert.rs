@@ -1,7 +1,9 @@
-//! The post-process's two passes of its own around SSBC: the host's
-//! G-buffer in the host's formats into SSBC's RGBA32F inputs
-//! (shaders/postprocess_convert.comp), and the result into the host's
-//! image by a compute shader (shaders/include/postprocess_write.glsl).
+//! The post-process's passes of its own around SSBC: the host's G-buffer
+//! in the host's formats into SSBC's inputs (shaders/postprocess_convert.comp),
+//! or, where SSBC reads a layer's RGBA32F images in place, its normal and
+//! albedo packed as ssbc's G-buffer packs them (shaders/postprocess_pack.comp);
+//! and the result into the host's image by a compute shader
+//! (shaders/include/postprocess_write.glsl).
 
 use std::sync::Arc;
 
@@ -9,8 +11,9 @@ use ash::vk;
 
 use super::inputs::{Conversion, HostGeometry, OutputWrite, PostOutput, PostProcessInputs};
 use crate::error::{Error, Result};
+use crate::passes::gbuffer::GBUFFER_PACKED_FORMAT;
 use crate::shaders::{
-    postprocess_convert_comp, postprocess_write_r11f_g11f_b10f_comp,
+    postprocess_convert_comp, postprocess_pack_comp, postprocess_write_r11f_g11f_b10f_comp,
     postprocess_write_rgba16f_comp, postprocess_write_rgba32f_comp,
 };
 use crate::vk::{
@@ -18,7 +21,42 @@ use crate::vk::{
     Recorder, Sampler, Work,
 };
 
-/// ssbc's RGBA32F copies of the host's first layer, in one frame slot.
+/// The two images of a layer's normal and albedo packed
+/// ([`GBUFFER_PACKED_FORMAT`], 16 bytes a pixel for both).
+fn packed_descs(extent: (u32, u32)) -> [ImageDesc; 2] {
+    let desc =
+        crate::passes::storage_desc(GBUFFER_PACKED_FORMAT, extent, vk::ImageUsageFlags::empty());
+    [desc; 2]
+}
+
+fn images_bytes(device: Option<&Device>, descs: &[ImageDesc]) -> u64 {
+    descs.iter().map(|d| d.bytes(device)).sum()
+}
+
+/// A layer's normal and albedo packed, for a layer SSBC reads in place.
+pub(crate) struct PackedInputs {
+    pub normal: Image,
+    pub albedo: Image,
+}
+
+impl PackedInputs {
+    /// Bytes of device memory they take at `extent`.
+    pub fn bytes(device: Option<&Device>, extent: (u32, u32)) -> u64 {
+        images_bytes(device, &packed_descs(extent))
+    }
+
+    pub fn new(device: &Arc<Device>, extent: (u32, u32), name: &str) -> Result<Self> {
+        let [desc, _] = packed_descs(extent);
+        let image = |what: &str| Image::new(device, &format!("{name} {what} (packed)"), desc);
+        Ok(Self {
+            normal: image("normal")?,
+            albedo: image("albedo")?,
+        })
+    }
+}
+
+/// ssbc's copies of the host's first layer, in one frame slot: position,
+/// `S0` and the sources RGBA32F, normal and albedo packed.
 pub(crate) struct ConvertedInputs {
     pub position: Image,
     pub normal: Image,
@@ -29,19 +67,22 @@ pub(crate) struct ConvertedInputs {
 }
 
 impl ConvertedInputs {
-    /// What [`ConvertedInputs::new`] makes for `conversion` at `extent`.
+    /// What [`ConvertedInputs::new`] makes for `conversion` at `extent`
+    /// (the first layer's normal and albedo packed, whether converted or
+    /// read in place: [`PackedInputs`]).
     pub fn descs(conversion: Conversion, extent: (u32, u32)) -> Vec<ImageDesc> {
         let desc = crate::passes::radiance_desc(extent);
-        vec![desc; conversion.images() as usize]
+        let full = conversion.images() as usize;
+        let mut descs = vec![desc; full];
+        descs.extend(packed_descs(extent));
+        descs
     }
 
-    /// Bytes of device memory they take (on `device` as its requirements
-    /// say, else as asked for).
+    /// Bytes of device memory the first layer's copies take (on `device` as
+    /// its requirements say, else as asked for), packed normal and albedo
+    /// included.
     pub fn bytes(device: Option<&Device>, conversion: Conversion, extent: (u32, u32)) -> u64 {
-        Self::descs(conversion, extent)
-            .iter()
-            .map(|d| d.bytes(device))
-            .sum()
+        images_bytes(device, &Self::descs(conversion, extent))
     }
 
     /// The copies `conversion` needs (None for [`Conversion::None`]).
@@ -62,10 +103,11 @@ impl ConvertedInputs {
                 desc,
             )
         };
+        let packed = PackedInputs::new(device, extent, &format!("ssbc post-process slot {slot}"))?;
         Ok(Some(Self {
             position: image("position")?,
-            normal: image("normal")?,
-            albedo: image("albedo")?,
+            normal: packed.normal,
+            albedo: packed.albedo,
             s0: image("s0")?,
             sources: match conversion {
                 Conversion::InputsAndSources => Some(image("sources")?),
@@ -87,6 +129,7 @@ pub(crate) struct SampledInputs<'a> {
 /// The conversion and output kernels.
 pub(crate) struct HostIo {
     convert: ComputeKernel<postprocess_convert_comp::Interface>,
+    pack: ComputeKernel<postprocess_pack_comp::Interface>,
     write_rgba32f: ComputeKernel<postprocess_write_rgba32f_comp::Interface>,
     write_rgba16f: ComputeKernel<postprocess_write_rgba16f_comp::Interface>,
     write_r11g11b10f: ComputeKernel<postprocess_write_r11f_g11f_b10f_comp::Interface>,
@@ -99,6 +142,7 @@ impl HostIo {
     pub fn new(device: &Arc<Device>) -> Result<Self> {
         Ok(Self {
             convert: ComputeKernel::new(device)?.named("ssbc_postprocess_convert"),
+            pack: ComputeKernel::new(device)?.named("ssbc_postprocess_pack"),
             write_rgba32f: ComputeKernel::new(device)?.named("ssbc_postprocess_write"),
             write_rgba16f: ComputeKernel::new(device)?.named("ssbc_postprocess_write"),
             write_r11g11b10f: ComputeKernel::new(device)?.named("ssbc_postprocess_write"),
@@ -111,10 +155,40 @@ impl HostIo {
         })
     }
 
-    /// The sets one frame allocates (a conversion and a write; the three
-    /// write kernels' layouts are alike).
+    /// The sets one frame allocates (a conversion, two packings and a
+    /// write; the three write kernels' layouts are alike).
     pub fn set_layouts(&self) -> Vec<&DescriptorSetLayout> {
-        vec![self.convert.set_layout(), self.write_rgba32f.set_layout()]
+        let pack = self.pack.set_layout();
+        vec![
+            self.convert.set_layout(),
+            pack,
+            pack,
+            self.write_rgba32f.set_layout(),
+        ]
+    }
+
+    /// Packs a layer's RGBA32F `normal` and `albedo`, read in place, into
+    /// `packed`.
+    pub fn record_pack(
+        &self,
+        (rec, profiler, pool): (&mut Recorder<'_>, &mut GpuProfiler, &DescriptorPool),
+        normal: &Image,
+        albedo: &Image,
+        packed: &PackedInputs,
+    ) -> Result<()> {
+        let (w, h) = (normal.desc.width, normal.desc.height);
+        let scope = profiler.begin(rec.cmd, "ssbc_postprocess_pack");
+        let bindings = postprocess_pack_comp::Bindings {
+            host_normal: normal,
+            host_albedo: albedo,
+            g_normal: &packed.normal,
+            g_albedo: &packed.albedo,
+        };
+        let push = postprocess_pack_comp::Push { size: [w, h] };
+        self.pack
+            .dispatch(rec, pool, &bindings, &push, Work::pixels((w, h)))?;
+        profiler.end(rec.cmd, scope);
+        Ok(())
     }
 
     /// Fails, naming the image, format and missing feature, where this

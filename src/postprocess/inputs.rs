@@ -162,23 +162,26 @@ pub struct PostProcessLayer {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Conversion {
     /// Every input is `R32G32B32A32_SFLOAT` (world positions, signed
-    /// normals): read in place as storage images.
+    /// normals): position, `S0` and the sources read in place as storage
+    /// images; normal and albedo packed into copies of 8 bytes a pixel
+    /// each, as ssbc's own G-buffer holds them (16 bytes a pixel).
     #[default]
     None,
-    /// Read through sampling into ssbc's own `R32G32B32A32_SFLOAT` copies
-    /// of position, normal, albedo and `S0` (64 bytes a pixel).
+    /// Read through sampling into ssbc's own copies: position and `S0`
+    /// `R32G32B32A32_SFLOAT`, normal and albedo packed (48 bytes a pixel).
     Inputs,
-    /// The same, and of the sources (80 bytes a pixel).
+    /// The same, and of the sources (64 bytes a pixel).
     InputsAndSources,
 }
 
 impl Conversion {
-    /// Images of its own the conversion needs.
+    /// Images of its own the conversion needs (besides the packed normal
+    /// and albedo that every conversion, [`Conversion::None`] too, makes).
     pub fn images(self) -> u32 {
         match self {
             Conversion::None => 0,
-            Conversion::Inputs => 4,
-            Conversion::InputsAndSources => 5,
+            Conversion::Inputs => 2,
+            Conversion::InputsAndSources => 3,
         }
     }
 }

@@ -21,10 +21,14 @@
 //! ([`Conversion::None`]). Otherwise it reads them all through sampling
 //! (sRGB, UNORM, SNORM and packed formats decoded by the sampler; depth
 //! turned into positions with the inverse of the jittered view-projection)
-//! into RGBA32F copies of its own, which [`PostProcessShape`] counts
-//! (64 bytes a pixel, 80 with sources). [`FORMATS`] lists what each
-//! accepts; anything else is refused by name, as is a format the device
-//! cannot sample or store.
+//! into copies of its own, which [`PostProcessShape`] counts
+//! (48 bytes a pixel, 64 with sources). Either way SSBC's kernels read
+//! normal and albedo packed as ssbc's own G-buffer holds them (four
+//! 16-bit normalized values each, 16 bytes a pixel for both; the albedo
+//! clamped to [0, 1]): copies of both layers' normal and albedo that
+//! ssbc packs each frame from the images it reads in place.
+//! [`FORMATS`] lists what each accepts; anything else is refused by name,
+//! as is a format the device cannot sample or store.
 //!
 //! | image | formats | usage | layout on entry | layout on exit |
 //! |---|---|---|---|---|
@@ -99,7 +103,7 @@ mod camera;
 mod convert;
 mod inputs;
 
-use convert::{ConvertedInputs, HostIo, SampledInputs};
+use convert::{ConvertedInputs, HostIo, PackedInputs, SampledInputs};
 
 pub use crate::vk::HostImage;
 pub use camera::HostCamera;
@@ -197,6 +201,11 @@ pub const PROFILED_PASSES: u32 = 1024;
 struct SlotResources {
     frame: SsbcFrame,
     converted: Option<ConvertedInputs>,
+    /// The first layer's normal and albedo packed, where the rest is read
+    /// in place (no conversion).
+    packed: Option<PackedInputs>,
+    /// The second layer's, if there is one.
+    packed_hidden: Option<PackedInputs>,
 }
 
 /// One slot's resources, for the shape they were made for.
@@ -362,11 +371,14 @@ impl WrappedInputs {
 
     /// The visible layer (the host's images, or their converted copies)
     /// and the optional hidden one, as SSBC reads them (the host's
-    /// G-buffer has no separate geometric normals).
+    /// G-buffer has no separate geometric normals): a layer read in place
+    /// with its normal and albedo `packed` (first layer, hidden layer).
     fn layers<'a>(
         &'a self,
         converted: Option<&'a ConvertedInputs>,
+        packed: (Option<&'a PackedInputs>, Option<&'a PackedInputs>),
     ) -> (SsbcLayer<'a>, Option<SsbcLayer<'a>>) {
+        let packed_of = |p: Option<&'a PackedInputs>| p.expect("packed at prepare");
         let visible = match converted {
             Some(c) => SsbcLayer {
                 gbuffer: SsbcGBuffer {
@@ -381,27 +393,24 @@ impl WrappedInputs {
             None => SsbcLayer {
                 gbuffer: SsbcGBuffer {
                     position: &self.geometry,
-                    normal: &self.normal,
-                    albedo: &self.albedo,
+                    normal: &packed_of(packed.0).normal,
+                    albedo: &packed_of(packed.0).albedo,
                     geometric: None,
                 },
                 s0: &self.s0,
                 sources: self.sources.as_ref().unwrap_or(&self.s0),
             },
         };
-        let hidden = self
-            .hidden
-            .as_ref()
-            .map(|[position, normal, albedo, s0]| SsbcLayer {
-                gbuffer: SsbcGBuffer {
-                    position,
-                    normal,
-                    albedo,
-                    geometric: None,
-                },
-                s0,
-                sources: s0,
-            });
+        let hidden = self.hidden.as_ref().map(|[position, _, _, s0]| SsbcLayer {
+            gbuffer: SsbcGBuffer {
+                position,
+                normal: &packed_of(packed.1).normal,
+                albedo: &packed_of(packed.1).albedo,
+                geometric: None,
+            },
+            s0,
+            sources: s0,
+        });
         (visible, hidden)
     }
 
@@ -481,6 +490,7 @@ impl SsbcPostProcess {
         let (steps, layer1) = (shape.steps, shape.layer1);
         crate::passes::ssbc::frame_bytes(device, shape.extent, (steps, layer1), KEPT)
             + ConvertedInputs::bytes(device, shape.conversion, shape.extent)
+            + layer1.map_or(0, |r| PackedInputs::bytes(device, r.extent(shape.extent)))
     }
 
     fn memory_of(per_slot: u64, slots: usize) -> PostProcessMemory {
@@ -539,6 +549,19 @@ impl SsbcPostProcess {
                             shape.extent,
                             slot,
                         )?,
+                        packed: (shape.conversion == Conversion::None)
+                            .then(|| {
+                                let name = format!("ssbc post-process slot {slot}");
+                                PackedInputs::new(device, shape.extent, &name)
+                            })
+                            .transpose()?,
+                        packed_hidden: shape
+                            .layer1
+                            .map(|r| {
+                                let name = format!("ssbc post-process slot {slot} layer 1");
+                                PackedInputs::new(device, r.extent(shape.extent), &name)
+                            })
+                            .transpose()?,
                     })
                 },
                 |held| {
@@ -632,7 +655,21 @@ impl SsbcPostProcess {
                 self.io
                     .record_convert(&mut rec, &mut self.profiler, pool, inputs, host, copies)?;
             }
-            let (visible, hidden) = images.layers(converted);
+            let packs = [
+                (Some((&images.normal, &images.albedo)), &resources.packed),
+                (
+                    images.hidden.as_ref().map(|[_, n, a, _]| (n, a)),
+                    &resources.packed_hidden,
+                ),
+            ];
+            for (host, packed) in packs {
+                if let (Some((normal, albedo)), Some(packed)) = (host, packed) {
+                    let cx = (&mut rec, &mut self.profiler, pool);
+                    self.io.record_pack(cx, normal, albedo, packed)?;
+                }
+            }
+            let packed = (resources.packed.as_ref(), resources.packed_hidden.as_ref());
+            let (visible, hidden) = images.layers(converted, packed);
             let s0 = visible.s0;
             self.pass.record_steps(
                 &mut rec,

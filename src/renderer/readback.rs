@@ -361,6 +361,22 @@ fn span_ms(spans: &[CpuSpan], name: &str) -> f64 {
         .map_or(0.0, CpuSpan::ms)
 }
 
+/// A read-back layer's texels as RGBA f32: the G-buffer's packed normal
+/// and albedo images unpacked as the shaders read them.
+fn layer_rgba(layer: Layer, bytes: &[u8]) -> Vec<f32> {
+    use crate::passes::gbuffer::{unpack_albedo, unpack_normal};
+    let unpack: fn([u32; 2]) -> [f32; 4] = match layer {
+        Layer::GBufferNormal | Layer::Layer1Normal => unpack_normal,
+        Layer::GBufferAlbedo | Layer::Layer1Albedo => unpack_albedo,
+        _ => return bytemuck::pod_collect_to_vec::<u8, f32>(bytes),
+    };
+    let words = bytemuck::pod_collect_to_vec::<u8, u32>(bytes);
+    words
+        .chunks_exact(2)
+        .flat_map(|w| unpack([w[0], w[1]]))
+        .collect()
+}
+
 /// Assembles the frame from what was read back (`read_images`).
 pub(crate) fn read_frame(read: Vec<(Readback, Vec<u8>)>, record: FrameRecord<'_>) -> Result<Frame> {
     let mut layers = Vec::new();
@@ -380,7 +396,7 @@ pub(crate) fn read_frame(read: Vec<(Readback, Vec<u8>)>, record: FrameRecord<'_>
             Readback::IsmAtlas => ism_depth = Some(bytemuck::pod_collect_to_vec::<u8, u32>(&bytes)),
             Readback::Layer(layer) => layers.push(LayerImage {
                 layer,
-                rgba: crop(bytemuck::pod_collect_to_vec::<u8, f32>(&bytes), 4),
+                rgba: crop(layer_rgba(layer, &bytes), 4),
             }),
         }
     }

@@ -81,7 +81,7 @@ impl ImageDesc {
             _ => {
                 let texel = match self.format {
                     vk::Format::R32G32B32A32_SFLOAT | vk::Format::R32G32B32A32_UINT => 16,
-                    vk::Format::R16G16B16A16_SFLOAT => 8,
+                    vk::Format::R16G16B16A16_SFLOAT | vk::Format::R32G32_UINT => 8,
                     _ => 4,
                 };
                 texel * self.width as u64 * self.height as u64 * self.layers as u64

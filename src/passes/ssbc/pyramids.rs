@@ -29,8 +29,9 @@ impl SsbcPass {
                     g_position: gbuffer.position,
                     g_normal: gbuffer.normal,
                     g_albedo: gbuffer.albedo,
-                    // Bound but not read without geometric normals.
-                    g_geometric: gbuffer.geometric.unwrap_or(gbuffer.normal),
+                    // Bound but not read without geometric normals (an
+                    // RGBA32F image, as the shader declares it).
+                    g_geometric: gbuffer.geometric.unwrap_or(gbuffer.position),
                 };
                 let push = GeometryBasePush {
                     frame: mips.frame,
