@@ -287,15 +287,14 @@ void main() {
         glossy = !brdf_is_lambertian(b) && !nearly_lambertian(b, shading.xyz, wo);
     }
     uint flags = (geometry ? 1u : 0u) | (code << 1) | (glossy ? GLOSSY_RECEIVER : 0u);
-    // The back cluster lies on neighbour q's plane, kept in q's words: its
-    // position and its normal as stored (ssbc_types.glsl, "Level 0").
+    // The back cluster lies on neighbour q's plane: its position (the
+    // G-buffer's) and its normal as stored (ssbc_types.glsl, "Level 0").
     vec3 cq = vec3(0.0);
     vec3 nq = vec3(0.0);
     if (code > 0u) {
         ivec2 q = p + CREASE_NEIGHBOURS[code - 1u];
         cq = imageLoad(g_position, q).xyz;
-        nq = level0_normal(uvec4(pack_level0_normal(surface_normal(q)), 0u, 0u));
+        nq = level0_normal(uvec4(pack_level0_normal(surface_normal(q)), 0u, 0u, 0u));
     }
-    uvec4 a = uvec4(floatBitsToUint(geometry ? position.xyz : vec3(0.0)), floatBitsToUint(geometry ? area : 0.0));
-    store_level0(dst, a, pack_level0_b(position.xyz, n, flags, back.position_extent.xyz, cq, nq, back_area));
+    store_level0(dst, pack_level0(position.xyz, n, geometry ? area : 0.0, flags, back.position_extent.xyz, cq, nq, back_area));
 }

@@ -22,7 +22,7 @@ layout(set = 0, binding = 3, rgba32f) uniform readonly image2D term;  // S_{k-1}
 // S at pixel p (linear index j) of layer pc.layer's level 0 times its area.
 vec3 pixel_sum(ivec2 p, uint j, uint base) {
     vec3 s = all(lessThan(uvec2(p), layer_image_size(pc.layer))) ? imageLoad(term, p).rgb : vec3(0.0);
-    return uintBitsToFloat(imageLoad(geo_words, geo_word(base + j)).w) * s;  // its area
+    return level0_area(imageLoad(geo_words, geo_word(base + j))) * s;  // its area
 }
 
 void main() {

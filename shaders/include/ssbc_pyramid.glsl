@@ -101,9 +101,9 @@ uint texel_index(uint layer, ivec2 t, int l) {
 }
 
 // Where texel i lies in the geometry and aux buffers. Level 0 of each
-// layer takes two geometry words a texel and nothing in aux (its areas and
-// flags are in its words: ssbc_types.glsl, "Level 0"); the other levels
-// three and one. In the order of the texel indices: layer 0's level 0,
+// layer takes one geometry word a texel and nothing in aux (its areas and
+// flags are in its word, its position in the layer's G-buffer:
+// ssbc_types.glsl, "Level 0"); the other levels three and one. In the order of the texel indices: layer 0's level 0,
 // its levels 1 and up, then layer 1's (with a second layer). The level-0
 // ranges are summed once per invocation, with the level starts: the walk
 // maps every texel it reads.
@@ -137,7 +137,7 @@ bool is_level0(uint i) {
 
 // The first geometry word of texel i.
 int geo_word(uint i) {
-    return int(3u * i - level0_texels_before(i));
+    return int(3u * i - 2u * level0_texels_before(i));
 }
 
 // The aux texel of texel i (not at level 0).
@@ -166,6 +166,15 @@ int radiance_texel(uint i, out uint half_) {
         return int(first_half + (r.y - r.x) + (j >> 1));
     }
     return int(base - r.z + ((r.z + 1u) >> 1));
+}
+
+// The layer (0 or 1) and the pixel of level-0 texel i.
+ivec2 level0_pixel(uint i, out uint layer) {
+    uint first = pc.frame.pyramid_size.x * pc.frame.pyramid_size.y;
+    layer = i < first ? 0u : 1u;
+    uint width = layer == 0u ? pc.frame.pyramid_size.x : uint(level_size(1u, 0).x);
+    uint j = layer == 0u ? i : i - level0_ranges().y;
+    return ivec2(j % width, j / width);
 }
 
 // Texel i's neighbour k at level 0 (inside its layer's image).

@@ -1,15 +1,19 @@
 // The pyramids as the builds bind them: storage texel buffers, read and
 // written (the levels below the one being built are read). Bindings 0..2 of
-// the geometry and radiance pyramid kernels.
+// the geometry and radiance pyramid kernels, and 20 and 21: the G-buffer
+// positions of both layers, which level 0's texels take theirs from.
 
 #ifndef SSBC_PYRAMID_WRITE_GLSL
 #define SSBC_PYRAMID_WRITE_GLSL
 
 #include "ssbc_types.glsl"
 
-layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // three per GeoTexel (level 0: two)
+layout(set = 0, binding = 0, rgba32ui) uniform uimageBuffer geo_words;    // three per GeoTexel (level 0: one)
 layout(set = 0, binding = 1, rgba32ui) uniform uimageBuffer aux_words;    // one per GeoAux (none at level 0)
 layout(set = 0, binding = 2, rgba32ui) uniform uimageBuffer radiance_sums; // one per texel: front, back packed (level 0: half, the front's)
+
+layout(set = 0, binding = 20, rgba32f) uniform readonly image2D level0_position0;  // layer 0's G-buffer position
+layout(set = 0, binding = 21, rgba32f) uniform readonly image2D level0_position1;  // layer 1's (layer 0's without one)
 
 uvec4 geo_load(int at) { return imageLoad(geo_words, at); }
 uvec4 aux_load(int at) { return imageLoad(aux_words, at); }
@@ -25,11 +29,9 @@ void store_geo(uint i, GeoTexel t) {
     imageStore(geo_words, at + 2, pack_normals(t));
 }
 
-// Level 0: a pixel's words (ssbc_types.glsl, "Level 0").
-void store_level0(uint i, uvec4 a, uvec4 b) {
-    int at = geo_word(i);
-    imageStore(geo_words, at, a);
-    imageStore(geo_words, at + 1, b);
+// Level 0: a pixel's word (ssbc_types.glsl, "Level 0").
+void store_level0(uint i, uvec4 w) {
+    imageStore(geo_words, geo_word(i), w);
 }
 
 // Levels 1 and up.
@@ -41,7 +43,7 @@ void store_aux(uint i, GeoAux a) {
 void texel_sums(uint i, out vec3 front, out vec3 back) {
     if (is_level0(i)) {
         front = level0_front_radiance(i);
-        back = level0_back_radiance(i, imageLoad(geo_words, geo_word(i) + 1));
+        back = level0_back_radiance(i, imageLoad(geo_words, geo_word(i)));
         return;
     }
     uint half_;

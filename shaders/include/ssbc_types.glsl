@@ -12,6 +12,7 @@
 
 #include "common.glsl"
 #include "geometric_normal.glsl"
+#include "octahedral.glsl"
 
 // The frame as every SSBC kernel sees it (`pc.frame`; mirrored by
 // `FrameBlock` in src/passes/ssbc/push.rs).
@@ -193,35 +194,57 @@ struct GeoAux {
 const ivec2 CREASE_NEIGHBOURS[8] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -1), ivec2(0, 1),
                                            ivec2(-1, -1), ivec2(1, -1), ivec2(-1, 1), ivec2(1, 1));
 
-// Level 0 (a pixel) in two uvec4 words instead of a GeoTexel's three and
-// a GeoAux's one (32 instead of 64 bytes a pixel): a pixel has one
-// cluster, with no extent or cone, and at most the part beyond a crease
-// on a neighbour's surface, whose normal and plane are that neighbour's.
-//   a  xyz the pixel's world position, w its area A_y (floats);
-//   b  x, y's low half: the normal as pack_normal_cone's snorm16 (no cone,
-//      no children); y's bits 16..21: GeoAux.flags (level 0 uses bits
-//      0..5); the back cluster's centroid in the neighbour's plane as two
+// Level 0 (a pixel) in one uvec4 word instead of a GeoTexel's three and a
+// GeoAux's one (16 instead of 64 bytes a pixel): a pixel has one cluster,
+// with no extent or cone, at the pixel's own position, which the kernels
+// read from the layer's G-buffer (level0_position, ssbc_pyramid_access.glsl),
+// and at most the part beyond a crease on a neighbour's surface, whose
+// normal and plane are that neighbour's.
+//   x  the normal, octahedral (two snorm16; no cone, no children);
+//   y  bits 0..24: the area A_y (a float's bits 6 and up, rounded: 17
+//      mantissa bits); bits 25..30: GeoAux.flags (level 0 uses bits 0..5);
+//   z, w  the back cluster's centroid in the neighbour's plane as two
 //      21-bit floats (pack_f21) along plane_basis of the neighbour's stored
-//      normal, from the pixel's own position projected onto that plane:
-//      their low 16 bits in z, their top 5 in y's bits 22..26 and 27..31;
-//      w: the back cluster's area (float).
+//      normal, from the pixel's own position projected onto that plane: u
+//      in z's bits 0..20, v's low 11 bits in z's 21..31 and its top 10 in
+//      w's 22..31; w's bits 0..21: the back cluster's area (a float's bits
+//      9 and up, rounded: 14 mantissa bits).
 // The back cluster's position costs 42 bits instead of three floats:
 // within 2^-15 of its distance from the pixel. (Measured from the
 // neighbour's position instead, up to 30 times as far, in halves: the
 // brute-force step moved by 2.9e-4 relative RMSE against the CPU twin,
 // 8e-6 before; tests/ssbc.rs, tests/postprocess.rs.)
 
-// A normal as the pyramids store it: three signed 16-bit fixed-point numbers.
-uvec2 pack_level0_normal(vec3 n) {
-    return uvec2(packSnorm2x16(n.xy), packSnorm2x16(vec2(n.z, 0.0)) & 0xFFFFu);
+// A normal as level 0 stores it: octahedral, two signed 16-bit
+// fixed-point numbers.
+uint pack_level0_normal(vec3 n) {
+    return packSnorm2x16(octahedral(n));
 }
 
-vec3 level0_normal(uvec4 b) {
-    return vec3(unpackSnorm2x16(b.x), unpackSnorm2x16(b.y).x);
+vec3 level0_normal(uvec4 w) {
+    return from_octahedral(unpackSnorm2x16(w.x));
 }
 
-uint level0_flags(uvec4 b) {
-    return (b.y >> 16) & 63u;
+uint level0_flags(uvec4 w) {
+    return (w.y >> 25) & 63u;
+}
+
+// A positive float without its `drop` lowest bits (rounded to nearest; a
+// carry into the exponent is the rounding too).
+uint pack_positive(float x, uint drop) {
+    return (floatBitsToUint(max(x, 0.0)) + (1u << (drop - 1u))) >> drop;
+}
+
+float unpack_positive(uint bits, uint drop) {
+    return uintBitsToFloat(bits << drop);
+}
+
+float level0_area(uvec4 w) {
+    return unpack_positive(w.y & 0x1FFFFFFu, 6u);
+}
+
+float level0_back_area(uvec4 w) {
+    return unpack_positive(w.w & 0x3FFFFFu, 9u);
 }
 
 // A float in 21 bits: its sign, a 6-bit exponent (2^-31 .. 2^32; smaller
@@ -258,11 +281,10 @@ vec3 back_origin(vec3 own, vec3 cq, vec3 nq) {
     return own - dot(own - cq, unit) * unit;
 }
 
-// Word b of a pixel at `own` with normal n and flags; its back cluster at
-// `back_position` with area back_area lies on the plane of the neighbour
-// at cq whose stored normal is nq.
-uvec4 pack_level0_b(vec3 own, vec3 n, uint flags, vec3 back_position, vec3 cq, vec3 nq, float back_area) {
-    uvec2 normal = pack_level0_normal(n);
+// The word of a pixel at `own` with normal n, area and flags; its back
+// cluster at `back_position` with area back_area lies on the plane of the
+// neighbour at cq whose stored normal is nq.
+uvec4 pack_level0(vec3 own, vec3 n, float area, uint flags, vec3 back_position, vec3 cq, vec3 nq, float back_area) {
     uvec2 back = uvec2(0u);
     if (back_area > 0.0) {
         vec3 t1, t2;
@@ -270,42 +292,42 @@ uvec4 pack_level0_b(vec3 own, vec3 n, uint flags, vec3 back_position, vec3 cq, v
         vec3 d = back_position - back_origin(own, cq, nq);
         back = uvec2(pack_f21(dot(d, t1)), pack_f21(dot(d, t2)));
     }
-    uint top = (back.x >> 16) | ((back.y >> 16) << 5);
-    return uvec4(normal.x, normal.y | (flags << 16) | (top << 22), (back.x & 0xFFFFu) | (back.y << 16),
-                 floatBitsToUint(back_area));
+    return uvec4(pack_level0_normal(n), min(pack_positive(area, 6u), 0x1FFFFFFu) | (flags << 25),
+                 back.x | (back.y << 21), min(pack_positive(back_area, 9u), 0x3FFFFFu) | ((back.y >> 11) << 22));
 }
 
-// The pixel's cluster (the front; with its children bits, none).
-GeoCluster level0_front(uvec4 a, uvec4 b) {
-    GeoCluster g = (level0_flags(b) & 1u) != 0u
-        ? make_cluster(uintBitsToFloat(a.xyz), 0.0, 0.0, level0_normal(b), 1.0)
+// The pixel's cluster (the front; with its children bits, none), at its
+// position x.
+GeoCluster level0_front(vec3 x, uvec4 w) {
+    GeoCluster g = (level0_flags(w) & 1u) != 0u
+        ? make_cluster(x, 0.0, 0.0, level0_normal(w), 1.0)
         : empty_cluster();
     return with_children_bits(g, 0u);
 }
 
 // The neighbour code (k + 1 for CREASE_NEIGHBOURS[k]) of the pixel's back
 // cluster, 0 if it has none.
-uint level0_back_code(uvec4 b) {
-    return (level0_flags(b) >> 1) & 15u;
+uint level0_back_code(uvec4 w) {
+    return (level0_flags(w) >> 1) & 15u;
 }
 
-// The pixel's back cluster, given its words (a, b) and its neighbour's
-// (qa, qb).
-GeoCluster level0_back(uvec4 a, uvec4 b, uvec4 qa, uvec4 qb) {
-    if (level0_back_code(b) == 0u) return empty_cluster();
-    vec3 nq = level0_normal(qb);
+// The pixel's back cluster, given its position and word (x, w) and its
+// neighbour's (qx, qw).
+GeoCluster level0_back(vec3 x, uvec4 w, vec3 qx, uvec4 qw) {
+    if (level0_back_code(w) == 0u) return empty_cluster();
+    vec3 nq = level0_normal(qw);
     vec3 t1, t2;
     plane_basis(nq, t1, t2);
-    float u = unpack_f21((b.z & 0xFFFFu) | (((b.y >> 22) & 31u) << 16));
-    float v = unpack_f21((b.z >> 16) | ((b.y >> 27) << 16));
-    vec3 origin = back_origin(uintBitsToFloat(a.xyz), uintBitsToFloat(qa.xyz), nq);
+    float u = unpack_f21(w.z & 0x1FFFFFu);
+    float v = unpack_f21((w.z >> 21) | ((w.w >> 22) << 11));
+    vec3 origin = back_origin(x, qx, nq);
     return make_cluster(origin + u * t1 + v * t2, 0.0, 0.0, nq, 1.0);
 }
 
 // The pixel's areas, pixels with geometry (0 or 1) and flags.
-GeoAux level0_aux(uvec4 a, uvec4 b) {
-    uint flags = level0_flags(b);
-    return GeoAux(uintBitsToFloat(a.w), uintBitsToFloat(b.w), flags & 1u, flags);
+GeoAux level0_aux(uvec4 w) {
+    uint flags = level0_flags(w);
+    return GeoAux(level0_area(w), level0_back_area(w), flags & 1u, flags);
 }
 
 // One layer's pyramid: where it starts in the buffers, its level 0 and its

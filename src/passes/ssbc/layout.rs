@@ -15,9 +15,10 @@ pub(super) const LIST_HEADER_BYTES: u64 = 48;
 /// `GeoTexel` in memory: two clusters' positions and extents, their
 /// normals and cones packed (`pack_normals` in ssbc_types.glsl).
 pub(super) const GEO_TEXEL_BYTES: u64 = 48;
-/// A level-0 texel (a pixel) in memory: its geometry and aux in two words
-/// ("Level 0" in ssbc_types.glsl); it has no `GeoAux` texel.
-pub(super) const LEVEL0_TEXEL_BYTES: u64 = 32;
+/// A level-0 texel (a pixel) in memory: its geometry and aux in one word
+/// ("Level 0" in ssbc_types.glsl; its position is the G-buffer's); it has
+/// no `GeoAux` texel.
+pub(super) const LEVEL0_TEXEL_BYTES: u64 = 16;
 pub(super) const AUX_BYTES: u64 = 16;
 /// A texel's two radiance sums, packed (`pack_radiance` in ssbc_types.glsl);
 /// at level 0 its front sum only, two texels in one (`radiance_texel` in

@@ -8,14 +8,15 @@ use crate::shaders::{ssbc_geometry_base_comp, ssbc_geometry_mips_comp, ssbc_radi
 use crate::vk::{DescriptorPool, Image, Recorder, Work};
 
 impl SsbcPass {
-    /// The geometry pyramid of layer `mips.layer` from its G-buffer; `mips`
+    /// The geometry pyramid of layer `mips.layer` from its G-buffer (with
+    /// both layers' positions, which level 0's texels read); `mips`
     /// holds the frame and thresholds (its level is set here), `principal`
     /// the camera's [`super::SsbcCamera::principal`].
     pub(super) fn record_geometry(
         &self,
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
-        gbuffer: SsbcGBuffer<'_>,
+        (gbuffer, level0): (SsbcGBuffer<'_>, [&Image; 2]),
         mips: GeometryMipsPush,
         principal: glam::Vec2,
         frame: &SsbcFrame,
@@ -45,6 +46,8 @@ impl SsbcPass {
                 let bindings = ssbc_geometry_mips_comp::Bindings {
                     geo_words: &frame.geo,
                     aux_words: &frame.aux,
+                    level0_position0: level0[0],
+                    level0_position1: level0[1],
                 };
                 let push = GeometryMipsPush { level, ..mips };
                 self.geometry.dispatch(rec, pool, &bindings, &push, texels)?;

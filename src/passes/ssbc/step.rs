@@ -40,6 +40,8 @@ macro_rules! with_output_images {
             residual: $out.residual,
             residual_sources: $out.residual_sources,
             samples: $out.samples,
+            level0_position0: $out.level0[0],
+            level0_position1: $out.level0[1],
             $($field $(: $value)?),*
         }
     };
@@ -48,6 +50,9 @@ macro_rules! with_output_images {
 /// What a step writes, and what it reads from the frame besides the pyramids.
 struct StepOutput<'a> {
     gbuffer: SsbcGBuffer<'a>,
+    /// Both layers' G-buffer positions (layer 0's twice with one layer),
+    /// where the pyramids' level-0 texels are.
+    level0: [&'a Image; 2],
     /// `S0 + ... + S_{k-1}` (the final image itself after the first step).
     previous: &'a Image,
     final_image: &'a Image,
@@ -116,6 +121,7 @@ impl SsbcPass {
     ) -> Result<()> {
         let extent = visible.gbuffer.extent();
         let hidden = hidden.filter(|_| frame.layer1.is_some());
+        let level0 = [visible.gbuffer.position, hidden.map_or(visible.gbuffer.position, |h| h.gbuffer.position)];
         let frame_block = FrameBlock::new(inputs, extent, frame, hidden.is_some())
             .with_one_dispatch(self.one_dispatch(inputs.settings));
 
@@ -133,7 +139,7 @@ impl SsbcPass {
                 ..mips
             };
             let principal = inputs.camera.principal;
-            self.record_geometry(rec, pool, source.gbuffer, mips, principal, frame)?;
+            self.record_geometry(rec, pool, (source.gbuffer, level0), mips, principal, frame)?;
         }
         // Evaluation points are stamped with the step's generation (1, 2, ...).
         rec.fill_buffer(&frame.points.buffer, 0);
@@ -181,6 +187,7 @@ impl SsbcPass {
             profiler.end(rec.cmd, sub);
             let step_out = StepOutput {
                 gbuffer: visible.gbuffer,
+                level0,
                 previous,
                 final_image,
                 // Without residual images, the final image (NO_RESIDUAL);
@@ -198,7 +205,7 @@ impl SsbcPass {
             rec.copy_buffer(&frame.fallback, 0, &frame.stats, header * step as u64, header);
             if let (Some(hidden), true) = (hidden, step + 1 < steps) {
                 let sub = profiler.begin(rec.cmd, &format!("{name}/layer1_residual"));
-                self.record_layer1_residual(rec, pool, hidden.gbuffer, step, &push, frame)?;
+                self.record_layer1_residual(rec, pool, (hidden.gbuffer, level0), step, &push, frame)?;
                 profiler.end(rec.cmd, sub);
             }
             profiler.end(rec.cmd, scope);
@@ -236,7 +243,7 @@ impl SsbcPass {
         &self,
         rec: &mut Recorder<'_>,
         pool: &DescriptorPool,
-        gbuffer: SsbcGBuffer<'_>,
+        (gbuffer, level0): (SsbcGBuffer<'_>, [&Image; 2]),
         step: usize,
         push: &StepPush,
         frame: &SsbcFrame,
@@ -244,6 +251,8 @@ impl SsbcPass {
         let out = &frame.layer1_residuals[step];
         let bindings = ssbc_layer_residual_comp::Bindings {
             geo_texels: &frame.geo,
+            level0_position0: level0[0],
+            level0_position1: level0[1],
             radiance_texels: &frame.radiance,
             g_position: gbuffer.position,
             g_normal: gbuffer.normal,
@@ -280,7 +289,7 @@ impl SsbcPass {
             let timed = (&mut *profiler, format!("{step_name}/eval_{top}"));
             let top_list = push.frame.glossy_receivers().then_some(&frame.top_points);
             let eval = push.eval(top, top_list.is_some());
-            self.record_eval(rec, timed, pool, &eval, (frame, &out.gbuffer), (top_list, [w, h, 1]))?;
+            self.record_eval(rec, timed, pool, &eval, (frame, out), (top_list, [w, h, 1]))?;
         }
         let mut pending_in = &frame.fallback; // unused while not from a list
         let mut pending_out = if top >= 2 {
@@ -303,7 +312,7 @@ impl SsbcPass {
         for level in (1..top).rev() {
             let timed = (&mut *profiler, format!("{step_name}/eval_{level}"));
             let list = Some(&frame.requests);
-            self.record_eval(rec, timed, pool, &push.eval(level, true), (frame, &out.gbuffer), (list, [0; 3]))?;
+            self.record_eval(rec, timed, pool, &push.eval(level, true), (frame, out), (list, [0; 3]))?;
             pending_in = pending_out;
             pending_out = if level == 1 {
                 &frame.fallback
@@ -390,9 +399,10 @@ impl SsbcPass {
         (profiler, name): (&mut GpuProfiler, String),
         pool: &DescriptorPool,
         push: &EvalPush,
-        (frame, gbuffer): (&SsbcFrame, &SsbcGBuffer<'_>),
+        (frame, out): (&SsbcFrame, &StepOutput<'_>),
         (list, groups): (Option<&Buffer>, [u32; 3]),
     ) -> Result<()> {
+        let gbuffer = &out.gbuffer;
         let scope = profiler.begin(rec.cmd, &name);
         // Bound (and so, for synchronization, read) even when unused.
         let requests = list.unwrap_or(&frame.requests);
@@ -405,6 +415,8 @@ impl SsbcPass {
                 eval_points: &frame.points,
                 requests,
                 g_normal: gbuffer.normal,
+                level0_position0: out.level0[0],
+                level0_position1: out.level0[1],
             };
             let ends = if push.frame.glossy_receivers() { FRONT } else { BOTH_ENDS };
             let work = threads_or_list(list.is_none().then_some(groups), (requests, ends));
@@ -422,6 +434,8 @@ impl SsbcPass {
                 g_normal: gbuffer.normal,
                 g_albedo: gbuffer.albedo,
                 point_glossy: &frame.point_glossy,
+                level0_position0: out.level0[0],
+                level0_position1: out.level0[1],
             };
             let ends = Work::Indirect(requests, if one { BOTH_ENDS } else { BACK });
             self.eval_glossy.dispatch(rec, pool, &bindings, push, ends)?;
