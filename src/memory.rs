@@ -59,7 +59,6 @@ fn part_of(name: &str) -> Option<usize> {
         "ssbc.pending",
         "ssbc.requests",
         "ssbc.top_points",
-        "ssbc.fallback",
         "ssbc.stats",
     ]
     .iter()
@@ -185,7 +184,7 @@ mod tests {
     fn every_per_slot_name_has_a_part_and_the_scene_none() {
         for (name, part) in [
             ("gbuffer_layer1.position", "gbuffer"),
-            ("lighting.interleaved_guide", "lighting"),
+            ("lighting.interleaved", "lighting"),
             ("ssbc.s0", "lighting"),
             ("ssbc.eval_points.claims", "ssbc_pyramids"),
             ("ssbc.pending_b", "ssbc_lists"),

@@ -23,7 +23,7 @@
 // that beside another surface), is listed for indirect_creases.comp,
 // which evaluates every VPL there.
 #include "common.glsl"
-#include "guide.glsl"
+#include "interleaved_sums.glsl"
 #include "brdf.glsl"
 #include "geometric_normal.glsl"
 #ifdef EXACT_VISIBILITY
@@ -40,10 +40,10 @@ const float RIM_TURN = 0.5;
 const int MAX_WINDOW = 2 * MAX_SIDE - 1;
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 0, rgba32ui) uniform readonly uimage2D guide;
+layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
 layout(set = 0, binding = 1, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2D direct;
-layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D interleaved;  // pack_sums (guide.glsl)
+layout(set = 0, binding = 3, rgba32ui) uniform readonly uimage2D interleaved;  // pack_sums (interleaved_sums.glsl)
 layout(set = 0, binding = 5, rgba32f) uniform writeonly image2D s0;
 // (dispatch x, y, z, count), then x | y << 16 per pixel.
 layout(set = 0, binding = 6) buffer Creases { uvec4 header; uint pixels[]; } creases;
@@ -51,6 +51,24 @@ layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rg32ui) uniform readonly uimage2D g_normal;
 layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
+
+// What the filter's surface tests read of a pixel: the G-buffer's
+// position and shading normal. (A guide image of both in one texel, one
+// load per tap, took 16 bytes a pixel more of the gather's phase.)
+struct Guide {
+    vec3 position;
+    vec3 normal;
+    bool geometry;
+};
+
+Guide guide_at(ivec2 q) {
+    vec4 x = imageLoad(g_position, q);
+    Guide g;
+    g.position = x.xyz;
+    g.geometry = x.w != 0.0;
+    g.normal = g.geometry ? unpack_gbuffer_normal(imageLoad(g_normal, q)).xyz : vec3(0.0);
+    return g;
+}
 
 // Writes S0, the direct light plus the pixel's bounded indirect light from
 // the filtered sums (the diffuse part per unit diffuse colour, irradiance /
@@ -101,12 +119,11 @@ const int TILE = 8 + 2 * APRON;
 // neighbour; bit 1, nor its lower one (both on one surface).
 shared uint links[TILE * TILE];
 
-// Whether guide texels a and b are on one surface (the filter's tests, from a).
-bool same_surface(uvec4 a, uvec4 b) {
-    if (b.w == NO_GEOMETRY) return false;
-    vec3 d = guide_position(b) - guide_position(a);
-    vec3 na = guide_normal(a);
-    return on_surface(na, na, d, length(d), guide_normal(b));
+// Whether pixels a and b are on one surface (the filter's tests, from a).
+bool same_surface(Guide a, Guide b) {
+    if (!b.geometry) return false;
+    vec3 d = b.position - a.position;
+    return on_surface(a.normal, a.normal, d, length(d), b.normal);
 }
 
 // Casts the tile's links (every invocation of the group takes part).
@@ -117,15 +134,14 @@ void cast_links() {
         ivec2 c = origin + t;
         uint bits = 0u;
         if (all(greaterThanEqual(c, ivec2(0))) && all(lessThan(uvec2(c), pc.size))) {
-            uvec4 a = imageLoad(guide, c);
-            for (int k = 0; k < 2 && a.w != NO_GEOMETRY; k++) {
+            Guide a = guide_at(c);
+            for (int k = 0; k < 2 && a.geometry; k++) {
                 ivec2 step = k == 0 ? ivec2(1, 0) : ivec2(0, 1);
                 ivec2 q = c + step;
                 // (Links out of the tile are never read.)
                 if (any(greaterThanEqual(t + step, ivec2(TILE))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
-                uvec4 b = imageLoad(guide, q);
-                if (same_surface(a, b)
-                    && segment_free(guide_position(a), guide_normal(a), guide_position(b), guide_normal(b))) {
+                Guide b = guide_at(q);
+                if (same_surface(a, b) && segment_free(a.position, a.normal, b.position, b.normal)) {
                     bits |= 1u << uint(k);
                 }
             }
@@ -182,15 +198,15 @@ void main() {
 #endif
     ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(uvec2(pixel), pc.size))) return;
-    uvec4 own = imageLoad(guide, pixel);
+    Guide own = guide_at(pixel);
     vec4 direct_radiance = imageLoad(direct, pixel);
-    if (own.w == NO_GEOMETRY) {
+    if (!own.geometry) {
         imageStore(s0, pixel, vec4(direct_radiance.rgb, 0.0));
         imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb, 0.0));
         return;
     }
-    vec3 x = guide_position(own);
-    vec3 n = guide_normal(own);
+    vec3 x = own.position;
+    vec3 n = own.normal;
     vec3 surface = geometric_normal(imageLoad(g_emission, pixel).w, n);
     int reach = pc.side - 1;
 #ifdef EXACT_VISIBILITY
@@ -217,16 +233,16 @@ void main() {
             ivec2 offset = ivec2(dx, dy) - reach;
             ivec2 q = pixel + offset;
             if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
-            uvec4 g = imageLoad(guide, q);
-            if (g.w == NO_GEOMETRY) {
+            Guide g = guide_at(q);
+            if (!g.geometry) {
                 edge = true;
                 continue;
             }
-            vec3 d = guide_position(g) - x;
+            vec3 d = g.position - x;
             float distance = length(d);
             bool adjacent = max(abs(offset.x), abs(offset.y)) == 1;
             float per_pixel = distance / length(vec2(offset));
-            if (!on_surface(surface, n, d, distance, guide_normal(g))) {
+            if (!on_surface(surface, n, d, distance, g.normal)) {
                 if (adjacent) other = min(other, per_pixel);
                 edge = true;
                 continue;
@@ -237,7 +253,7 @@ void main() {
             // in front, at a corner of the surface) asks a ray of its own:
             // only it decides whether the pixel lies beside a crease.
             bool linked = ((reached[dy] >> uint(dx)) & 1u) != 0u;
-            if (!linked && adjacent) linked = segment_free(x, surface, guide_position(g), guide_normal(g));
+            if (!linked && adjacent) linked = segment_free(x, surface, g.position, g.normal);
             if (!linked) {
                 if (adjacent) other = min(other, per_pixel);
                 edge = true;
@@ -245,7 +261,7 @@ void main() {
             }
 #endif
             if (adjacent) footprint = min(footprint, per_pixel);
-            if (glossy_receiver) turn = max(turn, length(mirror(guide_position(g), guide_normal(g)) - own_mirror));
+            if (glossy_receiver) turn = max(turn, length(mirror(g.position, g.normal) - own_mirror));
             row |= 1u << uint(dx);
         }
         rows[dy] = row;

@@ -3,13 +3,12 @@
 // an N x N block evaluates one subset, the one of its position in the
 // block. The dispatch is de-interleaved: work group z = subset, so a
 // group's invocations share one subset and loop over the same VPLs. It
-// writes N^2 x its subset's sum, packed (`pack_sums` in guide.glsl): the
+// writes N^2 x its subset's sum, packed (`pack_sums` in interleaved_sums.glsl): the
 // diffuse part without the receiver's diffuse colour, the glossy rest, and
-// the mean widening of its lobe by the VPLs' radii (vpl_gather.glsl); and
-// the pixel's position and normal for the filter (indirect_filter.comp).
+// the mean widening of its lobe by the VPLs' radii (vpl_gather.glsl).
 #include "common.glsl"
 #include "ism.glsl"
-#include "guide.glsl"
+#include "interleaved_sums.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -19,7 +18,6 @@ layout(set = 0, binding = 2) uniform textureBuffer vpl_texels;
 layout(set = 0, binding = 3, r32ui) uniform readonly uimage2D ism; // ism_pack()ed texels
 layout(set = 0, binding = 4) readonly buffer Subsets { uint subset_start[]; };
 layout(set = 0, binding = 5, rgba32ui) uniform writeonly uimage2D interleaved;  // pack_sums
-layout(set = 0, binding = 6, rgba32ui) uniform writeonly uimage2D guide;
 layout(set = 0, binding = 7, rg32ui) uniform readonly uimage2D g_albedo;
 layout(set = 0, binding = 9, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
 
@@ -35,7 +33,6 @@ void main() {
     vec4 position = imageLoad(g_position, pixel);
     if (position.w == 0.0) {
         imageStore(interleaved, pixel, uvec4(0u));
-        imageStore(guide, pixel, uvec4(0u, 0u, 0u, NO_GEOMETRY));
         return;
     }
     vec4 n = unpack_gbuffer_normal(imageLoad(g_normal, pixel));
@@ -45,5 +42,4 @@ void main() {
     VplLight light = vpl_sum(position.xyz, n.xyz, ng, b, wo, subset_start[subset], subset_start[subset + 1u], 1u);
     float subsets = float(pc.count * pc.count);
     imageStore(interleaved, pixel, pack_sums(light.irradiance * (subsets / PI), light.glossy * subsets, light.spread2));
-    imageStore(guide, pixel, pack_guide(position.xyz, n.xyz));
 }

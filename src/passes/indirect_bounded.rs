@@ -39,9 +39,8 @@ use crate::vk::{
     DescriptorSetLayout, Device, Image, ImageDesc, Planned, Tenant, Work,
 };
 
-/// The interleaved gather's guide (a pixel's position and packed normal)
-/// and its sums (the diffuse and glossy parts, packed): one texel each
-/// (guide.glsl).
+/// The interleaved gather's sums (the diffuse and glossy parts, packed):
+/// one texel a pixel (interleaved_sums.glsl).
 fn packed_desc(extent: (u32, u32)) -> ImageDesc {
     let usage = vk::ImageUsageFlags::empty();
     super::storage_desc(vk::Format::R32G32B32A32_UINT, extent, usage)
@@ -60,13 +59,13 @@ const CREASES_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 
 /// What the interleaved gather hands its filter at `extent` (nothing for
 /// the full gather), in the order [`IndirectBoundedPass`] makes it: the
-/// subsets' sums, the guide and the crease list. It
+/// subsets' sums and the crease list (the filter reads the G-buffer's
+/// position and normal for its surface tests). It
 /// lives in the frame slot's transient memory (`passes::transient`).
 pub(crate) fn transient_resources(extent: (u32, u32), gather: Gather) -> Tenant {
     match gather {
         Gather::Full => Vec::new(),
         Gather::Interleaved => vec![
-            Planned::Image(packed_desc(extent)),
             Planned::Image(packed_desc(extent)),
             Planned::Buffer {
                 bytes: creases_bytes(extent),
@@ -222,11 +221,9 @@ impl BoundedLighting {
 /// What the interleaved gather hands its filter.
 pub struct Interleaved {
     /// N² x each pixel's own subset's sum, packed (`pack_sums` in
-    /// guide.glsl): its diffuse part per unit diffuse colour, the glossy
+    /// interleaved_sums.glsl): its diffuse part per unit diffuse colour, the glossy
     /// rest (zero on Lambertian receivers) and its lobe's widening.
     pub sums: Image,
-    /// Each pixel's position and normal, packed (`guide.glsl`).
-    pub guide: Image,
     /// The pixels beside a crease or contact (dispatch header, count, then
     /// one `x | y << 16` per pixel), which evaluate every VPL.
     pub creases: Buffer,
@@ -247,17 +244,12 @@ impl Interleaved {
             None => Image::new(device, &name(base), desc),
         };
         let sums = image("lighting.interleaved", packed_desc(extent))?;
-        let guide = image("lighting.interleaved_guide", packed_desc(extent))?;
         let (bytes, creases) = (creases_bytes(extent), name("lighting.creases"));
         let creases = match region.as_mut() {
             Some(r) => Buffer::new_aliased(device, &creases, bytes, CREASES_USAGE, r)?,
             None => Buffer::new(device, &creases, bytes, CREASES_USAGE, MemoryLocation::GpuOnly)?,
         };
-        Ok(Self {
-            sums,
-            guide,
-            creases,
-        })
+        Ok(Self { sums, creases })
     }
 }
 
@@ -373,7 +365,7 @@ impl IndirectBoundedPass {
         )
     }
 
-    /// Each pixel's own subset's sum, and its guide.
+    /// Each pixel's own subset's sum.
     fn record_interleaved(
         &self,
         cx: &mut Recording<'_, '_>,
@@ -398,7 +390,6 @@ impl IndirectBoundedPass {
                 vpl_texels: &ism.vpls,
                 subsets: &ism.subsets,
                 interleaved: &interleaved.sums,
-                guide: &interleaved.guide,
                 g_emission: &gbuffer.emission,
             },
             |kernel, bindings| kernel.dispatch(rec, pool, &bindings, &push, subsets)
@@ -433,7 +424,7 @@ impl IndirectBoundedPass {
             (self.filter, indirect_filter_comp),
             (&self.exact()?.filter, indirect_filter_exact_comp),
             {
-                guide: &interleaved.guide,
+                g_position: &gbuffer.position,
                 g_albedo: &gbuffer.albedo,
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,

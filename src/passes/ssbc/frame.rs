@@ -36,7 +36,9 @@ pub struct SsbcFrame {
     /// Per evaluation point, the generation of the step that last asked for
     /// it (the resolve claims each point once per step).
     pub claims: Buffer,
-    /// Pixels still to resolve at the next finer level (two, used in turn).
+    /// Pixels still to resolve at the next finer level (two, used in
+    /// turn); level 1's resolve leaves in one the pixels evaluated alone
+    /// (the fallback list).
     pub pending: [Buffer; 2],
     /// In frames with glossy receivers, the coarsest level's evaluation
     /// points as a two-ended list (glossy receivers at the back), made once
@@ -44,8 +46,6 @@ pub struct SsbcFrame {
     pub top_points: Buffer,
     /// Texels whose evaluation points the next level needs.
     pub requests: Buffer,
-    /// Pixels evaluated alone.
-    pub fallback: Buffer,
     /// Per step, the fallback list's header (dispatch x, y, z, pixel count),
     /// for the host.
     pub stats: Buffer,
@@ -124,7 +124,7 @@ impl SsbcPass {
     ) -> Result<SsbcFrame> {
         let plan = FramePlan::new(extent, steps, layer1, kept);
         let buffer = |name: &str, b: &BufferPlan| Buffer::new(device, name, b.bytes, b.usage, b.location);
-        let mut pyramid = |name: &str, b: &BufferPlan| match transient.as_mut() {
+        let mut in_phase = |name: &str, b: &BufferPlan| match transient.as_mut() {
             Some(region) => Buffer::new_aliased(device, name, b.bytes, b.usage, region),
             None => buffer(name, b),
         };
@@ -143,13 +143,19 @@ impl SsbcPass {
             .map(|k| image(format!("ssbc.residual_sources_{k}"), &plan.radiance_image))
             .collect::<Result<Vec<_>>>()?;
         let samples = per_step("ssbc.samples", &plan.samples_image)?;
-        // In the order of `FramePlan::pyramids` (the transient plan's).
-        let geo = pyramid("ssbc.pyramid.geometry", &plan.geo)?;
-        let aux = pyramid("ssbc.pyramid.aux", &plan.aux)?;
-        let radiance = pyramid("ssbc.pyramid.radiance", &plan.radiance)?;
-        let points = pyramid("ssbc.eval_points", &plan.points)?;
-        let point_glossy = pyramid("ssbc.eval_points.glossy", &plan.point_glossy)?;
-        let claims = pyramid("ssbc.eval_points.claims", &plan.claims)?;
+        // In the order of `FramePlan::transient` (the transient plan's).
+        let geo = in_phase("ssbc.pyramid.geometry", &plan.geo)?;
+        let aux = in_phase("ssbc.pyramid.aux", &plan.aux)?;
+        let radiance = in_phase("ssbc.pyramid.radiance", &plan.radiance)?;
+        let points = in_phase("ssbc.eval_points", &plan.points)?;
+        let point_glossy = in_phase("ssbc.eval_points.glossy", &plan.point_glossy)?;
+        let claims = in_phase("ssbc.eval_points.claims", &plan.claims)?;
+        let pending = [
+            in_phase("ssbc.pending_a", &plan.pixel_list)?,
+            in_phase("ssbc.pending_b", &plan.pixel_list)?,
+        ];
+        let requests = in_phase("ssbc.requests", &plan.point_list)?;
+        let top_points = in_phase("ssbc.top_points", &plan.point_list)?;
         let layer1_residuals = match &plan.layer1_image {
             Some(desc) => (1..steps)
                 .map(|k| image(format!("ssbc.layer1_residual_{k}"), desc))
@@ -170,13 +176,9 @@ impl SsbcPass {
             points: view(points, uint4, 16, "ssbc.eval_points texels")?,
             point_glossy: view(point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
             claims,
-            pending: [
-                buffer("ssbc.pending_a", &plan.pixel_list)?,
-                buffer("ssbc.pending_b", &plan.pixel_list)?,
-            ],
-            requests: buffer("ssbc.requests", &plan.point_list)?,
-            top_points: buffer("ssbc.top_points", &plan.point_list)?,
-            fallback: buffer("ssbc.fallback", &plan.pixel_list)?,
+            pending,
+            requests,
+            top_points,
             stats: buffer("ssbc.stats", &plan.stats)?,
             residuals,
             residual_sources,

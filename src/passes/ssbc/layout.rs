@@ -179,7 +179,7 @@ pub(super) struct FramePlan {
 }
 
 /// The work lists of pixels and of points there are in a frame slot.
-const PIXEL_LISTS: u64 = 3;
+const PIXEL_LISTS: u64 = 2;
 const POINT_LISTS: u64 = 2;
 
 impl FramePlan {
@@ -291,19 +291,35 @@ impl FramePlan {
             &self.claims,
         ]
     }
+
+    /// What lives only while the steps run, in the order it is made: the
+    /// pyramids and evaluation points, then the work lists (two of pixels,
+    /// the requests and the coarsest level's points). The statistics
+    /// buffer, which the host reads after the frame, is not among them.
+    pub fn transient(&self) -> [&BufferPlan; 10] {
+        let [geo, aux, radiance, points, point_glossy, claims] = self.pyramids();
+        let (pixels, points_list) = (&self.pixel_list, &self.point_list);
+        [geo, aux, radiance, points, point_glossy, claims, pixels, pixels, points_list, points_list]
+    }
+
+    /// Bytes of the statistics buffer (what of the lists a frame slot
+    /// keeps where the rest is transient).
+    pub fn stats_bytes(&self, device: Option<&Device>) -> u64 {
+        buffer_bytes(device, self.stats.bytes, self.stats.usage)
+    }
 }
 
 /// What SSBC places in a frame slot's transient memory
 /// (`passes::transient`), in the order [`super::SsbcPass::allocate`] makes
 /// them: the pyramids, the evaluation points, their glossy rests and
-/// claims.
+/// claims, the work lists ([`FramePlan::transient`]).
 pub fn transient_resources(
     extent: (u32, u32),
     (steps, layer1): (u32, Option<LayerResolution>),
     kept: Kept,
 ) -> Tenant {
     FramePlan::new(extent, steps, layer1, kept)
-        .pyramids()
+        .transient()
         .iter()
         .map(|b| Planned::Buffer {
             bytes: b.bytes,
@@ -323,6 +339,18 @@ pub fn frame_memory(
     kept: Kept,
 ) -> (u64, u64, u64) {
     FramePlan::new(extent, steps, layer1, kept).memory(device)
+}
+
+/// Bytes of the statistics buffer of [`frame_memory`]'s lists: what of
+/// them a frame slot keeps where the rest lies in its transient memory
+/// ([`transient_resources`]).
+pub fn stats_bytes(
+    device: Option<&Device>,
+    extent: (u32, u32),
+    (steps, layer1): (u32, Option<LayerResolution>),
+    kept: Kept,
+) -> u64 {
+    FramePlan::new(extent, steps, layer1, kept).stats_bytes(device)
 }
 
 /// [`frame_memory`] in all.

@@ -200,9 +200,9 @@ impl SsbcPass {
                     .unwrap_or(final_image),
                 samples: &frame.samples[step],
             };
-            self.record_residual(rec, profiler, &name, pool, &step_out, &push, frame)?;
+            let fallback = self.record_residual(rec, profiler, &name, pool, &step_out, &push, frame)?;
             let header = LIST_HEADER_BYTES;
-            rec.copy_buffer(&frame.fallback, 0, &frame.stats, header * step as u64, header);
+            rec.copy_buffer(fallback, 0, &frame.stats, header * step as u64, header);
             if let (Some(hidden), true) = (hidden, step + 1 < steps) {
                 let sub = profiler.begin(rec.cmd, &format!("{name}/layer1_residual"));
                 self.record_layer1_residual(rec, pool, (hidden.gbuffer, level0), step, &push, frame)?;
@@ -267,9 +267,10 @@ impl SsbcPass {
     /// One step's residual, coarse to fine: the evaluation points of the
     /// coarsest level; every pixel interpolates them or asks for finer ones
     /// and waits for the next level; at level 1 what is left is evaluated
-    /// pixel by pixel (the fallback list). Then the samples image.
+    /// pixel by pixel (the fallback list, which it returns: one of the two
+    /// pending lists). Then the samples image.
     #[allow(clippy::too_many_arguments)]
-    fn record_residual(
+    fn record_residual<'f>(
         &self,
         rec: &mut Recorder<'_>,
         profiler: &mut GpuProfiler,
@@ -277,8 +278,8 @@ impl SsbcPass {
         pool: &DescriptorPool,
         out: &StepOutput<'_>,
         push: &StepPush,
-        frame: &SsbcFrame,
-    ) -> Result<()> {
+        frame: &'f SsbcFrame,
+    ) -> Result<&'f Buffer> {
         let pixels = out.gbuffer.extent();
         let top = push.eval_level;
         // The coarsest level: every texel is an evaluation point, every pixel
@@ -291,12 +292,11 @@ impl SsbcPass {
             let eval = push.eval(top, top_list.is_some());
             self.record_eval(rec, timed, pool, &eval, (frame, out), (top_list, [w, h, 1]))?;
         }
-        let mut pending_in = &frame.fallback; // unused while not from a list
-        let mut pending_out = if top >= 2 {
-            &frame.pending[0]
-        } else {
-            &frame.fallback
-        };
+        // The two pixel lists in turn: what one level's resolve leaves, the
+        // next reads; level 1's leaves the pixels evaluated alone (the
+        // fallback list).
+        let mut pending_in = &frame.pending[1]; // unused while not from a list
+        let mut pending_out = &frame.pending[0];
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/resolve_{top}"));
         self.record_resolve(
             rec,
@@ -314,9 +314,7 @@ impl SsbcPass {
             let list = Some(&frame.requests);
             self.record_eval(rec, timed, pool, &push.eval(level, true), (frame, out), (list, [0; 3]))?;
             pending_in = pending_out;
-            pending_out = if level == 1 {
-                &frame.fallback
-            } else if std::ptr::eq(pending_in, &frame.pending[0]) {
+            pending_out = if std::ptr::eq(pending_in, &frame.pending[0]) {
                 &frame.pending[1]
             } else {
                 &frame.pending[0]
@@ -326,6 +324,7 @@ impl SsbcPass {
             self.record_resolve(rec, pool, &push.resolve(level, true), frame, out, lists, None)?;
             profiler.end(rec.cmd, sub);
         }
+        let fallback = pending_out;
         // The pixels no point could stand for, glossy receivers at the back
         // of the list: the kernel without the glossy code takes the front,
         // the glossy kernel the back (with one dispatch, both).
@@ -335,9 +334,9 @@ impl SsbcPass {
             let bindings = with_output_images!(ssbc_fallback_comp, out, {
                 geo_texels: &frame.geo,
                 radiance_texels: &frame.radiance,
-                pending_in: &frame.fallback,
+                pending_in: fallback,
             });
-            let front = Work::Indirect(&frame.fallback, FRONT);
+            let front = Work::Indirect(fallback, FRONT);
             self.fallback.dispatch(rec, pool, &bindings, &push.integral(), front)?;
         }
         if push.frame.glossy_receivers() {
@@ -346,9 +345,9 @@ impl SsbcPass {
             let bindings = with_output_images!(ssbc_fallback_glossy_comp, out, {
                 geo_texels: &frame.geo,
                 radiance_texels: &frame.radiance,
-                pending_in: &frame.fallback,
+                pending_in: fallback,
             });
-            let ends = Work::Indirect(&frame.fallback, if one { BOTH_ENDS } else { BACK });
+            let ends = Work::Indirect(fallback, if one { BOTH_ENDS } else { BACK });
             self.fallback_glossy.dispatch(rec, pool, &bindings, &push.integral(), ends)?;
             if let Some(sub) = sub {
                 profiler.end(rec.cmd, sub);
@@ -358,7 +357,7 @@ impl SsbcPass {
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/samples"));
         self.record_samples(rec, pool, out, push, frame)?;
         profiler.end(rec.cmd, sub);
-        Ok(())
+        Ok(fallback)
     }
 
     /// Texels read per pixel: each pixel's own, plus its share of the

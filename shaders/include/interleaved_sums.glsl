@@ -1,21 +1,9 @@
-// What the interleaved gather hands its reconstruction filter, one
-// rgba32ui texel each (one load per filter tap): the guide, a pixel's
-// position and normal; its subset's sums, the diffuse and the glossy part
-// with the glossy lobe's widening.
-#ifndef SSBC_GUIDE_GLSL
-#define SSBC_GUIDE_GLSL
-
-// w of a pixel without geometry (snorm16 never packs -32768).
-const uint NO_GEOMETRY = 0x80008000u;
-
-#include "octahedral.glsl"
-
-uvec4 pack_guide(vec3 position, vec3 normal) {
-    return uvec4(floatBitsToUint(position), packSnorm2x16(octahedral(normal)));
-}
-
-vec3 guide_position(uvec4 g) { return uintBitsToFloat(g.xyz); }
-vec3 guide_normal(uvec4 g) { return from_octahedral(unpackSnorm2x16(g.w)); }
+// What the interleaved gather hands its reconstruction filter besides the
+// G-buffer (which the filter's surface tests read): one rgba32ui texel a
+// pixel, its subset's sums, the diffuse and the glossy part with the
+// glossy lobe's widening.
+#ifndef SSBC_INTERLEAVED_SUMS_GLSL
+#define SSBC_INTERLEAVED_SUMS_GLSL
 
 // Three channels in 56 bits: signed 16-bit mantissas under the largest
 // channel's exponent (within 2^-15 of it, with f32's range: the sums are in
