@@ -29,9 +29,9 @@ layout(push_constant) uniform ResolvePush {
 // Per evaluation point, the generation of the step that last asked for it
 // (each point is requested once per step).
 layout(set = 0, binding = 3) buffer Claims { uint claims[]; };
-// Per evaluation point, at glossy receivers, the glossy rest (xyz) and the
-// bits of the generation of the step that computed it (w; see EvalPoint).
-layout(set = 0, binding = 16) uniform textureBuffer point_glossy;
+// Per evaluation point, at glossy receivers, the glossy rest and the
+// generation of the step that computed it (pack_point_rest; see EvalPoint).
+layout(set = 0, binding = 16) uniform utextureBuffer point_glossy;
 
 layout(local_size_x = 64) in;
 
@@ -147,7 +147,7 @@ void main() {
         if (w > 0.0) {
             ok = all(greaterThanEqual(t, ivec2(0))) && all(lessThan(t, size_l));
             if (ok) {
-                EvalPoint point = load_point(point_texels, point_index(t, l));
+                EvalPoint point = load_point(point_texels, point_tails, point_index(t, l));
                 GeoCluster g = eval_pixel_inside(t, l) ? geo_cluster(texel_index(0u, eval_pixel(t, l), 0), 0u)
                                                        : empty_cluster();
                 // The point's surface (geometric) normal: near the pixel's
@@ -162,13 +162,14 @@ void main() {
                     && dot(nx, n) >= MIN_NORMAL_COS && abs(dot(n, d)) <= MAX_PLANE * dist + 1e-5 * t_cam
                     && dist <= min(max_spacing, pc.scale_fraction * point.variation);
                 if (glossy && ok) {
-                    vec4 point_rest = texelFetch(point_glossy, int(point_index(t, l)));
-                    ok = floatBitsToUint(point_rest.w) == pc.generation && same_material(eval_pixel(t, l), material, b);
+                    uvec2 packed_rest = texelFetch(point_glossy, int(point_index(t, l))).xy;
+                    vec3 rest = point_rest(packed_rest);
+                    ok = point_rest_generation(packed_rest) == pc.generation && same_material(eval_pixel(t, l), material, b);
                     // The point's lobe: about its shading normal.
                     vec3 n_point = unpack_gbuffer_normal(imageLoad(g_normal, eval_pixel(t, l))).xyz;
                     lobes = lobes && same_lobe(g.position_extent.xyz, n_point, mirror, b);
-                    rests[k] = point_rest.xyz;
-                    rest_blend += w * point_rest.xyz;
+                    rests[k] = rest;
+                    rest_blend += w * rest;
                 }
                 blend.r += w * point.residual.r;
                 blend.g += w * point.residual.g;

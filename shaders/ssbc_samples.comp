@@ -17,7 +17,7 @@ layout(push_constant) uniform SamplesPush {
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-layout(set = 0, binding = 3) uniform utextureBuffer point_texels;  // points[] as texels
+layout(set = 0, binding = 3) uniform utextureBuffer point_tails;  // the points' tails (EvalPoint)
 layout(set = 0, binding = 4, r32f) uniform image2D samples;
 
 void main() {
@@ -27,7 +27,7 @@ void main() {
     float reads = imageLoad(samples, p).x;
     for (int l = 1; l <= int(pc.eval_level); l++) {
         uint index = texel_index(0u, p >> l, l);
-        EvalPoint point = load_point(point_texels, point_index(p >> l, l));
+        EvalPoint point = load_point_tail(point_tails, point_index(p >> l, l));
         if (point.generation == pc.generation && point.reads > 0.0) {
             // A point whose loops were cut short marks every pixel of its block.
             bool cut_short = point.reads >= float(CUT_SHORT);

@@ -11,6 +11,28 @@
 
 const float PI = 3.14159265358979;
 
+// Three channels in 56 bits: signed 16-bit mantissas under the largest
+// channel's exponent (within 2^-15 of it, with f32's range: the sums are in
+// physical units, which overflow halves at bright emitters, and the glossy
+// rest may be negative); x: r | g << 16, y: b | exponent << 16, y's top
+// byte free. Non-finite sums are 0. Powers of two from exponent bits
+// (ldexp and frexp cost lavapipe calls).
+uvec2 pack_rgb56(vec3 v) {
+    float largest = max(max(abs(v.r), abs(v.g)), abs(v.b));
+    if (!(largest > 0.0) || isinf(largest)) return uvec2(0u);
+    // largest = f 2^e with f in [0.5, 1).
+    int e = clamp(int(floatBitsToUint(largest) >> 23) - 126, -110, 128);
+    float to_mantissa = uintBitsToFloat(uint(142 - e) << 23);  // 2^(15 - e)
+    uvec3 m = uvec3(ivec3(clamp(round(v * to_mantissa), vec3(-32767.0), vec3(32767.0)))) & 0xFFFFu;
+    return uvec2(m.r | (m.g << 16), m.b | (uint(e + 110) << 16));
+}
+
+vec3 unpack_rgb56(uvec2 w) {
+    ivec3 m = ivec3(bitfieldExtract(int(w.x), 0, 16), bitfieldExtract(int(w.x), 16, 16), bitfieldExtract(int(w.y), 0, 16));
+    int e = int((w.y >> 16) & 255u) - 110;
+    return vec3(m) * uintBitsToFloat(uint(e + 112) << 23);  // 2^(e - 15)
+}
+
 // The G-buffer's normal and albedo images are R32G32_UINT, two words a
 // pixel (src/passes/gbuffer.rs): the normal's xyz and its w (the roughness,
 // -1 for Lambertian) as four snorm16, the albedo's rgb and its w (the

@@ -41,27 +41,28 @@ const bool GLOSSY_KERNEL = true;
 const bool GLOSSY_KERNEL = false;
 #endif
 
-layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // four per EvalPoint
+layout(set = 0, binding = 3, rgba32ui) uniform writeonly uimageBuffer eval_points;  // three per EvalPoint
+layout(set = 0, binding = 9, rg32ui) uniform writeonly uimageBuffer point_tails;   // one per EvalPoint
 layout(set = 0, binding = 4) readonly buffer Requests { ListHeader header; uint items[]; } requests;
 // The shading normal: how the receiver reflects (the pyramid's clusters
 // carry the surface's geometric normal, geometric_normal.glsl).
 layout(set = 0, binding = 6, rg32ui) uniform readonly uimage2D g_normal;
 #ifdef SSBC_GLOSSY_POINTS
 layout(set = 0, binding = 7, rg32ui) uniform readonly uimage2D g_albedo;
-layout(set = 0, binding = 8, rgba32f) uniform writeonly imageBuffer point_glossy;  // one per point
+layout(set = 0, binding = 8, rg32ui) uniform writeonly uimageBuffer point_glossy;  // one per point (pack_point_rest)
 #endif
 
 void store_point(uint index, EvalPoint p) {
-    int at = int(4u * index);
+    int at = int(3u * index);
     imageStore(eval_points, at, floatBitsToUint(p.residual.r));
     imageStore(eval_points, at + 1, floatBitsToUint(p.residual.g));
     imageStore(eval_points, at + 2, floatBitsToUint(p.residual.b));
-    imageStore(eval_points, at + 3, uvec4(floatBitsToUint(p.reads), floatBitsToUint(p.variation), p.generation, p.pad));
+    imageStore(point_tails, int(index), uvec4(pack_point_tail(p), 0u, 0u));
 }
 
 // The point of texel t of level pc.level; `glossy`: at a glossy receiver,
 // whose glossy rest is summed too (the lobe refined more coarsely than a
-// pixel's own walk, see ssbc_walk.glsl) and written to point_glossy (w:
+// pixel's own walk, see ssbc_walk.glsl) and written to point_glossy (with
 // the step's generation). Pixels of the same material whose lobe points nearly the
 // same way interpolate it (ssbc_resolve.comp).
 void evaluate(ivec2 t, bool glossy) {
@@ -85,7 +86,7 @@ void evaluate(ivec2 t, bool glossy) {
     bool usable = cluster_extent(g).y >= 0.0 && (l == 1 || (geo_aux(index).flags & 1u) == 1u)
         && screen_radius(x, r_world) >= pc.texels_per_radius * float(1 << l);
     if (!usable) {
-        store_point(point_slot, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation, 0u));
+        store_point(point_slot, EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)), -1.0, 0.0, pc.generation));
         return;
     }
 #ifdef SSBC_GLOSSY_POINTS
@@ -102,9 +103,9 @@ void evaluate(ivec2 t, bool glossy) {
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(q), count, variation);
-    store_point(point_slot, EvalPoint(residual, float(count), variation, pc.generation, 0u));
+    store_point(point_slot, EvalPoint(residual, float(count), variation, pc.generation));
 #ifdef SSBC_GLOSSY_POINTS
-    if (glossy) imageStore(point_glossy, int(point_slot), vec4(glossy_rest, uintBitsToFloat(pc.generation)));
+    if (glossy) imageStore(point_glossy, int(point_slot), uvec4(pack_point_rest(glossy_rest, pc.generation), 0u, 0u));
 #endif
 }
 

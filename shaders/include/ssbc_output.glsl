@@ -16,6 +16,7 @@ layout(set = 0, binding = 11, rgba32f) uniform image2D final_image;
 layout(set = 0, binding = 12, rgba32f) uniform image2D residual;           // S_k
 layout(set = 0, binding = 13, r32f) uniform image2D samples;               // texels read per pixel
 layout(set = 0, binding = 14) uniform utextureBuffer point_texels;          // points[] as texels (reads)
+layout(set = 0, binding = 17) uniform utextureBuffer point_tails;           // their tails (EvalPoint)
 layout(set = 0, binding = 15, rgba32f) uniform writeonly image2D residual_sources; // what S_k sends
 
 // Whether what S_k sends is kept: a last step's is never read (LAST_STEP),

@@ -449,28 +449,53 @@ struct Residual {
 // An evaluation point (ssbc_eval.comp), one per texel of every level, in the
 // pyramid's layout: the residual's linear form, texels read (< 0: unusable),
 // its variation scale (see residual_integral), and the generation of the
-// step that asked for it (points of other steps are stale). With glossy
-// receivers a second buffer (one RGBA32F texel per point) holds, at a glossy
-// receiver, the glossy rest of its own BRDF seen from the eye (xyz) and the
-// bits of the step's generation (w; 0 elsewhere).
+// step that asked for it (points of other steps are stale). The linear form
+// is three RGBA32UI texels of `points`, the rest one RG32UI texel of
+// `point_tails` (pack_point_tail): 56 bytes a point. With glossy
+// receivers a third buffer (one RG32UI texel per point) holds, at a glossy
+// receiver, the glossy rest of its own BRDF seen from the eye and the
+// step's generation (pack_point_rest; 0 elsewhere).
 struct EvalPoint {
     Residual residual;
     float reads;
     float variation;
     uint generation;
-    uint pad;
 };
 
-// Evaluation point `index` from a texel view of the points (four
-// R32G32B32A32_UINT texels per point).
-EvalPoint load_point(utextureBuffer texels, uint index) {
-    int at = int(4u * index);
-    uvec4 tail = texelFetch(texels, at + 3);
-    return EvalPoint(Residual(uintBitsToFloat(texelFetch(texels, at)),
-                              uintBitsToFloat(texelFetch(texels, at + 1)),
-                              uintBitsToFloat(texelFetch(texels, at + 2))),
-                     uintBitsToFloat(tail.x), uintBitsToFloat(tail.y), tail.z, tail.w);
+// A point's reads (float bits), and its variation scale (a non-negative
+// float without its 9 lowest bits, rounded) under the generation (bits
+// 23..31; steps are at most 16).
+uvec2 pack_point_tail(EvalPoint p) {
+    return uvec2(floatBitsToUint(p.reads), min(pack_positive(p.variation, 9u), 0x7FFFFFu) | (p.generation << 23));
 }
+
+// Evaluation point `index`'s tail alone (its residual zero).
+EvalPoint load_point_tail(utextureBuffer tails, uint index) {
+    uvec2 tail = texelFetch(tails, int(index)).xy;
+    return EvalPoint(Residual(vec4(0.0), vec4(0.0), vec4(0.0)),
+                     uintBitsToFloat(tail.x), unpack_positive(tail.y & 0x7FFFFFu, 9u), tail.y >> 23);
+}
+
+// Evaluation point `index` from texel views of the points (three
+// R32G32B32A32_UINT texels per point) and of their tails (one R32G32_UINT).
+EvalPoint load_point(utextureBuffer texels, utextureBuffer tails, uint index) {
+    EvalPoint p = load_point_tail(tails, index);
+    int at = int(3u * index);
+    p.residual = Residual(uintBitsToFloat(texelFetch(texels, at)),
+                          uintBitsToFloat(texelFetch(texels, at + 1)),
+                          uintBitsToFloat(texelFetch(texels, at + 2)));
+    return p;
+}
+
+// A glossy point's rest (pack_rgb56, common.glsl) with the step's
+// generation in the top byte.
+uvec2 pack_point_rest(vec3 rest, uint generation) {
+    uvec2 w = pack_rgb56(rest);
+    return uvec2(w.x, w.y | (generation << 24));
+}
+
+vec3 point_rest(uvec2 w) { return unpack_rgb56(uvec2(w.x, w.y & 0xFFFFFFu)); }
+uint point_rest_generation(uvec2 w) { return w.y >> 24; }
 
 // lavapipe ends a shader invocation's loops after 65535 iterations in all
 // (LP_MAX_TGSI_LOOP_ITERATIONS, shared by every loop a SIMD group runs). A

@@ -256,10 +256,11 @@ pub(crate) fn staging_bytes(largest_image: u64) -> u64 {
 
 /// The most a slot's read-back staging takes: images larger than it are
 /// copied through it in bands of rows, one submission each, after the
-/// frame is done (a 1920x1080 RGBA32F image in 8 bands, 3840x2160 in 32). A copy per band
-/// costs a submission and a wait; a buffer per image cost 20 bytes per
-/// pixel of host-visible memory in every slot.
-pub(crate) const STAGING_BYTES: u64 = 4 << 20;
+/// frame is done (a 1920x1080 RGBA32F image in 32 bands, 3840x2160 in
+/// 127). A copy per band costs a submission and a wait; a buffer per image
+/// cost 20 bytes per pixel of host-visible memory in every slot (4 MiB,
+/// a quarter of the bands, took 2 bytes per pixel at 1920x1080).
+pub(crate) const STAGING_BYTES: u64 = 1 << 20;
 
 /// A slot's read-back: a host-visible staging buffer and the command pool
 /// its copies are recorded in.

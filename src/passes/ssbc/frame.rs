@@ -28,10 +28,13 @@ pub struct SsbcFrame {
     pub radiance: BufferView,
     /// Evaluation points, one per texel of layer 0's levels 1 and up
     /// (`EvalPoint`, `point_index` in ssbc_pyramid.glsl), as
-    /// `R32G32B32A32_UINT` texels (four per point).
+    /// `R32G32B32A32_UINT` texels (three per point).
     pub points: BufferView,
+    /// Per evaluation point, its texels read, variation scale and
+    /// generation (`pack_point_tail`), as `R32G32_UINT` texels.
+    pub point_tails: BufferView,
     /// Per evaluation point at a glossy receiver, the glossy rest of its
-    /// BRDF (ssbc_eval.comp), as `R32G32B32A32_SFLOAT` texels.
+    /// BRDF (ssbc_eval.comp; `pack_point_rest`), as `R32G32_UINT` texels.
     pub point_glossy: BufferView,
     /// Per evaluation point, the generation of the step that last asked for
     /// it (the resolve claims each point once per step).
@@ -148,6 +151,7 @@ impl SsbcPass {
         let aux = in_phase("ssbc.pyramid.aux", &plan.aux)?;
         let radiance = in_phase("ssbc.pyramid.radiance", &plan.radiance)?;
         let points = in_phase("ssbc.eval_points", &plan.points)?;
+        let point_tails = in_phase("ssbc.eval_points.tails", &plan.point_tails)?;
         let point_glossy = in_phase("ssbc.eval_points.glossy", &plan.point_glossy)?;
         let claims = in_phase("ssbc.eval_points.claims", &plan.claims)?;
         let pending = [
@@ -165,16 +169,14 @@ impl SsbcPass {
         let view = |buffer: Buffer, format, bytes, name: &str| {
             BufferView::new(device, buffer, format, bytes, name)
         };
-        let (uint4, float4) = (
-            vk::Format::R32G32B32A32_UINT,
-            vk::Format::R32G32B32A32_SFLOAT,
-        );
+        let (uint4, uint2) = (vk::Format::R32G32B32A32_UINT, vk::Format::R32G32_UINT);
         Ok(SsbcFrame {
             geo: view(geo, uint4, 16, "ssbc.pyramid.geometry texels")?,
             aux: view(aux, uint4, 16, "ssbc.pyramid.aux texels")?,
             radiance: view(radiance, uint4, 16, "ssbc.pyramid.radiance texels")?,
             points: view(points, uint4, 16, "ssbc.eval_points texels")?,
-            point_glossy: view(point_glossy, float4, 16, "ssbc.eval_points.glossy texels")?,
+            point_tails: view(point_tails, uint2, 8, "ssbc.eval_points.tails texels")?,
+            point_glossy: view(point_glossy, uint2, 8, "ssbc.eval_points.glossy texels")?,
             claims,
             pending,
             requests,

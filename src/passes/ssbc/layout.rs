@@ -24,9 +24,14 @@ pub(super) const AUX_BYTES: u64 = 16;
 /// at level 0 its front sum only, two texels in one (`radiance_texel` in
 /// ssbc_pyramid.glsl).
 pub(super) const RADIANCE_BYTES: u64 = 16;
-pub(super) const EVAL_POINT_BYTES: u64 = 64;
-/// An evaluation point's glossy rest (`point_glossy` in ssbc_eval.comp).
-pub(super) const POINT_GLOSSY_BYTES: u64 = 16;
+/// An evaluation point's linear form (`EvalPoint` in ssbc_types.glsl:
+/// three texels)...
+pub(super) const EVAL_POINT_BYTES: u64 = 48;
+/// ...and its tail: texels read, variation scale, generation
+/// (`pack_point_tail`).
+pub(super) const POINT_TAIL_BYTES: u64 = 8;
+/// An evaluation point's glossy rest (`pack_point_rest` in ssbc_types.glsl).
+pub(super) const POINT_GLOSSY_BYTES: u64 = 8;
 
 /// Level 0 of the pyramids for an image (the image: nothing is padded) and
 /// the number of levels.
@@ -158,11 +163,13 @@ pub(super) struct FramePlan {
     pub geo: BufferPlan,
     pub aux: BufferPlan,
     pub radiance: BufferPlan,
-    /// Layer 0's evaluation points, their glossy rests and claims.
+    /// Layer 0's evaluation points, their tails, glossy rests and claims.
     pub points: BufferPlan,
+    pub point_tails: BufferPlan,
     pub point_glossy: BufferPlan,
     pub claims: BufferPlan,
-    /// Each of the three lists of pixels (pending two, the fallback)...
+    /// Each of the two lists of pixels (pending, in turn; the last is the
+    /// fallback list)...
     pub pixel_list: BufferPlan,
     /// ...and of the two of evaluation points (requests, the coarsest
     /// level's points; at level 1 and up).
@@ -230,6 +237,7 @@ impl FramePlan {
                 texel_usage,
             ),
             points: gpu(points * EVAL_POINT_BYTES, cleared),
+            point_tails: gpu(points * POINT_TAIL_BYTES, cleared),
             point_glossy: gpu(
                 if kept.glossy_rests { points } else { 1 } * POINT_GLOSSY_BYTES,
                 cleared,
@@ -281,12 +289,13 @@ impl FramePlan {
     }
 
     /// The pyramids and evaluation points, in the order they are made.
-    pub fn pyramids(&self) -> [&BufferPlan; 6] {
+    pub fn pyramids(&self) -> [&BufferPlan; 7] {
         [
             &self.geo,
             &self.aux,
             &self.radiance,
             &self.points,
+            &self.point_tails,
             &self.point_glossy,
             &self.claims,
         ]
@@ -296,10 +305,10 @@ impl FramePlan {
     /// pyramids and evaluation points, then the work lists (two of pixels,
     /// the requests and the coarsest level's points). The statistics
     /// buffer, which the host reads after the frame, is not among them.
-    pub fn transient(&self) -> [&BufferPlan; 10] {
-        let [geo, aux, radiance, points, point_glossy, claims] = self.pyramids();
+    pub fn transient(&self) -> [&BufferPlan; 11] {
+        let [geo, aux, radiance, points, tails, glossy, claims] = self.pyramids();
         let (pixels, points_list) = (&self.pixel_list, &self.point_list);
-        [geo, aux, radiance, points, point_glossy, claims, pixels, pixels, points_list, points_list]
+        [geo, aux, radiance, points, tails, glossy, claims, pixels, pixels, points_list, points_list]
     }
 
     /// Bytes of the statistics buffer (what of the lists a frame slot
@@ -312,7 +321,7 @@ impl FramePlan {
 /// What SSBC places in a frame slot's transient memory
 /// (`passes::transient`), in the order [`super::SsbcPass::allocate`] makes
 /// them: the pyramids, the evaluation points, their glossy rests and
-/// claims, the work lists ([`FramePlan::transient`]).
+/// claims, the work lists (`FramePlan::transient`).
 pub fn transient_resources(
     extent: (u32, u32),
     (steps, layer1): (u32, Option<LayerResolution>),

@@ -143,6 +143,7 @@ impl SsbcPass {
         }
         // Evaluation points are stamped with the step's generation (1, 2, ...).
         rec.fill_buffer(&frame.points.buffer, 0);
+        rec.fill_buffer(&frame.point_tails.buffer, 0);
         rec.fill_buffer(&frame.point_glossy.buffer, 0);
         rec.fill_buffer(&frame.claims, 0);
         if frame_block.glossy_receivers() && inputs.eval_level >= 1 {
@@ -373,7 +374,7 @@ impl SsbcPass {
         let bindings = ssbc_samples_comp::Bindings {
             geo_texels: &frame.geo,
             aux_texels: &frame.aux,
-            point_texels: &frame.points,
+            point_tails: &frame.point_tails,
             samples: out.samples,
         };
         let samples_push = SamplesPush {
@@ -412,6 +413,7 @@ impl SsbcPass {
                 aux_texels: &frame.aux,
                 radiance_texels: &frame.radiance,
                 eval_points: &frame.points,
+                point_tails: &frame.point_tails,
                 requests,
                 g_normal: gbuffer.normal,
                 level0_position0: out.level0[0],
@@ -429,6 +431,7 @@ impl SsbcPass {
                 aux_texels: &frame.aux,
                 radiance_texels: &frame.radiance,
                 eval_points: &frame.points,
+                point_tails: &frame.point_tails,
                 requests,
                 g_normal: gbuffer.normal,
                 g_albedo: gbuffer.albedo,
@@ -472,6 +475,7 @@ impl SsbcPass {
             pending_out,
             requests: &frame.requests,
             point_texels: &frame.points,
+            point_tails: &frame.point_tails,
             point_glossy: &frame.point_glossy,
         });
         let work = threads_or_list(groups, (pending_in, FRONT));
