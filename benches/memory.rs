@@ -77,8 +77,7 @@ fn main() -> ssbc::Result<()> {
 
     println!(
         "\n## By scene, 1920x1080, immediate (glossy materials keep the evaluation points' glossy \
-         rests; normal maps keep the G-buffer's emission image, whose geometric normals SSBC \
-         reads)\n"
+         rests)\n"
     );
     header();
     for name in ["cornell", "spheres"] {

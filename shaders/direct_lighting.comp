@@ -142,5 +142,7 @@ void main() {
         source += brdf_source_color(b) / PI * irradiance;
     }
     imageStore(direct, pixel, vec4(radiance, 1.0));
-    imageStore(direct_sources, pixel, vec4(source, 1.0));
+    // w: the geometric normal's code (geometric_normal.glsl), which SSBC
+    // reads here after the G-buffer's emission image is gone.
+    imageStore(direct_sources, pixel, vec4(source, emission.w));
 }

@@ -44,7 +44,9 @@ pub enum Layer {
     GBufferEmission,
     /// What each pixel sends as a source of SSBC's first step: its
     /// reflected light made view-independent (`S0` itself on Lambertian
-    /// surfaces; debug read-back).
+    /// surfaces; debug read-back). Its w: 1, or where a normal map turned
+    /// the shading normal the geometric normal's code
+    /// (shaders/include/geometric_normal.glsl), which SSBC reads there.
     Sources,
     /// The deep G-buffer's second layer: position, at its resolution (debug
     /// read-back with `ssbc.layers` 2).

@@ -129,9 +129,8 @@ fn frame_slots_take_at_most_todays_bytes_per_pixel() {
 }
 
 /// What never lives at once shares memory: the interleaved gather's
-/// intermediates, the G-buffer's depth (and emission without normal maps;
-/// in an immediate frame the direct light's image, the shadow maps and the
-/// ISM atlas) lie in one block with SSBC's pyramids, the history's
+/// intermediates, the G-buffer's depth and emission (in an immediate frame
+/// the direct light's image, the shadow maps and the ISM atlas) lie in one block with SSBC's pyramids, the history's
 /// reprojection too; the block counts as its largest phase's part.
 #[test]
 fn transient_images_share_the_pyramids_memory() {
@@ -148,8 +147,7 @@ fn transient_images_share_the_pyramids_memory() {
     assert_eq!(resident.history, 2 * radiance);
     assert!(resident.ssbc_pyramids > 0 && resident.shadow_maps > 0);
     // Position (16 bytes a pixel), normal and albedo (8 each, packed): the
-    // depth buffer is transient, and the emission image too without
-    // normal maps.
+    // depth buffer and the emission image are transient.
     assert_eq!(immediate.gbuffer, 2 * radiance);
     assert_eq!(resident.gbuffer, 2 * radiance);
     // Immediate: the shadow maps and the atlas join the gather's phase,

@@ -40,5 +40,6 @@ void main() {
         source = brdf_source_color(b) / PI * light.irradiance;
     }
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, position.w));
-    imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, position.w));
+    vec4 own = imageLoad(direct_sources, pixel);  // w: the geometric normal, kept
+    imageStore(s0_sources, pixel, vec4(own.rgb + source, own.w));
 }

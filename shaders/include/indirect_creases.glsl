@@ -73,7 +73,8 @@ void main() {
             vec3 radiance = brdf_diffuse_color(b) / PI * irradiance + lane_glossy[0][px];
             vec3 source = brdf_source_color(b) / PI * irradiance;
             imageStore(s0, pixel, vec4(imageLoad(direct, pixel).rgb + radiance, 1.0));
-            imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
+            vec4 own = imageLoad(direct_sources, pixel);  // w: the geometric normal, kept
+            imageStore(s0_sources, pixel, vec4(own.rgb + source, own.w));
         }
         // The sums are read before the next pixels overwrite them.
         barrier();

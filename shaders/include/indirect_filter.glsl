@@ -80,7 +80,8 @@ void store(ivec2 pixel, vec4 direct_radiance, vec3 sum, vec3 glossy, float weigh
     vec3 radiance = brdf_diffuse_color(b) * sum / weight + glossy / weight;
     imageStore(s0, pixel, vec4(direct_radiance.rgb + radiance, 1.0));
     vec3 source = brdf_source_color(b) * sum / weight;
-    imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb + source, 1.0));
+    vec4 own = imageLoad(direct_sources, pixel);  // w: the geometric normal, kept
+    imageStore(s0_sources, pixel, vec4(own.rgb + source, own.w));
 }
 
 layout(push_constant) uniform FilterPush {
@@ -202,7 +203,7 @@ void main() {
     vec4 direct_radiance = imageLoad(direct, pixel);
     if (!own.geometry) {
         imageStore(s0, pixel, vec4(direct_radiance.rgb, 0.0));
-        imageStore(s0_sources, pixel, vec4(imageLoad(direct_sources, pixel).rgb, 0.0));
+        imageStore(s0_sources, pixel, imageLoad(direct_sources, pixel));
         return;
     }
     vec3 x = own.position;

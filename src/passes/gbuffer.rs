@@ -281,9 +281,8 @@ impl Pass for GBufferPass {
     fn prepare(&self, setup: &SlotSetup<'_>) -> Result<GBuffer> {
         let name = super::layer_name("gbuffer", self.layer);
         let transient = setup.region(super::transient::Tenancy::GBuffer(self.layer));
-        let traits = setup.traits();
         let emission = transient.is_some()
-            && super::transient::emission_is_transient(setup.settings, traits);
+            && super::transient::emission_is_transient(setup.settings);
         GBuffer::new(setup.device, &name, setup.layer_extent(self.layer), transient, emission)
     }
 

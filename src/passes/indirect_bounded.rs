@@ -197,9 +197,9 @@ impl BoundedLighting {
         self.own_s0.as_ref().unwrap_or(&direct.radiance)
     }
 
-    /// The layer as SSBC gathers from it, with `gbuffer` (its geometric
-    /// normals read only if the scene has `normal_maps`) and the direct
-    /// light's sources, to which the pass added its own.
+    /// The layer as SSBC gathers from it, with `gbuffer` and the direct
+    /// light's sources, to which the pass added its own (their w holds the
+    /// geometric normals, read only if the scene has `normal_maps`).
     pub fn ssbc_layer<'a>(
         &'a self,
         gbuffer: &'a GBuffer,
@@ -207,9 +207,7 @@ impl BoundedLighting {
         normal_maps: bool,
     ) -> SsbcLayer<'a> {
         let mut gbuffer: SsbcGBuffer<'a> = gbuffer.into();
-        if !normal_maps {
-            gbuffer.geometric = None;
-        }
+        gbuffer.geometric = normal_maps.then_some(&direct.sources);
         SsbcLayer {
             gbuffer,
             s0: self.s0(direct),

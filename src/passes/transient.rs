@@ -50,9 +50,6 @@ pub struct SlotTraits {
     /// The scene has glossy materials (SSBC's evaluation points keep
     /// glossy rests).
     pub glossy: bool,
-    /// The scene has normal maps (SSBC reads the geometric normals kept
-    /// in the G-buffer's emission image).
-    pub normal_maps: bool,
     /// The slot's frames are a resident scene's: the shadow maps and ISMs
     /// may be kept for its next frame (`reuse_unchanged`).
     pub resident: bool,
@@ -67,7 +64,6 @@ impl SlotTraits {
         Self {
             history,
             glossy: scene.has_glossy_materials(),
-            normal_maps: scene.has_normal_maps(),
             resident,
             lights: scene.lights.len(),
         }
@@ -90,10 +86,10 @@ pub fn visibility_is_transient(settings: &RenderSettings, traits: SlotTraits) ->
 }
 
 /// Whether the G-buffer's emission image is transient: read after the
-/// gathers by SSBC only for the geometric normals of normal-mapped
-/// scenes, and by the debug read-back.
-pub fn emission_is_transient(settings: &RenderSettings, traits: SlotTraits) -> bool {
-    !traits.normal_maps && !settings.every_output()
+/// gathers only by the debug read-back (SSBC reads normal-mapped scenes'
+/// geometric normals from the direct light's sources, which carry them on).
+pub fn emission_is_transient(settings: &RenderSettings) -> bool {
+    !settings.every_output()
 }
 
 /// The plan of a slot's transient memory for `settings` and `traits`: per
@@ -103,7 +99,7 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     let ssbc = &settings.ssbc;
     let layer1 = ssbc.second_layer().filter(|_| ssbc.steps > 0);
     let layers = std::iter::once(extent).chain(layer1.map(|r| r.extent(extent)));
-    let emission_is_transient = emission_is_transient(settings, traits);
+    let emission_is_transient = emission_is_transient(settings);
     // The shadow maps and the ISM atlas, as their passes make them.
     let visibility = visibility_is_transient(settings, traits);
     let shadow_views = (6 * traits.lights as u32).max(1);

@@ -38,8 +38,6 @@ pub(super) struct FrameUse {
     /// Glossy receivers (a scene with glossy materials): SSBC's
     /// evaluation points keep their glossy rests.
     pub glossy: bool,
-    /// Normal maps (SSBC reads the G-buffer's geometric normals).
-    pub normal_maps: bool,
     /// Frames of a resident scene, whose view-independent passes (shadow
     /// maps, ISMs) keep their output for the slot's next frame. An
     /// immediate frame's never match it: their images are transient.
@@ -58,7 +56,6 @@ impl FrameUse {
             resident,
             readback: S::READS_BACK,
             glossy: scene.has_glossy_materials(),
-            normal_maps: scene.has_normal_maps(),
         }
     }
 
@@ -66,7 +63,6 @@ impl FrameUse {
     pub fn with_scene(self, scene: &crate::scene::Scene) -> Self {
         Self {
             glossy: scene.has_glossy_materials(),
-            normal_maps: scene.has_normal_maps(),
             ..self
         }
     }
@@ -77,7 +73,6 @@ impl FrameUse {
         SlotTraits {
             history: self.history,
             glossy: self.glossy,
-            normal_maps: self.normal_maps,
             resident: self.resident,
             lights,
         }
@@ -88,7 +83,6 @@ impl FrameUse {
         history: true,
         readback: true,
         glossy: true,
-        normal_maps: true,
         resident: true,
     };
 }
@@ -211,7 +205,7 @@ fn layer_memory(
     for layer in layers {
         // (Where memory is shared the depth buffer is transient, and the
         // emission image may be.)
-        let emission = shared && transient::emission_is_transient(settings, uses.traits(0));
+        let emission = shared && transient::emission_is_transient(settings);
         let [position, normal, albedo, emission_desc, depth] = GBuffer::descs(layer);
         let own = [(position, true), (normal, true), (albedo, true)]
             .into_iter()

@@ -220,9 +220,10 @@ pub struct SsbcGBuffer<'a> {
     /// Diffuse albedo.
     pub albedo: &'a Image,
     /// An image whose w, where negative, holds the surface's geometric
-    /// normal (shaders/include/geometric_normal.glsl): ssbc's emission
-    /// target, where normal maps turned the shading normal. None (a host's
-    /// G-buffer): the shading normal is the surface's.
+    /// normal (shaders/include/geometric_normal.glsl) where normal maps
+    /// turned the shading normal: ssbc's direct light's sources, which
+    /// carry it on from the G-buffer's emission image (transient). None (a
+    /// host's G-buffer): the shading normal is the surface's.
     pub geometric: Option<&'a Image>,
 }
 
@@ -232,7 +233,8 @@ impl<'a> From<&'a GBuffer> for SsbcGBuffer<'a> {
             position: &g.position,
             normal: &g.normal,
             albedo: &g.albedo,
-            geometric: Some(&g.emission),
+            // The direct light's sources carry them on (`ssbc_layer`).
+            geometric: None,
         }
     }
 }
