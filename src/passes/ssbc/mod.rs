@@ -208,9 +208,11 @@ impl SsbcPass {
 
 }
 
-/// The G-buffer images SSBC reads, ssbc's own or a host's: world-space
-/// position (xyz; w = 0 where there is no geometry), unit normal (xyz) and
-/// diffuse albedo (rgb), each `R32G32B32A32_SFLOAT` with storage usage.
+/// The G-buffer images SSBC reads, ssbc's own or a host's (packed by the
+/// post-process): world-space position (xyz; w = 0 where there is no
+/// geometry; `R32G32B32A32_SFLOAT`), unit normal (xyz) and diffuse albedo
+/// (rgb) packed as [`crate::passes::gbuffer::GBUFFER_PACKED_FORMAT`], each
+/// with storage usage.
 #[derive(Clone, Copy)]
 pub struct SsbcGBuffer<'a> {
     /// World-space position.
