@@ -174,19 +174,20 @@ fn size_above_device_limit() {
 
 #[test]
 fn guard_band_beyond_the_device_is_named() {
-    // Tori's band at 2560x1440 is 720 pixels each side: the wider frame
-    // needs more memory than a 2 GiB heap (2583 MiB; the frame alone 885),
-    // and the error says it is the band's doing.
+    // Tori's band at 3840x2160 is 1072 pixels each side: the wider frame
+    // needs more memory than a 2 GiB heap (3666 MiB; the frame alone 1191),
+    // and the error says it is the band's doing. (At 2560x1440 the wider
+    // frame, 1648 MiB, fits since the fifth memory round.)
     fails_on_a_2gib_heap_with(
         &[
             "tori",
             "--size",
-            "2560x1440",
+            "3840x2160",
             "--guard-band",
             "-o",
             "/tmp/never.exr",
         ],
-        "the guard band (720 pixels each side) makes the frame 4000x2880",
+        "the guard band (1072 pixels each side) makes the frame 5984x4304",
     );
 }
 
@@ -257,8 +258,8 @@ fn bad_instant_radiosity_parameters() {
     fails_on_a_2gib_heap_with(
         &[
             "--size",
-            // Fits a 2 GiB heap with one layer (1499 MiB) or a second at
-            // half resolution (1813), not with a second at full (2755).
+            // Fits a 2 GiB heap with one layer (1191 MiB) or a second at
+            // half resolution (1433), not with a second at full (2161).
             // (3200x1800 with a full-resolution second layer, refused
             // before, takes 1918 MiB since issue 64's fourth round.)
             "3840x2160",
