@@ -110,12 +110,12 @@ pub(super) fn frame_memory(
         // The layers made on request: the bounded and the whole indirect light.
         lighting += 2 * crate::passes::indirect_light::desc(extent).bytes(device);
     }
-    let ssbc_shape = (
+    let ssbc = crate::passes::ssbc::frame_memory(
+        device,
         crate::passes::ssbc::SsbcPass::allocated_extent(extent, settings.ssbc.steps),
         (settings.ssbc.steps, settings.ssbc.second_layer()),
         crate::passes::ssbc::SsbcPass::kept(settings, uses.glossy),
     );
-    let ssbc = crate::passes::ssbc::frame_memory(device, ssbc_shape.0, ssbc_shape.1, ssbc_shape.2);
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
     // and ray-cast layers (a distance and a facing per block); the point
@@ -156,15 +156,15 @@ pub(super) fn frame_memory(
     } else {
         0
     };
-    let (mut ssbc_pyramids, mut ssbc_lists, ssbc_images) = ssbc;
+    let (mut ssbc_pyramids, ssbc_images) = (ssbc.pyramids, ssbc.images);
+    let mut ssbc_lists = ssbc.work_lists + ssbc.stats;
     let mut history = history;
     if shared {
         // SSBC's pyramids and work lists lie in it (with a step), and it
         // counts as its largest phase's part.
         if settings.ssbc.steps > 0 {
             ssbc_pyramids = 0;
-            let (extent, steps, kept) = ssbc_shape;
-            ssbc_lists = crate::passes::ssbc::stats_bytes(device, extent, steps, kept);
+            ssbc_lists = ssbc.stats;
         }
         let (largest, bytes) = plan.largest(device);
         *match transient::part_name(largest) {

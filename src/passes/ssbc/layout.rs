@@ -266,13 +266,12 @@ impl FramePlan {
     /// points, lists, images): on `device`, what its memory requirements
     /// say (alignment and padding included); without one, the bytes asked
     /// for.
-    pub fn memory(&self, device: Option<&Device>) -> (u64, u64, u64) {
+    pub fn memory(&self, device: Option<&Device>) -> SsbcMemory {
         let buffer = |b: &BufferPlan| buffer_bytes(device, b.bytes, b.usage);
         let image = |i: &ImageDesc| i.bytes(device);
         let steps = self.steps as u64;
-        let lists = PIXEL_LISTS * buffer(&self.pixel_list)
-            + POINT_LISTS * buffer(&self.point_list)
-            + buffer(&self.stats);
+        let work_lists =
+            PIXEL_LISTS * buffer(&self.pixel_list) + POINT_LISTS * buffer(&self.point_list);
         // Each kept residual, each step but the last's sources, an own
         // final image.
         let own = (self.kept.final_image == FinalImage::Own) as u64;
@@ -285,7 +284,12 @@ impl FramePlan {
                 .as_ref()
                 .map_or(0, |i| steps.saturating_sub(1) * image(i));
         let pyramids = self.pyramids().iter().map(|b| buffer(b)).sum();
-        (pyramids, lists, images)
+        SsbcMemory {
+            pyramids,
+            work_lists,
+            stats: buffer(&self.stats),
+            images,
+        }
     }
 
     /// The pyramids and evaluation points, in the order they are made.
@@ -310,11 +314,27 @@ impl FramePlan {
         let (pixels, points_list) = (&self.pixel_list, &self.point_list);
         [geo, aux, radiance, points, tails, glossy, claims, pixels, pixels, points_list, points_list]
     }
+}
 
-    /// Bytes of the statistics buffer (what of the lists a frame slot
-    /// keeps where the rest is transient).
-    pub fn stats_bytes(&self, device: Option<&Device>) -> u64 {
-        buffer_bytes(device, self.stats.bytes, self.stats.usage)
+/// Bytes of device memory of one frame slot's SSBC resources, by kind.
+#[derive(Clone, Copy, Debug)]
+pub struct SsbcMemory {
+    /// The pyramids, the evaluation points, their tails, glossy rests and
+    /// claims.
+    pub pyramids: u64,
+    /// The lists of pixels and of points (in a slot's transient memory
+    /// with the pyramids, `transient_resources`).
+    pub work_lists: u64,
+    /// The fallback lists' headers, read back after the frame (kept).
+    pub stats: u64,
+    /// The per-step images.
+    pub images: u64,
+}
+
+impl SsbcMemory {
+    /// All of it.
+    pub fn total(&self) -> u64 {
+        self.pyramids + self.work_lists + self.stats + self.images
     }
 }
 
@@ -338,28 +358,15 @@ pub fn transient_resources(
 }
 
 /// Bytes of device memory one frame slot's SSBC resources take at `extent`
-/// with `steps` steps, as (the pyramids with the evaluation points and
-/// their claims, the work lists, the per-step images): on `device` as its
-/// memory requirements say, without one as asked for.
+/// with `steps` steps, by kind: on `device` as its memory requirements
+/// say, without one as asked for.
 pub fn frame_memory(
     device: Option<&Device>,
     extent: (u32, u32),
     (steps, layer1): (u32, Option<LayerResolution>),
     kept: Kept,
-) -> (u64, u64, u64) {
+) -> SsbcMemory {
     FramePlan::new(extent, steps, layer1, kept).memory(device)
-}
-
-/// Bytes of the statistics buffer of [`frame_memory`]'s lists: what of
-/// them a frame slot keeps where the rest lies in its transient memory
-/// ([`transient_resources`]).
-pub fn stats_bytes(
-    device: Option<&Device>,
-    extent: (u32, u32),
-    (steps, layer1): (u32, Option<LayerResolution>),
-    kept: Kept,
-) -> u64 {
-    FramePlan::new(extent, steps, layer1, kept).stats_bytes(device)
 }
 
 /// [`frame_memory`] in all.
@@ -369,8 +376,7 @@ pub fn frame_bytes(
     (steps, layer1): (u32, Option<LayerResolution>),
     kept: Kept,
 ) -> u64 {
-    let (pyramids, lists, images) = frame_memory(device, extent, (steps, layer1), kept);
-    pyramids + lists + images
+    frame_memory(device, extent, (steps, layer1), kept).total()
 }
 
 /// Largest image the SSBC lists can address: an item packs a pixel's x in

@@ -30,7 +30,7 @@ use crate::shaders::{
 use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image};
 pub use frame::SsbcFrame;
 pub use layout::{
-    check_size, frame_bytes, frame_memory, pyramid_levels, stats_bytes, transient_resources, FinalImage, Kept,
+    check_size, frame_bytes, frame_memory, pyramid_levels, transient_resources, SsbcMemory, FinalImage, Kept,
 };
 pub use push::GLOSSY_RECEIVERS;
 
