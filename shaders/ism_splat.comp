@@ -59,24 +59,29 @@ void main() {
     vec3 t, b;
     ism_basis(n, t, b);
     float plane = dot(d, normal);
-    for (int dy = -r; dy <= r; dy++) {
-        for (int dx = -r; dx <= r; dx++) {
-            ivec2 local = center + ivec2(dx, dy);
-            if ((dx == 0 && dy == 0) || any(lessThan(local, ivec2(0))) || any(greaterThanEqual(local, ivec2(int(pc.tile))))) continue;
-            // Beyond the disc's reach (the paraboloid stretches angles up
-            // to twice radius_texels' towards the horizon): most far points.
-            if (length(vec2(dx, dy) - within) > 2.0 * radius_texels) continue;
-            vec2 q = (vec2(local) + 0.5) / float(pc.tile) * 2.0 - 1.0;
-            float q2 = dot(q, q);
-            if (q2 >= 1.0) continue;
-            // The unit ray through the texel's centre (ism_paraboloid inverted).
-            float z = (1.0 - q2) / (1.0 + q2);
-            vec3 ray = (t * q.x + b * q.y) * (1.0 + z) + n * z;
-            float dn = dot(ray, normal);
-            if (abs(dn) < 1e-3) continue;
-            float hit = plane / dn;
-            if (hit <= 0.0 || distance(ray * hit, d) > pc.point_radius) continue;
-            imageAtomicMin(ism_depth, origin + local, ism_pack(hit * pc.depth_scale, abs(dn)));
-        }
+    // The texels within 2 radius_texels of the point (the disc's reach:
+    // the paraboloid stretches angles up to twice radius_texels' towards
+    // the horizon) and r of its texel, inside the tile: a box of at most
+    // (2r + 1)^2, most far points' 2x2, visited in one flat loop (a SIMD
+    // group runs as many iterations as its largest box, not its largest
+    // row times its largest column).
+    float reach = 2.0 * radius_texels;
+    ivec2 lo = max(max(ivec2(ceil(within - reach)), ivec2(-r)), -center);
+    ivec2 hi = min(min(ivec2(floor(within + reach)), ivec2(r)), ivec2(int(pc.tile) - 1) - center);
+    ivec2 box = max(hi - lo + 1, ivec2(0));
+    ivec2 o = lo;
+    for (int k = 0; k < box.x * box.y; k++) {
+        ivec2 local = center + o;
+        vec2 q = (vec2(local) + 0.5) / float(pc.tile) * 2.0 - 1.0;
+        float q2 = dot(q, q);
+        // The unit ray through the texel's centre (ism_paraboloid inverted).
+        float z = (1.0 - q2) / (1.0 + q2);
+        vec3 ray = (t * q.x + b * q.y) * (1.0 + z) + n * z;
+        float dn = dot(ray, normal);
+        float hit = plane / dn;
+        bool covers = (o.x != 0 || o.y != 0) && length(vec2(o) - within) <= reach && q2 < 1.0
+            && abs(dn) >= 1e-3 && hit > 0.0 && distance(ray * hit, d) <= pc.point_radius;
+        if (covers) imageAtomicMin(ism_depth, origin + local, ism_pack(hit * pc.depth_scale, abs(dn)));
+        o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }
 }
