@@ -59,13 +59,22 @@ void main() {
     vec3 t, b;
     ism_basis(n, t, b);
     float plane = dot(d, normal);
-    // The texels within 2 radius_texels of the point (the disc's reach:
-    // the paraboloid stretches angles up to twice radius_texels' towards
-    // the horizon) and r of its texel, inside the tile: a box of at most
-    // (2r + 1)^2, most far points' 2x2, visited in one flat loop (a SIMD
-    // group runs as many iterations as its largest box, not its largest
-    // row times its largest column).
-    float reach = 2.0 * radius_texels;
+    // The texels the disc may cover: within r of the point's texel and
+    // within its reach, inside the tile, visited as one box in one flat
+    // loop (a SIMD group runs as many iterations as its largest box, not
+    // its largest row times its largest column). Seen from the VPL the
+    // disc lies within an angle alpha of w, tan(alpha) >= sin(alpha) =
+    // point_radius / (dist - point_radius); the paraboloid is conformal,
+    // tile / (2 (1 + cos theta)) texels per radian at theta from the
+    // normal (a quarter of the tile at the pole, half at the horizon), so
+    // the reach is alpha times that at theta + alpha, at most twice
+    // radius_texels (the bound before, the horizon's).
+    float sin_alpha = min(pc.point_radius / max(dist - pc.point_radius, 1e-6), 1.0);
+    float cos_alpha = sqrt(1.0 - sin_alpha * sin_alpha);
+    float cos_theta = dot(w, n);
+    float cos_far = max(cos_theta * cos_alpha - sqrt(max(1.0 - cos_theta * cos_theta, 0.0)) * sin_alpha, 0.0);
+    float tan_alpha = sin_alpha / max(cos_alpha, 1e-6);
+    float reach = min(tan_alpha * float(pc.tile) / (2.0 * (1.0 + cos_far)), 2.0 * radius_texels);
     ivec2 lo = max(max(ivec2(ceil(within - reach)), ivec2(-r)), -center);
     ivec2 hi = min(min(ivec2(floor(within + reach)), ivec2(r)), ivec2(int(pc.tile) - 1) - center);
     ivec2 box = max(hi - lo + 1, ivec2(0));
