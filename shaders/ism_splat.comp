@@ -79,17 +79,22 @@ void main() {
     ivec2 hi = min(min(ivec2(floor(within + reach)), ivec2(r)), ivec2(int(pc.tile) - 1) - center);
     ivec2 box = max(hi - lo + 1, ivec2(0));
     ivec2 o = lo;
+    float to_q = 2.0 / float(pc.tile);  // a power of two: exact
+    float reach2 = reach * reach;
+    float radius2 = pc.point_radius * pc.point_radius;
     for (int k = 0; k < box.x * box.y; k++) {
         ivec2 local = center + o;
-        vec2 q = (vec2(local) + 0.5) / float(pc.tile) * 2.0 - 1.0;
+        vec2 q = (vec2(local) + 0.5) * to_q - 1.0;
         float q2 = dot(q, q);
         // The unit ray through the texel's centre (ism_paraboloid inverted).
         float z = (1.0 - q2) / (1.0 + q2);
         vec3 ray = (t * q.x + b * q.y) * (1.0 + z) + n * z;
         float dn = dot(ray, normal);
         float hit = plane / dn;
-        bool covers = (o.x != 0 || o.y != 0) && length(vec2(o) - within) <= reach && q2 < 1.0
-            && abs(dn) >= 1e-3 && hit > 0.0 && distance(ray * hit, d) <= pc.point_radius;
+        vec2 off = vec2(o) - within;
+        vec3 miss = ray * hit - d;
+        bool covers = (o.x != 0 || o.y != 0) && dot(off, off) <= reach2 && q2 < 1.0
+            && abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= radius2;
         if (covers) imageAtomicMin(ism_depth, origin + local, ism_pack(hit * pc.depth_scale, abs(dn)));
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }
