@@ -268,17 +268,20 @@ float unpack_f21(uint w) {
     return uintBitsToFloat(((w >> 20) << 31) | ((e - 31u + 127u) << 23) | ((w & 0x3FFFu) << 9));
 }
 
-// Two unit tangents of a plane with normal n (n need not be unit).
+// Two unit tangents of a plane with unit normal n (Duff et al. 2017:
+// no square root, which lavapipe's walks pay for at every level-0 texel).
 void plane_basis(vec3 n, out vec3 t1, out vec3 t2) {
-    t1 = normalize(cross(n, abs(n.x) < 0.6 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0)));
-    t2 = normalize(cross(n, t1));
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t1 = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    t2 = vec3(c, s + n.y * n.y * a, -n.y);
 }
 
 // Where a back cluster's coordinates start: the pixel at `own` projected
-// onto the plane of its neighbour at cq with stored normal nq.
+// onto the plane of its neighbour at cq with stored (unit) normal nq.
 vec3 back_origin(vec3 own, vec3 cq, vec3 nq) {
-    vec3 unit = normalize(nq);
-    return own - dot(own - cq, unit) * unit;
+    return own - dot(own - cq, nq) * nq;
 }
 
 // The word of a pixel at `own` with normal n, area and flags; its back
