@@ -35,8 +35,9 @@ void main() {
     float dist = length(d);
     if (dist < 1e-5) return;
     vec3 w = d / dist;
-    if (dot(w, vpl.normal.xyz) <= 0.0) return;
     vec3 n = vpl.normal.xyz;
+    float cos_theta = dot(w, n);
+    if (cos_theta <= 0.0) return;
     vec2 uv = ism_paraboloid(w, n);
     // Footprint in texels: the paraboloid maps a small angle a near the pole
     // to a/4 of the tile; larger splats near the VPL close holes.
@@ -57,7 +58,7 @@ void main() {
     // which shadowed what lay just behind a slanted surface's edge
     // (measured: docs/accuracy.md, "ISM points as discs").
     vec3 t, b;
-    ism_basis(n, t, b);
+    orthonormal_basis(n, t, b);
     float plane = dot(d, normal);
     // The texels the disc may cover: within r of the point's texel and
     // within its reach, inside the tile, visited as one box in one flat
@@ -71,7 +72,6 @@ void main() {
     // radius_texels (the bound before, the horizon's).
     float sin_alpha = min(pc.point_radius / max(dist - pc.point_radius, 1e-6), 1.0);
     float cos_alpha = sqrt(1.0 - sin_alpha * sin_alpha);
-    float cos_theta = dot(w, n);
     float cos_far = max(cos_theta * cos_alpha - sqrt(max(1.0 - cos_theta * cos_theta, 0.0)) * sin_alpha, 0.0);
     float tan_alpha = sin_alpha / max(cos_alpha, 1e-6);
     float reach = min(tan_alpha * float(pc.tile) / (2.0 * (1.0 + cos_far)), 2.0 * radius_texels);

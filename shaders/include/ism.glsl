@@ -36,20 +36,11 @@ vec3 ism_unpack_normal(uint bits) {
 // Texels per GpuVpl in the gathers' texel view.
 const uint VPL_TEXELS = 5u;
 
-// Orthonormal basis around n (Duff et al. 2017); matches cpu::sampling::basis.
-void ism_basis(vec3 n, out vec3 t, out vec3 b) {
-    float s = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (s + n.z);
-    float c = n.x * n.y * a;
-    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
-    b = vec3(c, s + n.y * n.y * a, -n.y);
-}
-
 // Paraboloid coordinates in [0,1]^2 of unit direction w leaving a VPL with
 // normal n; w must lie in the upper hemisphere.
 vec2 ism_paraboloid(vec3 w, vec3 n) {
     vec3 t, b;
-    ism_basis(n, t, b);
+    orthonormal_basis(n, t, b);
     vec3 l = vec3(dot(w, t), dot(w, b), dot(w, n));
     return l.xy / (1.0 + l.z) * 0.5 + 0.5;
 }

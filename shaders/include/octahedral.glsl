@@ -17,4 +17,14 @@ vec3 from_octahedral(vec2 e) {
     return normalize(n);
 }
 
+// Orthonormal tangents t, b around the unit vector n (Duff et al. 2017:
+// no square root); matches cpu::sampling::basis.
+void orthonormal_basis(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
 #endif

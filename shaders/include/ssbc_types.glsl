@@ -204,7 +204,7 @@ const ivec2 CREASE_NEIGHBOURS[8] = ivec2[](ivec2(-1, 0), ivec2(1, 0), ivec2(0, -
 //   y  bits 0..24: the area A_y (a float's bits 6 and up, rounded: 17
 //      mantissa bits); bits 25..30: GeoAux.flags (level 0 uses bits 0..5);
 //   z, w  the back cluster's centroid in the neighbour's plane as two
-//      21-bit floats (pack_f21) along plane_basis of the neighbour's stored
+//      21-bit floats (pack_f21) along orthonormal_basis of the neighbour's stored
 //      normal, from the pixel's own position projected onto that plane: u
 //      in z's bits 0..20, v's low 11 bits in z's 21..31 and its top 10 in
 //      w's 22..31; w's bits 0..21: the back cluster's area (a float's bits
@@ -268,16 +268,6 @@ float unpack_f21(uint w) {
     return uintBitsToFloat(((w >> 20) << 31) | ((e - 31u + 127u) << 23) | ((w & 0x3FFFu) << 9));
 }
 
-// Two unit tangents of a plane with unit normal n (Duff et al. 2017:
-// no square root, which lavapipe's walks pay for at every level-0 texel).
-void plane_basis(vec3 n, out vec3 t1, out vec3 t2) {
-    float s = n.z >= 0.0 ? 1.0 : -1.0;
-    float a = -1.0 / (s + n.z);
-    float c = n.x * n.y * a;
-    t1 = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
-    t2 = vec3(c, s + n.y * n.y * a, -n.y);
-}
-
 // Where a back cluster's coordinates start: the pixel at `own` projected
 // onto the plane of its neighbour at cq with stored (unit) normal nq.
 vec3 back_origin(vec3 own, vec3 cq, vec3 nq) {
@@ -291,7 +281,7 @@ uvec4 pack_level0(vec3 own, vec3 n, float area, uint flags, vec3 back_position, 
     uvec2 back = uvec2(0u);
     if (back_area > 0.0) {
         vec3 t1, t2;
-        plane_basis(nq, t1, t2);
+        orthonormal_basis(nq, t1, t2);
         vec3 d = back_position - back_origin(own, cq, nq);
         back = uvec2(pack_f21(dot(d, t1)), pack_f21(dot(d, t2)));
     }
@@ -320,7 +310,7 @@ GeoCluster level0_back(vec3 x, uvec4 w, vec3 qx, uvec4 qw) {
     if (level0_back_code(w) == 0u) return empty_cluster();
     vec3 nq = level0_normal(qw);
     vec3 t1, t2;
-    plane_basis(nq, t1, t2);
+    orthonormal_basis(nq, t1, t2);
     float u = unpack_f21(w.z & 0x1FFFFFu);
     float v = unpack_f21((w.z >> 21) | ((w.w >> 22) << 11));
     vec3 origin = back_origin(x, qx, nq);

@@ -65,7 +65,7 @@ impl Halton {
 /// An orthonormal basis (t, b) around unit `n`.
 pub fn basis(n: Vec3) -> (Vec3, Vec3) {
     // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
-    // Same branch as ism_basis in shaders/include/ism.glsl (n.z = -0.0 counts as +).
+    // Same branch as orthonormal_basis in shaders/include/octahedral.glsl (n.z = -0.0 counts as +).
     let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
