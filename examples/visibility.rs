@@ -10,13 +10,27 @@
 //! - of the leaked weight, the part where the stored depth lies beyond the
 //!   receiver (a hole or a coarse block) rather than within the tolerance.
 //!
-//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N]`
+//! With `--why`, each texel's centre ray (the one its distance is measured
+//! along) is cast exactly too, and the wrong answers are split by what it
+//! meets: of the visible light rejected, the share where the centre ray
+//! meets an occluder the receiver's own ray passes (the occluder's edge
+//! crosses the texel) and where the texel stores a surface more than a
+//! footprint nearer than anything the centre ray meets (a splat that
+//! overhangs its surface); of the leaked light, the share where the centre
+//! ray passes the occluder (its edge crosses the texel), where it meets it
+//! but the texel stores something more than a footprint beyond (a hole in
+//! the occluder's splats), and where the texel holds the occluder but the
+//! test's tolerance reaches past it. `--bias B` replays another
+//! relative tolerance than `ISM_BIAS` (Lambertian receivers; narrow glossy
+//! lobes scale it as the gathers do).
+//!
+//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--why]`
 //! (default: spheres, the slab rooms and the open box at 160x120, the
 //! defaults' VPLs for that size, every 3rd geometry pixel).
 
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::emitters::luminance;
-use ssbc::passes::indirect_bounded::ism_bias_for;
+use ssbc::passes::indirect_bounded::{ism_bias_for, ISM_BIAS};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 
 /// The weighted replay of one frame.
@@ -27,10 +41,28 @@ struct Replay {
     occluded: f64,
     leaked: f64,
     leaked_beyond: f64,
+    /// `--why`: rejected visible light where the centre ray meets an
+    /// occluder, and where the texel stores a surface the centre ray does
+    /// not meet; leaked light where the centre ray passes the occluder,
+    /// where it meets it but the texel stores more, and where the
+    /// tolerance reaches past it.
+    rejected_edge: f64,
+    rejected_overhang: f64,
+    leaked_edge: f64,
+    leaked_hole: f64,
+    leaked_tolerance: f64,
     pairs: usize,
 }
 
-fn replay(scene: &ssbc::Scene, frame: &Frame, stride: usize) -> Replay {
+/// What the replay asks for.
+struct Options {
+    stride: usize,
+    /// The relative tolerance for Lambertian receivers.
+    bias: f32,
+    why: bool,
+}
+
+fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
     let bvh = SceneBvh::new(scene);
     let ism = frame.ism.as_ref().expect("debug readback");
     let layer = |name: &str| {
@@ -47,7 +79,7 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, stride: usize) -> Replay {
     let v = |img: &[f32], i: usize| glam::Vec3::new(img[i * 4], img[i * 4 + 1], img[i * 4 + 2]);
     let mut r = Replay::default();
     let geometry = (0..(frame.width * frame.height) as usize).filter(|&i| pos[i * 4 + 3] != 0.0);
-    for i in geometry.step_by(stride) {
+    for i in geometry.step_by(options.stride) {
         let (x, n) = (v(pos, i), v(nrm, i));
         let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
         let brdf = ssbc::cpu::brdf::Brdf::from_gbuffer(albedo, nrm[i * 4 + 3]);
@@ -65,7 +97,8 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, stride: usize) -> Replay {
             let weight = (luminance(vpl.flux) * (cos_z * cos_x / d2).min(frame.bound)) as f64;
             r.pairs += 1;
             let exact = !bvh.occluded(vpl.position + vpl.normal * 1e-4, x + n * 1e-4);
-            let approx = ism.visible(k, vpl, x, n, ism_bias_for(&brdf));
+            let bias = ism_bias_for(&brdf) * options.bias / ISM_BIAS;
+            let approx = ism.visible(k, vpl, x, n, bias);
             if exact {
                 r.visible += weight;
                 r.passed += weight * approx as u8 as f64;
@@ -74,6 +107,30 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, stride: usize) -> Replay {
                 if approx {
                     r.leaked += weight;
                     r.leaked_beyond += weight * ism.stored_beyond(k, vpl, x) as u8 as f64;
+                }
+            }
+            if options.why && exact != approx {
+                let from = vpl.position + vpl.normal * 1e-4;
+                let (ray, stored) = ism.texel_centre_ray(k, vpl, x);
+                let centre = bvh
+                    .intersect(from, ray, 0.0, f32::MAX)
+                    .map_or(f32::MAX, |h| h.t);
+                let footprint = (d2.sqrt() * 4.0 / ism.tile as f32).max(ism.point_radius);
+                if exact {
+                    if centre < d2.sqrt() - footprint {
+                        r.rejected_edge += weight;
+                    } else if stored < centre - footprint {
+                        r.rejected_overhang += weight;
+                    }
+                } else {
+                    let occluder = bvh.intersect(from, w, 0.0, d2.sqrt()).map_or(0.0, |h| h.t);
+                    if centre > occluder + footprint {
+                        r.leaked_edge += weight;
+                    } else if stored > centre + footprint {
+                        r.leaked_hole += weight;
+                    } else {
+                        r.leaked_tolerance += weight;
+                    }
                 }
             }
         }
@@ -87,7 +144,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let i = args.iter().position(|a| a == flag)?;
         args.get(i + 1).cloned()
     };
-    let flags = ["--size", "--vpls", "--stride", "--ism-res", "--points"];
+    let flags = [
+        "--size",
+        "--vpls",
+        "--stride",
+        "--ism-res",
+        "--points",
+        "--bias",
+    ];
     let flag_values: Vec<String> = flags.iter().filter_map(|f| value(f)).collect();
     let mut scenes: Vec<String> = args
         .iter()
@@ -110,10 +174,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some((w.parse().ok()?, h.parse().ok()?))
         })
         .unwrap_or((160, 120));
-    let stride: usize = value("--stride").and_then(|v| v.parse().ok()).unwrap_or(3);
+    let options = Options {
+        stride: value("--stride").and_then(|v| v.parse().ok()).unwrap_or(3),
+        bias: value("--bias")
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(ISM_BIAS),
+        why: args.iter().any(|a| a == "--why"),
+    };
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    println!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs |");
-    println!("|---|---|---|---|---|---|");
+    print!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs |");
+    if options.why {
+        print!(" rejected: edge / overhang | leaked: edge / hole / tolerance |");
+    }
+    println!();
+    println!(
+        "|---|---|---|---|---|---|{}",
+        if options.why { "---|---|" } else { "" }
+    );
     for name in &scenes {
         let mut scene = ssbc::scene::load(name)?;
         scene.ensure_light();
@@ -130,8 +207,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.debug_readback = true;
         settings.ssbc.steps = 0;
         let frame = renderer.render(&scene, &settings)?;
-        let r = replay(&scene, &frame, stride);
-        println!(
+        let r = replay(&scene, &frame, &options);
+        print!(
             "| {} | {:.4} | {:.4} | {:.4} | {:.0}% | {} |",
             scene.name,
             r.passed / r.visible.max(1e-30),
@@ -140,6 +217,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             100.0 * r.leaked_beyond / r.leaked.max(1e-30),
             r.pairs,
         );
+        if options.why {
+            let rejected = (r.visible - r.passed).max(1e-30);
+            print!(
+                " {:.0}% / {:.0}% | {:.0}% / {:.0}% / {:.0}% |",
+                100.0 * r.rejected_edge / rejected,
+                100.0 * r.rejected_overhang / rejected,
+                100.0 * r.leaked_edge / r.leaked.max(1e-30),
+                100.0 * r.leaked_hole / r.leaked.max(1e-30),
+                100.0 * r.leaked_tolerance / r.leaked.max(1e-30),
+            );
+        }
+        println!();
     }
     Ok(())
 }

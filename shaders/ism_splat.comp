@@ -21,6 +21,16 @@ layout(push_constant) uniform Push {
     float point_radius;  // world radius each point stands for
 } pc;
 
+// The unit ray through the centre of a tile's texel (ism_paraboloid
+// inverted; t, b, n the VPL's basis), and |q|^2 of the texel's paraboloid
+// coordinate q (1 or more: at or beyond the horizon).
+vec3 centre_ray(ivec2 texel, vec3 t, vec3 b, vec3 n, out float q2) {
+    vec2 q = (vec2(texel) + 0.5) * (2.0 / float(pc.tile)) - 1.0;  // a power of two: exact
+    q2 = dot(q, q);
+    float z = (1.0 - q2) / (1.0 + q2);
+    return (t * q.x + b * q.y) * (1.0 + z) + n * z;
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint v = gl_GlobalInvocationID.y;
@@ -44,24 +54,30 @@ void main() {
     float radius_texels = clamp(pc.point_radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
     int r = int(ceil(radius_texels));
     vec3 normal = ism_unpack_normal(normal_bits);
-    float facing = abs(dot(w, normal));
     uint cell = floatBitsToUint(vpl.normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
     ivec2 center = ivec2(uv * float(pc.tile));
     // Where the point lies in its texel, in texels from the centre.
     vec2 within = uv * float(pc.tile) - vec2(center) - 0.5;
-    imageAtomicMin(ism_depth, origin + center, ism_pack(dist * pc.depth_scale, facing));
-    // The other texels the point's disc (its tangent plane within
-    // point_radius) covers, at the distance where their centre ray meets
-    // it: a surface seen at a slant covers the texels it does, at the
-    // distances it has there, not a round splat at the point's distance,
-    // which shadowed what lay just behind a slanted surface's edge
-    // (measured: docs/accuracy.md, "ISM points as discs").
+    // Every texel takes the distance where its centre ray meets the point's
+    // tangent plane, so that a texel holds its surface along one ray, the
+    // one the test's tolerance assumes. The texels the point's disc (its
+    // tangent plane within point_radius) covers: a surface seen at a slant
+    // covers the texels it does, at the distances it has there, not a round
+    // splat at the point's distance, which shadowed what lay just behind a
+    // slanted surface's edge (measured: docs/accuracy.md, "ISM points as
+    // discs"). The point's own texel also where its plane meets the centre
+    // ray within a texel's footprint of the point, so that far points still
+    // fill their texels; but not at the point's own distance, which a
+    // point beside an occluder's silhouette put on the ray past it (false
+    // shadows), nor where a plane seen at a slant meets that ray far from
+    // the point (measured: docs/accuracy.md, "ISM texels along their
+    // centre ray").
     vec3 t, b;
     orthonormal_basis(n, t, b);
     float plane = dot(d, normal);
-    // The texels the disc may cover: within r of the point's texel and
-    // within its reach, inside the tile, visited as one box in one flat
+    // The other texels the disc may cover: within r of the point's texel
+    // and within its reach, inside the tile, visited as one box in one flat
     // loop (a SIMD group runs as many iterations as its largest box, not
     // its largest row times its largest column). Seen from the VPL the
     // disc lies within an angle alpha of w, tan(alpha) >= sin(alpha) =
@@ -79,23 +95,26 @@ void main() {
     ivec2 hi = min(min(ivec2(floor(within + reach)), ivec2(r)), ivec2(int(pc.tile) - 1) - center);
     ivec2 box = max(hi - lo + 1, ivec2(0));
     ivec2 o = lo;
-    float to_q = 2.0 / float(pc.tile);  // a power of two: exact
     float reach2 = reach * reach;
     float radius2 = pc.point_radius * pc.point_radius;
+    float texel_footprint = dist * 4.0 / float(pc.tile);  // at the pole, the widest
+    float own2 = max(radius2, texel_footprint * texel_footprint);
+    float q2;
+    vec3 ray = centre_ray(center, t, b, n, q2);
+    float dn = dot(ray, normal);
+    float hit = plane / dn;
+    vec3 miss = ray * hit - d;
+    if (abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= own2)
+        imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, abs(dn)));
     for (int k = 0; k < box.x * box.y; k++) {
-        ivec2 local = center + o;
-        vec2 q = (vec2(local) + 0.5) * to_q - 1.0;
-        float q2 = dot(q, q);
-        // The unit ray through the texel's centre (ism_paraboloid inverted).
-        float z = (1.0 - q2) / (1.0 + q2);
-        vec3 ray = (t * q.x + b * q.y) * (1.0 + z) + n * z;
-        float dn = dot(ray, normal);
-        float hit = plane / dn;
+        ray = centre_ray(center + o, t, b, n, q2);
+        dn = dot(ray, normal);
+        hit = plane / dn;
         vec2 off = vec2(o) - within;
-        vec3 miss = ray * hit - d;
+        miss = ray * hit - d;
         bool covers = (o.x != 0 || o.y != 0) && dot(off, off) <= reach2 && q2 < 1.0
             && abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= radius2;
-        if (covers) imageAtomicMin(ism_depth, origin + local, ism_pack(hit * pc.depth_scale, abs(dn)));
+        if (covers) imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, abs(dn)));
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }
 }

@@ -99,15 +99,16 @@ pub(crate) fn memory_bytes(
 }
 
 /// Relative depth tolerance of the ISM visibility test: trades false
-/// shadows against leaks; with the ray-cast layer (near occluders no
-/// longer leak) 0.16 is right in the mean against path-traced references
-/// (measured: docs/accuracy.md, "Tuned constants").
-pub const ISM_BIAS: f32 = 0.16;
+/// shadows against leaks. Since every ISM texel holds its surface along
+/// its centre ray (shaders/ism_splat.comp), 0.08 passes more of the
+/// visible light and lets through less of the occluded than 0.16 did
+/// before, at the same mean (measured: docs/accuracy.md, "Tuned constants").
+pub const ISM_BIAS: f32 = 0.08;
 
 /// The ISM test's relative tolerance at a receiver of BRDF `brdf`:
 /// [`ISM_BIAS`], or for a narrow glossy lobe (GGX alpha under 0.25) that
 /// times 4 alpha, at least a quarter of it. A tolerance of 0.16 x the
-/// distance lets an occluder near the receiver through (a plinth 0.5 m in
+/// distance (the default before 2026-11-29) let an occluder near the receiver through (a plinth 0.5 m in
 /// front of a floor point 3 m from the VPL); a diffuse receiver blurs such
 /// a leak over its hemisphere, a narrow lobe shows it as a bright
 /// reflection where the occluder should be (measured: docs/accuracy.md, "Tuned constants").

@@ -92,6 +92,21 @@ impl IsmReadback {
         self.depth[texel] * self.far >= dist
     }
 
+    /// Where `x` lands in VPL `index`'s map: the unit ray through its
+    /// texel's centre (the one the texel's distance is measured along),
+    /// and the distance (m) the texel stores.
+    pub fn texel_centre_ray(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (glam::Vec3, f32) {
+        let (texel, _, _) = self.lookup(index, vpl, x);
+        let tile = self.tile as usize;
+        let local = glam::Vec2::new(
+            (texel % self.width as usize % tile) as f32,
+            (texel / self.width as usize % tile) as f32,
+        );
+        let uv = (local + glam::Vec2::splat(0.5)) / self.tile as f32;
+        let ray = crate::cpu::ism_rays::paraboloid_direction(vpl.normal, uv);
+        (ray, self.depth[texel] * self.far)
+    }
+
     /// The atlas texel where `x` lands in VPL `index`'s map, its distance
     /// from the VPL and the unit direction to it (ism_texel()).
     fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
