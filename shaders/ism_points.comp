@@ -2,7 +2,8 @@
 // ISM points to world space, once per redraw: each point (stored in its
 // object's space, w the object) placed by its object's transform, with its
 // surface normal (w: ism_pack_normal); a hidden object's points get w = 0
-// and are not splatted. (Placing them in the splat instead repeats the
+// and are not splatted. Each point's disc (its radius, and where it ends
+// at an edge of its surface: src/cpu/point_discs.rs) turns with it. (Placing them in the splat instead repeats the
 // transform for every VPL sharing a block; placing runs only when the
 // points or the objects changed (measured: docs/accuracy.md, "Tuned constants").)
 #include "common.glsl"
@@ -14,6 +15,8 @@ layout(set = 0, binding = 0) readonly buffer Points { vec4 points[]; };
 layout(set = 0, binding = 1) readonly buffer Objects { GpuObject objects[]; };
 layout(set = 0, binding = 2) writeonly buffer WorldPoints { vec4 world_points[]; };
 layout(set = 0, binding = 3) readonly buffer Normals { uint normals[]; };  // object space, packed
+layout(set = 0, binding = 4) readonly buffer Discs { uint discs[]; };  // object space, ism_pack_disc
+layout(set = 0, binding = 5) writeonly buffer WorldDiscs { uint world_discs[]; };
 
 layout(push_constant) uniform Push {
     uint count;
@@ -24,8 +27,16 @@ void main() {
     if (i >= pc.count) return;
     vec4 point = points[i];
     uint o = floatBitsToUint(point.w);
-    world_points[i] = objects[o].params.y == 0u
+    bool hidden = objects[o].params.y == 0u;
+    world_points[i] = hidden
         ? vec4(0.0)
         : vec4((objects[o].model * vec4(point.xyz, 1.0)).xyz,
                uintBitsToFloat(ism_pack_normal(normalize(mat3(objects[o].normal_matrix) * ism_unpack_normal(normals[i])))));
+    // A clip's in-plane direction moves as the surface does (the model
+    // matrix's linear part); its distance and the disc's radius stay
+    // fractions of the point radius.
+    uint disc = discs[i];
+    world_discs[i] = hidden || (disc >> 24) == 0u
+        ? disc
+        : ism_pack_disc(normalize(mat3(objects[o].model) * ism_unpack_clip_dir(disc)), disc);
 }

@@ -11,6 +11,7 @@ layout(local_size_x = 64) in;
 layout(set = 0, binding = 0, r32ui) uniform uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
 layout(set = 0, binding = 2) readonly buffer Points { vec4 points[]; }; // xyz world, w normal (0: hidden)
+layout(set = 0, binding = 3) readonly buffer Discs { uint discs[]; };  // world, ism_pack_disc
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -19,6 +20,7 @@ layout(push_constant) uniform Push {
     uint tiles_per_row;
     float depth_scale;   // 1 / far: distances are stored as d * depth_scale
     float point_radius;  // world radius each point stands for
+    float disc_reach;    // the widest disc's radius (m): ism_pack_disc's unit
 } pc;
 
 // The unit ray through the centre of a tile's texel (ism_paraboloid
@@ -37,9 +39,17 @@ void main() {
     if (i >= pc.points_per_vpl || v >= pc.vpl_count) return;
     GpuVpl vpl = vpls[v];
     uint block = floatBitsToUint(vpl.position.w);
-    vec4 point = points[block * pc.points_per_vpl + i];
+    uint index = block * pc.points_per_vpl + i;
+    vec4 point = points[index];
     uint normal_bits = floatBitsToUint(point.w);
     if (normal_bits == 0u) return; // a hidden object's
+    // The point's disc: as wide as its surface allows, and the half-plane
+    // of it that stays on its surface, dot(miss, clip_dir) <= clip_distance
+    // for a point `miss` of its plane relative to it (src/cpu/point_discs.rs).
+    uint disc = discs[index];
+    float radius = ism_disc_radius(disc, pc.disc_reach);
+    vec3 clip_dir = ism_unpack_clip_dir(disc);
+    float clip_distance = ism_clip_distance(disc, pc.disc_reach);
     vec3 p = point.xyz;
     vec3 d = p - vpl.position.xyz;
     float dist = length(d);
@@ -51,7 +61,7 @@ void main() {
     vec2 uv = ism_paraboloid(w, n);
     // Footprint in texels: the paraboloid maps a small angle a near the pole
     // to a/4 of the tile; larger splats near the VPL close holes.
-    float radius_texels = clamp(pc.point_radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
+    float radius_texels = clamp(radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
     int r = int(ceil(radius_texels));
     vec3 normal = ism_unpack_normal(normal_bits);
     uint cell = floatBitsToUint(vpl.normal.w);
@@ -62,7 +72,7 @@ void main() {
     // Every texel takes the distance where its centre ray meets the point's
     // tangent plane, so that a texel holds its surface along one ray, the
     // one the test's tolerance assumes. The texels the point's disc (its
-    // tangent plane within point_radius) covers: a surface seen at a slant
+    // tangent plane within its radius) covers: a surface seen at a slant
     // covers the texels it does, at the distances it has there, not a round
     // splat at the point's distance, which shadowed what lay just behind a
     // slanted surface's edge (measured: docs/accuracy.md, "ISM points as
@@ -81,12 +91,12 @@ void main() {
     // loop (a SIMD group runs as many iterations as its largest box, not
     // its largest row times its largest column). Seen from the VPL the
     // disc lies within an angle alpha of w, tan(alpha) >= sin(alpha) =
-    // point_radius / (dist - point_radius); the paraboloid is conformal,
+    // radius / (dist - radius); the paraboloid is conformal,
     // tile / (2 (1 + cos theta)) texels per radian at theta from the
     // normal (a quarter of the tile at the pole, half at the horizon), so
     // the reach is alpha times that at theta + alpha, at most twice
     // radius_texels (the bound before, the horizon's).
-    float sin_alpha = min(pc.point_radius / max(dist - pc.point_radius, 1e-6), 1.0);
+    float sin_alpha = min(radius / max(dist - radius, 1e-6), 1.0);
     float cos_alpha = sqrt(1.0 - sin_alpha * sin_alpha);
     float cos_far = max(cos_theta * cos_alpha - sqrt(max(1.0 - cos_theta * cos_theta, 0.0)) * sin_alpha, 0.0);
     float tan_alpha = sin_alpha / max(cos_alpha, 1e-6);
@@ -96,7 +106,7 @@ void main() {
     ivec2 box = max(hi - lo + 1, ivec2(0));
     ivec2 o = lo;
     float reach2 = reach * reach;
-    float radius2 = pc.point_radius * pc.point_radius;
+    float radius2 = radius * radius;
     float texel_footprint = dist * 4.0 / float(pc.tile);  // at the pole, the widest
     float own2 = max(radius2, texel_footprint * texel_footprint);
     float q2;
@@ -104,7 +114,7 @@ void main() {
     float dn = dot(ray, normal);
     float hit = plane / dn;
     vec3 miss = ray * hit - d;
-    if (abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= own2)
+    if (abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= own2 && dot(miss, clip_dir) <= clip_distance)
         imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, abs(dn)));
     for (int k = 0; k < box.x * box.y; k++) {
         ray = centre_ray(center + o, t, b, n, q2);
@@ -113,7 +123,7 @@ void main() {
         vec2 off = vec2(o) - within;
         miss = ray * hit - d;
         bool covers = (o.x != 0 || o.y != 0) && dot(off, off) <= reach2 && q2 < 1.0
-            && abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= radius2;
+            && abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= radius2 && dot(miss, clip_dir) <= clip_distance;
         if (covers) imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, abs(dn)));
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }

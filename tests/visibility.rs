@@ -112,11 +112,11 @@ fn exact_visibility_leaks_nothing_through_thin_walls() {
 
 /// Imperfect shadow maps (the default for a single frame) let light into
 /// the unlit room through its shared wall, 1 mm or 20 cm thick: measured
-/// 2026-11-29 at 3.3% (1 mm) and 1.5% (20 cm) of the image's mean on the
-/// other room's pixels (means 1.036 and 1.018 of the path tracer's), with
-/// ISM texels along their centre rays and a relative tolerance of 0.08
-/// (4.1% and 2.3% before). Pinned below 1.5 times that, so that it can
-/// only get better.
+/// 2026-11-29 at 3.0% (1 mm) and 1.2% (20 cm) of the image's mean on the
+/// other room's pixels (means 1.033 and 1.015 of the path tracer's), with
+/// ISM texels along their centre rays, a relative tolerance of 0.08 and
+/// discs as wide as their surface allows (4.1% and 2.3% before). Pinned
+/// below 1.5 times that, so that it can only get better.
 #[test]
 fn isms_leak_through_a_shared_wall_no_more_than_measured() {
     let mut renderer = common::validated_renderer();
@@ -124,8 +124,8 @@ fn isms_leak_through_a_shared_wall_no_more_than_measured() {
     // Every thin scene is reported; the rooms' leak is pinned.
     for name in SCENES {
         let measured: f64 = match name {
-            "thin-two-rooms-1mm" => 0.033,
-            "thin-two-rooms-20cm" => 0.015,
+            "thin-two-rooms-1mm" => 0.030,
+            "thin-two-rooms-20cm" => 0.012,
             _ => f64::NAN,
         };
         let scene = load(name);

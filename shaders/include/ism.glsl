@@ -33,6 +33,30 @@ vec3 ism_unpack_normal(uint bits) {
     return from_octahedral(e);
 }
 
+// A point's disc in 32 bits (pack_disc in src/cpu/point_discs.rs), its
+// lengths as fractions of the reach (the widest disc's radius): the
+// in-plane direction towards the edge where it ends, octahedral, 10 bits a
+// coordinate; its radius in 15ths of the reach (4 bits); in the top 8 the
+// edge's distance in 255ths of the reach (0: no edge, the disc is whole).
+uint ism_pack_disc(vec3 dir, uint codes) {
+    uvec2 q = uvec2(round(clamp(octahedral(dir) * 0.5 + 0.5, 0.0, 1.0) * 1023.0));
+    return (codes & 0xFFF00000u) | (q.x << 10) | q.y;
+}
+
+vec3 ism_unpack_clip_dir(uint disc) {
+    return from_octahedral(vec2(uvec2((disc >> 10) & 1023u, disc & 1023u)) * (2.0 / 1023.0) - 1.0);
+}
+
+// Beyond the disc where it has no edge.
+float ism_clip_distance(uint disc, float reach) {
+    uint code = disc >> 24;
+    return code == 0u ? 2.0 * reach : float(code) * (reach / 255.0);
+}
+
+float ism_disc_radius(uint disc, float reach) {
+    return float((disc >> 20) & 15u) * (reach / 15.0);
+}
+
 // Texels per GpuVpl in the gathers' texel view.
 const uint VPL_TEXELS = 5u;
 

@@ -9,6 +9,7 @@ pub mod default_light;
 pub mod emitters;
 pub mod enclosure;
 pub mod ism_rays;
+pub mod point_discs;
 pub mod points;
 pub mod reference;
 pub mod sampling;

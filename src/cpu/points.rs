@@ -6,6 +6,7 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::point_discs;
 use super::sampling::Halton;
 use super::shading;
 use crate::scene::{AlphaMode, Scene};
@@ -26,6 +27,10 @@ pub struct IsmPoints {
     pub normals: Vec<u32>,
     /// Points in a block.
     pub points_per_block: usize,
+    /// Each point's disc ([`point_discs`]): its radius and where it ends
+    /// at an edge of its surface, in its object's space
+    /// ([`point_discs::pack_disc`]).
+    pub discs: Vec<u32>,
     /// World radius one point stands for: sqrt(area / (pi * points_per_vpl)).
     pub point_radius: f32,
     /// Total surface area of the scene (m^2).
@@ -71,13 +76,13 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
         let p = |k: usize| Vec3::from(v[k].position);
         let normal = pack_normal((p(1) - p(0)).cross(p(2) - p(0)));
         let p = p(0) * (1.0 - w1 - w2) + p(1) * w1 + p(2) * w2;
-        kept.then_some(([p.x, p.y, p.z, f32::from_bits(instance.object)], normal))
+        kept.then_some(([p.x, p.y, p.z, f32::from_bits(instance.object)], normal, t as u32))
     };
     let masked = scene
         .materials
         .iter()
         .any(|m| matches!(m.alpha, AlphaMode::Mask(_)));
-    let mut points: Vec<([f32; 4], u32)> = if masked {
+    let mut points: Vec<([f32; 4], u32, u32)> = if masked {
         // Points on cut-out texels are drawn again (up to 16 draws a point).
         (0..16 * count as u64)
             .filter_map(point)
@@ -99,22 +104,95 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
         } else {
             let (instance, v) = tri(0);
             let a = v[0].position;
-            ([a[0], a[1], a[2], f32::from_bits(instance.object)], pack_normal(Vec3::Z))
+            ([a[0], a[1], a[2], f32::from_bits(instance.object)], pack_normal(Vec3::Z), 0)
         };
         points.push(p);
     }
-    let (positions, normals) = points.into_iter().unzip();
     // Consecutive Halton points are well spread, so each VPL's block of
     // consecutive points is itself a good area sampling.
     let point_radius =
         (total as f32 / (std::f32::consts::PI * points_per_vpl.max(1) as f32)).sqrt();
+    let discs = point_discs(scene, &points, point_radius);
+    let (positions, normals) = points.into_iter().map(|(p, n, _)| (p, n)).unzip();
     IsmPoints {
         positions,
         normals,
+        discs,
         points_per_block: points_per_vpl,
         point_radius,
         total_area: total as f32,
     }
+}
+
+/// What the discs of a triangle's points need: its unit normal (object
+/// space), its curvature (1/m, world) and the feature edges they may meet.
+struct DiscSurface {
+    normal: Vec3,
+    curvature: f32,
+    near: Vec<u32>,
+}
+
+/// Each point's disc ([`IsmPoints::discs`]) for points of radius `radius`
+/// (world metres): `points` are (object-space position and object, packed
+/// normal, world triangle).
+fn point_discs(scene: &Scene, points: &[([f32; 4], u32, u32)], radius: f32) -> Vec<u32> {
+    let instances = scene.instances();
+    // An instance's mesh and its transform's mean scale.
+    let placed = |t: u32| {
+        let (instance, local) = instances.locate(t);
+        let m = instance.placement.transform;
+        let scale = glam::Mat3::from_mat4(m).determinant().abs().cbrt().max(1e-30);
+        (instance.mesh as usize, local, scale)
+    };
+    let reach = point_discs::MAX_DISC_SCALE * radius;
+    // Edges of the meshes that have points, in cells of the first such
+    // instance's reach (object space).
+    let mut cell_of_mesh: Vec<Option<f32>> = vec![None; scene.meshes().len()];
+    for &(_, _, t) in points {
+        let (mesh, _, scale) = placed(t);
+        cell_of_mesh[mesh].get_or_insert(reach / scale);
+    }
+    let edges: Vec<Option<point_discs::MeshEdges>> = cell_of_mesh
+        .par_iter()
+        .enumerate()
+        .map(|(m, cell)| cell.map(|c| point_discs::MeshEdges::new(&scene.meshes()[m], c)))
+        .collect();
+    // Per triangle with points, the edges its points' discs may meet.
+    let mut triangles: Vec<u32> = points.iter().map(|&(_, _, t)| t).collect();
+    triangles.sort_unstable();
+    triangles.dedup();
+    let surfaces: std::collections::HashMap<u32, DiscSurface> = triangles
+        .par_iter()
+        .map(|&t| {
+            let (mesh, local, scale) = placed(t);
+            let m = &scene.meshes()[mesh];
+            let i = &m.indices[local as usize * 3..local as usize * 3 + 3];
+            let v = [0, 1, 2].map(|k| &m.vertices[i[k] as usize]);
+            let positions = v.map(|v| Vec3::from(v.position));
+            let normals = v.map(|v| Vec3::from(v.normal));
+            let n = (positions[1] - positions[0])
+                .cross(positions[2] - positions[0])
+                .normalize_or_zero();
+            let near = edges[mesh]
+                .as_ref()
+                .map_or(Vec::new(), |e| e.near_triangle(positions, n, reach / scale));
+            let curvature = point_discs::curvature(positions, normals) / scale;
+            (t, DiscSurface { normal: n, curvature, near })
+        })
+        .collect();
+    points
+        .par_iter()
+        .map(|&(p, _, t)| {
+            let (mesh, _, scale) = placed(t);
+            let surface = &surfaces[&t];
+            let object_reach = reach / scale;
+            let clip = edges[mesh].as_ref().and_then(|e| {
+                e.clip(&surface.near, Vec3::new(p[0], p[1], p[2]), surface.normal, object_reach)
+            });
+            let scale = point_discs::disc_scale(surface.curvature, radius);
+            point_discs::pack_disc(clip, object_reach, scale)
+        })
+        .collect()
 }
 
 /// A direction (any length but zero; zero gives +z) in 32 bits for the GPU

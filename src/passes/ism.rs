@@ -47,8 +47,13 @@ pub struct Ism {
     /// Each point's surface normal in its object's space (`u32`,
     /// [`crate::cpu::points::pack_normal`]).
     pub point_normals: Buffer,
+    /// Each point's disc, in its object's space (`u32`,
+    /// [`crate::cpu::points::IsmPoints::discs`]).
+    pub point_discs: Buffer,
     /// The same points placed in world space for this frame's objects.
     pub world_points: Buffer,
+    /// Their discs turned with them (`u32`).
+    pub world_discs: Buffer,
     /// The (points, objects) versions `world_points` holds, once a frame
     /// ssbc submits placed them (placing is skipped while they hold).
     placed: std::cell::Cell<Option<(u64, u64)>>,
@@ -162,10 +167,14 @@ impl Pass for IsmPass {
         } else {
             vpls.to_vec()
         };
-        let (point_data, normal_data) = if points.positions.is_empty() {
-            (vec![[0.0f32; 4]], vec![0u32])
+        let (point_data, normal_data, disc_data) = if points.positions.is_empty() {
+            (vec![[0.0f32; 4]], vec![0u32], vec![0u32])
         } else {
-            (points.positions.clone(), points.normals.clone())
+            (
+                points.positions.clone(),
+                points.normals.clone(),
+                points.discs.clone(),
+            )
         };
         let subsets = &setup.cache.vpls().subsets;
         let base_data = base_layer(setup);
@@ -198,11 +207,24 @@ impl Pass for IsmPass {
                 &normal_data,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
             )?,
+            point_discs: Buffer::with_data(
+                device,
+                "ism.point_discs",
+                &disc_data,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+            )?,
             placed: std::cell::Cell::new(None),
             world_points: Buffer::new(
                 device,
                 "ism.world_points",
                 (point_data.len() * 16) as u64,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                gpu_allocator::MemoryLocation::GpuOnly,
+            )?,
+            world_discs: Buffer::new(
+                device,
+                "ism.world_discs",
+                (point_data.len() * 4) as u64,
                 vk::BufferUsageFlags::STORAGE_BUFFER,
                 gpu_allocator::MemoryLocation::GpuOnly,
             )?,
@@ -248,6 +270,8 @@ impl Pass for IsmPass {
                 .write(0, bytemuck::cast_slice(&points.positions))?;
             ism.point_normals
                 .write(0, bytemuck::cast_slice(&points.normals))?;
+            ism.point_discs
+                .write(0, bytemuck::cast_slice(&points.discs))?;
         }
         ism.versions = (cached_vpls.version, cached_points.version);
         ism.far = far;
@@ -293,6 +317,8 @@ impl Pass for IsmPass {
                 objects,
                 world_points: &ism.world_points,
                 normals: &ism.point_normals,
+                discs: &ism.point_discs,
+                world_discs: &ism.world_discs,
             };
             let push = ism_points_comp::Push { count };
             self.place
@@ -325,11 +351,13 @@ impl Pass for IsmPass {
             tiles_per_row: ism.tiles_per_row,
             depth_scale: 1.0 / ism.far,
             point_radius: ism.point_radius,
+            disc_reach: crate::cpu::point_discs::MAX_DISC_SCALE * ism.point_radius,
         };
         let bindings = ism_splat_comp::Bindings {
             ism_depth: &ism.atlas,
             vpls: &ism.vpls.buffer,
             points: &ism.world_points,
+            discs: &ism.world_discs,
         };
         // One invocation per (point, VPL).
         let points = Work::Threads([ism.points_per_vpl, ism.vpl_count, 1]);

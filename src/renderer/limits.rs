@@ -119,8 +119,8 @@ pub(super) fn frame_memory(
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
     // and ray-cast layers (a distance and a facing per block); the point
-    // blocks they share, in object space with their normals and placed in
-    // the world.
+    // blocks they share, in object space with their normals and discs and
+    // placed in the world (a position and normal, a disc).
     let atlas_desc = crate::passes::ism::atlas_desc(settings.vpl.count as u32, settings.ism_tile);
     let atlas = atlas_desc.bytes(device);
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
@@ -132,7 +132,7 @@ pub(super) fn frame_memory(
     let ism = if visibility_shared { 0 } else { atlas }
         + vpls * (gpu_vpl + 512)
         + subsets
-        + blocks * settings.points_per_vpl as u64 * (16 + 4 + 16);
+        + blocks * settings.points_per_vpl as u64 * (16 + 4 + 4 + 16 + 4);
     // A cube (six views) per light.
     let shadow_maps = if lights == 0 || visibility_shared {
         0
