@@ -32,11 +32,23 @@ void main() {
         ? vec4(0.0)
         : vec4((objects[o].model * vec4(point.xyz, 1.0)).xyz,
                uintBitsToFloat(ism_pack_normal(normalize(mat3(objects[o].normal_matrix) * ism_unpack_normal(normals[i])))));
-    // A clip's in-plane direction moves as the surface does (the model
-    // matrix's linear part); its distance and the disc's radius stay
-    // fractions of the point radius.
+    // A clip is the half-plane dot(u, dir) <= distance of the disc's plane;
+    // under the object's linear map M it becomes dot(v, M^-T dir) <=
+    // distance, so its direction turns with the normal matrix and its
+    // distance divides by |M^-T dir|, times the object's mean scale, which
+    // the distance (sampled in world units) already holds (exact for rigid
+    // moves and uniform scales). The disc's radius stays a fraction of the
+    // point radius.
     uint disc = discs[i];
-    world_discs[i] = hidden || (disc >> 24) == 0u
-        ? disc
-        : ism_pack_disc(normalize(mat3(objects[o].model) * ism_unpack_clip_dir(disc)), disc);
+    uint code = disc >> 24;
+    if (hidden || code == 0u) {
+        world_discs[i] = disc;
+        return;
+    }
+    mat3 linear = mat3(objects[o].model);
+    vec3 dir = mat3(objects[o].normal_matrix) * ism_unpack_clip_dir(disc);
+    float stretch = length(dir) * pow(abs(determinant(linear)), 1.0 / 3.0);
+    // (Rounded up, less a rounding error: an unscaled clip keeps its code.)
+    uint scaled = uint(clamp(ceil(float(code) / max(stretch, 1e-6) - 1e-3), 1.0, 255.0));
+    world_discs[i] = ism_pack_disc(normalize(dir), (scaled << 24) | (disc & 0x00F00000u));
 }

@@ -365,15 +365,18 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
 /// surface's (`ism_tolerance`): the floor,
 /// seen at a grazing angle from the wall's VPLs, gave the plinth, which
 /// faces them, several footprints of tolerance. GPU / exact-visibility VPL
-/// sum, 256 VPLs, full gather, by quarter metre from the plinth: 5.3, 2.7,
-/// 2.3 and 0.33; the nearest half metre 3.5, 0.86 over the metre (with ISM
-/// texels along their centre rays, 2026-11-29; before: 5.5, 2.5, 1.3 and
-/// 0.16, 3.4, 0.60; with the receiver's slope: 32, 7.2, 1.8 and 0.20, the
-/// nearest half metre 14.7; before the bias for narrow lobes, 43, 24, 19
-/// and 3.1). Roughness 0.3 (whose relative bias is 4 alpha = 0.36 of the
-/// usual): 5.8, 3.1, 2.4 and 0.72, the nearest half metre 3.9, 1.40 over
-/// the metre (before: 8.0, 3.6, 2.6 and 0.59, 4.9, 1.47; with 10 alpha: 32,
-/// 13, 12 and 3.5, the nearest half metre 18.6, 6.8). What is left near the plinth is the
+/// sum, 256 VPLs, full gather, by quarter metre from the plinth: 5.8, 3.0,
+/// 2.9 and 0.88; the nearest half metre 3.8, 1.40 over the metre (with ISM
+/// texels along their centre rays and discs clipped at their surface's
+/// edges, 2026-11-29: the plinth's back face no longer overhangs its top
+/// edge; with the texels alone 5.3, 2.7, 2.3 and 0.33, 3.5, 0.86; before:
+/// 5.5, 2.5, 1.3 and 0.16, 3.4, 0.60; with the receiver's slope: 32, 7.2,
+/// 1.8 and 0.20, the nearest half metre 14.7; before the bias for narrow
+/// lobes, 43, 24, 19 and 3.1). Roughness 0.3 (whose relative bias is 4
+/// alpha = 0.36 of the usual): 6.9, 3.6, 3.1 and 1.33, the nearest half
+/// metre 4.6, 2.04 over the metre (texels alone: 5.8, 3.1, 2.4 and 0.72,
+/// 3.9, 1.40; before: 8.0, 3.6, 2.6 and 0.59, 4.9, 1.47; with 10 alpha:
+/// 32, 13, 12 and 3.5, the nearest half metre 18.6, 6.8). What is left near the plinth is the
 /// floor behind it in the texels along its lower edge, which the test
 /// cannot tell from the receiver's own plane; far from it, the plinth's
 /// top edge splatted over receivers that see past it. docs/accuracy.md.

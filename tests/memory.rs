@@ -104,9 +104,10 @@ fn memory_follows_what_is_on() {
 /// 1920x1080 and 3840x2160 (cornell, and the glossy spheres, whose
 /// evaluation points keep glossy rests), and regression guards at today's
 /// figures, from `cargo bench --bench memory`: immediate slots 156.1 and
-/// 158.8 (spheres) at 1920x1080, 150.5 at 3840x2160; resident ones 230.6
+/// 158.8 (spheres) at 1920x1080, 150.5 at 3840x2160; resident ones 232.1
 /// at 1920x1080 (they keep the shadow maps, the ISMs, the direct light and
-/// the history).
+/// the history). ISM points' discs (2026-11-29) add 8 bytes a point, 1.0
+/// at 1920x1080 (the resident slot 233.1).
 #[test]
 fn frame_slots_take_at_most_todays_bytes_per_pixel() {
     for (name, size, slot, limit) in [
@@ -114,7 +115,7 @@ fn frame_slots_take_at_most_todays_bytes_per_pixel() {
         ("cornell", (3840, 2160), SlotUse::Immediate, 160.0),
         ("spheres", (1920, 1080), SlotUse::Immediate, 160.0),
         ("spheres", (3840, 2160), SlotUse::Immediate, 160.0),
-        ("cornell", (1920, 1080), SlotUse::Resident, 233.0),
+        ("cornell", (1920, 1080), SlotUse::Resident, 234.0),
     ] {
         let mut scene = ssbc::scene::load(name).expect(name);
         scene.ensure_light();
