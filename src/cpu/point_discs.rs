@@ -201,15 +201,8 @@ pub fn pack_disc(clip: Option<(Vec3, f32)>, reach: f32, scale: f32) -> u32 {
         return radius << 20;
     };
     let code = (distance / reach * 255.0).ceil().clamp(1.0, 255.0) as u32;
-    let n = dir / (dir.x.abs() + dir.y.abs() + dir.z.abs());
-    if !n.is_finite() {
+    let Some(e) = super::points::octahedral(dir) else {
         return radius << 20;
-    }
-    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
-    let e = if n.z < 0.0 {
-        Vec2::new((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
-    } else {
-        Vec2::new(n.x, n.y)
     };
     let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 1023.0).round();
     code << 24 | radius << 20 | (q.x as u32) << 10 | q.y as u32

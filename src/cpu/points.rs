@@ -200,16 +200,25 @@ fn point_discs(scene: &Scene, points: &[([f32; 4], u32, u32)], radius: f32) -> V
 /// 15 bits a coordinate, and the top bit set, so that no normal packs to
 /// 0, a hidden object's point.
 pub fn pack_normal(n: Vec3) -> u32 {
+    let e = octahedral(n).unwrap_or(Vec2::ZERO);
+    let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 32767.0).round();
+    0x8000_0000 | (q.x as u32) << 15 | q.y as u32
+}
+
+/// The octahedral map of a direction (any length but zero) in [-1, 1]^2
+/// (`octahedral` in shaders/include/octahedral.glsl); `None` for zero or
+/// one that is not finite.
+pub(crate) fn octahedral(n: Vec3) -> Option<Vec2> {
     let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
-    let n = if n.is_finite() { n } else { Vec3::Z };
+    if !n.is_finite() {
+        return None;
+    }
     let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
-    let e = if n.z < 0.0 {
+    Some(if n.z < 0.0 {
         Vec2::new((1.0 - n.y.abs()) * sign(n.x), (1.0 - n.x.abs()) * sign(n.y))
     } else {
         Vec2::new(n.x, n.y)
-    };
-    let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 32767.0).round();
-    0x8000_0000 | (q.x as u32) << 15 | q.y as u32
+    })
 }
 
 #[cfg(test)]
