@@ -124,11 +124,14 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
     }
 }
 
-/// What the discs of a triangle's points need: its unit normal (object
-/// space), its curvature (1/m, world) and the feature edges they may meet.
+/// What the discs of a triangle's points share: its mesh, its unit normal
+/// and the disc's reach (object space), the disc's width in point radii
+/// (from the surface's curvature) and the feature edges they may meet.
 struct DiscSurface {
+    mesh: usize,
     normal: Vec3,
-    curvature: f32,
+    reach: f32,
+    width: f32,
     near: Vec<u32>,
 }
 
@@ -173,24 +176,29 @@ fn point_discs(scene: &Scene, points: &[([f32; 4], u32, u32)], radius: f32) -> V
             let n = (positions[1] - positions[0])
                 .cross(positions[2] - positions[0])
                 .normalize_or_zero();
+            let object_reach = reach / scale;
             let near = edges[mesh]
                 .as_ref()
-                .map_or(Vec::new(), |e| e.near_triangle(positions, n, reach / scale));
+                .map_or(Vec::new(), |e| e.near_triangle(positions, n, object_reach));
             let curvature = point_discs::curvature(positions, normals) / scale;
-            (t, DiscSurface { normal: n, curvature, near })
+            let surface = DiscSurface {
+                mesh,
+                normal: n,
+                reach: object_reach,
+                width: point_discs::disc_scale(curvature, radius),
+                near,
+            };
+            (t, surface)
         })
         .collect();
     points
         .par_iter()
         .map(|&(p, _, t)| {
-            let (mesh, _, scale) = placed(t);
-            let surface = &surfaces[&t];
-            let object_reach = reach / scale;
-            let clip = edges[mesh].as_ref().and_then(|e| {
-                e.clip(&surface.near, Vec3::new(p[0], p[1], p[2]), surface.normal, object_reach)
-            });
-            let scale = point_discs::disc_scale(surface.curvature, radius);
-            point_discs::pack_disc(clip, object_reach, scale)
+            let s = &surfaces[&t];
+            let clip = edges[s.mesh]
+                .as_ref()
+                .and_then(|e| e.clip(&s.near, Vec3::new(p[0], p[1], p[2]), s.normal, s.reach));
+            point_discs::pack_disc(clip, s.reach, s.width)
         })
         .collect()
 }
