@@ -38,7 +38,11 @@ fn agreement(scene: &ssbc::Scene, frame: &Frame) -> (f64, f64, f64, usize) {
             }
             pairs += 1;
             let exact = !bvh.occluded(vpl.position + vpl.normal * 1e-4, x + n * 1e-4);
-            let approx = ism.visible(k, vpl, x, n, ssbc::passes::indirect_bounded::ISM_BIAS);
+            let test = ssbc::passes::indirect_bounded::IsmTest {
+                relative_bias: ssbc::passes::indirect_bounded::ISM_BIAS,
+                lifted: false,
+            };
+            let approx = ism.visible(k, vpl, x, n, test);
             agree += (exact == approx) as usize;
             shadowed += (exact && !approx) as usize;
             lit += (!exact && approx) as usize;

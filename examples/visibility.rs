@@ -22,15 +22,16 @@
 //! the occluder's splats), and where the texel holds the occluder but the
 //! test's tolerance reaches past it. `--bias B` replays another
 //! relative tolerance than `ISM_BIAS` (Lambertian receivers; narrow glossy
-//! lobes scale it as the gathers do).
+//! lobes scale it as the gathers do), `--lift-all` the lifted test
+//! (`IsmTest::lifted`) for every receiver.
 //!
-//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--why]`
+//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--why]`
 //! (default: spheres, the slab rooms and the open box at 160x120, the
 //! defaults' VPLs for that size, every 3rd geometry pixel).
 
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::emitters::luminance;
-use ssbc::passes::indirect_bounded::{ism_bias_for, ISM_BIAS};
+use ssbc::passes::indirect_bounded::{ism_test_for, ISM_BIAS};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 
 /// The weighted replay of one frame.
@@ -60,6 +61,9 @@ struct Options {
     /// The relative tolerance for Lambertian receivers.
     bias: f32,
     why: bool,
+    /// `--lift-all`: the lifted test for every receiver, not only narrow
+    /// glossy lobes.
+    lift_all: bool,
 }
 
 fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
@@ -97,8 +101,10 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
             let weight = (luminance(vpl.flux) * (cos_z * cos_x / d2).min(frame.bound)) as f64;
             r.pairs += 1;
             let exact = !bvh.occluded(vpl.position + vpl.normal * 1e-4, x + n * 1e-4);
-            let bias = ism_bias_for(&brdf) * options.bias / ISM_BIAS;
-            let approx = ism.visible(k, vpl, x, n, bias);
+            let mut test = ism_test_for(&brdf);
+            test.relative_bias *= options.bias / ISM_BIAS;
+            test.lifted |= options.lift_all;
+            let approx = ism.visible(k, vpl, x, n, test);
             if exact {
                 r.visible += weight;
                 r.passed += weight * approx as u8 as f64;
@@ -180,6 +186,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .and_then(|v| v.parse().ok())
             .unwrap_or(ISM_BIAS),
         why: args.iter().any(|a| a == "--why"),
+        lift_all: args.iter().any(|a| a == "--lift-all"),
     };
     let mut renderer = Renderer::new(&RendererConfig::default())?;
     print!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs |");

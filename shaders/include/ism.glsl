@@ -125,8 +125,13 @@ const float ISM_CURVE = 0.5;
 // 0), the slope is at most that surface's (with a margin, above): the
 // receiver's own surface still gets what it needs, and an occluder facing
 // the VPL shadows (measured: docs/accuracy.md, "Tuned constants"). Mirrored in renderer/readback.rs.
+// One splat footprint at distance `dist`: a texel or a point, whichever is larger [m].
+float ism_footprint(float dist, uint tile, float point_radius) {
+    return max(dist * 4.0 / float(tile), point_radius);
+}
+
 float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
-    float footprint = max(dist * 4.0 / float(tile), point_radius);
+    float footprint = ism_footprint(dist, tile, point_radius);
     float slope = ism_slope(cos_x);
     if (facing >= 0.0) slope = min(slope, ISM_SLOPE_MARGIN * ism_slope(facing) + ISM_CURVE);
     return relative_bias * dist + footprint * slope + 1e-3;

@@ -10,16 +10,36 @@
 #include "brdf.glsl"
 #include "geometric_normal.glsl"
 
-// ISM test for receiver at distance `dist` along unit `w` from the VPL (normal
-// n), whose surface makes cos_x with -w: the slope of its surface
-// (geometric normal), not of a normal map's normal, which turned towards
-// the VPL left too little tolerance and the surface shadowed itself (see
-// ism_tolerance).
-float ism_visible(uint cell, vec3 w, vec3 n, float dist, float cos_x, float bias) {
-    vec2 uv = ism_paraboloid(w, n);
-    uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
-    float tolerance = ism_tolerance(dist, cos_x, ism_texel_facing(stored), pc.tile, pc.point_radius, bias);
-    return dist <= ism_texel_depth(stored) * pc.far + tolerance ? 1.0 : 0.0;
+// ISM test for a receiver x (geometric normal ng) at distance `dist` along
+// unit `w` from the VPL at z (normal n). Within the relative tolerance
+// alone it is visible. Beyond it, the slope term (ism_tolerance) covers the
+// receiver's own surface across the texel, but also whatever stands on
+// that surface between the texel's centre ray and the receiver: the texels
+// at the foot of a plinth on a floor store the floor behind it, and the
+// floor before it reflects the VPLs the plinth hides. With `lifted` (a
+// narrow glossy lobe, which shows such a leak as a reflection) the slope
+// is granted only if the receiver lifted off its surface by ISM_LIFT
+// footprints passes too, within the relative tolerance: the lifted point's
+// ray meets what stands there, its own surface lies beyond it. Lambertian
+// receivers blur such leaks, and lifting them cost more in false shadows
+// than it saved (docs/accuracy.md, "The lifted ISM test").
+// Mirrored in renderer/readback.rs.
+const float ISM_LIFT = 0.5;
+
+float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
+    uint stored = imageLoad(ism, ism_texel(cell, ism_paraboloid(w, n), pc.tile)).r;
+    float depth = ism_texel_depth(stored) * pc.far;
+    if (dist <= depth + bias * dist + 1e-3) return 1.0;
+    float tolerance = ism_tolerance(dist, -dot(ng, w), ism_texel_facing(stored), pc.tile, pc.point_radius, bias);
+    if (dist > depth + tolerance) return 0.0;
+    if (!lifted) return 1.0;
+    vec3 up = x + ng * (ISM_LIFT * ism_footprint(dist, pc.tile, pc.point_radius)) - z;
+    float up_dist = length(up);
+    vec3 up_w = up / up_dist;
+    // (Lifted behind the VPL's plane: no texel holds it, nothing stands there.)
+    if (dot(up_w, n) <= 0.0) return 1.0;
+    uint up_stored = imageLoad(ism, ism_texel(cell, ism_paraboloid(up_w, n), pc.tile)).r;
+    return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + 1e-3 ? 1.0 : 0.0;
 }
 
 #ifdef EXACT_VISIBILITY
@@ -45,7 +65,10 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
     // The ISM test's relative tolerance, less for a narrow glossy lobe,
     // which shows a leak as a reflection (twin: indirect_bounded::ism_bias_for).
+    // A narrow lobe (alpha under 0.25) also takes the lifted test
+    // (twin: indirect_bounded::ism_test_for).
     float bias = lambertian ? pc.ism_bias : pc.ism_bias * clamp(4.0 * brdf_alpha(bx), 0.25, 1.0);
+    bool lifted = !lambertian && brdf_alpha(bx) < 0.25;
     VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);
     float spread_weight = 0.0;
     for (uint i = first; i < last; i += stride) {
@@ -65,7 +88,7 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
         // The VPL leaves its surface along its normal (it lies on it).
         float v = segment_free(z, n_z.xyz, x, ng) ? 1.0 : 0.0;
 #else
-        float v = ism_visible(floatBitsToUint(n_z.w), w, n_z.xyz, dist, -dot(ng, w), bias);
+        float v = ism_visible(floatBitsToUint(n_z.w), z, n_z.xyz, x, ng, w, dist, bias, lifted);
 #endif
         // Hidden from the VPL: neither BRDF is needed.
         if (v == 0.0) continue;

@@ -105,19 +105,40 @@ pub(crate) fn memory_bytes(
 /// before, at the same mean (measured: docs/accuracy.md, "Tuned constants").
 pub const ISM_BIAS: f32 = 0.08;
 
-/// The ISM test's relative tolerance at a receiver of BRDF `brdf`:
-/// [`ISM_BIAS`], or for a narrow glossy lobe (GGX alpha under 0.25) that
-/// times 4 alpha, at least a quarter of it. A tolerance of 0.16 x the
-/// distance (the default before 2026-11-29) let an occluder near the receiver through (a plinth 0.5 m in
-/// front of a floor point 3 m from the VPL); a diffuse receiver blurs such
-/// a leak over its hemisphere, a narrow lobe shows it as a bright
-/// reflection where the occluder should be (measured: docs/accuracy.md, "Tuned constants").
+/// How the ISM test treats a receiver (`ism_visible` in
+/// shaders/include/vpl_gather.glsl; [`ism_test_for`] picks it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IsmTest {
+    /// The relative depth tolerance (a fraction of the distance).
+    pub relative_bias: f32,
+    /// Whether the slope term is granted only where the receiver, lifted
+    /// off its surface by half a footprint, passes too: what stands on the
+    /// receiver's surface between the texel's centre ray and the receiver
+    /// (a plinth on a floor) then shadows it.
+    pub lifted: bool,
+}
+
+/// The ISM test at a receiver of BRDF `brdf`: [`ISM_BIAS`], or for a
+/// narrow glossy lobe (GGX alpha under 0.25) that times 4 alpha, at least
+/// a quarter of it, and the lifted test. A tolerance of 0.16 x the
+/// distance (the default before 2026-11-29) let an occluder near the
+/// receiver through (a plinth 0.5 m in front of a floor point 3 m from the
+/// VPL), and the slope term let through the plinth's foot; a diffuse
+/// receiver blurs such a leak over its hemisphere, a narrow lobe shows it
+/// as a bright reflection where the occluder should be (measured:
+/// docs/accuracy.md, "Tuned constants" and "The lifted ISM test").
 /// `shaders/include/vpl_gather.glsl` is the twin.
-pub fn ism_bias_for(brdf: &crate::cpu::brdf::Brdf) -> f32 {
+pub fn ism_test_for(brdf: &crate::cpu::brdf::Brdf) -> IsmTest {
     if brdf.is_lambertian() {
-        ISM_BIAS
+        IsmTest {
+            relative_bias: ISM_BIAS,
+            lifted: false,
+        }
     } else {
-        ISM_BIAS * (4.0 * brdf.alpha()).clamp(0.25, 1.0)
+        IsmTest {
+            relative_bias: ISM_BIAS * (4.0 * brdf.alpha()).clamp(0.25, 1.0),
+            lifted: brdf.alpha() < 0.25,
+        }
     }
 }
 

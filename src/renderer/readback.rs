@@ -9,6 +9,7 @@ use crate::cpu::vpl::Vpl;
 use crate::error::{Error, Result};
 use crate::layer::Layer;
 use crate::memory::{FrameMemory, MemoryReport};
+use crate::passes::indirect_bounded::IsmTest;
 use crate::passes::ism::Ism;
 use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
 use crate::passes::FrameView;
@@ -57,18 +58,23 @@ impl IsmReadback {
     /// The GPU's ISM visibility test, replayed on the CPU: is `x` visible from
     /// VPL `index` (at `vpl`) according to its imperfect shadow map? `normal`
     /// is the receiver's surface's (its geometric normal where a normal map
-    /// turns the shading normal), `relative_bias` its relative tolerance
-    /// ([`ism_bias_for`](crate::passes::indirect_bounded::ism_bias_for)).
+    /// turns the shading normal), `test` how its BRDF is tested
+    /// ([`ism_test_for`](crate::passes::indirect_bounded::ism_test_for)).
     pub fn visible(
         &self,
         index: usize,
         vpl: &Vpl,
         x: glam::Vec3,
         normal: glam::Vec3,
-        relative_bias: f32,
+        test: IsmTest,
     ) -> bool {
+        let relative_bias = test.relative_bias;
+        // ism_visible() in shaders/include/vpl_gather.glsl.
         let (texel, dist, w) = self.lookup(index, vpl, x);
-        let stored = self.depth[texel];
+        let depth = self.depth[texel] * self.far;
+        if dist <= depth + relative_bias * dist + 1e-3 {
+            return true;
+        }
         // ism_tolerance() in shaders/include/ism.glsl.
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
         let slope_of = |c: f32| {
@@ -80,8 +86,19 @@ impl IsmReadback {
         if facing >= 0.0 {
             slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
         }
-        let tolerance = relative_bias * dist + footprint * slope + 1e-3;
-        dist <= stored * self.far + tolerance
+        if dist > depth + relative_bias * dist + footprint * slope + 1e-3 {
+            return false;
+        }
+        if !test.lifted {
+            return true;
+        }
+        // The slope only if the receiver lifted off its surface passes too.
+        let lifted = x + normal * (ISM_LIFT * footprint);
+        if (lifted - vpl.position).dot(vpl.normal) <= 0.0 {
+            return true;
+        }
+        let (texel, dist, _) = self.lookup(index, vpl, lifted);
+        dist <= self.depth[texel] * self.far + relative_bias * dist + 1e-3
     }
 
     /// Whether the distance VPL `index`'s map stores where `x` lands lies
@@ -128,9 +145,11 @@ impl IsmReadback {
     }
 }
 
-/// ISM_CURVE and ISM_SLOPE_MARGIN in shaders/include/ism.glsl.
+/// ISM_CURVE and ISM_SLOPE_MARGIN in shaders/include/ism.glsl, ISM_LIFT in
+/// shaders/include/vpl_gather.glsl.
 const ISM_CURVE: f32 = 0.5;
 const ISM_SLOPE_MARGIN: f32 = 1.5;
+const ISM_LIFT: f32 = 0.5;
 
 /// An atlas texel's distance (divided by `far`) and facing (-1: not known),
 /// as `ism_pack` in shaders/include/ism.glsl packs them.
