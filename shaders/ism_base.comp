@@ -28,5 +28,5 @@ void main() {
     vec2 corner = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
     uint cell = floatBitsToUint(vpls[v].normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile);
-    imageStore(ism_depth, origin + ivec2(local), uvec4(ism_pack(corner.x * pc.depth_scale, corner.y)));
+    imageStore(ism_depth, origin + ivec2(local), uvec4(ism_pack(corner.x * pc.depth_scale, ism_facing_code(corner.y))));
 }

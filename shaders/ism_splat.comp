@@ -1,9 +1,9 @@
 #version 460
 // ISM point splatting: every VPL splats its own block of scene points (the
 // one its identity picks, position.w) into its paraboloid tile with atomicMin
-// on the packed distance and how squarely the point's surface faces the
-// VPL (ism_pack). Points come placed in world space (ism_points.comp; w:
-// their surface's packed normal, 0: a hidden object's).
+// on the packed distance and the point's surface normal (ism_pack). Points
+// come placed in world space (ism_points.comp; w: their surface's packed
+// normal, 0: a hidden object's).
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
@@ -31,16 +31,6 @@ layout(push_constant) uniform Push {
     float point_radius;  // world radius each point stands for
     float disc_reach;    // the widest disc's radius (m): ism_pack_disc's unit
 } pc;
-
-// The unit ray through the centre of a tile's texel (ism_paraboloid
-// inverted; t, b, n the VPL's basis), and |q|^2 of the texel's paraboloid
-// coordinate q (1 or more: at or beyond the horizon).
-vec3 centre_ray(ivec2 texel, vec3 t, vec3 b, vec3 n, out float q2) {
-    vec2 q = (vec2(texel) + 0.5) * (2.0 / float(pc.tile)) - 1.0;  // a power of two: exact
-    q2 = dot(q, q);
-    float z = (1.0 - q2) / (1.0 + q2);
-    return (t * q.x + b * q.y) * (1.0 + z) + n * z;
-}
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -95,6 +85,7 @@ void main() {
     vec3 t, b;
     orthonormal_basis(n, t, b);
     float plane = dot(d, normal);
+    uint code = ism_normal_code(normal);
     // The other texels the disc may cover: within r of the point's texel
     // and within its reach, inside the tile, visited as one box in one flat
     // loop (a SIMD group runs as many iterations as its largest box, not
@@ -119,21 +110,21 @@ void main() {
     float texel_footprint = dist * 4.0 / float(pc.tile);  // at the pole, the widest
     float own2 = max(radius2, texel_footprint * texel_footprint);
     float q2;
-    vec3 ray = centre_ray(center, t, b, n, q2);
+    vec3 ray = ism_centre_ray(center, pc.tile, t, b, n, q2);
     float dn = dot(ray, normal);
     float hit = plane / dn;
     vec3 miss = ray * hit - d;
     if (abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= own2 && dot(miss, clip_dir) <= clip_distance)
-        imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, abs(dn)));
+        imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, code));
     for (int k = 0; k < box.x * box.y; k++) {
-        ray = centre_ray(center + o, t, b, n, q2);
+        ray = ism_centre_ray(center + o, pc.tile, t, b, n, q2);
         dn = dot(ray, normal);
         hit = plane / dn;
         vec2 off = vec2(o) - within;
         miss = ray * hit - d;
         bool covers = (o.x != 0 || o.y != 0) && dot(off, off) <= reach2 && q2 < 1.0
             && abs(dn) >= 1e-3 && hit > 0.0 && dot(miss, miss) <= radius2 && dot(miss, clip_dir) <= clip_distance;
-        if (covers) imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, abs(dn)));
+        if (covers) imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, code));
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }
 }

@@ -112,20 +112,21 @@ fn exact_visibility_leaks_nothing_through_thin_walls() {
 
 /// Imperfect shadow maps (the default for a single frame) let light into
 /// the unlit room through its shared wall, 1 mm or 20 cm thick: measured
-/// 2026-11-29 at 3.0% (1 mm) and 1.2% (20 cm) of the image's mean on the
-/// other room's pixels (means 1.033 and 1.015 of the path tracer's), with
-/// ISM texels along their centre rays, a relative tolerance of 0.08 and
-/// discs as wide as their surface allows (4.1% and 2.3% before). Pinned
-/// below 1.5 times that, so that it can only get better.
+/// 2026-11-29 at 2.0% (1 mm) and 0.53% (20 cm) of the image's mean on the
+/// other room's pixels (means 1.023 and 1.009 of the path tracer's), since
+/// the test follows the plane of a stored wall that turns across the
+/// receiver's surface (3.0% and 1.2% before, means 1.033 and 1.015; 4.1%
+/// and 2.3% before ISM discs). Pinned below 1.5 times that, so that it can
+/// only get better; every thin scene's mean within issue 61's 3%.
 #[test]
 fn isms_leak_through_a_shared_wall_no_more_than_measured() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    // Every thin scene is reported; the rooms' leak is pinned.
+    // Every thin scene's mean is checked; the rooms' leak is pinned.
     for name in SCENES {
         let measured: f64 = match name {
-            "thin-two-rooms-1mm" => 0.030,
-            "thin-two-rooms-20cm" => 0.012,
+            "thin-two-rooms-1mm" => 0.020,
+            "thin-two-rooms-20cm" => 0.0053,
             _ => f64::NAN,
         };
         let scene = load(name);
@@ -142,6 +143,10 @@ fn isms_leak_through_a_shared_wall_no_more_than_measured() {
             assert!(pixels > 500, "{name}: only {pixels} unlit pixels");
             assert!(dark < 1.5 * measured, "{name}: unlit pixels at {dark}");
         }
+        assert!(
+            (ratio - 1.0).abs() < 0.03,
+            "{name}: ISMs' mean / path tracer {ratio}"
+        );
     }
     drop(renderer);
     assert_eq!(log.total(), 0, "validation messages");

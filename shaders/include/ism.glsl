@@ -78,27 +78,62 @@ ivec2 ism_texel(uint cell, vec2 uv, uint tile) {
 }
 
 // An atlas texel: the nearest distance (/ far, below ISM_DEPTH_RANGE) in
-// its high 24 bits, so that atomicMin keeps the nearest, and in its low 8
-// how squarely that surface faces the VPL: 1 + 254 |cos| between its
-// normal and the ray (0: not known, the ray-cast layer's).
+// its high 20 bits, so that atomicMin keeps the nearest, and in its low 12
+// what is known of the surface stored: 0 nothing; 1-255 how squarely it
+// faces the VPL, 1 + 254 |cos| between its normal and the ray (the
+// ray-cast layer's blocks); 256 and up its normal up to sign
+// (ism_normal_code), so that the test can follow its plane to the
+// receiver's ray (a splatted point's).
 const float ISM_DEPTH_RANGE = 4.0;
-const float ISM_DEPTH_STEPS = 16777215.0;  // 2^24 - 1
+const float ISM_DEPTH_STEPS = 1048575.0;  // 2^20 - 1
+const uint ISM_NORMAL_CODES = 256u;
 
-uint ism_pack(float depth, float facing) {
+uint ism_pack(float depth, uint code) {
     float q = clamp(depth * (ISM_DEPTH_STEPS / ISM_DEPTH_RANGE), 0.0, ISM_DEPTH_STEPS);
+    return (uint(q) << 12) | code;
+}
+
+uint ism_facing_code(float facing) {
     // (A facing that is not a number, from a degenerate transform, is not known.)
-    uint code = facing >= 0.0 ? 1u + uint(round(min(facing, 1.0) * 254.0)) : 0u;
-    return (uint(q) << 8) | code;
+    return facing >= 0.0 ? 1u + uint(round(min(facing, 1.0) * 254.0)) : 0u;
+}
+
+// A unit normal up to sign: turned to z >= 0, its octahedral map fills a
+// diamond, turned by 45 degrees to fill the square (about 1 degree a step),
+// in 6 bits a coordinate: 4-63 (60 steps) above the facing codes, then 0-63.
+uint ism_normal_code(vec3 m) {
+    vec2 e = octahedral(m.z < 0.0 ? -m : m);
+    vec2 q = round(clamp(vec2(e.x + e.y, e.x - e.y) * 0.5 + 0.5, 0.0, 1.0) * vec2(59.0, 63.0));
+    return ((4u + uint(q.x)) << 6) | uint(q.y);
 }
 
 float ism_texel_depth(uint texel) {
-    return float(texel >> 8) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
+    return float(texel >> 12) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
 }
 
-// |cos| of the stored surface to the VPL's ray, or -1 if not known.
+// The stored surface's normal (up to sign), if the texel has one.
+bool ism_texel_normal(uint texel, out vec3 m) {
+    uint code = texel & 4095u;
+    vec2 q = vec2(float(int(code >> 6u) - 4), float(code & 63u)) * vec2(2.0 / 59.0, 2.0 / 63.0) - 1.0;
+    m = from_octahedral(vec2(q.x + q.y, q.x - q.y) * 0.5);
+    return code >= ISM_NORMAL_CODES;
+}
+
+// |cos| of the stored surface to the VPL's ray where only that is known
+// (codes 1-255), or -1.
 float ism_texel_facing(uint texel) {
-    uint code = texel & 255u;
-    return code == 0u ? -1.0 : float(code - 1u) * (1.0 / 254.0);
+    uint code = texel & 4095u;
+    return code == 0u || code >= ISM_NORMAL_CODES ? -1.0 : float(code - 1u) * (1.0 / 254.0);
+}
+
+// The unit ray through the centre of a tile's texel `local` (ism_paraboloid
+// inverted; t, b, n the VPL's basis), and |q|^2 of the texel's paraboloid
+// coordinate q (1 or more: at or beyond the horizon).
+vec3 ism_centre_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n, out float q2) {
+    vec2 q = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact
+    q2 = dot(q, q);
+    float z = (1.0 - q2) / (1.0 + q2);
+    return (t * q.x + b * q.y) * (1.0 + z) + n * z;
 }
 
 // tan of the angle whose cosine is c, c clamped to [0.1, 1].

@@ -13,27 +13,65 @@
 // ISM test for a receiver x (geometric normal ng) at distance `dist` along
 // unit `w` from the VPL at z (normal n). Within the relative tolerance
 // alone it is visible. Beyond it, the slope term (ism_tolerance) covers the
-// receiver's own surface across the texel, but also whatever stands on
-// that surface between the texel's centre ray and the receiver: the texels
-// at the foot of a plinth on a floor store the floor behind it, and the
-// floor before it reflects the VPLs the plinth hides. With `lifted` (a
-// narrow glossy lobe, which shows such a leak as a reflection) the slope
-// is granted only if the receiver lifted off its surface by ISM_LIFT
-// footprints passes too, within the relative tolerance: the lifted point's
-// ray meets what stands there, its own surface lies beyond it. Lambertian
-// receivers blur such leaks, and lifting them cost more in false shadows
-// than it saved (docs/accuracy.md, "The lifted ISM test").
-// Mirrored in renderer/readback.rs.
+// receiver's own surface across the texel, stored along the texel's centre
+// ray; but it also let through a wall that faces the VPL at a slant from
+// the floor behind it, up to several footprints behind (two rooms sharing
+// a thin wall). So where the texel knows the normal of the surface it
+// stores and that surface turns across the receiver's (|cos| under
+// ISM_PLANE_MAX_COS: it cannot be the receiver's own), its plane is
+// followed from the centre ray to the receiver's ray instead, and the
+// receiver passes within the relative tolerance plus ISM_PLANE_CURVE
+// footprints. (Followed everywhere, the plane shadowed curved surfaces
+// from themselves: docs/accuracy.md, "The ISM test follows the stored
+// plane".) Neither tells a receiver from what stands on its own surface
+// between the centre ray and it: the texels at the foot of a plinth on a
+// floor store the floor behind it, and the floor before it reflects the
+// VPLs the plinth hides. With `lifted` (a narrow glossy lobe, which shows
+// such a leak as a reflection) the receiver passes only if, lifted off its
+// surface by ISM_LIFT footprints, it also passes within the relative
+// tolerance: the lifted point's ray meets what stands there, its own
+// surface lies beyond it. Lambertian receivers blur such leaks, and
+// lifting them cost more in false shadows than it saved (docs/accuracy.md,
+// "The lifted ISM test"). Mirrored in renderer/readback.rs.
 const float ISM_LIFT = 0.5;
+const float ISM_PLANE_CURVE = 0.5;
+const float ISM_PLANE_MAX_COS = 0.3;
+// Below this |cos| between the receiver's ray and the stored plane, the
+// plane is not followed (its distance along the ray is ill-conditioned).
+const float ISM_PLANE_MIN_COS = 0.05;
 
 float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
-    uint stored = imageLoad(ism, ism_texel(cell, ism_paraboloid(w, n), pc.tile)).r;
+    vec2 uv = ism_paraboloid(w, n);
+    uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
     float depth = ism_texel_depth(stored) * pc.far;
-    if (dist <= depth + bias * dist + 1e-3) return 1.0;
-    float tolerance = ism_tolerance(dist, -dot(ng, w), ism_texel_facing(stored), pc.tile, pc.point_radius, bias);
-    if (dist > depth + tolerance) return 0.0;
+    float relative = bias * dist + 1e-3;
+    if (dist <= depth + relative) return 1.0;
+    float footprint = ism_footprint(dist, pc.tile, pc.point_radius);
+    float cos_x = -dot(ng, w);
+    // Beyond the slope term at the receiver's own slope, its bound: hidden
+    // (most occluded pairs end here, before the stored normal is decoded).
+    if (dist > depth + relative + footprint * ism_slope(cos_x)) return 0.0;
+    vec3 m;
+    bool has_normal = ism_texel_normal(stored, m);
+    bool followed = false;
+    bool within = false;
+    if (has_normal && abs(dot(m, ng)) < ISM_PLANE_MAX_COS) {
+        vec3 t, b;
+        orthonormal_basis(n, t, b);
+        float q2;
+        ivec2 local = clamp(ivec2(uv * float(pc.tile)), ivec2(0), ivec2(int(pc.tile) - 1));
+        float cm = dot(ism_centre_ray(local, pc.tile, t, b, n, q2), m);
+        float wm = dot(w, m);
+        followed = abs(wm) > ISM_PLANE_MIN_COS && cm * wm > 0.0;
+        within = dist <= depth * cm / wm + relative + ISM_PLANE_CURVE * footprint;
+    }
+    if (!followed) {
+        float facing = has_normal ? abs(dot(m, w)) : ism_texel_facing(stored);
+        within = dist <= depth + ism_tolerance(dist, cos_x, facing, pc.tile, pc.point_radius, bias);
+    }
+    if (!within) return 0.0;
     if (!lifted) return 1.0;
-    vec3 up = x + ng * (ISM_LIFT * ism_footprint(dist, pc.tile, pc.point_radius)) - z;
+    vec3 up = x + ng * (ISM_LIFT * footprint) - z;
     float up_dist = length(up);
     vec3 up_w = up / up_dist;
     // (Lifted behind the VPL's plane: no texel holds it, nothing stands there.)

@@ -48,8 +48,12 @@ pub struct IsmReadback {
     /// The atlas, as distances divided by `far`.
     pub depth: Vec<f32>,
     /// Per texel, |cos| between the VPL's ray and the normal of the surface
-    /// it stores (-1: not known).
+    /// it stores where only that is known (the ray-cast layer's blocks; -1:
+    /// not known, or see `normal`).
     pub facing: Vec<f32>,
+    /// Per texel, the normal (up to sign) of the surface it stores, where
+    /// known (a splatted point's).
+    pub normal: Vec<Option<glam::Vec3>>,
     /// World radius of one splatted point.
     pub point_radius: f32,
 }
@@ -75,18 +79,38 @@ impl IsmReadback {
         if dist <= depth + relative_bias * dist + 1e-3 {
             return true;
         }
-        // ism_tolerance() in shaders/include/ism.glsl.
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
+        let relative = relative_bias * dist + 1e-3;
         let slope_of = |c: f32| {
             let c = c.clamp(0.1, 1.0);
             (1.0 - c * c).sqrt() / c
         };
-        let mut slope = slope_of(-normal.dot(w));
-        let facing = self.facing[texel];
-        if facing >= 0.0 {
-            slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
+        // Beyond the slope term's bound, the receiver's own slope: hidden.
+        if dist > depth + relative + footprint * slope_of(-normal.dot(w)) {
+            return false;
         }
-        if dist > depth + relative_bias * dist + footprint * slope + 1e-3 {
+        // The stored plane along the receiver's ray, where it is known and
+        // turns across the receiver's surface.
+        let along = self.normal[texel].and_then(|m| {
+            let (wm, cm) = (w.dot(m), self.centre_ray(vpl, texel).dot(m));
+            (m.dot(normal).abs() < ISM_PLANE_MAX_COS
+                && wm.abs() > ISM_PLANE_MIN_COS
+                && cm * wm > 0.0)
+                .then(|| depth * cm / wm)
+        });
+        let within = match along {
+            Some(along) => dist <= along + relative + ISM_PLANE_CURVE * footprint,
+            None => {
+                // ism_tolerance() in shaders/include/ism.glsl.
+                let mut slope = slope_of(-normal.dot(w));
+                let facing = self.normal[texel].map_or(self.facing[texel], |m| m.dot(w).abs());
+                if facing >= 0.0 {
+                    slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
+                }
+                dist <= depth + relative + footprint * slope
+            }
+        };
+        if !within {
             return false;
         }
         if !test.lifted {
@@ -114,14 +138,22 @@ impl IsmReadback {
     /// and the distance (m) the texel stores.
     pub fn texel_centre_ray(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (glam::Vec3, f32) {
         let (texel, _, _) = self.lookup(index, vpl, x);
+        (self.centre_ray(vpl, texel), self.depth[texel] * self.far)
+    }
+
+    /// The unit ray through the centre of atlas texel `texel` of VPL
+    /// `index`'s tile (ism_centre_ray()).
+    fn centre_ray(&self, vpl: &Vpl, texel: usize) -> glam::Vec3 {
         let tile = self.tile as usize;
         let local = glam::Vec2::new(
             (texel % self.width as usize % tile) as f32,
             (texel / self.width as usize % tile) as f32,
         );
-        let uv = (local + glam::Vec2::splat(0.5)) / self.tile as f32;
-        let ray = crate::cpu::ism_rays::paraboloid_direction(vpl.normal, uv);
-        (ray, self.depth[texel] * self.far)
+        let q = (local + glam::Vec2::splat(0.5)) * (2.0 / self.tile as f32) - glam::Vec2::ONE;
+        let q2 = q.length_squared();
+        let z = (1.0 - q2) / (1.0 + q2);
+        let (t, b) = crate::cpu::sampling::basis(vpl.normal);
+        (t * q.x + b * q.y) * (1.0 + z) + vpl.normal * z
     }
 
     /// The atlas texel where `x` lands in VPL `index`'s map, its distance
@@ -151,19 +183,34 @@ const ISM_CURVE: f32 = 0.5;
 const ISM_SLOPE_MARGIN: f32 = 1.5;
 const ISM_LIFT: f32 = 0.5;
 
-/// An atlas texel's distance (divided by `far`) and facing (-1: not known),
-/// as `ism_pack` in shaders/include/ism.glsl packs them.
-fn ism_unpack(texel: u32) -> (f32, f32) {
-    let depth = (texel >> 8) as f32 * (4.0 / 16_777_215.0);
-    let code = texel & 255;
-    (
-        depth,
-        if code == 0 {
-            -1.0
-        } else {
-            (code - 1) as f32 / 254.0
-        },
-    )
+/// ISM_PLANE_CURVE, ISM_PLANE_MIN_COS and ISM_PLANE_MAX_COS in
+/// shaders/include/vpl_gather.glsl.
+const ISM_PLANE_CURVE: f32 = 0.5;
+const ISM_PLANE_MIN_COS: f32 = 0.05;
+const ISM_PLANE_MAX_COS: f32 = 0.3;
+
+/// An atlas texel's distance (divided by `far`), facing (-1: not known) and
+/// normal, as `ism_pack` in shaders/include/ism.glsl packs them.
+fn ism_unpack(texel: u32) -> (f32, f32, Option<glam::Vec3>) {
+    let depth = (texel >> 12) as f32 * (4.0 / 1_048_575.0);
+    let code = texel & 4095;
+    match code {
+        0 => (depth, -1.0, None),
+        1..=255 => (depth, (code - 1) as f32 / 254.0, None),
+        _ => {
+            // ism_texel_normal(): a turned octahedral map, 6 bits a coordinate.
+            let uv = glam::Vec2::new(
+                ((code >> 6) as f32 - 4.0) * (2.0 / 59.0),
+                (code & 63) as f32 * (2.0 / 63.0),
+            ) - glam::Vec2::ONE;
+            let e = glam::Vec2::new(uv.x + uv.y, uv.x - uv.y) * 0.5;
+            let mut n = glam::Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+            let t = (-n.z).max(0.0);
+            n.x += if n.x >= 0.0 { -t } else { t };
+            n.y += if n.y >= 0.0 { -t } else { t };
+            (depth, -1.0, Some(n.normalize()))
+        }
+    }
 }
 
 /// A rendered frame: the final image, its component layers and timings.
@@ -514,7 +561,12 @@ pub(crate) fn read_frame(read: Vec<(Readback, Vec<u8>)>, record: FrameRecord<'_>
 impl IsmReadback {
     /// The atlas `ism` read back as `texels` (packed distance and facing).
     fn new(ism: &Ism, texels: Vec<u32>) -> Self {
-        let (depth, facing) = texels.into_iter().map(ism_unpack).unzip();
+        let (mut depth, mut facing, mut normal) = (vec![], vec![], vec![]);
+        for (d, f, n) in texels.into_iter().map(ism_unpack) {
+            depth.push(d);
+            facing.push(f);
+            normal.push(n);
+        }
         IsmReadback {
             width: ism.atlas.desc.width,
             height: ism.atlas.desc.height,
@@ -523,6 +575,7 @@ impl IsmReadback {
             far: ism.far,
             depth,
             facing,
+            normal,
             point_radius: ism.point_radius,
         }
     }
