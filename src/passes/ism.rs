@@ -29,9 +29,9 @@ pub struct IsmPass {
 
 /// One frame's ISM atlas and inputs.
 pub struct Ism {
-    /// The atlas: per texel the nearest distance divided by `far` and how
-    /// squarely its surface faces the VPL (r32ui, `ism_pack` in
-    /// shaders/include/ism.glsl), what lighting reads.
+    /// The atlas: per texel the nearest distance divided by `far` and that
+    /// surface's normal, or how squarely it faces the VPL (r32ui,
+    /// `ism_pack` in shaders/include/ism.glsl), what lighting reads.
     pub atlas: Image,
     /// The VPLs (`GpuVpl`), in the order of their interleaving subsets;
     /// viewed as RGBA32F texels (three per VPL) by the gathers.
