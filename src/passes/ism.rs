@@ -34,7 +34,7 @@ pub struct Ism {
     /// `ism_pack` in shaders/include/ism.glsl), what lighting reads.
     pub atlas: Image,
     /// The VPLs (`GpuVpl`), in the order of their interleaving subsets;
-    /// viewed as RGBA32F texels (three per VPL) by the gathers.
+    /// viewed as RGBA32F texels (five per VPL, `VPL_TEXELS`) by the gathers.
     pub vpls: BufferView,
     /// Where each interleaving subset starts in `vpls`, and where the last
     /// ends (`u32`).
