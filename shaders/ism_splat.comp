@@ -59,8 +59,10 @@ void main() {
     if (cos_theta <= 0.0) return;
     vec2 uv = ism_paraboloid(w, n);
     // Footprint in texels: the paraboloid maps a small angle a near the pole
-    // to a/4 of the tile; larger splats near the VPL close holes.
-    float radius_texels = clamp(radius / dist * float(pc.tile) * 0.25, 0.0, 3.0);
+    // to a/4 of the tile; larger splats near the VPL close holes, up to 2
+    // texels (3 before the ISM test followed the stored plane, whose cost
+    // this pays: docs/performance.md).
+    float radius_texels = clamp(radius / dist * float(pc.tile) * 0.25, 0.0, 2.0);
     int r = int(ceil(radius_texels));
     vec3 normal = ism_unpack_normal(normal_bits);
     uint cell = floatBitsToUint(vpl.normal.w);
