@@ -372,9 +372,9 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
 /// before ISM discs, 5.5, 2.5, 1.3, 0.16 and 8.0, 3.6, 2.6, 0.59; with the
 /// receiver's slope 32, 7.2, 1.8, 0.20; before the bias for narrow lobes
 /// 43, 24, 19, 3.1). Since the test follows the stored plane where it
-/// turns across the receiver's (`ism_visible`), with discs of at most 1.2
-/// point radii: 1.23, 0.76, 0.80, 0.60; 0.90; 0.65, and at 0.3 1.35, 0.51,
-/// 0.79, 0.72; 0.76; 0.73. Issue 61's
+/// turns across the receiver's (`ism_visible`), with discs of at most
+/// 15/13 point radii: 1.23, 0.76, 0.73, 0.54; 0.90; 0.59, and at 0.3 1.35,
+/// 0.51, 0.76, 0.68; 0.76; 0.70. Issue 61's
 /// limit: 1.5x in every band. What is left
 /// errs dark, away from the plinth: the lifted test's false shadows (the
 /// lifted point's texel is not the receiver's). docs/accuracy.md.

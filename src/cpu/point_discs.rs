@@ -29,9 +29,11 @@ pub const FOLD_COS: f32 = 0.5;
 
 /// The widest disc, in point radii: on a flat surface, clipped at its
 /// edges (measured: docs/accuracy.md, "ISM discs as wide as their surface
-/// allows"; 1.2 rather than 1.25 since the ISM test follows the stored
-/// plane, whose cost the narrower discs pay: docs/performance.md).
-pub const MAX_DISC_SCALE: f32 = 1.2;
+/// allows"; 15/13, about 1.15, rather than 1.25 since the ISM test
+/// follows the stored plane, whose cost the narrower discs pay:
+/// docs/performance.md). A whole number of 15ths of it (`pack_disc`) is
+/// one point radius, so that discs that do not widen keep theirs.
+pub const MAX_DISC_SCALE: f32 = 15.0 / 13.0;
 
 /// How far a disc may stray from a curved surface, in point radii: a disc
 /// of radius rho on a surface of curvature k strays k rho^2 / 2.
