@@ -150,6 +150,11 @@ float ism_slope(float c) {
 const float ISM_SLOPE_MARGIN = 1.5;
 const float ISM_CURVE = 0.5;
 
+// One splat footprint at distance `dist`: a texel or a point, whichever is larger [m].
+float ism_footprint(float dist, uint tile, float point_radius) {
+    return max(dist * 4.0 / float(tile), point_radius);
+}
+
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change
 // of a surface across one splat footprint (a texel or a point, whichever is
 // larger) at its slope to the VPL's ray. The receiver's own surface lands
@@ -160,11 +165,6 @@ const float ISM_CURVE = 0.5;
 // 0), the slope is at most that surface's (with a margin, above): the
 // receiver's own surface still gets what it needs, and an occluder facing
 // the VPL shadows (measured: docs/accuracy.md, "Tuned constants"). Mirrored in renderer/readback.rs.
-// One splat footprint at distance `dist`: a texel or a point, whichever is larger [m].
-float ism_footprint(float dist, uint tile, float point_radius) {
-    return max(dist * 4.0 / float(tile), point_radius);
-}
-
 float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
     float footprint = ism_footprint(dist, tile, point_radius);
     float slope = ism_slope(cos_x);

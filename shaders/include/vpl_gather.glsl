@@ -102,9 +102,8 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
     bool lambertian = brdf_is_lambertian(bx);
     vec3 diffuse = brdf_diffuse_color(bx) / PI;
     // The ISM test's relative tolerance, less for a narrow glossy lobe,
-    // which shows a leak as a reflection (twin: indirect_bounded::ism_bias_for).
-    // A narrow lobe (alpha under 0.25) also takes the lifted test
-    // (twin: indirect_bounded::ism_test_for).
+    // which shows a leak as a reflection, and which (alpha under 0.25) also
+    // takes the lifted test (twin: indirect_bounded::ism_test_for).
     float bias = lambertian ? pc.ism_bias : pc.ism_bias * clamp(4.0 * brdf_alpha(bx), 0.25, 1.0);
     bool lifted = !lambertian && brdf_alpha(bx) < 0.25;
     VplLight light = VplLight(vec3(0.0), vec3(0.0), 0.0);

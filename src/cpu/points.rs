@@ -229,6 +229,16 @@ pub(crate) fn octahedral(n: Vec3) -> Option<Vec2> {
     })
 }
 
+/// The unit direction whose octahedral map is `e` in [-1, 1]^2
+/// (`from_octahedral` in shaders/include/octahedral.glsl).
+pub(crate) fn from_octahedral(e: Vec2) -> Vec3 {
+    let mut n = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
+    let t = (-n.z).max(0.0);
+    n.x += if n.x >= 0.0 { -t } else { t };
+    n.y += if n.y >= 0.0 { -t } else { t };
+    n.normalize()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -236,11 +246,7 @@ mod tests {
     /// `ism_unpack_normal` in shaders/include/ism.glsl.
     fn unpack_normal(bits: u32) -> Vec3 {
         let e = Vec2::new(((bits >> 15) & 32767) as f32, (bits & 32767) as f32) * (2.0 / 32767.0) - 1.0;
-        let mut n = Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
-        let t = (-n.z).max(0.0);
-        n.x += if n.x >= 0.0 { -t } else { t };
-        n.y += if n.y >= 0.0 { -t } else { t };
-        n.normalize()
+        from_octahedral(e)
     }
 
     #[test]

@@ -86,7 +86,8 @@ impl IsmReadback {
             (1.0 - c * c).sqrt() / c
         };
         // Beyond the slope term's bound, the receiver's own slope: hidden.
-        if dist > depth + relative + footprint * slope_of(-normal.dot(w)) {
+        let own_slope = slope_of(-normal.dot(w));
+        if dist > depth + relative + footprint * own_slope {
             return false;
         }
         // The stored plane along the receiver's ray, where it is known and
@@ -102,7 +103,7 @@ impl IsmReadback {
             Some(along) => dist <= along + relative + ISM_PLANE_CURVE * footprint,
             None => {
                 // ism_tolerance() in shaders/include/ism.glsl.
-                let mut slope = slope_of(-normal.dot(w));
+                let mut slope = own_slope;
                 let facing = self.normal[texel].map_or(self.facing[texel], |m| m.dot(w).abs());
                 if facing >= 0.0 {
                     slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
@@ -141,8 +142,8 @@ impl IsmReadback {
         (self.centre_ray(vpl, texel), self.depth[texel] * self.far)
     }
 
-    /// The unit ray through the centre of atlas texel `texel` of VPL
-    /// `index`'s tile (ism_centre_ray()).
+    /// The unit ray through the centre of atlas texel `texel`, in the tile
+    /// of `vpl` (ism_centre_ray()).
     fn centre_ray(&self, vpl: &Vpl, texel: usize) -> glam::Vec3 {
         let tile = self.tile as usize;
         let local = glam::Vec2::new(
@@ -204,11 +205,7 @@ fn ism_unpack(texel: u32) -> (f32, f32, Option<glam::Vec3>) {
                 (code & 63) as f32 * (2.0 / 63.0),
             ) - glam::Vec2::ONE;
             let e = glam::Vec2::new(uv.x + uv.y, uv.x - uv.y) * 0.5;
-            let mut n = glam::Vec3::new(e.x, e.y, 1.0 - e.x.abs() - e.y.abs());
-            let t = (-n.z).max(0.0);
-            n.x += if n.x >= 0.0 { -t } else { t };
-            n.y += if n.y >= 0.0 { -t } else { t };
-            (depth, -1.0, Some(n.normalize()))
+            (depth, -1.0, Some(crate::cpu::points::from_octahedral(e)))
         }
     }
 }
@@ -559,7 +556,8 @@ pub(crate) fn read_frame(read: Vec<(Readback, Vec<u8>)>, record: FrameRecord<'_>
 }
 
 impl IsmReadback {
-    /// The atlas `ism` read back as `texels` (packed distance and facing).
+    /// The atlas `ism` read back as `texels` (packed distance and normal or
+    /// facing, `ism_unpack`).
     fn new(ism: &Ism, texels: Vec<u32>) -> Self {
         let (mut depth, mut facing, mut normal) = (vec![], vec![], vec![]);
         for (d, f, n) in texels.into_iter().map(ism_unpack) {
