@@ -343,7 +343,9 @@ impl Pass for IsmPass {
         };
         // One invocation per (texel, VPL).
         let texels = Work::Threads([ism.tile * ism.tile, ism.vpl_count, 1]);
+        let part = profiler.begin(rec.cmd, "ism_splat/layer");
         self.base.dispatch(rec, pool, &bindings, &push, texels)?;
+        profiler.end(rec.cmd, part);
         let push = ism_splat_comp::Push {
             vpl_count: ism.vpl_count,
             points_per_vpl: ism.points_per_vpl,
@@ -361,7 +363,9 @@ impl Pass for IsmPass {
         };
         // One invocation per (point, VPL).
         let points = Work::Threads([ism.points_per_vpl, ism.vpl_count, 1]);
+        let part = profiler.begin(rec.cmd, "ism_splat/points");
         self.splat.dispatch(rec, pool, &bindings, &push, points)?;
+        profiler.end(rec.cmd, part);
         profiler.end(rec.cmd, scope);
         Ok(())
     }
