@@ -310,12 +310,11 @@ impl Default for RenderSettings {
                 ..Default::default()
             },
             ism_tile: 32,
-            // 1280 fills more of the discs' holes (open box 64 frames,
-            // relMSE 4x4 0.00114 -> 0.00102) for what the cheaper splat
-            // saved, but the defaults' 8192 VPLs at 3840x2160 then need 160
-            // MiB of points, past lavapipe's 128 MiB storage buffers
-            // (docs/accuracy.md, "Points the splat pays for").
-            points_per_vpl: 1024,
+            // 1280 (1024 before the splat's loop and layer got cheaper)
+            // fills more of the discs' holes: open box 64 frames, relMSE
+            // 4x4 0.00114 -> 0.00102; 1536 cost more than the frame had
+            // left (docs/accuracy.md, "Points the splat pays for").
+            points_per_vpl: 1280,
             gather: Gather::Interleaved,
             visibility: Visibility::Auto,
             interleave: 4,

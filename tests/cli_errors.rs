@@ -233,6 +233,20 @@ fn bad_instant_radiosity_parameters() {
         &[],
         "exceeds the device limit",
     );
+    // VPLs share blocks of points beyond 256: 256 blocks of 40000 points
+    // (156 MiB) pass lavapipe's 128 MiB storage buffers by no count of VPLs.
+    fails_with(
+        &[
+            "--size",
+            "8x8",
+            "--vpls",
+            "256",
+            "--points-per-vpl",
+            "40000",
+        ],
+        &[],
+        "maxStorageBufferRange",
+    );
     fails_with(&["--size", "8x8", "--ism-res", "48"], &[], "power of two");
     fails_with(&["--size", "8x8", "--accumulate", "0"], &[], "--accumulate");
     fails_with(

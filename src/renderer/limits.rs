@@ -279,15 +279,18 @@ pub(super) fn check_settings(
             "points_per_vpl must be at least 1".into(),
         ));
     }
-    // Every ISM point is 16 bytes in one storage buffer.
+    // The VPLs' blocks of ISM points (they share blocks beyond
+    // MAX_POINT_BLOCKS), 16 bytes a point, lie in one storage buffer.
     let max_range = device.limits().max_storage_buffer_range as u64;
-    let points = settings.vpl.count as u64 * settings.points_per_vpl as u64;
-    if points * 16 > max_range {
+    let blocks = crate::scene_cache::point_blocks(settings.vpl.count) as u64;
+    let points = blocks * settings.points_per_vpl as u64;
+    if settings.vpl.count > 0 && points * 16 > max_range {
         return Err(Error::InvalidParameter(format!(
-            "{} VPLs x {} points per VPL need {} MiB of ISM points; this device's storage \
-             buffers hold at most {} MiB (maxStorageBufferRange): use fewer VPLs or points",
-            settings.vpl.count,
+            "{blocks} blocks of {} ISM points (one per VPL, up to {}) need {} MiB; this \
+             device's storage buffers hold at most {} MiB (maxStorageBufferRange): use fewer \
+             points per VPL",
             settings.points_per_vpl,
+            crate::scene_cache::MAX_POINT_BLOCKS,
             (points * 16) >> 20,
             max_range >> 20
         )));
