@@ -310,11 +310,12 @@ impl Default for RenderSettings {
                 ..Default::default()
             },
             ism_tile: 32,
-            // 1280 (1024 before the splat's loop and layer got cheaper)
-            // fills more of the discs' holes: open box 64 frames, relMSE
-            // 4x4 0.00114 -> 0.00102; 1536 cost more than the frame had
-            // left (docs/accuracy.md, "Points the splat pays for").
-            points_per_vpl: 1280,
+            // 1280 fill more of the discs' holes (open box 64 frames,
+            // relMSE 4x4 0.00114 -> 0.00102), filling one-texel holes does
+            // more (0.00093) without the 1.4 bytes a pixel at 1920x1080 and
+            // the darker curved shadows (docs/accuracy.md, "Holes filled
+            // between two texels of one plane").
+            points_per_vpl: 1024,
             gather: Gather::Interleaved,
             visibility: Visibility::Auto,
             interleave: 4,

@@ -14,7 +14,7 @@ use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::settings::Visibility;
-use crate::shaders::{ism_base_comp, ism_points_comp, ism_splat_comp};
+use crate::shaders::{ism_base_comp, ism_fill_comp, ism_points_comp, ism_splat_comp};
 use crate::vk::{
     Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
     ImageDesc, Work,
@@ -25,6 +25,7 @@ pub struct IsmPass {
     place: ComputeKernel<ism_points_comp::Interface>,
     base: ComputeKernel<ism_base_comp::Interface>,
     splat: ComputeKernel<ism_splat_comp::Interface>,
+    fill: ComputeKernel<ism_fill_comp::Interface>,
 }
 
 /// One frame's ISM atlas and inputs.
@@ -116,6 +117,7 @@ impl IsmPass {
             place: ComputeKernel::new(device)?,
             base: ComputeKernel::new(device)?,
             splat: ComputeKernel::new(device)?,
+            fill: ComputeKernel::new(device)?,
         })
     }
 }
@@ -279,12 +281,14 @@ impl Pass for IsmPass {
         Ok(true)
     }
 
-    /// A placing, a base and a splat set.
+    /// A placing, a base and a splat set, and a fill set per parity.
     fn set_layouts(&self, _: &Ism) -> Vec<&DescriptorSetLayout> {
         vec![
             self.place.set_layout(),
             self.base.set_layout(),
             self.splat.set_layout(),
+            self.fill.set_layout(),
+            self.fill.set_layout(),
         ]
     }
 
@@ -366,6 +370,26 @@ impl Pass for IsmPass {
         let points = Work::Threads([ism.points_per_vpl, ism.vpl_count, 1]);
         let part = profiler.begin(rec.cmd, "ism_splat/points");
         self.splat.dispatch(rec, pool, &bindings, &push, points)?;
+        profiler.end(rec.cmd, part);
+        // Fill one-texel holes, one checkerboard parity after the other.
+        let part = profiler.begin(rec.cmd, "ism_splat/fill");
+        let bindings = ism_fill_comp::Bindings {
+            ism_depth: &ism.atlas,
+            vpls: &ism.vpls.buffer,
+        };
+        for parity in 0..2 {
+            let push = ism_fill_comp::Push {
+                vpl_count: ism.vpl_count,
+                tile: ism.tile,
+                parity,
+                far: ism.far,
+                point_radius: ism.point_radius,
+            };
+            // One invocation per (run of up to 16 texels in a row, VPL).
+            let runs = ism.tile * ism.tile / ism.tile.min(16);
+            let texels = Work::Threads([runs, ism.vpl_count, 1]);
+            self.fill.dispatch(rec, pool, &bindings, &push, texels)?;
+        }
         profiler.end(rec.cmd, part);
         profiler.end(rec.cmd, scope);
         Ok(())

@@ -1,0 +1,112 @@
+#version 460
+// ISM hole filling, after the splat: a texel that no disc of the surface
+// around it reached holds whatever lies behind (a hole in an occluder's
+// splats, the commonest leak: docs/accuracy.md, "Holes filled between
+// two texels of one plane"). Where the two texels either side of it (left
+// and right, or above and below) lie nearer and hold one plane (normals
+// within ISM_FILL_COS) that, followed to its centre ray, lies more than a
+// footprint nearer than what it holds, both agreeing there within
+// ISM_FILL_AGREE footprints, it takes that plane. One checkerboard parity
+// per dispatch, in place: a texel reads only the other parity's, so the
+// result does not depend on the order invocations run in (the second
+// dispatch reads what the first filled).
+#include "ism.glsl"
+
+layout(local_size_x = 64) in;
+
+const float ISM_FILL_COS = 0.99;
+const float ISM_FILL_AGREE = 0.5;
+
+layout(set = 0, binding = 0, r32ui) uniform uimage2D ism_depth;
+layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
+
+layout(push_constant) uniform Push {
+    uint vpl_count;
+    uint tile;
+    uint parity;         // which texels this dispatch fills: (x + y) % 2
+    float far;           // distances are stored divided by this
+    float point_radius;  // world radius each point stands for
+} pc;
+
+// The distance along centre ray c0 to the plane of normal m that texel
+// `stored` holds along its own centre ray c (0 where that is ill-posed).
+float plane_along(uint stored, vec3 m, vec3 c, vec3 c0) {
+    float cm = dot(c, m);
+    float wm = dot(c0, m);
+    return abs(wm) > 0.05 && cm * wm > 0.0 ? ism_texel_depth(stored) * pc.far * cm / wm : 0.0;
+}
+
+// Whether the two texels either side of one that holds `held` (m) may
+// fill it: both hold a normal and lie more than half a footprint nearer
+// (most texels end here, before any ray is made).
+bool may_fill(uint s1, uint s2, float held, float footprint) {
+    float nearer = max(ism_texel_depth(s1), ism_texel_depth(s2)) * pc.far;
+    return (s1 & 4095u) >= ISM_NORMAL_CODES && (s2 & 4095u) >= ISM_NORMAL_CODES
+        && nearer < held - 0.5 * footprint;
+}
+
+// The plane texels s1 and s2 either side of `local` (along `step`) hold,
+// followed to its centre ray c0; 0 where they hold no one plane there.
+float pair_along(uint s1, uint s2, ivec2 local, ivec2 step, vec3 c0, vec3 t, vec3 b, vec3 n, float footprint) {
+    vec3 m1, m2;
+    ism_texel_normal(s1, m1);
+    ism_texel_normal(s2, m2);
+    if (abs(dot(m1, m2)) < ISM_FILL_COS) return 0.0;
+    float q2;
+    float a1 = plane_along(s1, m1, ism_centre_ray(local - step, pc.tile, t, b, n, q2), c0);
+    float a2 = plane_along(s2, m2, ism_centre_ray(local + step, pc.tile, t, b, n, q2), c0);
+    return a1 > 0.0 && a2 > 0.0 && abs(a1 - a2) <= ISM_FILL_AGREE * footprint ? 0.5 * (a1 + a2) : 0.0;
+}
+
+void main() {
+    // One invocation fills the texels of this parity in a row of a tile's
+    // `run` texels (up to 16: eight of them), loading each texel once but
+    // those above and below (an invocation's overhead and its loads were
+    // most of the pass, cornell 320x240: 20.5 ms at one texel an
+    // invocation, 11.6 at runs of 8, 9.8 at 16; docs/performance.md).
+    uint run = min(pc.tile, 16u);
+    uint runs = pc.tile / run;
+    uint i = gl_GlobalInvocationID.x;
+    uint v = gl_GlobalInvocationID.y;
+    if (i >= runs * pc.tile || v >= pc.vpl_count) return;
+    int tile = int(pc.tile);
+    int y = int(i / runs);
+    int x0 = int(i % runs * run) + ((y + int(pc.parity)) & 1);
+    vec4 normal_cell = vpls[v].normal;
+    uint cell = floatBitsToUint(normal_cell.w);
+    ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * tile;
+    vec3 n = normal_cell.xyz;
+    vec3 t, b;
+    orthonormal_basis(n, t, b);
+    uint left = x0 > 0 ? imageLoad(ism_depth, origin + ivec2(x0 - 1, y)).r : 0u;
+    for (int x = x0; x < x0 + int(run); x += 2) {
+        ivec2 local = ivec2(x, y);
+        uint stored = imageLoad(ism_depth, origin + local).r;
+        bool across = x > 0 && x + 1 < tile;
+        bool along = y > 0 && y + 1 < tile;
+        uint right = x + 1 < tile ? imageLoad(ism_depth, origin + local + ivec2(1, 0)).r : 0u;
+        uint up = along ? imageLoad(ism_depth, origin + local - ivec2(0, 1)).r : 0u;
+        uint down = along ? imageLoad(ism_depth, origin + local + ivec2(0, 1)).r : 0u;
+        float held = ism_texel_depth(stored) * pc.far;
+        float footprint = max(held * 4.0 / float(pc.tile), pc.point_radius);
+        bool fill_across = across && may_fill(left, right, held, footprint);
+        bool fill_along = along && may_fill(up, down, held, footprint);
+        uint next_left = right;
+        if (fill_across || fill_along) {
+            float q2;
+            vec3 c0 = ism_centre_ray(local, pc.tile, t, b, n, q2);
+            float a = fill_across ? pair_along(left, right, local, ivec2(1, 0), c0, t, b, n, footprint) : 0.0;
+            float c = fill_along ? pair_along(up, down, local, ivec2(0, 1), c0, t, b, n, footprint) : 0.0;
+            // The nearer of the planes that lie a footprint nearer than
+            // what the texel holds (never beyond the horizon: never read).
+            float best = held - footprint;
+            uint code = 0u;
+            if (a > 0.0 && a < best) { best = a; code = left & 4095u; }
+            if (c > 0.0 && c < best) { best = c; code = up & 4095u; }
+            if (code != 0u && q2 < 1.0) imageStore(ism_depth, origin + local, uvec4(ism_pack(best / pc.far, code)));
+        }
+        // (The next texel of this parity is two along: this one's right
+        // neighbour is its left.)
+        left = next_left;
+    }
+}
