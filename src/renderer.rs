@@ -2,7 +2,7 @@
 //!
 //! ```text
 //!  CPU: BVH ─▶ VPLs (light tracing) ─▶ ISM rays, ISM points (scene_cache)
-//!  GPU: shadow_maps ─▶ ism_splat (ray layer + points) ─▶ gbuffer ─▶ direct_lighting
+//!  GPU: shadow_maps ─▶ ism_splat (ray layer + points + fill) ─▶ gbuffer ─▶ direct_lighting
 //!        ─▶ indirect_bounded (S0 = T Le + T_b L^) ─▶ ssbc_geometry_mips
 //!        ─▶ ssbc_step_1 … ssbc_step_K (S_k = T_r S_{k-1}, final += S_k)
 //!        ─▶ temporal (resident frames: the indirect light's running mean)

@@ -1,9 +1,11 @@
 //! Imperfect shadow maps (Ritschel et al. 2008): each VPL's paraboloid depth
 //! tile of one atlas starts from a coarse ray-cast layer (`ism_base`, see
 //! [`crate::cpu::ism_rays`]), and the VPL splats its own subset of scene
-//! points into it (`ism_splat`). The layer leaves no holes, so there is no
-//! pull-push: it filled the holes between points with the farthest of their
-//! neighbours, which is where occluders near a VPL leaked.
+//! points into it (`ism_splat`). The layer leaves no empty texels, so there
+//! is no pull-push (it filled the holes between points with the farthest of
+//! their neighbours, which is where occluders near a VPL leaked); a texel
+//! between two nearer texels of one plane, which no disc of that surface
+//! reached, takes their plane (`ism_fill`).
 
 use std::sync::Arc;
 
