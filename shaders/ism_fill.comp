@@ -24,6 +24,7 @@ layout(push_constant) uniform Push {
     uint vpl_count;
     uint tile;
     uint parity;         // which texels this dispatch fills: (x + y) % 2
+    uint run;            // texels of a row per invocation (tile or less)
     float far;           // distances are stored divided by this
     float point_radius;  // world radius each point stands for
 } pc;
@@ -59,12 +60,10 @@ float pair_along(uint s1, uint s2, ivec2 local, ivec2 step, vec3 c0, vec3 t, vec
 }
 
 void main() {
-    // One invocation fills the texels of this parity in a row of a tile's
-    // `run` texels (up to 16: eight of them), loading each texel once but
-    // those above and below (an invocation's overhead and its loads were
-    // most of the pass, cornell 320x240: 20.5 ms at one texel an
-    // invocation, 11.6 at runs of 8, 9.8 at 16; docs/performance.md).
-    uint run = min(pc.tile, 16u);
+    // One invocation fills the texels of this parity in a run of a row
+    // (passes::ism::FILL_RUN), loading each texel once but those above and
+    // below.
+    uint run = pc.run;
     uint runs = pc.tile / run;
     uint i = gl_GlobalInvocationID.x;
     uint v = gl_GlobalInvocationID.y;
@@ -88,7 +87,7 @@ void main() {
         uint up = along ? imageLoad(ism_depth, origin + local - ivec2(0, 1)).r : 0u;
         uint down = along ? imageLoad(ism_depth, origin + local + ivec2(0, 1)).r : 0u;
         float held = ism_texel_depth(stored) * pc.far;
-        float footprint = max(held * 4.0 / float(pc.tile), pc.point_radius);
+        float footprint = ism_footprint(held, pc.tile, pc.point_radius);
         bool fill_across = across && may_fill(left, right, held, footprint);
         bool fill_along = along && may_fill(up, down, held, footprint);
         uint next_left = right;

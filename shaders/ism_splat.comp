@@ -32,6 +32,31 @@ layout(push_constant) uniform Push {
     float disc_reach;    // the widest disc's radius (m): ism_pack_disc's unit
 } pc;
 
+// A point's disc in the VPL's frame (see main): its plane's normal, its
+// in-plane axes and its edge's direction as columns; d (VPL to point)
+// along the last three; dot(d, normal); how far along the edge's
+// direction it reaches.
+struct Disc {
+    mat4x3 frame;
+    vec3 offsets;
+    float plane;
+    float clip_distance;
+};
+
+// Whether the disc, out to radius sqrt(reach2), covers texel `local` of
+// the tile, the distance `hit` along that texel's centre ray where it
+// meets the disc's plane, and |q|^2 of the texel's paraboloid coordinate.
+bool disc_covers(Disc disc, ivec2 local, float reach2, out float hit, out float q2) {
+    vec2 q = (vec2(local) + 0.5) * (2.0 / float(pc.tile)) - 1.0;  // a power of two: exact
+    q2 = dot(q, q);
+    vec4 f = vec3(2.0 * q, 1.0 - q2) * disc.frame;  // (1 + q2) dot(r, .)
+    float s = disc.plane / f.x;                     // hit / (1 + q2)
+    vec3 miss = s * f.yzw - disc.offsets;           // along u, u2 and the edge's direction
+    hit = s * (1.0 + q2);
+    return abs(f.x) >= 1e-3 * (1.0 + q2) && s > 0.0 && dot(miss.xy, miss.xy) <= reach2
+        && miss.z <= disc.clip_distance;
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint v = gl_GlobalInvocationID.y;
@@ -115,36 +140,23 @@ void main() {
     // hit = dot(d, normal) / dot(r, normal), and there `miss` = r hit - d
     // lies in the plane: so the tests need only the plane's normal, its
     // in-plane axes u, u2 and the edge's direction in the VPL's frame
-    // (`frame` below, one column each), and a texel costs one division
-    // (lavapipe: the splat's loop 35 -> 25 ms of ALU, docs/performance.md).
+    // (`frame`, one column each), and a texel costs one division (cornell
+    // 320x240: the points 67 -> 61 ms; docs/performance.md).
     vec3 u, u2;
     orthonormal_basis(normal, u, u2);
     mat3 vpl_frame = transpose(mat3(t, b, n));
-    mat4x3 frame = mat4x3(vpl_frame * normal, vpl_frame * u, vpl_frame * u2, vpl_frame * clip_dir);
-    float plane = dot(d, normal);
-    vec3 offsets = vec3(dot(d, u), dot(d, u2), dot(d, clip_dir));  // d, in-plane and along the edge
-    float q_scale = 2.0 / float(pc.tile);  // a power of two: exact
-    // Does the point's disc (own2: its own texel's reach) cover texel
-    // `local`, and at what distance along its centre ray?
-    #define SPLAT_COVERS(local, reach_sq, covers, hit, q2)                                      \
-    {                                                                                         \
-        vec2 q = (vec2(local) + 0.5) * q_scale - 1.0;                                         \
-        q2 = dot(q, q);                                                                       \
-        vec4 f = vec3(2.0 * q, 1.0 - q2) * frame;  /* (1 + q2) dot(r, .) */                   \
-        float s = plane / f.x;                     /* hit / (1 + q2) */                       \
-        vec3 miss = s * f.yzw - offsets;           /* miss along u, u2, the edge's direction */ \
-        hit = s * (1.0 + q2);                                                                 \
-        covers = abs(f.x) >= 1e-3 * (1.0 + q2) && s > 0.0                                    \
-            && dot(miss.xy, miss.xy) <= reach_sq && miss.z <= clip_distance;                   \
-    }
-    bool covers;
+    Disc disc_in_frame = Disc(
+        mat4x3(vpl_frame * normal, vpl_frame * u, vpl_frame * u2, vpl_frame * clip_dir),
+        vec3(dot(d, u), dot(d, u2), dot(d, clip_dir)),
+        dot(d, normal),
+        clip_distance);
     float hit, q2;
-    SPLAT_COVERS(center, own2, covers, hit, q2);
-    if (covers) imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, code));
+    if (disc_covers(disc_in_frame, center, own2, hit, q2))
+        imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, code));
     ivec2 o = lo;
     for (int k = 0; k < box.x * box.y; k++) {
         vec2 off = vec2(o) - within;
-        SPLAT_COVERS(center + o, radius2, covers, hit, q2);
+        bool covers = disc_covers(disc_in_frame, center + o, radius2, hit, q2);
         if (covers && q2 < 1.0 && (o.x != 0 || o.y != 0) && dot(off, off) <= reach2)
             imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, code));
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);

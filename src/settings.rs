@@ -310,7 +310,7 @@ impl Default for RenderSettings {
                 ..Default::default()
             },
             ism_tile: 32,
-            // 1280 fill more of the discs' holes (open box 64 frames,
+            // 1280 points fill more of the discs' holes (open box 64 frames,
             // relMSE 4x4 0.00114 -> 0.00102), filling one-texel holes does
             // more (0.00093) without the 1.4 bytes a pixel at 1920x1080 and
             // the darker curved shadows (docs/accuracy.md, "Holes filled

@@ -22,6 +22,12 @@ use crate::vk::{
     ImageDesc, Work,
 };
 
+/// Texels of a row (half of them of one parity) each invocation of the hole
+/// fill visits: an invocation's overhead and its loads were most of that
+/// pass (cornell 320x240: 20.5 ms at one texel an invocation, 11.6 at runs
+/// of 8, 9.8 at 16; docs/performance.md). Tiles are powers of two from 4.
+const FILL_RUN: u32 = 16;
+
 /// The ISM pipelines.
 pub struct IsmPass {
     place: ComputeKernel<ism_points_comp::Interface>,
@@ -380,16 +386,17 @@ impl Pass for IsmPass {
             vpls: &ism.vpls.buffer,
         };
         for parity in 0..2 {
+            let run = ism.tile.min(FILL_RUN);
             let push = ism_fill_comp::Push {
                 vpl_count: ism.vpl_count,
                 tile: ism.tile,
                 parity,
+                run,
                 far: ism.far,
                 point_radius: ism.point_radius,
             };
-            // One invocation per (run of up to 16 texels in a row, VPL).
-            let runs = ism.tile * ism.tile / ism.tile.min(16);
-            let texels = Work::Threads([runs, ism.vpl_count, 1]);
+            // One invocation per (run of a row, VPL).
+            let texels = Work::Threads([ism.tile * ism.tile / run, ism.vpl_count, 1]);
             self.fill.dispatch(rec, pool, &bindings, &push, texels)?;
         }
         profiler.end(rec.cmd, part);
