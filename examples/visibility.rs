@@ -21,17 +21,19 @@
 //! but the texel stores something more than a footprint beyond (a hole in
 //! the occluder's splats), and where the texel holds the occluder but the
 //! test's tolerance reaches past it. `--bias B` replays another
-//! relative tolerance than `ISM_BIAS` (Lambertian receivers; narrow glossy
+//! relative tolerance than `ism_bias`'s (Lambertian receivers; narrow glossy
 //! lobes scale it as the gathers do), `--lift-all` the lifted test
-//! (`IsmTest::lifted`) for every receiver.
+//! (`IsmTest::lifted`) for every receiver, `--visibility traced` the
+//! ISMs whose texels are ray-traced (devices with ray queries), `--region`
+//! only the pixels of one box of the image.
 //!
-//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--why]`
+//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--region X0,Y0,X1,Y1] [--visibility ism|traced] [--why]`
 //! (default: spheres, the slab rooms and the open box at 160x120, the
 //! defaults' VPLs for that size, every 3rd geometry pixel).
 
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::emitters::luminance;
-use ssbc::passes::indirect_bounded::{ism_test_for, ISM_BIAS};
+use ssbc::passes::indirect_bounded::{ism_bias, ism_test_for, ISM_BIAS};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 
 /// The weighted replay of one frame.
@@ -64,6 +66,8 @@ struct Options {
     /// `--lift-all`: the lifted test for every receiver, not only narrow
     /// glossy lobes.
     lift_all: bool,
+    /// `--region X0,Y0,X1,Y1`: only the pixels in that box (X1, Y1 excluded).
+    region: Option<[usize; 4]>,
 }
 
 fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
@@ -82,7 +86,14 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
     );
     let v = |img: &[f32], i: usize| glam::Vec3::new(img[i * 4], img[i * 4 + 1], img[i * 4 + 2]);
     let mut r = Replay::default();
-    let geometry = (0..(frame.width * frame.height) as usize).filter(|&i| pos[i * 4 + 3] != 0.0);
+    let width = frame.width as usize;
+    let in_region = |i: usize| {
+        options.region.is_none_or(|[x0, y0, x1, y1]| {
+            (x0..x1).contains(&(i % width)) && (y0..y1).contains(&(i / width))
+        })
+    };
+    let geometry = (0..(frame.width * frame.height) as usize)
+        .filter(|&i| pos[i * 4 + 3] != 0.0 && in_region(i));
     for i in geometry.step_by(options.stride) {
         let (x, n) = (v(pos, i), v(nrm, i));
         let albedo = glam::Vec4::from_slice(&alb[i * 4..i * 4 + 4]);
@@ -157,6 +168,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "--ism-res",
         "--points",
         "--bias",
+        "--region",
+        "--visibility",
     ];
     let flag_values: Vec<String> = flags.iter().filter_map(|f| value(f)).collect();
     let mut scenes: Vec<String> = args
@@ -180,13 +193,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some((w.parse().ok()?, h.parse().ok()?))
         })
         .unwrap_or((160, 120));
+    let visibility: ssbc::settings::Visibility = match value("--visibility") {
+        Some(v) => v.parse()?,
+        None => ssbc::settings::Visibility::Ism,
+    };
     let options = Options {
         stride: value("--stride").and_then(|v| v.parse().ok()).unwrap_or(3),
         bias: value("--bias")
             .and_then(|v| v.parse().ok())
-            .unwrap_or(ISM_BIAS),
+            .unwrap_or(ism_bias(visibility)),
         why: args.iter().any(|a| a == "--why"),
         lift_all: args.iter().any(|a| a == "--lift-all"),
+        region: value("--region").and_then(|v| {
+            let c: Vec<usize> = v.split(',').filter_map(|c| c.parse().ok()).collect();
+            c.try_into().ok()
+        }),
     };
     let mut renderer = Renderer::new(&RendererConfig::default())?;
     print!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs |");
@@ -213,6 +234,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         settings.debug_readback = true;
         settings.ssbc.steps = 0;
+        settings.visibility = visibility;
         let frame = renderer.render(&scene, &settings)?;
         let r = replay(&scene, &frame, &options);
         print!(

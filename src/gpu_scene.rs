@@ -163,7 +163,7 @@ pub struct SlotScene<'a> {
     /// `GpuObject` per scene object.
     pub objects: &'a Buffer,
     /// The objects' top-level acceleration structure, where this frame
-    /// tests VPL visibility exactly.
+    /// casts rays (exact visibility, or traced ISM texels).
     pub top_level: Option<&'a crate::vk::AccelerationStructure>,
 }
 
@@ -175,6 +175,9 @@ pub struct GpuScene {
     pub indices: Buffer,
     /// Each mesh's place in `vertices` and `indices`.
     pub meshes: Vec<GpuMesh>,
+    /// Per mesh, its first index and first vertex (`[u32; 2]`), for
+    /// kernels that read a ray query's triangle.
+    pub mesh_ranges: Buffer,
     /// Per frame slot, `GpuObject` per scene object, and the version of
     /// the objects it holds.
     objects: Vec<(Buffer, u64)>,
@@ -227,6 +230,17 @@ impl GpuScene {
             "scene.indices",
             &indices,
             vk::BufferUsageFlags::INDEX_BUFFER | input,
+        )?;
+        let ranges: Vec<[u32; 2]> = meshes
+            .iter()
+            .map(|m| [m.first_index, m.vertex_offset as u32])
+            .chain(std::iter::once([0, 0]))
+            .collect();
+        let mesh_ranges = Buffer::with_data(
+            device,
+            "scene.mesh_ranges",
+            &ranges,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
         )?;
         let objects = (0..slots)
             .map(|slot| Ok((objects_buffer(device, slot, scene.objects().len())?, 0)))
@@ -284,6 +298,7 @@ impl GpuScene {
             vertices,
             indices,
             meshes,
+            mesh_ranges,
             objects,
             draws: Default::default(),
             materials,

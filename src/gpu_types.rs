@@ -242,7 +242,7 @@ pub struct GpuObject {
     pub normal_matrix: [f32; 16],
     /// x: the material override (`u32::MAX`: the mesh's own); y: visible
     /// (1) or hidden (0); z: the bits of the handedness (-1 for a mirror,
-    /// else 1); w unused.
+    /// else 1); w: its mesh.
     pub params: [u32; 4],
 }
 
@@ -257,7 +257,7 @@ impl GpuObject {
                 o.material.unwrap_or(u32::MAX),
                 o.visible as u32,
                 p.handedness.to_bits(),
-                0,
+                o.mesh as u32,
             ],
         }
     }

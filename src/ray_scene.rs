@@ -79,10 +79,12 @@ impl RayScene {
         })
     }
 
-    /// Buffer usage the scene's vertices and indices need as build inputs.
+    /// Buffer usage the scene's vertices and indices need as build inputs
+    /// (and as storage: the traced ISM reads a hit triangle's corners).
     pub const INPUT_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
         vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR.as_raw()
-            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw(),
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS.as_raw()
+            | vk::BufferUsageFlags::STORAGE_BUFFER.as_raw(),
     );
 
     /// Records the bottom levels' builds (one per mesh: its opaque

@@ -378,6 +378,12 @@ pub enum Visibility {
     Auto,
     /// Imperfect shadow maps (every device).
     Ism,
+    /// Imperfect shadow maps whose texels are traced instead of splatted:
+    /// each holds where its own centre ray meets the scene, and that
+    /// triangle's plane (VK_KHR_ray_query; opaque materials; an error where
+    /// unavailable). No holes and no splats past a surface's edge, at one
+    /// ray a texel (docs/accuracy.md, "ISM texels traced").
+    Traced,
     /// Ray queries against the scene's acceleration structures
     /// (VK_KHR_ray_query; opaque materials): exact, and an error where
     /// unavailable.
@@ -428,7 +434,7 @@ pub enum LayerResolution {
 
 named_choice!(Gather, [Gather::Interleaved => "interleaved", Gather::Full => "full"]);
 named_choice!(Integration, [Integration::Hierarchical => "hierarchical", Integration::Brute => "brute"]);
-named_choice!(Visibility, [Visibility::Auto => "auto", Visibility::Ism => "ism", Visibility::Exact => "exact"]);
+named_choice!(Visibility, [Visibility::Auto => "auto", Visibility::Ism => "ism", Visibility::Traced => "traced", Visibility::Exact => "exact"]);
 named_choice!(LayerResolution, [LayerResolution::Full => "full", LayerResolution::Half => "half"]);
 
 impl LayerResolution {

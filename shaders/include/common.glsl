@@ -82,7 +82,7 @@ struct GpuObject {
     mat4 model;               // object to world
     mat4 normal_matrix;       // inverse transpose of model's linear part (normals)
     uvec4 params;             // x material override (0xFFFFFFFF: the mesh's own), y visible,
-                              // z handedness bits (-1.0 for a mirror, else 1.0)
+                              // z handedness bits (-1.0 for a mirror, else 1.0), w its mesh
 };
 
 struct GpuMaterial {

@@ -27,7 +27,7 @@ use super::ism::Ism;
 use super::{FrameView, Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::layer::Layer;
-use crate::settings::Gather;
+use crate::settings::{Gather, Visibility};
 use crate::shaders::{
     indirect_bounded_comp, indirect_bounded_exact_comp, indirect_creases_comp,
     indirect_creases_exact_comp, indirect_filter_comp, indirect_filter_exact_comp,
@@ -105,6 +105,22 @@ pub(crate) fn memory_bytes(
 /// before, at the same mean (measured: docs/accuracy.md, "Tuned constants").
 pub const ISM_BIAS: f32 = 0.08;
 
+/// [`ISM_BIAS`] for traced ISM texels ([`Visibility::Traced`]): each texel
+/// holds its surface's exact distance and plane along its centre ray, so
+/// less tolerance is needed; 0.04 leaks less through thin walls than 0.08
+/// for 0.1% of the visible light (measured: docs/accuracy.md, "ISM texels
+/// traced").
+pub const ISM_BIAS_TRACED: f32 = 0.04;
+
+/// The relative depth tolerance of the ISM test for atlases made as
+/// `visibility` makes them.
+pub fn ism_bias(visibility: Visibility) -> f32 {
+    match visibility {
+        Visibility::Traced => ISM_BIAS_TRACED,
+        _ => ISM_BIAS,
+    }
+}
+
 /// How the ISM test treats a receiver (`ism_visible` in
 /// shaders/include/vpl_gather.glsl; [`ism_test_for`] picks it).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -118,7 +134,8 @@ pub struct IsmTest {
     pub lifted: bool,
 }
 
-/// The ISM test at a receiver of BRDF `brdf`: [`ISM_BIAS`], or for a
+/// The ISM test at a receiver of BRDF `brdf`: [`ISM_BIAS`] (splatted
+/// texels: scale it for others, [`ism_bias`]), or for a
 /// narrow glossy lobe (GGX alpha under 0.25) that times 4 alpha, at least
 /// a quarter of it, and the lifted test. A tolerance of 0.16 x the
 /// distance (the default before 2026-11-29) let an occluder near the
@@ -317,7 +334,7 @@ fn gather_push(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> Ga
             tiles_per_row: ism.tiles_per_row,
             far: ism.far,
             bound: view.bound,
-            ism_bias: ISM_BIAS,
+            ism_bias: ism.relative_bias,
             point_radius: ism.point_radius,
             camera_position: view.camera.position.extend(1.0).into(),
             ..Default::default()

@@ -12,11 +12,14 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::{Pass, Recording, SlotSetup};
+use crate::gpu_scene::SlotScene;
 use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
 use crate::gpu_types::GpuVpl;
 use crate::settings::Visibility;
-use crate::shaders::{ism_base_comp, ism_fill_comp, ism_points_comp, ism_splat_comp};
+use crate::shaders::{
+    ism_base_comp, ism_fill_comp, ism_points_comp, ism_splat_comp, ism_traced_comp,
+};
 use crate::vk::{
     Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
     ImageDesc, Work,
@@ -34,6 +37,8 @@ pub struct IsmPass {
     base: ComputeKernel<ism_base_comp::Interface>,
     splat: ComputeKernel<ism_splat_comp::Interface>,
     fill: ComputeKernel<ism_fill_comp::Interface>,
+    /// Every texel traced, where the device has ray queries.
+    traced: Option<ComputeKernel<ism_traced_comp::Interface>>,
 }
 
 /// One frame's ISM atlas and inputs.
@@ -83,6 +88,9 @@ pub struct Ism {
     pub far: f32,
     /// World radius one splatted point stands for.
     pub point_radius: f32,
+    /// The relative depth tolerance of the ISM test for this atlas's
+    /// texels ([`super::indirect_bounded::ism_bias`]).
+    pub relative_bias: f32,
 }
 
 /// The ISM atlas's texels across and down: whole rows of `tile`-texel
@@ -126,6 +134,10 @@ impl IsmPass {
             base: ComputeKernel::new(device)?,
             splat: ComputeKernel::new(device)?,
             fill: ComputeKernel::new(device)?,
+            traced: match device.ray_queries() {
+                Some(_) => Some(ComputeKernel::new(device)?),
+                None => None,
+            },
         })
     }
 }
@@ -134,13 +146,14 @@ impl Pass for IsmPass {
     const NAME: &'static str = "ism";
     /// The atlas depends on the VPLs, the points, the far plane and the tile.
     const VIEW_INDEPENDENT: bool = true;
-    /// (VPL version, points version, far plane bits, tile side, whether
-    /// visibility is exact: no atlas is drawn then).
-    type Key = (u64, u64, u32, u32, bool);
+    /// (VPL version, points version, far plane bits, tile side, how
+    /// visibility is tested: exact draws no atlas, traced traces it).
+    type Key = (u64, u64, u32, u32, Visibility);
     /// The atlas and the VPLs and points it is splatted from.
     type Resources = Ism;
-    /// The frame slot's objects (points move with them) and their version.
-    type Reads<'a> = (&'a Buffer, u64);
+    /// The frame slot's scene (its objects: points move with them; its
+    /// top level, where the texels are traced) and its objects' version.
+    type Reads<'a> = (SlotScene<'a>, u64);
 
     fn key(&self, setup: &SlotSetup<'_>) -> Self::Key {
         let cache = setup.cache;
@@ -149,7 +162,7 @@ impl Pass for IsmPass {
             cache.points().version,
             cache.diagonal().to_bits(),
             setup.settings.ism_tile,
-            setup.settings.visibility == Visibility::Exact,
+            setup.settings.visibility,
         )
     }
 
@@ -250,6 +263,7 @@ impl Pass for IsmPass {
             tiles_per_row,
             far,
             point_radius: points.point_radius,
+            relative_bias: super::indirect_bounded::ism_bias(setup.settings.visibility),
         })
     }
 
@@ -286,18 +300,22 @@ impl Pass for IsmPass {
         ism.versions = (cached_vpls.version, cached_points.version);
         ism.far = far;
         ism.point_radius = points.point_radius;
+        ism.relative_bias = super::indirect_bounded::ism_bias(setup.settings.visibility);
         Ok(true)
     }
 
-    /// A placing, a base and a splat set, and a fill set per parity.
+    /// A placing, a base and a splat set, a fill set per parity, and a
+    /// traced set where the device has ray queries.
     fn set_layouts(&self, _: &Ism) -> Vec<&DescriptorSetLayout> {
-        vec![
+        let mut layouts = vec![
             self.place.set_layout(),
             self.base.set_layout(),
             self.splat.set_layout(),
             self.fill.set_layout(),
             self.fill.set_layout(),
-        ]
+        ];
+        layouts.extend(self.traced.as_ref().map(|k| k.set_layout()));
+        layouts
     }
 
     /// Writes every VPL's tile (nothing without VPLs).
@@ -305,13 +323,17 @@ impl Pass for IsmPass {
         &self,
         cx: &mut Recording<'_, '_>,
         pool: &DescriptorPool,
-        (objects, objects_version): (&Buffer, u64),
+        (scene, objects_version): (SlotScene<'_>, u64),
         ism: &Ism,
     ) -> Result<()> {
         // Exact visibility reads the VPLs, not the atlas.
         if ism.vpl_count == 0 || cx.settings.visibility == Visibility::Exact {
             return Ok(());
         }
+        if cx.settings.visibility == Visibility::Traced {
+            return self.record_traced(cx, pool, scene, ism);
+        }
+        let objects = scene.objects;
         let Recording {
             rec,
             profiler,
@@ -401,6 +423,42 @@ impl Pass for IsmPass {
         }
         profiler.end(rec.cmd, part);
         profiler.end(rec.cmd, scope);
+        Ok(())
+    }
+}
+
+impl IsmPass {
+    /// Traces every texel's centre ray (`Visibility::Traced`).
+    fn record_traced(
+        &self,
+        cx: &mut Recording<'_, '_>,
+        pool: &DescriptorPool,
+        scene: SlotScene<'_>,
+        ism: &Ism,
+    ) -> Result<()> {
+        let missing = || Error::InvalidParameter("traced ISM texels need ray queries".into());
+        let kernel = self.traced.as_ref().ok_or_else(missing)?;
+        let scene_tlas = scene.top_level.ok_or_else(missing)?;
+        let scope = cx.profiler.begin(cx.rec.cmd, "ism_traced");
+        let push = ism_traced_comp::Push {
+            vpl_count: ism.vpl_count,
+            tile: ism.tile,
+            vertex_words: (std::mem::size_of::<crate::scene::Vertex>() / 4) as u32,
+            depth_scale: 1.0 / ism.far,
+        };
+        let bindings = ism_traced_comp::Bindings {
+            ism_depth: &ism.atlas,
+            vpls: &ism.vpls.buffer,
+            scene_tlas,
+            objects: scene.objects,
+            vertices: &scene.scene.vertices,
+            indices: &scene.scene.indices,
+            mesh_ranges: &scene.scene.mesh_ranges,
+        };
+        // One invocation per (texel, VPL).
+        let texels = Work::Threads([ism.tile * ism.tile, ism.vpl_count, 1]);
+        kernel.dispatch(cx.rec, pool, &bindings, &push, texels)?;
+        cx.profiler.end(cx.rec.cmd, scope);
         Ok(())
     }
 }

@@ -63,18 +63,17 @@ fn frame_view(
     })
 }
 
-/// Whether the frame tests VPL visibility exactly (ray queries): asked
-/// for, and possible on this device and scene (an error naming why not).
-/// [`Visibility::Auto`] is resolved before (accumulated frames).
-fn exact_visibility(settings: &RenderSettings, cache: &SceneCache) -> Result<bool> {
+/// Whether the frame casts rays: exact visibility or traced ISM texels,
+/// asked for and possible on this device and scene (an error naming why
+/// not). [`Visibility::Auto`] is resolved before (accumulated frames).
+fn casts_rays(settings: &RenderSettings, cache: &SceneCache) -> Result<bool> {
     match settings.visibility {
         Visibility::Auto | Visibility::Ism => Ok(false),
-        Visibility::Exact if cache.gpu_scene.rays.is_some() => Ok(true),
-        Visibility::Exact => Err(Error::InvalidParameter(
-            "exact visibility (ssbc.visibility) needs a device with ray queries \
+        Visibility::Exact | Visibility::Traced if cache.gpu_scene.rays.is_some() => Ok(true),
+        asked @ (Visibility::Exact | Visibility::Traced) => Err(Error::InvalidParameter(format!(
+            "{asked} visibility (ssbc.visibility) needs a device with ray queries \
              (VK_KHR_ray_query) and a scene without alpha-masked materials"
-                .into(),
-        )),
+        ))),
     }
 }
 
@@ -90,14 +89,14 @@ fn record_scene<'c>(
     slot: usize,
 ) -> Result<(&'c SceneCache, SlotScene<'c>)> {
     cache.gpu_scene.record_uploads(rec)?;
-    let exact = exact_visibility(settings, cache)?;
-    if exact {
+    let rays = casts_rays(settings, cache)?;
+    if rays {
         let rays = cache.gpu_scene.rays.as_mut().expect("checked");
         rays.record_top_level(rec, slot, scene, versions.objects)?;
     }
     let cache = &*cache;
     let mut slot_scene = cache.gpu_scene.for_slot(slot);
-    if exact {
+    if rays {
         slot_scene.top_level = cache
             .gpu_scene
             .rays

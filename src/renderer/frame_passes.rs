@@ -18,6 +18,7 @@ use crate::passes::ssbc::{SsbcLayer, SsbcPass};
 use crate::passes::temporal::{HistoryStep, TemporalPass, TemporalReads};
 use crate::passes::transient::{self, SlotTransient};
 use crate::passes::{Recording, SlotSetup, Stage};
+use crate::settings::Visibility;
 use crate::vk::{Device, Image};
 
 /// The passes that run once per G-buffer layer: its G-buffer and its
@@ -53,8 +54,10 @@ impl LayerStages {
         let gbuffer = self.gbuffer.run(cx, setup, (scene, front))?;
         let direct = self.direct_lighting.run(cx, setup, (gbuffer, shadows))?;
         let visibility = match scene.top_level {
-            Some(tlas) => VplVisibility::Exact(tlas),
-            None => VplVisibility::Ism,
+            Some(tlas) if setup.settings.visibility == Visibility::Exact => {
+                VplVisibility::Exact(tlas)
+            }
+            _ => VplVisibility::Ism,
         };
         let bounded = self
             .indirect_bounded
@@ -215,8 +218,9 @@ impl Passes {
         };
         begin(cx, transient::GATHER_PHASE);
         let shadows = self.shadow_maps.run(cx, setup, scene)?;
-        let objects = (scene.objects, setup.cache.versions.objects);
-        let ism = self.ism.run(cx, setup, objects)?;
+        let ism = self
+            .ism
+            .run(cx, setup, (scene, setup.cache.versions.objects))?;
         let [layer0, layer1] = &mut self.layers;
         let (front, direct, visible) = layer0.run(cx, setup, (scene, None), (shadows, ism))?;
         if setup.settings.every_output() {

@@ -224,10 +224,11 @@ struct SceneOptions {
     /// full (every VPL at every pixel; the reference).
     #[arg(long, value_parser = choice::<Gather>(), default_value_t = RenderSettings::default().gather)]
     gather: Gather,
-    /// How a VPL's visibility is tested: ism (imperfect shadow maps), exact
-    /// (ray queries; devices with VK_KHR_ray_query, scenes without alpha
-    /// masks), or auto (ISMs for a frame, exact for --accumulate where
-    /// possible).
+    /// How a VPL's visibility is tested: ism (imperfect shadow maps), traced
+    /// (ISMs whose texels are ray-traced, not splatted), exact (a ray per
+    /// pixel and VPL), or auto (ISMs for a frame, exact for --accumulate
+    /// where possible). traced and exact need ray queries
+    /// (VK_KHR_ray_query) and a scene without alpha masks.
     #[arg(long, value_parser = choice::<Visibility>(), default_value_t = RenderSettings::default().visibility)]
     visibility: Visibility,
     /// Side N of the interleaved pattern (N x N subsets of the VPLs).
