@@ -33,7 +33,7 @@
 
 use ssbc::cpu::bvh::SceneBvh;
 use ssbc::cpu::emitters::luminance;
-use ssbc::passes::indirect_bounded::{ism_bias, ism_test_for, ISM_BIAS};
+use ssbc::passes::indirect_bounded::{ism_bias, ism_test_for};
 use ssbc::renderer::{Frame, RenderSettings, Renderer, RendererConfig};
 
 /// The weighted replay of one frame.
@@ -112,8 +112,7 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
             let weight = (luminance(vpl.flux) * (cos_z * cos_x / d2).min(frame.bound)) as f64;
             r.pairs += 1;
             let exact = !bvh.occluded(vpl.position + vpl.normal * 1e-4, x + n * 1e-4);
-            let mut test = ism_test_for(&brdf);
-            test.relative_bias *= options.bias / ISM_BIAS;
+            let mut test = ism_test_for(&brdf, options.bias);
             test.lifted |= options.lift_all;
             let approx = ism.visible(k, vpl, x, n, test);
             if exact {

@@ -123,32 +123,64 @@ fn exact_visibility_leaks_nothing_through_thin_walls() {
 fn isms_leak_through_a_shared_wall_no_more_than_measured() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    // Every thin scene's mean is checked; the rooms' leak is pinned.
+    isms_through_thin_walls(&mut renderer, Visibility::Ism, |name| match name {
+        "thin-two-rooms-1mm" => 0.021,
+        "thin-two-rooms-20cm" => 0.0054,
+        _ => f64::NAN,
+    });
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+}
+
+/// ISMs whose texels are traced (`Visibility::Traced`) leak less through
+/// the shared wall: measured 2026-11-29 at 1.18% (1 mm) and 0.05% (20 cm)
+/// of the image's mean on the other room's pixels (means 1.014 and 1.005),
+/// against 2.1% and 0.54% with splatted texels. Pinned below 1.5 times
+/// that; every thin scene's mean within issue 61's 3%.
+#[test]
+fn traced_isms_leak_through_a_shared_wall_no_more_than_measured() {
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    if renderer.device().ray_queries().is_none() {
+        common::cannot_check("the device has no ray queries");
+        return;
+    }
+    isms_through_thin_walls(&mut renderer, Visibility::Traced, |name| match name {
+        "thin-two-rooms-1mm" => 0.0118,
+        "thin-two-rooms-20cm" => 0.0005,
+        _ => f64::NAN,
+    });
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+}
+
+/// Every thin scene with ISMs made as `visibility` makes them: its mean
+/// within issue 61's 3% of the path tracer's, and the rooms' leak (the
+/// unlit room's share of the mean) below 1.5 times `measured`.
+fn isms_through_thin_walls(
+    renderer: &mut ssbc::Renderer,
+    visibility: Visibility,
+    measured: impl Fn(&str) -> f64,
+) {
     for name in SCENES {
-        let measured: f64 = match name {
-            "thin-two-rooms-1mm" => 0.021,
-            "thin-two-rooms-20cm" => 0.0054,
-            _ => f64::NAN,
-        };
         let scene = load(name);
         let mut settings = common::small(SIZE.0, SIZE.1);
-        settings.visibility = Visibility::Ism;
+        settings.visibility = visibility;
         let frame = renderer.render(&scene, &settings).expect("render");
         let truth = truth(&scene, 64);
         let (ratio, dark, pixels) = light_and_dark(&frame.image.rgba, &truth);
         eprintln!(
-            "{name}: ISMs: mean / path tracer {ratio:.4}; on the {pixels} unlit pixels {:.2}% of the mean",
+            "{name}: {visibility} ISMs: mean / path tracer {ratio:.4}; on the {pixels} unlit pixels {:.2}% of the mean",
             dark * 100.0
         );
+        let measured = measured(name);
         if measured.is_finite() {
             assert!(pixels > 500, "{name}: only {pixels} unlit pixels");
             assert!(dark < 1.5 * measured, "{name}: unlit pixels at {dark}");
         }
         assert!(
             (ratio - 1.0).abs() < 0.03,
-            "{name}: ISMs' mean / path tracer {ratio}"
+            "{name}: {visibility} ISMs' mean / path tracer {ratio}"
         );
     }
-    drop(renderer);
-    assert_eq!(log.total(), 0, "validation messages");
 }

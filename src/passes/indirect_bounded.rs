@@ -134,8 +134,8 @@ pub struct IsmTest {
     pub lifted: bool,
 }
 
-/// The ISM test at a receiver of BRDF `brdf`: [`ISM_BIAS`] (splatted
-/// texels: scale it for others, [`ism_bias`]), or for a
+/// The ISM test at a receiver of BRDF `brdf` in an atlas whose relative
+/// tolerance is `relative_bias` ([`ism_bias`]): that, or for a
 /// narrow glossy lobe (GGX alpha under 0.25) that times 4 alpha, at least
 /// a quarter of it, and the lifted test. A tolerance of 0.16 x the
 /// distance (the default before 2026-11-29) let an occluder near the
@@ -145,15 +145,15 @@ pub struct IsmTest {
 /// as a bright reflection where the occluder should be (measured:
 /// docs/accuracy.md, "Tuned constants" and "The lifted ISM test").
 /// `shaders/include/vpl_gather.glsl` is the twin.
-pub fn ism_test_for(brdf: &crate::cpu::brdf::Brdf) -> IsmTest {
+pub fn ism_test_for(brdf: &crate::cpu::brdf::Brdf, relative_bias: f32) -> IsmTest {
     if brdf.is_lambertian() {
         IsmTest {
-            relative_bias: ISM_BIAS,
+            relative_bias,
             lifted: false,
         }
     } else {
         IsmTest {
-            relative_bias: ISM_BIAS * (4.0 * brdf.alpha()).clamp(0.25, 1.0),
+            relative_bias: relative_bias * (4.0 * brdf.alpha()).clamp(0.25, 1.0),
             lifted: brdf.alpha() < 0.25,
         }
     }
