@@ -35,10 +35,11 @@ pub struct VplCache {
     /// where the last ends.
     pub subsets: Vec<u32>,
     /// Each VPL's coarse ray-cast ISM layer, in the same order
-    /// ([`ism_rays::coarse_depths`]).
+    /// ([`ism_rays::coarse_depths`]); empty until a frame splats ISMs.
     pub ism_base: Vec<ism_rays::Corner>,
-    /// Where each VPL's corner rays stopped, what `ism_base` was made of ([`ism_rays::corner_depths`]).
-    ism_corners: Vec<ism_rays::Corner>,
+    /// Where each VPL's corner rays stopped, what `ism_base` was made of
+    /// ([`ism_rays::corner_depths`]); None until a frame splats ISMs.
+    ism_corners: Option<Vec<ism_rays::Corner>>,
     /// The scene's bounds and which objects were visible (a hash) when
     /// traced.
     traced_in: (Bounds, u64),
@@ -51,6 +52,31 @@ pub struct VplCache {
 /// different places, VPLs sharing one splat it differently). Sampling time
 /// and memory then stop growing with the VPL count (measured: docs/accuracy.md, "Tuned constants").
 pub const MAX_POINT_BLOCKS: usize = 256;
+
+/// The ISM layer's corner rays of `vpls` (timed as `ism_rays`), keeping
+/// those of the `earlier` VPLs' (if cast, and within the same bounds)
+/// whose rays cross none of the `moved` boxes.
+fn ism_layer(
+    (bvh, bounds): (&SceneBvh, &Bounds),
+    vpls: &[vpl::Vpl],
+    earlier: Option<&VplCache>,
+    moved: &[Bounds],
+    spans: &mut Vec<CpuSpan>,
+) -> Vec<ism_rays::Corner> {
+    let miss = 4.0 * bounds.radius().max(1e-3);
+    CpuSpan::time(spans, "ism_rays", || {
+        let known = earlier
+            .filter(|v| 4.0 * v.traced_in.0.radius().max(1e-3) == miss)
+            .and_then(|v| {
+                Some(ism_rays::KnownCorners {
+                    vpls: &v.set.vpls,
+                    depths: v.ism_corners.as_ref()?,
+                    moved,
+                })
+            });
+        ism_rays::corner_depths(bvh, vpls, miss, known)
+    })
+}
 
 /// A hash of how many objects there are and which are visible.
 fn visibility_hash(scene: &Scene) -> u64 {
@@ -71,6 +97,8 @@ pub fn point_blocks(vpls: usize) -> usize {
 /// ISM points for one number of blocks, points per block and seed, and
 /// one set of visible objects.
 pub struct PointsCache {
+    /// (blocks, points per block, seed, visible objects' hash), or zeros
+    /// where the frame splats no points.
     key: (usize, u32, u64, u64),
     /// The points.
     pub points: IsmPoints,
@@ -162,19 +190,31 @@ impl SceneCache {
         if !cache.vpls.as_ref().is_some_and(|v| v.key == vpl_key) {
             cache.trace_vpls(scene, settings, vpl_key, spans)?;
         }
+        // Traced ISM texels and exact visibility need neither points nor
+        // the ray-cast layer (nor the CPU time they take).
+        let splats = settings.visibility.splats_points();
+        if splats && cache.vpls().ism_corners.is_none() {
+            cache.cast_ism_layer(spans);
+        }
         let blocks = point_blocks(cache.vpls().set.vpls.len());
         // Points move with their objects; an object shown again needs its own.
         let shown = visibility_hash(scene);
-        let points_key = (blocks, settings.points_per_vpl, settings.vpl.seed, shown);
+        let points_key = match splats {
+            true => (blocks, settings.points_per_vpl, settings.vpl.seed, shown),
+            false => (0, 0, 0, 0),
+        };
         if cache.points.as_ref().is_none_or(|p| p.key != points_key) {
-            let points = CpuSpan::time(spans, "point_sampling", || {
-                sample_points(
-                    scene,
-                    blocks,
-                    settings.points_per_vpl as usize,
-                    settings.vpl.seed,
-                )
-            });
+            let points = match splats {
+                true => CpuSpan::time(spans, "point_sampling", || {
+                    sample_points(
+                        scene,
+                        blocks,
+                        settings.points_per_vpl as usize,
+                        settings.vpl.seed,
+                    )
+                }),
+                false => IsmPoints::none(),
+            };
             cache.points = Some(PointsCache {
                 points,
                 key: points_key,
@@ -221,20 +261,18 @@ impl SceneCache {
         let blocks = point_blocks(count as usize) as u64;
         let block = |v: &vpl::Vpl| (v.identity_hash() % blocks) as u32;
         let gpu = set.vpls.iter().zip(0..);
-        let miss = 4.0 * self.bounds.radius().max(1e-3);
-        let ism_corners = CpuSpan::time(spans, "ism_rays", || {
-            let known = earlier
-                .filter(|v| 4.0 * v.traced_in.0.radius().max(1e-3) == miss)
-                .map(|v| ism_rays::KnownCorners {
-                    vpls: &v.set.vpls,
-                    depths: &v.ism_corners,
-                    moved,
-                });
-            ism_rays::corner_depths(&self.bvh, &set.vpls, miss, known)
+        let corners = settings.visibility.splats_points().then(|| {
+            ism_layer(
+                (&self.bvh, &self.bounds),
+                &set.vpls,
+                earlier,
+                moved,
+                spans,
+            )
         });
         self.vpls = Some(VplCache {
-            ism_base: ism_rays::blocks(&ism_corners),
-            ism_corners,
+            ism_base: corners.as_deref().map(ism_rays::blocks).unwrap_or_default(),
+            ism_corners: corners,
             traced_in: (self.bounds, shown),
             gpu: gpu
                 .map(|(v, i)| GpuVpl::new(v, i, count, block(v)))
@@ -246,6 +284,18 @@ impl SceneCache {
         });
         self.moved_since_vpls.clear();
         Ok(())
+    }
+
+    /// Casts the ISM layer's corner rays of VPLs traced by a frame that
+    /// did not splat ISMs.
+    fn cast_ism_layer(&mut self, spans: &mut Vec<CpuSpan>) {
+        let vpls = self.vpls.as_ref().expect("traced before");
+        let corners = ism_layer((&self.bvh, &self.bounds), &vpls.set.vpls, None, &[], spans);
+        let vpls = self.vpls.as_mut().expect("traced before");
+        vpls.ism_base = ism_rays::blocks(&corners);
+        vpls.ism_corners = Some(corners);
+        // The ISM pass uploads the layer with the VPLs.
+        vpls.version = next_version();
     }
 
     /// Brings each object's world bounds up to its transform (only moved,

@@ -390,6 +390,15 @@ pub enum Visibility {
     Exact,
 }
 
+impl Visibility {
+    /// Whether a frame's ISMs are splatted from points over a ray-cast
+    /// layer (the CPU samples the points and casts the layer's corner
+    /// rays only for such frames).
+    pub fn splats_points(self) -> bool {
+        matches!(self, Visibility::Auto | Visibility::Ism)
+    }
+}
+
 /// How each residual step integrates over the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]

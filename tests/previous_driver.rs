@@ -100,3 +100,30 @@ fn the_previous_driver_renders_the_same_images() {
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Mesa 22.3's lavapipe has no ray queries: asking it for traced ISM texels
+/// or exact visibility is an error that says so, not a panic or a silent
+/// fallback.
+#[test]
+fn without_ray_queries_traced_and_exact_visibility_are_clear_errors() {
+    let Some(previous) = common::previous_driver() else {
+        return;
+    };
+    for visibility in ["traced", "exact"] {
+        let out = tempfile::tempdir().unwrap().path().join("x.exr");
+        let run = Command::new(env!("CARGO_BIN_EXE_ssbc"))
+            .args(["render", "cornell", "--size", "64x48", "--vpls", "16"])
+            .args(["--visibility", visibility, "-o"])
+            .arg(&out)
+            .env("VK_ICD_FILENAMES", &previous)
+            .env_remove("VK_DRIVER_FILES")
+            .output()
+            .expect("run ssbc");
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(1), "{visibility}: {stderr}");
+        assert!(
+            stderr.contains("ray queries") && !stderr.contains("panicked"),
+            "{visibility}: {stderr}"
+        );
+    }
+}

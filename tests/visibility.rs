@@ -184,3 +184,43 @@ fn isms_through_thin_walls(
         );
     }
 }
+
+/// A frame that splats ISMs after frames that traced them (or tested
+/// visibility exactly) on the same VPLs, which cast no ISM layer and
+/// sampled no points, renders what a first frame with ISMs renders.
+#[test]
+fn isms_after_traced_and_exact_frames_are_the_same_isms() {
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    if renderer.device().ray_queries().is_none() {
+        common::cannot_check("the device has no ray queries");
+        return;
+    }
+    let scene = load("thin-two-rooms-20cm");
+    let scene = ssbc::resident::ResidentScene::new(scene).unwrap();
+    let settings = |visibility| {
+        let mut s = common::small(SIZE.0, SIZE.1);
+        s.visibility = visibility;
+        s
+    };
+    let first = renderer
+        .render_resident(&scene, &settings(Visibility::Ism))
+        .expect("render");
+    let mut again = common::validated_renderer();
+    let again_log = again.validation_log();
+    for visibility in [Visibility::Traced, Visibility::Exact] {
+        again
+            .render_resident(&scene, &settings(visibility))
+            .expect("render");
+    }
+    let after = again
+        .render_resident(&scene, &settings(Visibility::Ism))
+        .expect("render");
+    assert!(first.image.rgba.iter().any(|&v| v > 0.0));
+    assert!(
+        first.image.rgba == after.image.rgba,
+        "ISMs after traced and exact frames differ from a first frame's"
+    );
+    drop((renderer, again));
+    assert_eq!(log.total() + again_log.total(), 0, "validation messages");
+}

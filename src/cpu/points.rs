@@ -37,6 +37,21 @@ pub struct IsmPoints {
     pub total_area: f32,
 }
 
+impl IsmPoints {
+    /// No points: for frames whose ISMs are not splatted (traced texels,
+    /// exact visibility).
+    pub fn none() -> Self {
+        Self {
+            positions: Vec::new(),
+            normals: Vec::new(),
+            points_per_block: 0,
+            discs: Vec::new(),
+            point_radius: 0.0,
+            total_area: 0.0,
+        }
+    }
+}
+
 /// Samples `blocks` blocks of `points_per_vpl` points, uniform over the
 /// visible objects' world area (as placed when sampled).
 pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: u64) -> IsmPoints {

@@ -279,6 +279,7 @@ impl Pass for IsmPass {
             || ism.subset_count as usize + 1 != cached_vpls.subsets.len()
             || ism.points_per_vpl != points_per_vpl
             || (points.positions.len().max(1) * 16) as u64 != ism.points.size
+            || std::mem::size_of_val(base_layer(setup)) as u64 != ism.base_depths.size
         {
             return Ok(false);
         }
