@@ -455,8 +455,7 @@ fn a_still_view_turns_to_exact_visibility() {
     s.visibility = ssbc::settings::Visibility::Auto;
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     let mut resident = ResidentScene::new(scene).unwrap();

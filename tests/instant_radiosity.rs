@@ -107,8 +107,7 @@ fn gpu_bounded_indirect_equals_cpu_vpl_sum() {
 #[test]
 fn traced_isms_are_the_cpu_sum_and_nearer_exact_visibility() {
     let renderer = common::validated_renderer();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     drop(renderer);
@@ -203,8 +202,7 @@ fn bounded_indirect_equals_cpu_vpl_sum(
 fn exact_visibility_is_the_cpu_sum_with_ray_casts() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     for scene in [
@@ -443,8 +441,7 @@ fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
 #[test]
 fn with_traced_isms_a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     let renderer = common::validated_renderer();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     drop(renderer);
@@ -468,8 +465,7 @@ fn with_traced_isms_a_mirror_like_floor_does_not_reflect_light_an_occluder_hides
 #[test]
 fn with_exact_visibility_a_mirror_like_floor_has_no_contact_leak() {
     let renderer = common::validated_renderer();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     drop(renderer);

@@ -81,8 +81,7 @@ fn light_and_dark(image: &[f32], truth: &[f32]) -> (f64, f64, usize) {
 fn exact_visibility_leaks_nothing_through_thin_walls() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     let mut failures = Vec::new();
@@ -141,8 +140,7 @@ fn isms_leak_through_a_shared_wall_no_more_than_measured() {
 fn traced_isms_leak_through_a_shared_wall_no_more_than_measured() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     isms_through_thin_walls(&mut renderer, Visibility::Traced, |name| match name {
@@ -192,8 +190,7 @@ fn isms_through_thin_walls(
 fn isms_after_traced_and_exact_frames_are_the_same_isms() {
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
-    if renderer.device().ray_queries().is_none() {
-        common::cannot_check("the device has no ray queries");
+    if !common::has_ray_queries(&renderer) {
         return;
     }
     let scene = load("thin-two-rooms-20cm");

@@ -27,6 +27,18 @@ pub fn cannot_check(why: &str) {
     eprintln!("SKIPPED (not under scripts/test.sh): {why}");
 }
 
+/// Whether `renderer`'s device has ray queries (exact visibility, traced
+/// ISM texels); where it has none, says the test cannot check
+/// ([`cannot_check`]: a failure under the test command, whose driver has
+/// them).
+pub fn has_ray_queries(renderer: &Renderer) -> bool {
+    let has = renderer.device().ray_queries().is_some();
+    if !has {
+        cannot_check("the device has no ray queries");
+    }
+    has
+}
+
 /// A tuning variable a test reads (`SSBC_SCENES`, `SSBC_REFINE_RATIO`, ...):
 /// when set it changes what the test checks, so the test names it in its
 /// output; the test command refuses them (scripts/test.sh).
