@@ -2,8 +2,8 @@
 //! run (machines are shared and noisy). Run with
 //! `cargo bench --bench passes` (`-- --frames N` for the median of N warm
 //! frames per configuration; default 3; `--quick` measures 320x240 only;
-//! `--only glossy`, `--only reuse` or `--only history` runs table 6, 7 or 8
-//! alone).
+//! `--only glossy`, `--only reuse`, `--only history` or `--only visibility`
+//! runs table 6, 7, 8 or 9 alone).
 //!
 //! Every configuration is measured as `ssbc render --frames N` does
 //! ([`ssbc::profile::render_frames`]): one warm-up frame (pipelines, first
@@ -27,7 +27,11 @@
 //!    against the same frames redrawing them (`reuse_unchanged` off);
 //! 8. still, camera-moved and light-moved resident frames with temporal
 //!    history and kept passes (the defaults) against frames standing alone
-//!    that redraw everything: per-pass GPU ms and the CPU's ms.
+//!    that redraw everything: per-pass GPU ms and the CPU's ms;
+//! 9. VPL visibility, where the device has ray queries: ISMs splatted,
+//!    ISMs traced (`--visibility traced`) and exact, for cornell and
+//!    `spheres` (whose tessellated spheres make rays dear): the ISM passes
+//!    and the frame, and the frame's ratio to the splatted one.
 
 mod common;
 
@@ -98,6 +102,10 @@ fn main() {
     }
     if args.only.as_deref() == Some("history") {
         frame_kinds(&mut renderer, sizes, reps);
+        return;
+    }
+    if args.only.as_deref() == Some("visibility") {
+        visibility_modes(&mut renderer, sizes, reps);
         return;
     }
     let scenes = ["cornell", "tori"];
@@ -426,6 +434,51 @@ fn step_parts(g: &Frame, m: &Frame, gt: &[Timings], mt: &[Timings]) -> Vec<Strin
             )
         })
         .collect()
+}
+
+/// Table 9: ISMs splatted, traced and exact visibility, in turn per
+/// repetition so that each ratio comes from one stretch of the run.
+fn visibility_modes(renderer: &mut Renderer, sizes: &[(u32, u32)], reps: u32) {
+    use ssbc::settings::Visibility;
+    if renderer.device().ray_queries().is_none() {
+        println!("\n(no ray queries on this device: table 9 needs them)");
+        return;
+    }
+    println!(
+        "\n## VPL visibility: GPU ms (ISM passes, frame) and the frame over the splatted ISMs'\n"
+    );
+    println!(
+        "| scene | size | splatted: ISM, frame | traced: ISM, frame, ratio | exact: frame, ratio |"
+    );
+    println!("|---|---|---|---|---|");
+    let ism_ms =
+        |f: &Frame| pass_ms(f, "ism_points") + pass_ms(f, "ism_splat") + pass_ms(f, "ism_traced");
+    for scene_name in ["cornell", "spheres"] {
+        let scene = ssbc::scene::load(scene_name).unwrap();
+        for &size in sizes {
+            let run = |renderer: &mut Renderer, visibility| {
+                let mut settings = RenderSettings::new(size.0, size.1);
+                settings.visibility = visibility;
+                measure(renderer, &scene, &settings, reps)
+            };
+            let splatted = run(renderer, Visibility::Ism);
+            let traced = run(renderer, Visibility::Traced);
+            let exact = run(renderer, Visibility::Exact);
+            let base = frame_ms(&splatted);
+            println!(
+                "| {scene_name} | {}x{} | {:.1}, {:.1} | {:.1}, {:.1}, {:.2}x | {:.1}, {:.2}x |",
+                size.0,
+                size.1,
+                ism_ms(&splatted),
+                base,
+                ism_ms(&traced),
+                frame_ms(&traced),
+                frame_ms(&traced) / base,
+                frame_ms(&exact),
+                frame_ms(&exact) / base,
+            );
+        }
+    }
 }
 
 /// Table 7: camera-only resident frames keeping the view-independent
