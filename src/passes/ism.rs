@@ -428,6 +428,11 @@ impl Pass for IsmPass {
     }
 }
 
+// ism_traced.comp reads a hit triangle's corners as 32-bit words, the
+// position first.
+const _: () = assert!(std::mem::size_of::<crate::scene::Vertex>() % 4 == 0);
+const _: () = assert!(std::mem::offset_of!(crate::scene::Vertex, position) == 0);
+
 impl IsmPass {
     /// Traces every texel's centre ray (`Visibility::Traced`).
     fn record_traced(
