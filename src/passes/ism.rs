@@ -5,16 +5,18 @@
 //! is no pull-push (it filled the holes between points with the farthest of
 //! their neighbours, which is where occluders near a VPL leaked); a texel
 //! between two nearer texels of one plane, which no disc of that surface
-//! reached, takes their plane (`ism_fill`).
+//! reached, takes their plane (`ism_fill`). With `Visibility::Traced`
+//! (ray queries) every texel instead holds what its own centre ray meets
+//! (`ism_traced`): no points, no layer, no fill.
 
 use std::sync::Arc;
 
 use ash::vk;
 
 use super::{Pass, Recording, SlotSetup};
-use crate::gpu_scene::SlotScene;
 use crate::cpu::ism_rays;
 use crate::error::{Error, Result};
+use crate::gpu_scene::SlotScene;
 use crate::gpu_types::GpuVpl;
 use crate::settings::Visibility;
 use crate::shaders::{
