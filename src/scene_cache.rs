@@ -199,21 +199,23 @@ impl SceneCache {
         let blocks = point_blocks(cache.vpls().set.vpls.len());
         // Points move with their objects; an object shown again needs its own.
         let shown = visibility_hash(scene);
-        let points_key = match splats {
-            true => (blocks, settings.points_per_vpl, settings.vpl.seed, shown),
-            false => (0, 0, 0, 0),
+        let points_key = if splats {
+            (blocks, settings.points_per_vpl, settings.vpl.seed, shown)
+        } else {
+            (0, 0, 0, 0)
         };
         if cache.points.as_ref().is_none_or(|p| p.key != points_key) {
-            let points = match splats {
-                true => CpuSpan::time(spans, "point_sampling", || {
+            let points = if splats {
+                CpuSpan::time(spans, "point_sampling", || {
                     sample_points(
                         scene,
                         blocks,
                         settings.points_per_vpl as usize,
                         settings.vpl.seed,
                     )
-                }),
-                false => IsmPoints::none(),
+                })
+            } else {
+                IsmPoints::none()
             };
             cache.points = Some(PointsCache {
                 points,

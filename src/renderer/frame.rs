@@ -89,14 +89,14 @@ fn record_scene<'c>(
     slot: usize,
 ) -> Result<(&'c SceneCache, SlotScene<'c>)> {
     cache.gpu_scene.record_uploads(rec)?;
-    let rays = casts_rays(settings, cache)?;
-    if rays {
+    let casts = casts_rays(settings, cache)?;
+    if casts {
         let rays = cache.gpu_scene.rays.as_mut().expect("checked");
         rays.record_top_level(rec, slot, scene, versions.objects)?;
     }
     let cache = &*cache;
     let mut slot_scene = cache.gpu_scene.for_slot(slot);
-    if rays {
+    if casts {
         slot_scene.top_level = cache
             .gpu_scene
             .rays
