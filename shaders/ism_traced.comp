@@ -44,14 +44,7 @@ void main() {
     vec3 n = vpl.normal.xyz;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    float q2;
-    vec3 ray = normalize(ism_centre_ray(local, pc.tile, t, b, n, q2));
-    // Beyond the horizon no receiver's direction lands (a fifth of the
-    // texels): nothing is traced there.
-    if (q2 >= 1.0) {
-        imageStore(ism_depth, texel, uvec4(ism_pack(ISM_DEPTH_RANGE, 0u)));
-        return;
-    }
+    vec3 ray = normalize(ism_centre_ray(local, pc.tile, t, b, n));
     // Off the VPL's surface by 1e-4 of its coordinates' size, as the
     // exact gathers leave a surface (exact_lift in exact_visibility.glsl).
     vec3 p = vpl.position.xyz;

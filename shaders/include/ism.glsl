@@ -1,5 +1,6 @@
-// Imperfect shadow maps (Ritschel et al. 2008): one paraboloid depth tile per
-// VPL, oriented along the VPL normal, in one atlas.
+// Imperfect shadow maps (Ritschel et al. 2008): one depth tile per VPL over
+// the hemisphere about its normal, in one atlas. A tile maps its hemisphere
+// with equal solid angle per texel (ism_map), not by a paraboloid.
 #ifndef SSBC_ISM_GLSL
 #define SSBC_ISM_GLSL
 
@@ -60,16 +61,37 @@ float ism_disc_radius(uint disc, float reach) {
 // Texels per GpuVpl in the gathers' texel view.
 const uint VPL_TEXELS = 5u;
 
-// Paraboloid coordinates in [0,1]^2 of unit direction w leaving a VPL with
-// normal n; w must lie in the upper hemisphere.
-vec2 ism_paraboloid(vec3 w, vec3 n) {
+// How a tile maps its VPL's hemisphere: every texel covers the same solid
+// angle, 2 pi / tile^2. The square [-1,1]^2 goes to the unit disc by
+// Shirley and Chiu's concentric map, and the disc to the hemisphere by
+// Lambert's azimuthal equal-area projection (a point at radius r leaves at
+// cos(theta) = 1 - r^2), both area-preserving, and the whole square is
+// used. The paraboloid (Brabec et al.) used before spent its texels towards
+// the horizon and a fifth of them beyond it: its pole's texels, where a
+// VPL sends most of its light, covered 2.5x this solid angle (7 degrees
+// across in a 32-texel tile; 4.5 here). Measured: docs/accuracy.md, "ISM
+// tiles of equal solid angle".
+const float ISM_QUARTER_PI = 0.78539816339744831;
+
+// Coordinates in [0,1]^2 of unit direction w leaving a VPL with normal n;
+// w must lie in the upper hemisphere.
+vec2 ism_map(vec3 w, vec3 n) {
     vec3 t, b;
     orthonormal_basis(n, t, b);
     vec3 l = vec3(dot(w, t), dot(w, b), dot(w, n));
-    return l.xy / (1.0 + l.z) * 0.5 + 0.5;
+    // The disc: |p| = sqrt(1 - cos(theta)), along l.xy.
+    vec2 p = l.xy * inversesqrt(1.0 + max(l.z, 0.0));
+    // The square: the larger coordinate is the radius, the other the angle
+    // within the octant, as a fraction of its quarter turn.
+    float r = length(p);
+    if (r == 0.0) return vec2(0.5);
+    vec2 a = abs(p.x) >= abs(p.y)
+        ? vec2(r, r * atan(p.y / p.x) / ISM_QUARTER_PI) * sign(p.x)
+        : vec2(r * atan(p.x / p.y) / ISM_QUARTER_PI, r) * sign(p.y);
+    return a * 0.5 + 0.5;
 }
 
-// Texel of the atlas at paraboloid coordinate uv in the tile whose column
+// Texel of the atlas at coordinate uv (ism_map) in the tile whose column
 // and row are packed in `cell` (GpuVpl.normal.w).
 ivec2 ism_texel(uint cell, vec2 uv, uint tile) {
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(tile);
@@ -126,14 +148,25 @@ float ism_texel_facing(uint texel) {
     return code == 0u || code >= ISM_NORMAL_CODES ? -1.0 : float(code - 1u) * (1.0 / 254.0);
 }
 
-// The unit ray through the centre of a tile's texel `local` (ism_paraboloid
-// inverted; t, b, n the VPL's basis), and |q|^2 of the texel's paraboloid
-// coordinate q (1 or more: at or beyond the horizon).
-vec3 ism_centre_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n, out float q2) {
-    vec2 q = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact
-    q2 = dot(q, q);
-    float z = (1.0 - q2) / (1.0 + q2);
-    return (t * q.x + b * q.y) * (1.0 + z) + n * z;
+// The unit ray through the centre of a tile's texel `local` in its VPL's
+// frame (t, b, n as x, y, z): ism_map inverted.
+vec3 ism_centre_local(ivec2 local, uint tile) {
+    vec2 a = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact
+    if (a.x == 0.0 && a.y == 0.0) return vec3(0.0, 0.0, 1.0);  // (an odd tile's centre)
+    // Concentric: the larger |coordinate| is the radius.
+    bool along_x = abs(a.x) >= abs(a.y);
+    float r = along_x ? a.x : a.y;
+    float phi = along_x ? ISM_QUARTER_PI * (a.y / a.x) : 2.0 * ISM_QUARTER_PI - ISM_QUARTER_PI * (a.x / a.y);
+    vec2 p = r * vec2(cos(phi), sin(phi));
+    // Equal-area: cos(theta) = 1 - r^2, sin(theta) = r sqrt(1 + cos(theta)).
+    float z = 1.0 - r * r;
+    return vec3(p * sqrt(1.0 + z), z);
+}
+
+// The same in world space (t, b, n the VPL's basis).
+vec3 ism_centre_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n) {
+    vec3 l = ism_centre_local(local, tile);
+    return t * l.x + b * l.y + n * l.z;
 }
 
 // tan of the angle whose cosine is c, c clamped to [0.1, 1].
@@ -150,7 +183,10 @@ float ism_slope(float c) {
 const float ISM_SLOPE_MARGIN = 1.5;
 const float ISM_CURVE = 0.5;
 
-// One splat footprint at distance `dist`: a texel or a point, whichever is larger [m].
+// One splat footprint at distance `dist`: a texel or a point, whichever is
+// larger [m]. 4 / tile radians: the paraboloid's widest texel, kept as the
+// test's scale (an equal-area texel is 2.5 / tile across on average, 3.5 /
+// tile along its longer side at most).
 float ism_footprint(float dist, uint tile, float point_radius) {
     return max(dist * 4.0 / float(tile), point_radius);
 }

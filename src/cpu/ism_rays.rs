@@ -5,7 +5,7 @@
 //! ceiling 1 cm above an emissive quad, the inside of a thin box. Pull-push
 //! then fills the holes with the far surfaces behind it, and the VPL lights
 //! the room through the occluder. Each VPL's tile therefore starts from
-//! exact distances on a coarse grid of its paraboloid, [`BASE_GRID`]²
+//! exact distances on a coarse grid of its tile ([`ism_direction`]), [`BASE_GRID`]²
 //! blocks, cast on the CPU with the BVH: a block holds the farthest of the
 //! distances at its four corners (so along an occluder's silhouette it errs
 //! towards visibility, as pull-push does), and the splatted points add the
@@ -39,25 +39,56 @@ pub struct Corner {
     pub facing: f32,
 }
 
-/// Unit direction leaving a VPL with normal `n` through paraboloid
-/// coordinate `uv` in `[0, 1]²` (the inverse of `ism_paraboloid` in
-/// shaders/include/ism.glsl); points outside the unit disc are moved onto
-/// it, just above the horizon.
-pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {
-    let mut p = uv * 2.0 - 1.0;
-    let r2 = p.length_squared();
-    if r2 > 0.998 {
-        p *= (0.998 / r2).sqrt();
+/// Coordinates in `[-1, 1]²` of a tile of the unit direction `l` given in
+/// its VPL's frame (x, y along [`basis`]'s tangents, z along the normal;
+/// z >= 0): `ism_map` in shaders/include/ism.glsl. Every texel covers the
+/// same solid angle: Lambert's azimuthal equal-area projection takes the
+/// hemisphere to the unit disc (radius sqrt(1 - cos theta)), and Shirley
+/// and Chiu's concentric map the disc to the square.
+pub fn ism_coords(l: Vec3) -> Vec2 {
+    let p = Vec2::new(l.x, l.y) / (1.0 + l.z.max(0.0)).sqrt();
+    let r = p.length();
+    if r == 0.0 {
+        return Vec2::ZERO;
     }
-    let r2 = p.length_squared();
-    let z = (1.0 - r2) / (1.0 + r2);
-    let xy = p * (1.0 + z);
+    let octant = std::f32::consts::FRAC_PI_4;
+    if p.x.abs() >= p.y.abs() {
+        Vec2::new(r, r * (p.y / p.x).atan() / octant) * p.x.signum()
+    } else {
+        Vec2::new(r * (p.x / p.y).atan() / octant, r) * p.y.signum()
+    }
+}
+
+/// The unit direction in its VPL's frame through tile coordinates `a` in
+/// `[-1, 1]²`: [`ism_coords`] inverted (`ism_centre_local` in
+/// shaders/include/ism.glsl).
+pub fn ism_local_direction(a: Vec2) -> Vec3 {
+    if a == Vec2::ZERO {
+        return Vec3::Z;
+    }
+    let octant = std::f32::consts::FRAC_PI_4;
+    let (r, phi) = if a.x.abs() >= a.y.abs() {
+        (a.x, octant * (a.y / a.x))
+    } else {
+        (a.y, 2.0 * octant - octant * (a.x / a.y))
+    };
+    let p = r * Vec2::new(phi.cos(), phi.sin());
+    let z = 1.0 - r * r;
+    (p * (1.0 + z).max(0.0).sqrt()).extend(z)
+}
+
+/// Unit direction leaving a VPL with normal `n` through tile coordinate
+/// `uv` in `[0, 1]²` ([`ism_local_direction`]); the square's rim, the
+/// horizon, is moved just above it.
+pub fn ism_direction(n: Vec3, uv: Vec2) -> Vec3 {
+    let a = (uv * 2.0 - Vec2::ONE).clamp(Vec2::splat(-0.999), Vec2::splat(0.999));
+    let l = ism_local_direction(a);
     let (t, b) = basis(n);
-    (t * xy.x + b * xy.y + n * z).normalize()
+    (t * l.x + b * l.y + n * l.z).normalize()
 }
 
 /// The layer of every VPL, in their order: [`BASE_GRID`]² blocks per VPL,
-/// row by row along the paraboloid's v then u ([`blocks`]); distance
+/// row by row along the tile's v then u ([`blocks`]); distance
 /// `miss` where every corner ray of a block leaves the scene.
 pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<Corner> {
     blocks(&corner_depths(bvh, vpls, miss, None))
@@ -127,7 +158,7 @@ pub fn corner_depths(
             }
             for (k, c) in corners.iter_mut().enumerate() {
                 let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
-                let dir = paraboloid_direction(v.normal, uv);
+                let dir = ism_direction(v.normal, uv);
                 if let Some((old, seen)) = &before {
                     if !seen
                         .iter()
@@ -171,26 +202,61 @@ pub fn blocks(corners: &[Corner]) -> Vec<Corner> {
 mod tests {
     use super::*;
 
-    /// Mirror of `ism_paraboloid` (shaders/include/ism.glsl).
-    fn paraboloid(w: Vec3, n: Vec3) -> Vec2 {
-        let (t, b) = basis(n);
-        let l = Vec3::new(w.dot(t), w.dot(b), w.dot(n));
-        Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + 0.5
-    }
-
     #[test]
-    fn inverts_the_paraboloid() {
+    fn inverts_the_tile_map() {
         for n in [Vec3::Y, -Vec3::Z, Vec3::new(0.3, -0.8, 0.52).normalize()] {
+            let (t, b) = basis(n);
             for uv in [
                 Vec2::new(0.5, 0.5),
                 Vec2::new(0.2, 0.7),
                 Vec2::new(0.9, 0.45),
+                Vec2::new(0.03, 0.98),
+                Vec2::new(0.6, 0.1),
             ] {
-                let w = paraboloid_direction(n, uv);
+                let w = ism_direction(n, uv);
                 assert!(w.dot(n) > 0.0);
-                assert!((paraboloid(w, n) - uv).length() < 1e-4, "{n} {uv}");
+                let l = Vec3::new(w.dot(t), w.dot(b), w.dot(n));
+                let back = ism_coords(l) * 0.5 + Vec2::splat(0.5);
+                assert!((back - uv).length() < 1e-4, "{n} {uv} {back}");
             }
         }
+    }
+
+    #[test]
+    fn every_texel_covers_the_same_solid_angle() {
+        // A texel's solid angle as 8x8 small quads, each two spherical
+        // triangles between its corners (Van Oosterom and Strackee), over a
+        // 32-texel tile: each within 0.5% of 2 pi / 32^2, and together the
+        // hemisphere.
+        let (tile, sub) = (32, 8);
+        let corner = |x: usize, y: usize| {
+            let a = Vec2::new(x as f32, y as f32) * (2.0 / (tile * sub) as f32) - Vec2::ONE;
+            ism_local_direction(a).normalize()
+        };
+        let triangle = |a: Vec3, b: Vec3, c: Vec3| {
+            let num = a.dot(b.cross(c)).abs();
+            let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
+            2.0 * num.atan2(den)
+        };
+        let expected = 2.0 * std::f32::consts::PI / (tile * tile) as f32;
+        let mut total = 0.0;
+        for y in 0..tile {
+            for x in 0..tile {
+                let mut omega = 0.0;
+                for k in 0..sub * sub {
+                    let (x, y) = (x * sub + k % sub, y * sub + k / sub);
+                    let (c00, c10, c01, c11) =
+                        (corner(x, y), corner(x + 1, y), corner(x, y + 1), corner(x + 1, y + 1));
+                    omega += triangle(c00, c10, c11) + triangle(c00, c11, c01);
+                }
+                assert!(
+                    (omega / expected - 1.0).abs() < 0.005,
+                    "texel ({x}, {y}): {omega} sr, {expected} expected"
+                );
+                total += omega;
+            }
+        }
+        assert!((total / (2.0 * std::f32::consts::PI) - 1.0).abs() < 1e-3, "{total}");
     }
 
     #[test]

@@ -150,11 +150,10 @@ impl IsmReadback {
             (texel % self.width as usize % tile) as f32,
             (texel / self.width as usize % tile) as f32,
         );
-        let q = (local + glam::Vec2::splat(0.5)) * (2.0 / self.tile as f32) - glam::Vec2::ONE;
-        let q2 = q.length_squared();
-        let z = (1.0 - q2) / (1.0 + q2);
+        let a = (local + glam::Vec2::splat(0.5)) * (2.0 / self.tile as f32) - glam::Vec2::ONE;
+        let l = crate::cpu::ism_rays::ism_local_direction(a);
         let (t, b) = crate::cpu::sampling::basis(vpl.normal);
-        (t * q.x + b * q.y) * (1.0 + z) + vpl.normal * z
+        t * l.x + b * l.y + vpl.normal * l.z
     }
 
     /// The atlas texel where `x` lands in VPL `index`'s map, its distance
@@ -165,7 +164,7 @@ impl IsmReadback {
         let w = d / dist;
         let (t, b) = crate::cpu::sampling::basis(vpl.normal);
         let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
-        let uv = glam::Vec2::new(l.x, l.y) / (1.0 + l.z) * 0.5 + glam::Vec2::splat(0.5);
+        let uv = crate::cpu::ism_rays::ism_coords(l) * 0.5 + glam::Vec2::splat(0.5);
         let tile = self.tile as i64;
         let origin = (
             (index as u32 % self.tiles_per_row) as i64 * tile,
