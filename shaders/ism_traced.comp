@@ -44,7 +44,12 @@ void main() {
     vec3 n = vpl.normal.xyz;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    vec3 ray = normalize(ism_centre_ray(local, pc.tile, t, b, n));
+    vec3 l = ism_centre_local(local, pc.tile);
+    if (l.z <= 0.0) {
+        imageStore(ism_depth, texel, uvec4(ism_pack(ISM_DEPTH_RANGE, 0u)));
+        return;
+    }
+    vec3 ray = normalize(t * l.x + b * l.y + n * l.z);
     // Off the VPL's surface by 1e-4 of its coordinates' size, as the
     // exact gathers leave a surface (exact_lift in exact_visibility.glsl).
     vec3 p = vpl.position.xyz;

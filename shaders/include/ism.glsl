@@ -1,6 +1,6 @@
 // Imperfect shadow maps (Ritschel et al. 2008): one depth tile per VPL over
 // the hemisphere about its normal, in one atlas. A tile maps its hemisphere
-// with equal solid angle per texel (ism_map), not by a paraboloid.
+// by projected solid angle (ism_map), not by a paraboloid.
 #ifndef SSBC_ISM_GLSL
 #define SSBC_ISM_GLSL
 
@@ -61,34 +61,24 @@ float ism_disc_radius(uint disc, float reach) {
 // Texels per GpuVpl in the gathers' texel view.
 const uint VPL_TEXELS = 5u;
 
-// How a tile maps its VPL's hemisphere: every texel covers the same solid
-// angle, 2 pi / tile^2. The square [-1,1]^2 goes to the unit disc by
-// Shirley and Chiu's concentric map, and the disc to the hemisphere by
-// Lambert's azimuthal equal-area projection (a point at radius r leaves at
-// cos(theta) = 1 - r^2), both area-preserving, and the whole square is
-// used. The paraboloid (Brabec et al.) used before spent its texels towards
-// the horizon and a fifth of them beyond it: its pole's texels, where a
-// VPL sends most of its light, covered 2.5x this solid angle (7 degrees
-// across in a 32-texel tile; 4.5 here). Measured: docs/accuracy.md, "ISM
-// tiles of equal solid angle".
-const float ISM_QUARTER_PI = 0.78539816339744831;
+// How a tile maps its VPL's hemisphere: a direction at theta from the
+// normal lands at its projection onto the VPL's plane, sin(theta) from the
+// tile's centre (Nusselt's analogue: the disc inscribed in the tile, every
+// texel the same projected solid angle, so the same share of a Lambertian
+// VPL's flux). The paraboloid used before (Brabec et al.) had its coarsest
+// texels at the pole, where a VPL sends most of its light (7 degrees
+// across in a 32-texel tile; 3.6 here; at 45 degrees 6.1, here 3.6 x 5.1) and
+// its finest at the horizon (3.6 degrees; here 20 degrees radially in the
+// last ring, which holds 12% of the flux). Measured against an equal-area
+// map and concentric squares: docs/accuracy.md, "ISM tiles by projected
+// solid angle".
 
 // Coordinates in [0,1]^2 of unit direction w leaving a VPL with normal n;
 // w must lie in the upper hemisphere.
 vec2 ism_map(vec3 w, vec3 n) {
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    vec3 l = vec3(dot(w, t), dot(w, b), dot(w, n));
-    // The disc: |p| = sqrt(1 - cos(theta)), along l.xy.
-    vec2 p = l.xy * inversesqrt(1.0 + max(l.z, 0.0));
-    // The square: the larger coordinate is the radius, the other the angle
-    // within the octant, as a fraction of its quarter turn.
-    float r = length(p);
-    if (r == 0.0) return vec2(0.5);
-    vec2 a = abs(p.x) >= abs(p.y)
-        ? vec2(r, r * atan(p.y / p.x) / ISM_QUARTER_PI) * sign(p.x)
-        : vec2(r * atan(p.x / p.y) / ISM_QUARTER_PI, r) * sign(p.y);
-    return a * 0.5 + 0.5;
+    return vec2(dot(w, t), dot(w, b)) * 0.5 + 0.5;
 }
 
 // Texel of the atlas at coordinate uv (ism_map) in the tile whose column
@@ -149,18 +139,12 @@ float ism_texel_facing(uint texel) {
 }
 
 // The unit ray through the centre of a tile's texel `local` in its VPL's
-// frame (t, b, n as x, y, z): ism_map inverted.
+// frame (t, b, n as x, y, z): ism_map inverted; z < 0 beyond the horizon
+// (the tile's corners, which no direction maps to).
 vec3 ism_centre_local(ivec2 local, uint tile) {
     vec2 a = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact
-    if (a.x == 0.0 && a.y == 0.0) return vec3(0.0, 0.0, 1.0);  // (an odd tile's centre)
-    // Concentric: the larger |coordinate| is the radius.
-    bool along_x = abs(a.x) >= abs(a.y);
-    float r = along_x ? a.x : a.y;
-    float phi = along_x ? ISM_QUARTER_PI * (a.y / a.x) : 2.0 * ISM_QUARTER_PI - ISM_QUARTER_PI * (a.x / a.y);
-    vec2 p = r * vec2(cos(phi), sin(phi));
-    // Equal-area: cos(theta) = 1 - r^2, sin(theta) = r sqrt(1 + cos(theta)).
-    float z = 1.0 - r * r;
-    return vec3(p * sqrt(1.0 + z), z);
+    float r2 = dot(a, a);
+    return vec3(a, r2 < 1.0 ? sqrt(1.0 - r2) : -1.0);
 }
 
 // The same in world space (t, b, n the VPL's basis).

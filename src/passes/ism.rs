@@ -1,5 +1,6 @@
-//! Imperfect shadow maps (Ritschel et al. 2008): each VPL's paraboloid depth
-//! tile of one atlas starts from a coarse ray-cast layer (`ism_base`, see
+//! Imperfect shadow maps (Ritschel et al. 2008): each VPL's depth tile of
+//! one atlas (its hemisphere at equal solid angle per texel,
+//! [`crate::cpu::ism_rays::ism_coords`]) starts from a coarse ray-cast layer (`ism_base`, see
 //! [`crate::cpu::ism_rays`]), and the VPL splats its own subset of scene
 //! points into it (`ism_splat`). The layer leaves no empty texels, so there
 //! is no pull-push (it filled the holes between points with the farthest of
