@@ -4,7 +4,8 @@
 // scene and the normal of the triangle it meets there, instead of the
 // nearest splatted point. No holes, no discs past a surface's edge: what
 // is left of the ISM's error is the texel's size (an occluder's edge
-// within a texel) and the test's tolerances (docs/accuracy.md).
+// within a texel) and the test's tolerances (docs/accuracy.md). Its tiles
+// map the hemisphere by projected solid angle (ism_projected).
 #extension GL_EXT_ray_query : require
 #include "common.glsl"
 #include "ism.glsl"
@@ -44,7 +45,10 @@ void main() {
     vec3 n = vpl.normal.xyz;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    vec3 l = ism_centre_local(local, pc.tile);
+    // Projected tiles (ism.glsl): beyond the horizon, in the tile's corners
+    // (a fifth of the texels), no receiver's direction lands: nothing is
+    // traced there.
+    vec3 l = ism_projected_local(local, pc.tile);
     if (l.z <= 0.0) {
         imageStore(ism_depth, texel, uvec4(ism_pack(ISM_DEPTH_RANGE, 0u)));
         return;

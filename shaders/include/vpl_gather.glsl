@@ -41,7 +41,8 @@ const float ISM_PLANE_MAX_COS = 0.3;
 const float ISM_PLANE_MIN_COS = 0.05;
 
 float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
-    vec2 uv = ism_map(w, n);
+    bool projected = pc.ism_projected != 0u;
+    vec2 uv = ism_map(w, n, projected);
     uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
     float depth = ism_texel_depth(stored) * pc.far;
     float relative = bias * dist + 1e-3;
@@ -59,7 +60,7 @@ float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist
         vec3 t, b;
         orthonormal_basis(n, t, b);
         ivec2 local = clamp(ivec2(uv * float(pc.tile)), ivec2(0), ivec2(int(pc.tile) - 1));
-        float cm = dot(ism_centre_ray(local, pc.tile, t, b, n), m);
+        float cm = dot(ism_centre_ray(local, pc.tile, t, b, n, projected), m);
         float wm = dot(w, m);
         followed = abs(wm) > ISM_PLANE_MIN_COS && cm * wm > 0.0;
         within = dist <= depth * cm / wm + relative + ISM_PLANE_CURVE * footprint;
@@ -75,7 +76,7 @@ float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist
     vec3 up_w = up / up_dist;
     // (Lifted behind the VPL's plane: no texel holds it, nothing stands there.)
     if (dot(up_w, n) <= 0.0) return 1.0;
-    uint up_stored = imageLoad(ism, ism_texel(cell, ism_map(up_w, n), pc.tile)).r;
+    uint up_stored = imageLoad(ism, ism_texel(cell, ism_map(up_w, n, projected), pc.tile)).r;
     return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + 1e-3 ? 1.0 : 0.0;
 }
 

@@ -336,6 +336,7 @@ fn gather_push(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> Ga
             bound: view.bound,
             ism_bias: ism.relative_bias,
             point_radius: ism.point_radius,
+            ism_projected: ism.projected as u32,
             camera_position: view.camera.position.extend(1.0).into(),
             ..Default::default()
         }

@@ -56,6 +56,9 @@ pub struct IsmReadback {
     pub normal: Vec<Option<glam::Vec3>>,
     /// World radius of one splatted point.
     pub point_radius: f32,
+    /// Whether the tiles map by projected solid angle (traced texels) or
+    /// by a paraboloid ([`crate::cpu::ism_rays::projected_coords`]).
+    pub projected: bool,
 }
 
 impl IsmReadback {
@@ -151,7 +154,11 @@ impl IsmReadback {
             (texel / self.width as usize % tile) as f32,
         );
         let a = (local + glam::Vec2::splat(0.5)) * (2.0 / self.tile as f32) - glam::Vec2::ONE;
-        let l = crate::cpu::ism_rays::ism_local_direction(a);
+        let l = if self.projected {
+            crate::cpu::ism_rays::projected_local(a)
+        } else {
+            crate::cpu::ism_rays::paraboloid_local(a)
+        };
         let (t, b) = crate::cpu::sampling::basis(vpl.normal);
         t * l.x + b * l.y + vpl.normal * l.z
     }
@@ -164,7 +171,12 @@ impl IsmReadback {
         let w = d / dist;
         let (t, b) = crate::cpu::sampling::basis(vpl.normal);
         let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
-        let uv = crate::cpu::ism_rays::ism_coords(l) * 0.5 + glam::Vec2::splat(0.5);
+        let a = if self.projected {
+            crate::cpu::ism_rays::projected_coords(l)
+        } else {
+            crate::cpu::ism_rays::paraboloid_coords(l)
+        };
+        let uv = a * 0.5 + glam::Vec2::splat(0.5);
         let tile = self.tile as i64;
         let origin = (
             (index as u32 % self.tiles_per_row) as i64 * tile,
@@ -574,6 +586,7 @@ impl IsmReadback {
             facing,
             normal,
             point_radius: ism.point_radius,
+            projected: ism.projected,
         }
     }
 }
