@@ -433,11 +433,12 @@ fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
 
 /// Traced ISM texels (ray queries): the floor before the plinth, as
 /// above. Measured 2026-11-29 (roughness 0.12; 0.3), by quarter metre:
-/// 1.31, 1.12, 2.00, 1.18; 1.57, 1.19, 2.01, 1.37. Not issue 61's 1.5x:
-/// the texels at the plinth's sides hold the floor beside it where their
-/// centre rays pass it, and the band (as wide as the plinth) holds only
-/// the shadowed side of that edge; splatted discs overhang the edge (and
-/// err dark, 0.51-0.76). Pinned at 1.25 times the measured.
+/// 1.65, 1.37, 1.38, 1.23; 1.99, 1.41, 1.51, 1.21 (with paraboloid tiles
+/// before their projected map: 1.31, 1.12, 2.00, 1.18; 1.57, 1.19, 2.01,
+/// 1.37). Not issue 61's 1.5x: the texels at the plinth's edges hold the
+/// floor beside and beyond it where their centre rays pass it; splatted
+/// discs overhang the edges (and err dark, 0.51-0.76). Pinned at 1.25
+/// times the measured.
 #[test]
 fn with_traced_isms_a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     let renderer = common::validated_renderer();

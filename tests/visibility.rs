@@ -132,10 +132,12 @@ fn isms_leak_through_a_shared_wall_no_more_than_measured() {
 }
 
 /// ISMs whose texels are traced (`Visibility::Traced`) leak less through
-/// the shared wall: measured 2026-11-29 at 1.18% (1 mm) and 0.05% (20 cm)
-/// of the image's mean on the other room's pixels (means 1.014 and 1.005),
-/// against 2.1% and 0.54% with splatted texels. Pinned below 1.5 times
-/// that; every thin scene's mean within issue 61's 3%.
+/// the shared wall: measured 2026-11-29 at 1.22% (1 mm) and 0.10% (20 cm)
+/// of the image's mean on the other room's pixels (means 1.016 and 1.006;
+/// 1.18% and 0.05% with paraboloid tiles, before their projected map,
+/// whose last ring spans the 20 degrees above the horizon), against 2.1%
+/// and 0.54% with splatted texels. Pinned below 1.5 times that; every thin
+/// scene's mean within issue 61's 3%.
 #[test]
 fn traced_isms_leak_through_a_shared_wall_no_more_than_measured() {
     let mut renderer = common::validated_renderer();
@@ -144,8 +146,8 @@ fn traced_isms_leak_through_a_shared_wall_no_more_than_measured() {
         return;
     }
     isms_through_thin_walls(&mut renderer, Visibility::Traced, |name| match name {
-        "thin-two-rooms-1mm" => 0.0118,
-        "thin-two-rooms-20cm" => 0.0005,
+        "thin-two-rooms-1mm" => 0.0122,
+        "thin-two-rooms-20cm" => 0.0010,
         _ => f64::NAN,
     });
     drop(renderer);
