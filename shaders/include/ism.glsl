@@ -76,25 +76,20 @@ const uint VPL_TEXELS = 5u;
 // foot, so the splat keeps the paraboloid (docs/accuracy.md, "ISM tiles by
 // projected solid angle").
 
-// Paraboloid coordinates in [0,1]^2 of unit direction w leaving a VPL with
-// normal n; w must lie in the upper hemisphere.
-vec2 ism_paraboloid(vec3 w, vec3 n) {
+// Coordinates in [0,1]^2 of unit direction w leaving a VPL with normal n
+// (w in the upper hemisphere): paraboloid, or with `projected` its
+// projection onto the VPL's plane. (One expression for both: the gathers
+// pay no branch for the choice.)
+vec2 ism_map(vec3 w, vec3 n, bool projected) {
     vec3 t, b;
     orthonormal_basis(n, t, b);
     vec3 l = vec3(dot(w, t), dot(w, b), dot(w, n));
-    return l.xy / (1.0 + l.z) * 0.5 + 0.5;
+    return l.xy / (projected ? 1.0 : 1.0 + l.z) * 0.5 + 0.5;
 }
 
-// Projected coordinates in [0,1]^2 of w: its projection onto the VPL's plane.
-vec2 ism_projected(vec3 w, vec3 n) {
-    vec3 t, b;
-    orthonormal_basis(n, t, b);
-    return vec2(dot(w, t), dot(w, b)) * 0.5 + 0.5;
-}
-
-// The tile's coordinates of w by either map.
-vec2 ism_map(vec3 w, vec3 n, bool projected) {
-    return projected ? ism_projected(w, n) : ism_paraboloid(w, n);
+// Paraboloid coordinates of w (the splat's).
+vec2 ism_paraboloid(vec3 w, vec3 n) {
+    return ism_map(w, n, false);
 }
 
 // Texel of the atlas at tile coordinate uv (ism_map) in the tile whose column
