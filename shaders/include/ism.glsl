@@ -160,7 +160,7 @@ vec3 ism_paraboloid_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n, out floa
 }
 
 // The unit ray through the centre of a projected tile's texel `local` in
-// its VPL's frame (t, b, n as x, y, z): ism_projected inverted; z < 0
+// its VPL's frame (t, b, n as x, y, z): ism_map(w, n, true) inverted; z < 0
 // beyond the horizon (the tile's corners, which no direction maps to).
 vec3 ism_projected_local(ivec2 local, uint tile) {
     vec2 a = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact

@@ -58,7 +58,7 @@ pub fn paraboloid_local(q: Vec2) -> Vec3 {
 
 /// Projected coordinates in `[-1, 1]²` of the unit direction `l` in its
 /// VPL's frame: its projection onto the VPL's plane (Nusselt's analogue,
-/// every texel the same projected solid angle), `ism_projected` in
+/// every texel the same projected solid angle), `ism_map(w, n, true)` in
 /// shaders/include/ism.glsl, the traced tiles' map.
 pub fn projected_coords(l: Vec3) -> Vec2 {
     Vec2::new(l.x, l.y)
