@@ -53,9 +53,8 @@ float pair_along(uint s1, uint s2, ivec2 local, ivec2 step, vec3 c0, vec3 t, vec
     ism_texel_normal(s1, m1);
     ism_texel_normal(s2, m2);
     if (abs(dot(m1, m2)) < ISM_FILL_COS) return 0.0;
-    float q2;
-    float a1 = plane_along(s1, m1, ism_paraboloid_ray(local - step, pc.tile, t, b, n, q2), c0);
-    float a2 = plane_along(s2, m2, ism_paraboloid_ray(local + step, pc.tile, t, b, n, q2), c0);
+    float a1 = plane_along(s1, m1, ism_centre_ray(local - step, pc.tile, t, b, n), c0);
+    float a2 = plane_along(s2, m2, ism_centre_ray(local + step, pc.tile, t, b, n), c0);
     return a1 > 0.0 && a2 > 0.0 && abs(a1 - a2) <= ISM_FILL_AGREE * footprint ? 0.5 * (a1 + a2) : 0.0;
 }
 
@@ -92,8 +91,7 @@ void main() {
         bool fill_along = along && may_fill(up, down, held, footprint);
         uint next_left = right;
         if (fill_across || fill_along) {
-            float q2;
-            vec3 c0 = ism_paraboloid_ray(local, pc.tile, t, b, n, q2);
+            vec3 c0 = ism_centre_ray(local, pc.tile, t, b, n);
             float a = fill_across ? pair_along(left, right, local, ivec2(1, 0), c0, t, b, n, footprint) : 0.0;
             float c = fill_along ? pair_along(up, down, local, ivec2(0, 1), c0, t, b, n, footprint) : 0.0;
             // The nearer of the planes that lie a footprint nearer than
@@ -102,7 +100,7 @@ void main() {
             uint code = 0u;
             if (a > 0.0 && a < best) { best = a; code = left & 4095u; }
             if (c > 0.0 && c < best) { best = c; code = up & 4095u; }
-            if (code != 0u && q2 < 1.0) imageStore(ism_depth, origin + local, uvec4(ism_pack(best / pc.far, code)));
+            if (code != 0u && dot(c0, n) > 0.0) imageStore(ism_depth, origin + local, uvec4(ism_pack(best / pc.far, code)));
         }
         // (The next texel of this parity is two along: this one's right
         // neighbour is its left.)

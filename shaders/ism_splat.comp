@@ -1,6 +1,6 @@
 #version 460
 // ISM point splatting: every VPL splats its own block of scene points (the
-// one its identity picks, position.w) into its paraboloid tile with atomicMin
+// one its identity picks, position.w) into its tile (ism_map) with atomicMin
 // on the packed distance and the point's surface normal (ism_pack). Points
 // come placed in world space (ism_points.comp; w: their surface's packed
 // normal, 0: a hidden object's).
@@ -44,16 +44,14 @@ struct Disc {
 };
 
 // Whether the disc, out to radius sqrt(reach2), covers texel `local` of
-// the tile, the distance `hit` along that texel's centre ray where it
-// meets the disc's plane, and |q|^2 of the texel's paraboloid coordinate.
-bool disc_covers(Disc disc, ivec2 local, float reach2, out float hit, out float q2) {
-    vec2 q = (vec2(local) + 0.5) * (2.0 / float(pc.tile)) - 1.0;  // a power of two: exact
-    q2 = dot(q, q);
-    vec4 f = vec3(2.0 * q, 1.0 - q2) * disc.frame;  // (1 + q2) dot(r, .)
-    float s = disc.plane / f.x;                     // hit / (1 + q2)
-    vec3 miss = s * f.yzw - disc.offsets;           // along u, u2 and the edge's direction
-    hit = s * (1.0 + q2);
-    return abs(f.x) >= 1e-3 * (1.0 + q2) && s > 0.0 && dot(miss.xy, miss.xy) <= reach2
+// the tile, and the distance `hit` along that texel's centre ray where it
+// meets the disc's plane.
+bool disc_covers(Disc disc, ivec2 local, float reach2, out float hit) {
+    vec3 r = ism_projected_local(local, pc.tile);
+    vec4 f = r * disc.frame;  // dot(r, .) for each column
+    hit = disc.plane / f.x;
+    vec3 miss = hit * f.yzw - disc.offsets;  // along u, u2 and the edge's direction
+    return r.z > 0.0 && abs(f.x) >= 1e-3 && hit > 0.0 && dot(miss.xy, miss.xy) <= reach2
         && miss.z <= disc.clip_distance;
 }
 
@@ -82,12 +80,13 @@ void main() {
     vec3 n = vpl.normal.xyz;
     float cos_theta = dot(w, n);
     if (cos_theta <= 0.0) return;
-    vec2 uv = ism_paraboloid(w, n);
-    // Footprint in texels: the paraboloid maps a small angle a near the pole
-    // to a/4 of the tile; larger splats near the VPL close holes, up to 2
-    // texels (3 before the ISM test followed the stored plane, whose cost
-    // this pays: docs/performance.md).
-    float radius_texels = clamp(radius / dist * float(pc.tile) * 0.25, 0.0, 2.0);
+    vec2 uv = ism_map(w, n);
+    // Footprint in texels: an angle a spans a tile / 2 texels across the
+    // map's rings and a cos(theta) tile / 2 along them, about 0.354 a tile
+    // in the mean; larger splats near the VPL close holes, up to 2 texels
+    // (3 before the ISM test followed the stored plane, whose cost this
+    // pays: docs/performance.md).
+    float radius_texels = clamp(radius / dist * float(pc.tile) * 0.354, 0.0, 2.0);
     int r = int(ceil(radius_texels));
     vec3 normal = ism_unpack_normal(normal_bits);
     uint cell = floatBitsToUint(vpl.normal.w);
@@ -117,31 +116,33 @@ void main() {
     // loop (a SIMD group runs as many iterations as its largest box, not
     // its largest row times its largest column). Seen from the VPL the
     // disc lies within an angle alpha of w, tan(alpha) >= sin(alpha) =
-    // radius / (dist - radius); the paraboloid is conformal,
-    // tile / (2 (1 + cos theta)) texels per radian at theta from the
-    // normal (a quarter of the tile at the pole, half at the horizon), so
-    // the reach is alpha times that at theta + alpha, at most twice
-    // radius_texels (the bound before, the horizon's).
+    // radius / (dist - radius). The map (ism_map) takes it to an ellipse
+    // of tan(alpha) tile / 2 texels across its rings and at most
+    // cos(theta - alpha) times that along them (the radial direction in the
+    // tile): the box is that ellipse's (cornell 320x240: 98 -> 94 ms against
+    // the circle's).
     float sin_alpha = min(radius / max(dist - radius, 1e-6), 1.0);
     float cos_alpha = sqrt(1.0 - sin_alpha * sin_alpha);
-    float cos_far = max(cos_theta * cos_alpha - sqrt(max(1.0 - cos_theta * cos_theta, 0.0)) * sin_alpha, 0.0);
     float tan_alpha = sin_alpha / max(cos_alpha, 1e-6);
-    float reach = min(tan_alpha * float(pc.tile) / (2.0 * (1.0 + cos_far)), 2.0 * radius_texels);
-    ivec2 lo = max(max(ivec2(ceil(within - reach)), ivec2(-r)), -center);
-    ivec2 hi = min(min(ivec2(floor(within + reach)), ivec2(r)), ivec2(int(pc.tile) - 1) - center);
+    float reach = tan_alpha * float(pc.tile) * 0.5;
+    float sin_theta = sqrt(max(1.0 - cos_theta * cos_theta, 0.0));
+    float cos_near = sin_alpha < sin_theta ? cos_theta * cos_alpha + sin_theta * sin_alpha : 1.0;
+    vec2 radial = sin_theta > 1e-6 ? (uv * 2.0 - 1.0) / sin_theta : vec2(1.0, 0.0);
+    vec2 ext = reach * sqrt(cos_near * cos_near * radial * radial + radial.yx * radial.yx);
+    ivec2 lo = max(max(ivec2(ceil(within - ext)), ivec2(-r)), -center);
+    ivec2 hi = min(min(ivec2(floor(within + ext)), ivec2(r)), ivec2(int(pc.tile) - 1) - center);
     ivec2 box = max(hi - lo + 1, ivec2(0));
     float reach2 = reach * reach;
     float radius2 = radius * radius;
-    float texel_footprint = dist * 4.0 / float(pc.tile);  // at the pole, the widest
+    float texel_footprint = dist * 4.0 / float(pc.tile);  // ism_footprint's texel
     float own2 = max(radius2, texel_footprint * texel_footprint);
-    // A texel's centre ray r (ism_paraboloid_ray) at paraboloid coordinate q
-    // is unit, and for any vector a, dot(r, a) = (2 (q.x a.t + q.y a.b) +
-    // (1 - |q|^2) a.n) / (1 + |q|^2). It meets the point's plane at
-    // hit = dot(d, normal) / dot(r, normal), and there `miss` = r hit - d
-    // lies in the plane: so the tests need only the plane's normal, its
-    // in-plane axes u, u2 and the edge's direction in the VPL's frame
-    // (`frame`, one column each), and a texel costs one division (cornell
-    // 320x240: the points 67 -> 61 ms; docs/performance.md).
+    // A texel's centre ray r meets the point's plane at hit = dot(d,
+    // normal) / dot(r, normal), and there `miss` = r hit - d lies in the
+    // plane: so the tests need only the plane's normal, its in-plane axes
+    // u, u2 and the edge's direction in the VPL's frame (`frame`, one column
+    // each), against r in that frame (ism_projected_local), and a texel
+    // costs one division (cornell 320x240: the points 67 -> 61 ms;
+    // docs/performance.md).
     vec3 u, u2;
     orthonormal_basis(normal, u, u2);
     mat3 vpl_frame = transpose(mat3(t, b, n));
@@ -150,14 +151,14 @@ void main() {
         vec3(dot(d, u), dot(d, u2), dot(d, clip_dir)),
         dot(d, normal),
         clip_distance);
-    float hit, q2;
-    if (disc_covers(disc_in_frame, center, own2, hit, q2))
+    float hit;
+    if (disc_covers(disc_in_frame, center, own2, hit))
         imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, code));
     ivec2 o = lo;
     for (int k = 0; k < box.x * box.y; k++) {
         vec2 off = vec2(o) - within;
-        bool covers = disc_covers(disc_in_frame, center + o, radius2, hit, q2);
-        if (covers && q2 < 1.0 && (o.x != 0 || o.y != 0) && dot(off, off) <= reach2)
+        bool covers = disc_covers(disc_in_frame, center + o, radius2, hit);
+        if (covers && (o.x != 0 || o.y != 0) && dot(off, off) <= reach2)
             imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, code));
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }

@@ -5,7 +5,7 @@
 // nearest splatted point. No holes, no discs past a surface's edge: what
 // is left of the ISM's error is the texel's size (an occluder's edge
 // within a texel) and the test's tolerances (docs/accuracy.md). Its tiles
-// map the hemisphere by projected solid angle (ism_map, ism_projected_local in ism.glsl).
+// map the hemisphere as splatted ones do (ism_map, ism_projected_local in ism.glsl).
 #extension GL_EXT_ray_query : require
 #include "common.glsl"
 #include "ism.glsl"

@@ -9,6 +9,5 @@ layout(push_constant) uniform GatherPush {
     float bound;          // b [1/m^2]; +inf disables clamping
     float ism_bias;       // relative depth tolerance of the ISM test
     float point_radius;   // world radius of one splatted point
-    uint ism_projected;   // 1: the tiles map by projected solid angle (traced), 0: paraboloid
     vec4 camera_position; // xyz: the eye (glossy receivers reflect towards it)
 } pc;

@@ -1,6 +1,6 @@
 // Imperfect shadow maps (Ritschel et al. 2008): one depth tile per VPL over
-// the hemisphere about its normal, in one atlas: splatted tiles by a
-// paraboloid, traced ones by projected solid angle (ism_map).
+// the hemisphere about its normal, in one atlas, by projected solid angle
+// (ism_map).
 #ifndef SSBC_ISM_GLSL
 #define SSBC_ISM_GLSL
 
@@ -61,35 +61,24 @@ float ism_disc_radius(uint disc, float reach) {
 // Texels per GpuVpl in the gathers' texel view.
 const uint VPL_TEXELS = 5u;
 
-// How a tile maps its VPL's hemisphere. Splatted tiles (the default):
-// by a paraboloid (Brabec et al.), its texels coarsest at the pole, where a
-// VPL sends most of its light (7 degrees across in a 32-texel tile), and
-// finest at the horizon (3.6 degrees), a fifth of them beyond it. Traced
-// tiles (`Visibility::Traced`): by projected solid angle, a direction at
-// theta from the normal landing at its projection onto the VPL's plane,
-// sin(theta) from the tile's centre (Nusselt's analogue: every texel the
-// same share of a Lambertian VPL's flux; 3.6 degrees at the pole, 3.6 x
-// 5.1 at 45 degrees where the paraboloid has 6.1, and 20 degrees radially
-// in the last ring, which holds 12% of the flux). Splatted, the projected
-// map cost 1.05-1.07x the frame at 320x240 (its finer texels take more of
-// each disc's loop) and let a glossy floor reflect more at a plinth's
-// foot, so the splat keeps the paraboloid (docs/accuracy.md, "ISM tiles by
-// projected solid angle").
+// How a tile maps its VPL's hemisphere: by projected solid angle, a
+// direction at theta from the normal landing at its projection onto the
+// VPL's plane, sin(theta) from the tile's centre (Nusselt's analogue: the
+// disc inscribed in the tile, every texel the same share of a Lambertian
+// VPL's flux). Its texels are 3.6 degrees across at the pole of a 32-texel
+// tile, 3.6 x 5.1 at 45 degrees, and 20 degrees radially in the last ring,
+// which holds 12% of the flux. The seed's paraboloid (Brabec et al.) had
+// its coarsest texels at the pole, where a VPL sends most of its light
+// (7.2 degrees), and a fifth of them beyond the horizon: its bias was a
+// texel's size there (docs/accuracy.md, "ISM tiles by projected solid
+// angle").
 
-// Coordinates in [0,1]^2 of unit direction w leaving a VPL with normal n
-// (w in the upper hemisphere): paraboloid, or with `projected` its
-// projection onto the VPL's plane. (One expression for both: the gathers
-// pay no branch for the choice.)
-vec2 ism_map(vec3 w, vec3 n, bool projected) {
+// Tile coordinates in [0,1]^2 of unit direction w leaving a VPL with normal
+// n (w in the upper hemisphere).
+vec2 ism_map(vec3 w, vec3 n) {
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    vec3 l = vec3(dot(w, t), dot(w, b), dot(w, n));
-    return l.xy / (projected ? 1.0 : 1.0 + l.z) * 0.5 + 0.5;
-}
-
-// Paraboloid coordinates of w (the splat's).
-vec2 ism_paraboloid(vec3 w, vec3 n) {
-    return ism_map(w, n, false);
+    return vec2(dot(w, t), dot(w, b)) * 0.5 + 0.5;
 }
 
 // Texel of the atlas at tile coordinate uv (ism_map) in the tile whose column
@@ -149,33 +138,19 @@ float ism_texel_facing(uint texel) {
     return code == 0u || code >= ISM_NORMAL_CODES ? -1.0 : float(code - 1u) * (1.0 / 254.0);
 }
 
-// The unit ray through the centre of a tile's texel `local` (ism_paraboloid
-// inverted; t, b, n the VPL's basis), and |q|^2 of the texel's paraboloid
-// coordinate q (1 or more: at or beyond the horizon).
-vec3 ism_paraboloid_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n, out float q2) {
-    vec2 q = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact
-    q2 = dot(q, q);
-    float z = (1.0 - q2) / (1.0 + q2);
-    return (t * q.x + b * q.y) * (1.0 + z) + n * z;
-}
-
-// The unit ray through the centre of a projected tile's texel `local` in
-// its VPL's frame (t, b, n as x, y, z): ism_map(w, n, true) inverted; z < 0
-// beyond the horizon (the tile's corners, which no direction maps to).
+// The unit ray through the centre of a tile's texel `local` in its VPL's
+// frame (t, b, n as x, y, z): ism_map inverted; z < 0 beyond the horizon
+// (the tile's corners, which no direction maps to).
 vec3 ism_projected_local(ivec2 local, uint tile) {
     vec2 a = (vec2(local) + 0.5) * (2.0 / float(tile)) - 1.0;  // a power of two: exact
     float r2 = dot(a, a);
     return vec3(a, r2 < 1.0 ? sqrt(1.0 - r2) : -1.0);
 }
 
-// The centre ray of texel `local` by either map (t, b, n the VPL's basis).
-vec3 ism_centre_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n, bool projected) {
-    if (projected) {
-        vec3 l = ism_projected_local(local, tile);
-        return t * l.x + b * l.y + n * l.z;
-    }
-    float q2;
-    return ism_paraboloid_ray(local, tile, t, b, n, q2);
+// The same in world space (t, b, n the VPL's basis).
+vec3 ism_centre_ray(ivec2 local, uint tile, vec3 t, vec3 b, vec3 n) {
+    vec3 l = ism_projected_local(local, tile);
+    return t * l.x + b * l.y + n * l.z;
 }
 
 // tan of the angle whose cosine is c, c clamped to [0.1, 1].
@@ -193,8 +168,8 @@ const float ISM_SLOPE_MARGIN = 1.5;
 const float ISM_CURVE = 0.5;
 
 // One splat footprint at distance `dist`: a texel or a point, whichever is
-// larger [m]. 4 / tile radians: the paraboloid's widest texel, the test's
-// scale for both maps.
+// larger [m]. 4 / tile radians: two of the map's texels at the pole (the
+// seed paraboloid's one, which the test's tolerances were tuned with).
 float ism_footprint(float dist, uint tile, float point_radius) {
     return max(dist * 4.0 / float(tile), point_radius);
 }

@@ -30,24 +30,43 @@
 // such a leak as a reflection) the receiver passes only if, lifted off its
 // surface by ISM_LIFT footprints, it also passes within the relative
 // tolerance: the lifted point's ray meets what stands there, its own
-// surface lies beyond it. Lambertian receivers blur such leaks, and
-// lifting them cost more in false shadows than it saved (docs/accuracy.md,
-// "The lifted ISM test"). Mirrored in renderer/readback.rs.
-const float ISM_LIFT = 0.5;
+// surface lies beyond it. That also where the receiver passed within the
+// relative tolerance alone: its texel may be a hole in the plinth's
+// splats, which the lifted point's seldom is too (a metal floor of
+// roughness 0.3 reflected 1.89x its exact VPL light in the quarter metre
+// before a plinth, 1.50x lifted by half a footprint, 1.32x by 0.75, and
+// 1.20x by one, which lifts receivers farther out over the plinth's
+// shadow: 1.41x in the third band). Lambertian receivers blur such leaks,
+// and lifting them cost more in false shadows than it saved
+// (docs/accuracy.md, "The lifted ISM test"). Mirrored in
+// renderer/readback.rs.
+const float ISM_LIFT = 0.75;
 const float ISM_PLANE_CURVE = 0.5;
 const float ISM_PLANE_MAX_COS = 0.3;
 // Below this |cos| between the receiver's ray and the stored plane, the
 // plane is not followed (its distance along the ray is ill-conditioned).
 const float ISM_PLANE_MIN_COS = 0.05;
 
+float ism_lifted_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, float footprint, float bias) {
+    vec3 up = x + ng * (ISM_LIFT * footprint) - z;
+    float up_dist = length(up);
+    vec3 up_w = up / up_dist;
+    // (Lifted behind the VPL's plane: no texel holds it, nothing stands there.)
+    if (dot(up_w, n) <= 0.0) return 1.0;
+    uint up_stored = imageLoad(ism, ism_texel(cell, ism_map(up_w, n), pc.tile)).r;
+    return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + 1e-3 ? 1.0 : 0.0;
+}
+
 float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
-    bool projected = pc.ism_projected != 0u;
-    vec2 uv = ism_map(w, n, projected);
+    vec2 uv = ism_map(w, n);
     uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
     float depth = ism_texel_depth(stored) * pc.far;
     float relative = bias * dist + 1e-3;
-    if (dist <= depth + relative) return 1.0;
     float footprint = ism_footprint(dist, pc.tile, pc.point_radius);
+    if (dist <= depth + relative) {
+        if (!lifted) return 1.0;
+        return ism_lifted_visible(cell, z, n, x, ng, footprint, bias);
+    }
     float cos_x = -dot(ng, w);
     // Beyond the slope term at the receiver's own slope, its bound: hidden
     // (most occluded pairs end here, before the stored normal is decoded).
@@ -60,7 +79,7 @@ float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist
         vec3 t, b;
         orthonormal_basis(n, t, b);
         ivec2 local = clamp(ivec2(uv * float(pc.tile)), ivec2(0), ivec2(int(pc.tile) - 1));
-        float cm = dot(ism_centre_ray(local, pc.tile, t, b, n, projected), m);
+        float cm = dot(ism_centre_ray(local, pc.tile, t, b, n), m);
         float wm = dot(w, m);
         followed = abs(wm) > ISM_PLANE_MIN_COS && cm * wm > 0.0;
         within = dist <= depth * cm / wm + relative + ISM_PLANE_CURVE * footprint;
@@ -71,13 +90,7 @@ float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist
     }
     if (!within) return 0.0;
     if (!lifted) return 1.0;
-    vec3 up = x + ng * (ISM_LIFT * footprint) - z;
-    float up_dist = length(up);
-    vec3 up_w = up / up_dist;
-    // (Lifted behind the VPL's plane: no texel holds it, nothing stands there.)
-    if (dot(up_w, n) <= 0.0) return 1.0;
-    uint up_stored = imageLoad(ism, ism_texel(cell, ism_map(up_w, n, projected), pc.tile)).r;
-    return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + 1e-3 ? 1.0 : 0.0;
+    return ism_lifted_visible(cell, z, n, x, ng, footprint, bias);
 }
 
 #ifdef EXACT_VISIBILITY

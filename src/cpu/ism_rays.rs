@@ -5,7 +5,7 @@
 //! ceiling 1 cm above an emissive quad, the inside of a thin box. Pull-push
 //! then fills the holes with the far surfaces behind it, and the VPL lights
 //! the room through the occluder. Each VPL's tile therefore starts from
-//! exact distances on a coarse grid of its paraboloid, [`BASE_GRID`]²
+//! exact distances on a coarse grid of its tile ([`projected_direction`]), [`BASE_GRID`]²
 //! blocks, cast on the CPU with the BVH: a block holds the farthest of the
 //! distances at its four corners (so along an occluder's silhouette it errs
 //! towards visibility, as pull-push does), and the splatted points add the
@@ -39,27 +39,12 @@ pub struct Corner {
     pub facing: f32,
 }
 
-/// Paraboloid coordinates in `[-1, 1]²` of the unit direction `l` given
-/// in its VPL's frame (x, y along [`basis`]'s tangents, z along the
-/// normal; z >= 0): `ism_paraboloid` in shaders/include/ism.glsl, the
-/// splatted tiles' map.
-pub fn paraboloid_coords(l: Vec3) -> Vec2 {
-    Vec2::new(l.x, l.y) / (1.0 + l.z)
-}
-
-/// The unit direction in its VPL's frame through paraboloid coordinates
-/// `q` in `[-1, 1]²` ([`paraboloid_coords`] inverted, `ism_paraboloid_ray`
-/// in shaders/include/ism.glsl; beyond the horizon past the unit disc).
-pub fn paraboloid_local(q: Vec2) -> Vec3 {
-    let q2 = q.length_squared();
-    let z = (1.0 - q2) / (1.0 + q2);
-    (q * (1.0 + z)).extend(z)
-}
-
-/// Projected coordinates in `[-1, 1]²` of the unit direction `l` in its
-/// VPL's frame: its projection onto the VPL's plane (Nusselt's analogue,
-/// every texel the same projected solid angle), `ism_map(w, n, true)` in
-/// shaders/include/ism.glsl, the traced tiles' map.
+/// Tile coordinates in `[-1, 1]²` of the unit direction `l` given in its
+/// VPL's frame (x, y along [`basis`]'s tangents, z along the normal;
+/// z >= 0): its projection onto the VPL's plane (Nusselt's analogue: the
+/// unit disc inscribed in the tile, every texel the same projected solid
+/// angle, so the same share of a Lambertian VPL's flux), `ism_map` in
+/// shaders/include/ism.glsl.
 pub fn projected_coords(l: Vec3) -> Vec2 {
     Vec2::new(l.x, l.y)
 }
@@ -74,23 +59,16 @@ pub fn projected_local(a: Vec2) -> Vec3 {
     a.extend((1.0 - a.length_squared()).max(0.0).sqrt())
 }
 
-/// Unit direction leaving a VPL with normal `n` through paraboloid
-/// coordinate `uv` in `[0, 1]²` (the inverse of `ism_paraboloid` in
-/// shaders/include/ism.glsl); points outside the unit disc are moved onto
-/// it, just above the horizon.
-pub fn paraboloid_direction(n: Vec3, uv: Vec2) -> Vec3 {
-    let mut p = uv * 2.0 - 1.0;
-    let r2 = p.length_squared();
-    if r2 > 0.998 {
-        p *= (0.998 / r2).sqrt();
-    }
-    let l = paraboloid_local(p);
+/// Unit direction leaving a VPL with normal `n` through tile coordinate
+/// `uv` in `[0, 1]²` ([`projected_local`]).
+pub fn projected_direction(n: Vec3, uv: Vec2) -> Vec3 {
+    let l = projected_local(uv * 2.0 - Vec2::ONE);
     let (t, b) = basis(n);
     (t * l.x + b * l.y + n * l.z).normalize()
 }
 
 /// The layer of every VPL, in their order: [`BASE_GRID`]² blocks per VPL,
-/// row by row along the paraboloid's v then u ([`blocks`]); distance
+/// row by row along the tile's v then u ([`blocks`]); distance
 /// `miss` where every corner ray of a block leaves the scene.
 pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<Corner> {
     blocks(&corner_depths(bvh, vpls, miss, None))
@@ -160,7 +138,7 @@ pub fn corner_depths(
             }
             for (k, c) in corners.iter_mut().enumerate() {
                 let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
-                let dir = paraboloid_direction(v.normal, uv);
+                let dir = projected_direction(v.normal, uv);
                 if let Some((old, seen)) = &before {
                     if !seen
                         .iter()
@@ -205,7 +183,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn inverts_the_maps() {
+    fn inverts_the_map() {
         for n in [Vec3::Y, -Vec3::Z, Vec3::new(0.3, -0.8, 0.52).normalize()] {
             let (t, b) = basis(n);
             for uv in [
@@ -215,11 +193,11 @@ mod tests {
                 Vec2::new(0.12, 0.75),
                 Vec2::new(0.6, 0.05),
             ] {
-                let w = paraboloid_direction(n, uv);
+                let w = projected_direction(n, uv);
                 assert!(w.dot(n) > 0.0);
                 let l = Vec3::new(w.dot(t), w.dot(b), w.dot(n));
-                let back = paraboloid_coords(l) * 0.5 + Vec2::splat(0.5);
-                assert!((back - uv).length() < 1e-4, "paraboloid {n} {uv} {back}");
+                let back = projected_coords(l) * 0.5 + Vec2::splat(0.5);
+                assert!((back - uv).length() < 1e-4, "{n} {uv} {back}");
                 let a = uv * 2.0 - Vec2::ONE;
                 let l = projected_local(a);
                 assert!(l.z > 0.0 && (l.length() - 1.0).abs() < 1e-5);

@@ -127,10 +127,11 @@ pub fn ism_bias(visibility: Visibility) -> f32 {
 pub struct IsmTest {
     /// The relative depth tolerance (a fraction of the distance).
     pub relative_bias: f32,
-    /// Whether the slope term is granted only where the receiver, lifted
-    /// off its surface by half a footprint, passes too: what stands on the
-    /// receiver's surface between the texel's centre ray and the receiver
-    /// (a plinth on a floor) then shadows it.
+    /// Whether the receiver passes only where, lifted off its surface by
+    /// 0.75 of a footprint, it passes too: what stands on the receiver's
+    /// surface between the texel's centre ray and the receiver (a plinth on
+    /// a floor), or where a hole in that occluder's splats lets the
+    /// receiver through, then shadows it.
     pub lifted: bool,
 }
 
@@ -336,7 +337,6 @@ fn gather_push(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> Ga
             bound: view.bound,
             ism_bias: ism.relative_bias,
             point_radius: ism.point_radius,
-            ism_projected: ism.projected as u32,
             camera_position: view.camera.position.extend(1.0).into(),
             ..Default::default()
         }

@@ -1,5 +1,6 @@
-//! Imperfect shadow maps (Ritschel et al. 2008): each VPL's paraboloid depth
-//! tile of one atlas starts from a coarse ray-cast layer (`ism_base`, see
+//! Imperfect shadow maps (Ritschel et al. 2008): each VPL's depth tile of
+//! one atlas, mapping its hemisphere by projected solid angle (`ism_map` in
+//! shaders/include/ism.glsl), starts from a coarse ray-cast layer (`ism_base`, see
 //! [`crate::cpu::ism_rays`]), and the VPL splats its own subset of scene
 //! points into it (`ism_splat`). The layer leaves no empty texels, so there
 //! is no pull-push (it filled the holes between points with the farthest of
@@ -7,8 +8,7 @@
 //! between two nearer texels of one plane, which no disc of that surface
 //! reached, takes their plane (`ism_fill`). With `Visibility::Traced`
 //! (ray queries) every texel instead holds what its own centre ray meets
-//! (`ism_traced`), its tile mapping the hemisphere by projected solid
-//! angle: no points, no layer, no fill.
+//! (`ism_traced`): no points, no layer, no fill.
 
 use std::sync::Arc;
 
@@ -94,10 +94,6 @@ pub struct Ism {
     /// The relative depth tolerance of the ISM test for this atlas's
     /// texels ([`super::indirect_bounded::ism_bias`]).
     pub relative_bias: f32,
-    /// Whether the tiles map their hemispheres by projected solid angle
-    /// (traced texels) rather than by a paraboloid (splatted ones):
-    /// [`crate::cpu::ism_rays::projected_coords`].
-    pub projected: bool,
 }
 
 /// The ISM atlas's texels across and down: whole rows of `tile`-texel
@@ -271,7 +267,6 @@ impl Pass for IsmPass {
             far,
             point_radius: points.point_radius,
             relative_bias: super::indirect_bounded::ism_bias(setup.settings.visibility),
-            projected: setup.settings.visibility == crate::settings::Visibility::Traced,
         })
     }
 
@@ -310,7 +305,6 @@ impl Pass for IsmPass {
         ism.far = far;
         ism.point_radius = points.point_radius;
         ism.relative_bias = super::indirect_bounded::ism_bias(setup.settings.visibility);
-        ism.projected = setup.settings.visibility == crate::settings::Visibility::Traced;
         Ok(true)
     }
 

@@ -56,9 +56,6 @@ pub struct IsmReadback {
     pub normal: Vec<Option<glam::Vec3>>,
     /// World radius of one splatted point.
     pub point_radius: f32,
-    /// Whether the tiles map by projected solid angle (traced texels) or
-    /// by a paraboloid ([`crate::cpu::ism_rays::projected_coords`]).
-    pub projected: bool,
 }
 
 impl IsmReadback {
@@ -79,10 +76,19 @@ impl IsmReadback {
         // ism_visible() in shaders/include/vpl_gather.glsl.
         let (texel, dist, w) = self.lookup(index, vpl, x);
         let depth = self.depth[texel] * self.far;
-        if dist <= depth + relative_bias * dist + 1e-3 {
-            return true;
-        }
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
+        let lifted_visible = || {
+            // The slope only if the receiver lifted off its surface passes too.
+            let lifted = x + normal * (ISM_LIFT * footprint);
+            if (lifted - vpl.position).dot(vpl.normal) <= 0.0 {
+                return true;
+            }
+            let (texel, dist, _) = self.lookup(index, vpl, lifted);
+            dist <= self.depth[texel] * self.far + relative_bias * dist + 1e-3
+        };
+        if dist <= depth + relative_bias * dist + 1e-3 {
+            return !test.lifted || lifted_visible();
+        }
         let relative = relative_bias * dist + 1e-3;
         let slope_of = |c: f32| {
             let c = c.clamp(0.1, 1.0);
@@ -117,16 +123,7 @@ impl IsmReadback {
         if !within {
             return false;
         }
-        if !test.lifted {
-            return true;
-        }
-        // The slope only if the receiver lifted off its surface passes too.
-        let lifted = x + normal * (ISM_LIFT * footprint);
-        if (lifted - vpl.position).dot(vpl.normal) <= 0.0 {
-            return true;
-        }
-        let (texel, dist, _) = self.lookup(index, vpl, lifted);
-        dist <= self.depth[texel] * self.far + relative_bias * dist + 1e-3
+        !test.lifted || lifted_visible()
     }
 
     /// Whether the distance VPL `index`'s map stores where `x` lands lies
@@ -154,11 +151,7 @@ impl IsmReadback {
             (texel / self.width as usize % tile) as f32,
         );
         let a = (local + glam::Vec2::splat(0.5)) * (2.0 / self.tile as f32) - glam::Vec2::ONE;
-        let l = if self.projected {
-            crate::cpu::ism_rays::projected_local(a)
-        } else {
-            crate::cpu::ism_rays::paraboloid_local(a)
-        };
+        let l = crate::cpu::ism_rays::projected_local(a);
         let (t, b) = crate::cpu::sampling::basis(vpl.normal);
         t * l.x + b * l.y + vpl.normal * l.z
     }
@@ -171,11 +164,7 @@ impl IsmReadback {
         let w = d / dist;
         let (t, b) = crate::cpu::sampling::basis(vpl.normal);
         let l = glam::Vec3::new(w.dot(t), w.dot(b), w.dot(vpl.normal));
-        let a = if self.projected {
-            crate::cpu::ism_rays::projected_coords(l)
-        } else {
-            crate::cpu::ism_rays::paraboloid_coords(l)
-        };
+        let a = crate::cpu::ism_rays::projected_coords(l);
         let uv = a * 0.5 + glam::Vec2::splat(0.5);
         let tile = self.tile as i64;
         let origin = (
@@ -193,7 +182,7 @@ impl IsmReadback {
 /// shaders/include/vpl_gather.glsl.
 const ISM_CURVE: f32 = 0.5;
 const ISM_SLOPE_MARGIN: f32 = 1.5;
-const ISM_LIFT: f32 = 0.5;
+const ISM_LIFT: f32 = 0.75;
 
 /// ISM_PLANE_CURVE, ISM_PLANE_MIN_COS and ISM_PLANE_MAX_COS in
 /// shaders/include/vpl_gather.glsl.
@@ -586,7 +575,6 @@ impl IsmReadback {
             facing,
             normal,
             point_radius: ism.point_radius,
-            projected: ism.projected,
         }
     }
 }
