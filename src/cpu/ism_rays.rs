@@ -27,6 +27,16 @@ pub const BASE_GRID: u32 = 8;
 /// Rays a VPL casts for its layer: the corners of the blocks.
 pub const RAYS_PER_VPL: u32 = (BASE_GRID + 1) * (BASE_GRID + 1);
 
+/// How far from the tile's centre a corner ray leaves (a fraction of the
+/// inscribed disc's radius: 75.6 degrees from the VPL's normal), the
+/// corners beyond it moved in to it. The map's last ring of blocks spans 49
+/// to 90 degrees, and a block holds its farthest corner: with its outer
+/// corners at the horizon, a quad 1 cm under a ceiling VPL, which hides
+/// the room up to 88 degrees, vanished from that whole ring, and the room
+/// was lit through it (a fixture 1 cm under the ceiling 1.13x the path
+/// tracer's mean, relMSE on 4x4 blocks 0.115).
+pub const CORNER_MAX_RADIUS: f32 = 1.0 - 1.0 / (4 * BASE_GRID) as f32;
+
 /// Where one corner ray of a VPL's layer stops: its distance, and |cos|
 /// between the ray and the normal of the surface it met (-1: it met
 /// nothing, or that is not known).
@@ -138,7 +148,9 @@ pub fn corner_depths(
             }
             for (k, c) in corners.iter_mut().enumerate() {
                 let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
-                let dir = projected_direction(v.normal, uv);
+                let a = uv * 2.0 - Vec2::ONE;
+                let a = a * (CORNER_MAX_RADIUS / a.length().max(CORNER_MAX_RADIUS));
+                let dir = projected_direction(v.normal, a * 0.5 + Vec2::splat(0.5));
                 if let Some((old, seen)) = &before {
                     if !seen
                         .iter()
@@ -252,10 +264,12 @@ mod tests {
     }
 
     #[test]
-    fn a_vpl_under_a_slab_sees_it_above_and_the_room_at_the_horizon() {
+    fn a_vpl_under_a_slab_sees_it_out_to_the_rim() {
         // A VPL on the ceiling of the Cornell box looking down at a quad 1 cm
-        // below it: the centre blocks hold 1 cm (the quad facing the VPL),
-        // the rim blocks the walls.
+        // below it, 30 cm each way: the centre blocks hold 1 cm (the quad
+        // facing the VPL), and so do the rim blocks (49-90 degrees from the
+        // normal), where it hides the room up to 88 degrees: 4 cm at 75.6
+        // degrees, their outer corners' (CORNER_MAX_RADIUS).
         let mut scene = crate::scene::builtin::cornell();
         let m = scene.materials.len() as u32 - 1;
         let p = [
@@ -291,6 +305,6 @@ mod tests {
             "centre block {centre:?}"
         );
         let rim = d[(g / 2) * g].t;
-        assert!(rim > 0.5, "rim block {rim}");
+        assert!((0.03..0.05).contains(&rim), "rim block {rim}");
     }
 }
