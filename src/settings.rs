@@ -382,9 +382,8 @@ pub enum Visibility {
     /// each holds where its own centre ray meets the scene, and that
     /// triangle's plane (VK_KHR_ray_query; opaque materials; an error where
     /// unavailable). No holes and no splats past a surface's edge, at one
-    /// ray a texel; the tiles map their hemispheres by projected solid
-    /// angle, finest where a VPL sends most light (docs/accuracy.md, "ISM
-    /// texels traced" and "ISM tiles by projected solid angle").
+    /// ray a texel (docs/accuracy.md, "ISM texels traced" and "ISM tiles
+    /// by projected solid angle").
     Traced,
     /// Ray queries against the scene's acceleration structures
     /// (VK_KHR_ray_query; opaque materials): exact, and an error where

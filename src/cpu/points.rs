@@ -52,6 +52,10 @@ impl IsmPoints {
     }
 }
 
+/// A sampled point: its object-space position and object (w, as bits),
+/// its packed normal, its world triangle.
+type SampledPoint = ([f32; 4], u32, u32);
+
 /// Samples `blocks` blocks of `points_per_vpl` points, uniform over the
 /// visible objects' world area (as placed when sampled).
 pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: u64) -> IsmPoints {
@@ -101,7 +105,7 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
         .materials
         .iter()
         .any(|m| matches!(m.alpha, AlphaMode::Mask(_)));
-    let points: Vec<(([f32; 4], u32, u32), u32)> = if masked {
+    let points: Vec<(SampledPoint, u32)> = if masked {
         // Points on cut-out texels are drawn again (up to 16 draws a point).
         (0..16 * count as u64)
             .filter_map(point)
@@ -152,7 +156,7 @@ pub fn sample_points(scene: &Scene, blocks: usize, points_per_vpl: usize, seed: 
 /// nearby points have discs of similar size in the same VPL's tile, so a
 /// group's loop runs about as long as its points need rather than as long
 /// as the largest disc among points spread over the whole scene.
-fn order_blocks(points: Vec<([f32; 4], u32, u32)>, keys: &[u32], block: usize) -> Vec<([f32; 4], u32, u32)> {
+fn order_blocks(points: Vec<SampledPoint>, keys: &[u32], block: usize) -> Vec<SampledPoint> {
     if block < 2 {
         return points;
     }
@@ -189,7 +193,7 @@ struct DiscSurface {
 /// Each point's disc ([`IsmPoints::discs`]) for points of radius `radius`
 /// (world metres): `points` are (object-space position and object, packed
 /// normal, world triangle).
-fn point_discs(scene: &Scene, points: &[([f32; 4], u32, u32)], radius: f32) -> Vec<u32> {
+fn point_discs(scene: &Scene, points: &[SampledPoint], radius: f32) -> Vec<u32> {
     let instances = scene.instances();
     // An instance's mesh and its transform's mean scale.
     let placed = |t: u32| {
