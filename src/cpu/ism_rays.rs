@@ -5,7 +5,7 @@
 //! ceiling 1 cm above an emissive quad, the inside of a thin box. Pull-push
 //! then fills the holes with the far surfaces behind it, and the VPL lights
 //! the room through the occluder. Each VPL's tile therefore starts from
-//! exact distances on a coarse grid of its tile ([`projected_direction`]), [`BASE_GRID`]²
+//! exact distances on a coarse grid of its tile ([`projected_local`]), [`BASE_GRID`]²
 //! blocks, cast on the CPU with the BVH: a block holds the farthest of the
 //! distances at its four corners (so along an occluder's silhouette it errs
 //! towards visibility, as pull-push does), and the splatted points add the
@@ -67,14 +67,6 @@ pub fn projected_local(a: Vec2) -> Vec3 {
     let r2 = a.length_squared();
     let a = if r2 > 0.999999 { a * (0.999999 / r2).sqrt() } else { a };
     a.extend((1.0 - a.length_squared()).max(0.0).sqrt())
-}
-
-/// Unit direction leaving a VPL with normal `n` through tile coordinate
-/// `uv` in `[0, 1]²` ([`projected_local`]).
-pub fn projected_direction(n: Vec3, uv: Vec2) -> Vec3 {
-    let l = projected_local(uv * 2.0 - Vec2::ONE);
-    let (t, b) = basis(n);
-    (t * l.x + b * l.y + n * l.z).normalize()
 }
 
 /// The layer of every VPL, in their order: [`BASE_GRID`]² blocks per VPL,
@@ -146,11 +138,14 @@ pub fn corner_depths(
                 corners.copy_from_slice(old);
                 return;
             }
+            let (t, b) = basis(v.normal);
             for (k, c) in corners.iter_mut().enumerate() {
-                let uv = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) / g as f32;
-                let a = uv * 2.0 - Vec2::ONE;
-                let a = a * (CORNER_MAX_RADIUS / a.length().max(CORNER_MAX_RADIUS));
-                let dir = projected_direction(v.normal, a * 0.5 + Vec2::splat(0.5));
+                // The corner in tile coordinates [-1, 1]², moved in to
+                // CORNER_MAX_RADIUS.
+                let a = Vec2::new((k % (g + 1)) as f32, (k / (g + 1)) as f32) * (2.0 / g as f32)
+                    - Vec2::ONE;
+                let l = projected_local(a * (CORNER_MAX_RADIUS / a.length().max(CORNER_MAX_RADIUS)));
+                let dir = (t * l.x + b * l.y + v.normal * l.z).normalize();
                 if let Some((old, seen)) = &before {
                     if !seen
                         .iter()
@@ -205,7 +200,8 @@ mod tests {
                 Vec2::new(0.12, 0.75),
                 Vec2::new(0.6, 0.05),
             ] {
-                let w = projected_direction(n, uv);
+                let l = projected_local(uv * 2.0 - Vec2::ONE);
+                let w = (t * l.x + b * l.y + n * l.z).normalize();
                 assert!(w.dot(n) > 0.0);
                 let l = Vec3::new(w.dot(t), w.dot(b), w.dot(n));
                 let back = projected_coords(l) * 0.5 + Vec2::splat(0.5);

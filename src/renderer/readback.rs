@@ -78,7 +78,7 @@ impl IsmReadback {
         let depth = self.depth[texel] * self.far;
         let footprint = (dist * 4.0 / self.tile as f32).max(self.point_radius);
         let lifted_visible = || {
-            // The slope only if the receiver lifted off its surface passes too.
+            // Whether the receiver lifted off its surface passes too.
             let lifted = x + normal * (ISM_LIFT * footprint);
             if (lifted - vpl.position).dot(vpl.normal) <= 0.0 {
                 return true;
