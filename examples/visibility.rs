@@ -23,11 +23,12 @@
 //! test's tolerance reaches past it. `--bias B` replays another
 //! relative tolerance than `ism_bias`'s (Lambertian receivers; narrow glossy
 //! lobes scale it as the gathers do), `--lift-all` the lifted test
-//! (`IsmTest::lifted`) for every receiver, `--visibility traced` the
+//! (`IsmTest::lifted`) for every receiver, `--back-faces` ISMs with
+//! back-face maps (`RenderSettings::ism_back_faces`), `--visibility traced` the
 //! ISMs whose texels are ray-traced (devices with ray queries), `--region`
 //! only the pixels of one box of the image.
 //!
-//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--region X0,Y0,X1,Y1] [--visibility ism|traced] [--why]`
+//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--region X0,Y0,X1,Y1] [--visibility ism|traced] [--back-faces] [--why]`
 //! (default: spheres, the slab rooms and the open box at 160x120, the
 //! defaults' VPLs for that size, every 3rd geometry pixel).
 
@@ -55,6 +56,7 @@ struct Replay {
     leaked_hole: f64,
     leaked_tolerance: f64,
     pairs: usize,
+    bwhy: [f64; 5],
 }
 
 /// What the replay asks for.
@@ -121,6 +123,14 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
             } else {
                 r.occluded += weight;
                 if approx {
+                    if std::env::var("BWHY").is_ok() {
+                        let (front, dist, w) = ism.lookup(k, vpl, x);
+                        let bt = front + (ism.height / 2) as usize * ism.width as usize;
+                        let bd = ism.depth[bt] * ism.far;
+                        let cat = if bd >= 3.9 * ism.far { 0 } else if dist <= bd { 1 } else {
+                            match ism.normal[bt] { None => 2, Some(m) => if w.dot(m).abs() < 0.2 { 3 } else { 4 } } };
+                        r.bwhy[cat] += weight;
+                    }
                     r.leaked += weight;
                     r.leaked_beyond += weight * ism.stored_beyond(k, vpl, x) as u8 as f64;
                 }
@@ -150,6 +160,15 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
                 }
             }
         }
+    }
+    {
+        use std::sync::atomic::Ordering::Relaxed;
+        let (f, c) = (ssbc::renderer::readback::FLAGGED.swap(0, Relaxed), ssbc::renderer::readback::CALLS.swap(0, Relaxed));
+        eprintln!("flagged {f} of {c} back tests ({:.3})", f as f64 / c.max(1) as f64);
+    }
+    if std::env::var("BWHY").is_ok() {
+        let t: f64 = r.bwhy.iter().sum();
+        eprintln!("back why (empty, beyond, no normal, grazing, tolerance): {:?}", r.bwhy.map(|v| (v / t * 100.0).round()));
     }
     r
 }
@@ -234,6 +253,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.debug_readback = true;
         settings.ssbc.steps = 0;
         settings.visibility = visibility;
+        settings.ism_back_faces = args.iter().any(|a| a == "--back-faces");
         let frame = renderer.render(&scene, &settings)?;
         let r = replay(&scene, &frame, &options);
         print!(

@@ -17,6 +17,7 @@ layout(push_constant) uniform Push {
     uint tile;
     uint grid;          // blocks per tile side
     float depth_scale;  // 1 / far, as the splat stores distances
+    uint back_faces;    // 1: the atlas holds back-face maps (ism_back_texel)
 } pc;
 
 void main() {
@@ -35,5 +36,11 @@ void main() {
     uint cell = floatBitsToUint(vpls[v].normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile) + ivec2(first);
     uvec4 texel = uvec4(ism_pack(corner.x * pc.depth_scale, ism_facing_code(corner.y)));
-    for (uint k = 0u; k < span; k++) imageStore(ism_depth, origin + ivec2(k, 0), texel);
+    // A back-face map starts empty: the layer's rays stop at front faces.
+    int height = imageSize(ism_depth).y;
+    for (uint k = 0u; k < span; k++) {
+        imageStore(ism_depth, origin + ivec2(k, 0), texel);
+        if (pc.back_faces != 0u)
+            imageStore(ism_depth, ism_back_texel(origin + ivec2(k, 0), height), uvec4(ISM_EMPTY));
+    }
 }

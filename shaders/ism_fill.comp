@@ -27,6 +27,7 @@ layout(push_constant) uniform Push {
     uint run;            // texels of a row per invocation (tile or less)
     float far;           // distances are stored divided by this
     float point_radius;  // world radius each point stands for
+    uint back_faces;     // 1: the atlas holds back-face maps (ism_back_texel)
 } pc;
 
 // The distance along centre ray c0 to the plane of normal m that texel
@@ -58,6 +59,20 @@ float pair_along(uint s1, uint s2, ivec2 local, ivec2 step, vec3 c0, vec3 t, vec
     return a1 > 0.0 && a2 > 0.0 && abs(a1 - a2) <= ISM_FILL_AGREE * footprint ? 0.5 * (a1 + a2) : 0.0;
 }
 
+// Front texel `front` at `at`, with ISM_BACK_FLAG where its back-face map
+// holds a surface nearer than ism_back_band behind its own.
+uint back_flagged(uint front, ivec2 at, int height) {
+    float held = ism_texel_depth(front) * pc.far;
+    float back = ism_texel_depth(imageLoad(ism_depth, ism_back_texel(at, height)).r) * pc.far;
+    return back < held + ism_back_band(held, pc.tile, pc.point_radius) ? front | ISM_BACK_FLAG : front;
+}
+
+// The same, stored where it takes the flag.
+void flag_back(uint front, ivec2 at, int height) {
+    uint flagged = back_flagged(front, at, height);
+    if (flagged != front) imageStore(ism_depth, at, uvec4(flagged));
+}
+
 void main() {
     // One invocation fills the texels of this parity in a run of a row
     // (passes::ism::FILL_RUN), loading each texel once but those above and
@@ -76,7 +91,16 @@ void main() {
     vec3 n = normal_cell.xyz;
     vec3 t, b;
     orthonormal_basis(n, t, b);
+    // The second dispatch, whose texels and their neighbours are final,
+    // also flags every texel of the run whose back-face map holds a
+    // surface before or just behind its own (ISM_BACK_FLAG): its own
+    // parity's as it writes them, the other's as it reads them (neighbours
+    // read concurrently decode the same distance and code either way).
+    bool flagging = pc.parity == 1u && pc.back_faces != 0u;
+    int height = imageSize(ism_depth).y;
+    int start = int(i % runs * run);
     uint left = x0 > 0 ? imageLoad(ism_depth, origin + ivec2(x0 - 1, y)).r : 0u;
+    if (flagging && x0 > start) flag_back(left, origin + ivec2(x0 - 1, y), height);
     for (int x = x0; x < x0 + int(run); x += 2) {
         ivec2 local = ivec2(x, y);
         uint stored = imageLoad(ism_depth, origin + local).r;
@@ -90,6 +114,7 @@ void main() {
         bool fill_across = across && may_fill(left, right, held, footprint);
         bool fill_along = along && may_fill(up, down, held, footprint);
         uint next_left = right;
+        uint final_texel = stored;
         if (fill_across || fill_along) {
             vec3 c0 = ism_centre_ray(local, pc.tile, t, b, n);
             float a = fill_across ? pair_along(left, right, local, ivec2(1, 0), c0, t, b, n, footprint) : 0.0;
@@ -100,8 +125,13 @@ void main() {
             uint code = 0u;
             if (a > 0.0 && a < best) { best = a; code = left & 4095u; }
             if (c > 0.0 && c < best) { best = c; code = up & 4095u; }
-            if (code != 0u && dot(c0, n) > 0.0) imageStore(ism_depth, origin + local, uvec4(ism_pack(best / pc.far, code)));
+            if (code != 0u && dot(c0, n) > 0.0) final_texel = ism_pack(best / pc.far, code);
         }
+        if (flagging) {
+            final_texel = back_flagged(final_texel, origin + local, height);
+            if (x + 1 < start + int(run)) flag_back(right, origin + local + ivec2(1, 0), height);
+        }
+        if (final_texel != stored) imageStore(ism_depth, origin + local, uvec4(final_texel));
         // (The next texel of this parity is two along: this one's right
         // neighbour is its left.)
         left = next_left;

@@ -30,6 +30,7 @@ layout(push_constant) uniform Push {
     float depth_scale;   // 1 / far: distances are stored as d * depth_scale
     float point_radius;  // world radius each point stands for
     float disc_reach;    // the widest disc's radius (m): ism_pack_disc's unit
+    uint back_faces;     // 1: the atlas holds back-face maps (ism_back_texel)
 } pc;
 
 // A point's disc in the VPL's frame (see main): its plane's normal, its
@@ -151,15 +152,25 @@ void main() {
         vec3(dot(d, u), dot(d, u2), dot(d, clip_dir)),
         dot(d, normal),
         clip_distance);
+    // A point seen from behind also goes to the back-face map (ism.glsl):
+    // in the front map too, its disc fills holes in its solid's front.
+    bool back = pc.back_faces != 0u && dot(normal, d) > 0.0;
+    ivec2 back_offset = ism_back_texel(ivec2(0), imageSize(ism_depth).y);
     float hit;
-    if (disc_covers(disc_in_frame, center, own2, hit))
-        imageAtomicMin(ism_depth, origin + center, ism_pack(hit * pc.depth_scale, code));
+    if (disc_covers(disc_in_frame, center, own2, hit)) {
+        uint packed = ism_pack(hit * pc.depth_scale, code);
+        imageAtomicMin(ism_depth, origin + center, packed);
+        if (back) imageAtomicMin(ism_depth, origin + center + back_offset, packed);
+    }
     ivec2 o = lo;
     for (int k = 0; k < box.x * box.y; k++) {
         vec2 off = vec2(o) - within;
         bool covers = disc_covers(disc_in_frame, center + o, radius2, hit);
-        if (covers && (o.x != 0 || o.y != 0) && dot(off, off) <= reach2)
-            imageAtomicMin(ism_depth, origin + center + o, ism_pack(hit * pc.depth_scale, code));
+        if (covers && (o.x != 0 || o.y != 0) && dot(off, off) <= reach2) {
+            uint packed = ism_pack(hit * pc.depth_scale, code);
+            imageAtomicMin(ism_depth, origin + center + o, packed);
+            if (back) imageAtomicMin(ism_depth, origin + center + o + back_offset, packed);
+        }
         o = o.x < hi.x ? ivec2(o.x + 1, o.y) : ivec2(lo.x, o.y + 1);
     }
 }

@@ -50,7 +50,7 @@ void main() {
     // traced there.
     vec3 l = ism_projected_local(local, pc.tile);
     if (l.z <= 0.0) {
-        imageStore(ism_depth, texel, uvec4(ism_pack(ISM_DEPTH_RANGE, 0u)));
+        imageStore(ism_depth, texel, uvec4(ISM_EMPTY));
         return;
     }
     vec3 ray = normalize(t * l.x + b * l.y + n * l.z);

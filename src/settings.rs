@@ -162,6 +162,18 @@ pub struct RenderSettings {
     pub ism_tile: u32,
     /// Scene points each VPL splats into its ISM.
     pub points_per_vpl: u32,
+    /// Splatted ISMs also keep a back-face map per VPL: the nearest surface
+    /// seen from behind, where a ray leaves a closed solid. A receiver
+    /// beyond one is hidden whatever the front map's tolerance lets
+    /// through, which halves the light leaked through thin walls (two
+    /// rooms sharing a 1 mm wall: 0.127 -> 0.060 of the occluded light),
+    /// for twice the atlas's memory and about 1.1x the frame at 320x240
+    /// (docs/accuracy.md, "A back-face map"). Off by default: a frame on
+    /// its own stays within 1.3x the cost issue 61 allows;
+    /// [`Renderer::render_accumulated`](crate::Renderer::render_accumulated)
+    /// turns it on where [`Visibility::Auto`] stays ISMs (no ray queries).
+    /// Ignored by traced ISMs and exact visibility.
+    pub ism_back_faces: bool,
     /// How the bounded VPL lighting visits the VPLs.
     pub gather: Gather,
     /// How it tests whether a VPL sees a receiver.
@@ -316,6 +328,7 @@ impl Default for RenderSettings {
             // the darker curved shadows (docs/accuracy.md, "Holes filled
             // between two texels of one plane").
             points_per_vpl: 1024,
+            ism_back_faces: false,
             gather: Gather::Interleaved,
             visibility: Visibility::Auto,
             interleave: 4,
@@ -397,6 +410,14 @@ impl Visibility {
     /// rays only for such frames).
     pub fn splats_points(self) -> bool {
         matches!(self, Visibility::Auto | Visibility::Ism)
+    }
+}
+
+impl RenderSettings {
+    /// Whether the frame's ISM atlas holds back-face maps: asked for, and
+    /// its ISMs splatted.
+    pub fn ism_back_face_maps(&self) -> bool {
+        self.ism_back_faces && self.visibility.splats_points()
     }
 }
 

@@ -90,19 +90,25 @@ ivec2 ism_texel(uint cell, vec2 uv, uint tile) {
 }
 
 // An atlas texel: the nearest distance (/ far, below ISM_DEPTH_RANGE) in
-// its high 20 bits, so that atomicMin keeps the nearest, and in its low 12
-// what is known of the surface stored: 0 nothing; 1-255 how squarely it
-// faces the VPL, 1 + 254 |cos| between its normal and the ray (the
-// ray-cast layer's blocks); 256 and up its normal up to sign
+// its high 19 bits, so that atomicMin keeps the nearest; ISM_BACK_FLAG;
+// and in its low 12 what is known of the surface stored: 0 nothing; 1-255
+// how squarely it faces the VPL, 1 + 254 |cos| between its normal and the
+// ray (the ray-cast layer's blocks); 256 and up its normal up to sign
 // (ism_normal_code), so that the test can follow its plane to the
 // receiver's ray (a splatted point's).
 const float ISM_DEPTH_RANGE = 4.0;
-const float ISM_DEPTH_STEPS = 1048575.0;  // 2^20 - 1
+const float ISM_DEPTH_STEPS = 524287.0;  // 2^19 - 1
 const uint ISM_NORMAL_CODES = 256u;
+// Set in a front texel (by ism_fill, after the splat) whose back-face map
+// texel holds a surface nearer than the front one or within
+// ism_back_band of it behind: the only texels where the gathers' back-face
+// test can hide a receiver the front test passed, so that the others skip
+// its load (most texels of most scenes: docs/performance.md).
+const uint ISM_BACK_FLAG = 0x1000u;
 
 uint ism_pack(float depth, uint code) {
     float q = clamp(depth * (ISM_DEPTH_STEPS / ISM_DEPTH_RANGE), 0.0, ISM_DEPTH_STEPS);
-    return (uint(q) << 12) | code;
+    return (uint(q) << 13) | code;
 }
 
 uint ism_facing_code(float facing) {
@@ -119,8 +125,22 @@ uint ism_normal_code(vec3 m) {
     return ((4u + uint(q.x)) << 6) | uint(q.y);
 }
 
+// The atlas's lower half holds every tile's back-face map: per texel the
+// nearest surface seen from behind (a splatted point whose normal faces
+// away from the VPL: where its ray leaves a closed solid), packed the same
+// way. A receiver faces the VPL, so it is never that surface itself: a
+// ray that left a solid before reaching it passed through the solid (a
+// wall's thickness), which the front map's tolerance, sized for the
+// receiver's own surface, cannot tell from the receiver.
+ivec2 ism_back_texel(ivec2 front, int atlas_height) {
+    return front + ivec2(0, atlas_height / 2);
+}
+
+// A texel that holds nothing: ism_pack(ISM_DEPTH_RANGE, 0).
+const uint ISM_EMPTY = 0xFFFFE000u;
+
 float ism_texel_depth(uint texel) {
-    return float(texel >> 12) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
+    return float(texel >> 13) * (ISM_DEPTH_RANGE / ISM_DEPTH_STEPS);
 }
 
 // The stored surface's normal (up to sign), if the texel has one.
@@ -172,6 +192,18 @@ const float ISM_CURVE = 0.5;
 // seed paraboloid's one, which the test's tolerances were tuned with).
 float ism_footprint(float dist, uint tile, float point_radius) {
     return max(dist * 4.0 / float(tile), point_radius);
+}
+
+// How far behind a front texel's surface its back-face map's may lie for
+// the texel to take ISM_BACK_FLAG [m]: past that the front test's own
+// tolerance (a relative bias, a footprint at the slopes it allows) has
+// already hidden a receiver beyond the back face (measured: docs/accuracy.md,
+// "A back-face map").
+const float ISM_BACK_BAND_RELATIVE = 0.1;
+const float ISM_BACK_BAND_FOOTPRINTS = 1.0;
+
+float ism_back_band(float depth, uint tile, float point_radius) {
+    return ISM_BACK_BAND_RELATIVE * depth + ISM_BACK_BAND_FOOTPRINTS * ism_footprint(depth, tile, point_radius);
 }
 
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change

@@ -57,9 +57,7 @@ float ism_lifted_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, float footp
     return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + 1e-3 ? 1.0 : 0.0;
 }
 
-float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
-    vec2 uv = ism_map(w, n);
-    uint stored = imageLoad(ism, ism_texel(cell, uv, pc.tile)).r;
+float ism_front_visible(uint stored, uint cell, vec2 uv, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
     float depth = ism_texel_depth(stored) * pc.far;
     float relative = bias * dist + 1e-3;
     float footprint = ism_footprint(dist, pc.tile, pc.point_radius);
@@ -91,6 +89,41 @@ float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist
     if (!within) return 0.0;
     if (!lifted) return 1.0;
     return ism_lifted_visible(cell, z, n, x, ng, footprint, bias);
+}
+
+// Whether the back-face map (ism_back_texel) holds a surface seen from
+// behind that the receiver's ray leaves before reaching it. Its plane is
+// followed from the texel's centre ray to the receiver's; a plane the ray
+// grazes (|cos| under ISM_BACK_MIN_COS: the silhouette of a solid) is not.
+// The tolerance is the stored normal's quantisation (about a degree) over
+// the texel, and float rounding: a receiver never lies on a back face, so
+// it needs no room for its own surface's slope or curve.
+const float ISM_BACK_MIN_COS = 0.2;
+const float ISM_BACK_RELATIVE = 0.002;
+
+bool ism_behind_back_face(ivec2 texel, vec2 uv, vec3 n, vec3 w, float dist) {
+    uint back = imageLoad(ism, ism_back_texel(texel, imageSize(ism).y)).r;
+    float depth = ism_texel_depth(back) * pc.far;
+    // (Most pairs end here: nothing seen from behind before the receiver.)
+    if (dist <= depth) return false;
+    vec3 m;
+    if (!ism_texel_normal(back, m)) return false;
+    float wm = dot(w, m);
+    if (abs(wm) < ISM_BACK_MIN_COS) return false;
+    vec3 t, b;
+    orthonormal_basis(n, t, b);
+    ivec2 local = clamp(ivec2(uv * float(pc.tile)), ivec2(0), ivec2(int(pc.tile) - 1));
+    float cm = dot(ism_centre_ray(local, pc.tile, t, b, n), m);
+    if (cm * wm <= 0.0) return false;
+    return dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / abs(wm) + 1e-3;
+}
+
+float ism_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
+    vec2 uv = ism_map(w, n);
+    ivec2 texel = ism_texel(cell, uv, pc.tile);
+    uint stored = imageLoad(ism, texel).r;
+    if (ism_front_visible(stored, cell, uv, z, n, x, ng, w, dist, bias, lifted) == 0.0) return 0.0;
+    return (stored & ISM_BACK_FLAG) != 0u && ism_behind_back_face(texel, uv, n, w, dist) ? 0.0 : 1.0;
 }
 
 #ifdef EXACT_VISIBILITY

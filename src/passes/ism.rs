@@ -85,6 +85,9 @@ pub struct Ism {
     pub points_per_vpl: u32,
     /// Tile side in texels (a power of two).
     pub tile: u32,
+    /// Whether the atlas's lower half holds back-face maps
+    /// ([`RenderSettings::ism_back_faces`](crate::RenderSettings::ism_back_faces)).
+    pub back_faces: bool,
     /// Tiles per atlas row.
     pub tiles_per_row: u32,
     /// Distances are stored divided by this (m).
@@ -97,28 +100,37 @@ pub struct Ism {
 }
 
 /// The ISM atlas's texels across and down: whole rows of `tile`-texel
-/// tiles for `vpl_count` VPLs (not checked against the device).
-fn atlas_extent(vpl_count: u32, tile: u32) -> (u64, u64) {
+/// tiles for `vpl_count` VPLs, twice with `back_faces`: the lower half
+/// holds each tile's back-face map (`ism_back_texel` in
+/// shaders/include/ism.glsl). Not checked against the device.
+fn atlas_extent(vpl_count: u32, tile: u32, back_faces: bool) -> (u64, u64) {
     let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
     let rows = vpl_count.max(1).div_ceil(tiles_per_row);
+    let maps = if back_faces { 2 } else { 1 };
     (
         tiles_per_row as u64 * tile as u64,
-        rows as u64 * tile as u64,
+        maps * rows as u64 * tile as u64,
     )
 }
 
-/// The ISM atlas for `vpl_count` VPLs with `tile`-texel tiles, as
-/// allocated (TRANSFER_SRC: diagnostics read it back).
-pub(crate) fn atlas_desc(vpl_count: u32, tile: u32) -> ImageDesc {
-    let (w, h) = atlas_extent(vpl_count, tile);
+/// The ISM atlas for `vpl_count` VPLs with `tile`-texel tiles (and their
+/// back-face maps), as allocated (TRANSFER_SRC: diagnostics read it back).
+pub(crate) fn atlas_desc(vpl_count: u32, tile: u32, back_faces: bool) -> ImageDesc {
+    let (w, h) = atlas_extent(vpl_count, tile, back_faces);
     let usage = vk::ImageUsageFlags::STORAGE | vk::ImageUsageFlags::TRANSFER_SRC;
     ImageDesc::new_2d(vk::Format::R32_UINT, w as u32, h as u32, usage)
 }
 
-/// The extent of the ISM atlas for `vpl_count` tiles of `tile` texels;
-/// an error if the device cannot make an image that large.
-pub(crate) fn check_atlas(device: &Device, vpl_count: u32, tile: u32) -> Result<(u32, u32)> {
-    let (w, h) = atlas_extent(vpl_count, tile);
+/// The extent of the ISM atlas for `vpl_count` tiles of `tile` texels
+/// (and their back-face maps); an error if the device cannot make an image
+/// that large.
+pub(crate) fn check_atlas(
+    device: &Device,
+    vpl_count: u32,
+    tile: u32,
+    back_faces: bool,
+) -> Result<(u32, u32)> {
+    let (w, h) = atlas_extent(vpl_count, tile, back_faces);
     let max = device.limits().max_image_dimension2_d as u64;
     if w > max || h > max {
         return Err(Error::InvalidParameter(format!(
@@ -150,8 +162,9 @@ impl Pass for IsmPass {
     /// The atlas depends on the VPLs, the points, the far plane and the tile.
     const VIEW_INDEPENDENT: bool = true;
     /// (VPL version, points version, far plane bits, tile side, how
-    /// visibility is tested: exact draws no atlas, traced traces it).
-    type Key = (u64, u64, u32, u32, Visibility);
+    /// visibility is tested: exact draws no atlas, traced traces it,
+    /// back-face maps).
+    type Key = (u64, u64, u32, u32, Visibility, bool);
     /// The atlas and the VPLs and points it is splatted from.
     type Resources = Ism;
     /// The frame slot's scene (its objects: points move with them; its
@@ -166,6 +179,7 @@ impl Pass for IsmPass {
             cache.diagonal().to_bits(),
             setup.settings.ism_tile,
             setup.settings.visibility,
+            setup.settings.ism_back_face_maps(),
         )
     }
 
@@ -181,9 +195,10 @@ impl Pass for IsmPass {
         }
         let vpl_count = vpls.len() as u32;
         let tiles_per_row = crate::gpu_types::ism_tiles_per_row(vpl_count);
-        check_atlas(device, vpl_count, tile)?;
+        let back_faces = setup.settings.ism_back_face_maps();
+        check_atlas(device, vpl_count, tile, back_faces)?;
         let points_per_vpl = points.points_per_block as u32;
-        let desc = atlas_desc(vpl_count, tile);
+        let desc = atlas_desc(vpl_count, tile, back_faces);
         let atlas = match setup.region(super::transient::Tenancy::Ism) {
             Some(mut region) => Image::new_aliased(device, "ism.atlas", desc, &mut region)?,
             None => Image::new(device, "ism.atlas", desc)?,
@@ -263,6 +278,7 @@ impl Pass for IsmPass {
             vpl_count,
             points_per_vpl,
             tile,
+            back_faces,
             tiles_per_row,
             far,
             point_radius: points.point_radius,
@@ -278,6 +294,7 @@ impl Pass for IsmPass {
         let (tile, far) = (setup.settings.ism_tile, setup.cache.diagonal());
         let points_per_vpl = points.points_per_block as u32;
         if ism.tile != tile
+            || ism.back_faces != setup.settings.ism_back_face_maps()
             || ism.vpl_count != vpls.len() as u32
             || ism.subset_count as usize + 1 != cached_vpls.subsets.len()
             || ism.points_per_vpl != points_per_vpl
@@ -373,6 +390,7 @@ impl Pass for IsmPass {
             tile: ism.tile,
             grid: ism_rays::BASE_GRID,
             depth_scale: 1.0 / ism.far,
+            back_faces: ism.back_faces.into(),
         };
         let bindings = ism_base_comp::Bindings {
             ism_depth: &ism.atlas,
@@ -393,6 +411,7 @@ impl Pass for IsmPass {
             depth_scale: 1.0 / ism.far,
             point_radius: ism.point_radius,
             disc_reach: crate::cpu::point_discs::MAX_DISC_SCALE * ism.point_radius,
+            back_faces: ism.back_faces.into(),
         };
         let bindings = ism_splat_comp::Bindings {
             ism_depth: &ism.atlas,
@@ -420,6 +439,7 @@ impl Pass for IsmPass {
                 run,
                 far: ism.far,
                 point_radius: ism.point_radius,
+                back_faces: ism.back_faces.into(),
             };
             // One invocation per (run of a row, VPL).
             let texels = Work::Threads([ism.tile * ism.tile / run, ism.vpl_count, 1]);

@@ -104,7 +104,11 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
     let visibility = visibility_is_transient(settings, traits);
     let shadow_views = (6 * traits.lights as u32).max(1);
     let shadow_maps = super::shadow_maps::depth_desc(settings.shadow_map_size, shadow_views);
-    let atlas = super::ism::atlas_desc(settings.vpl.count as u32, settings.ism_tile);
+    let atlas = super::ism::atlas_desc(
+        settings.vpl.count as u32,
+        settings.ism_tile,
+        settings.ism_back_face_maps(),
+    );
     let visibility = [shadow_maps, atlas].map(|desc| match visibility {
         true => vec![Planned::Image(desc)],
         false => Vec::new(),

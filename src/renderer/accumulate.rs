@@ -52,14 +52,14 @@ impl Renderer {
         settings.history.enabled = false;
         // Independent VPL sets average their noise away but not ISM
         // visibility's bias: exact visibility where the device and the
-        // scene allow.
+        // scene allow, else ISMs with back-face maps (their leaks halved).
         if settings.visibility == Visibility::Auto {
-            let exact = crate::ray_scene::exact_visibility_possible(self.device(), scene);
-            settings.visibility = if exact {
-                Visibility::Exact
+            if crate::ray_scene::exact_visibility_possible(self.device(), scene) {
+                settings.visibility = Visibility::Exact;
             } else {
-                Visibility::Ism
-            };
+                settings.visibility = Visibility::Ism;
+                settings.ism_back_faces = true;
+            }
         }
         let mut sum: Option<Frame> = None;
         for k in 0..frames {

@@ -121,7 +121,11 @@ pub(super) fn frame_memory(
     // and ray-cast layers (a distance and a facing per block); the point
     // blocks they share, in object space with their normals and discs and
     // placed in the world (a position and normal, a disc).
-    let atlas_desc = crate::passes::ism::atlas_desc(settings.vpl.count as u32, settings.ism_tile);
+    let atlas_desc = crate::passes::ism::atlas_desc(
+        settings.vpl.count as u32,
+        settings.ism_tile,
+        settings.ism_back_face_maps(),
+    );
     let atlas = atlas_desc.bytes(device);
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
     let subsets = 4 * (settings.pattern_side() as u64).pow(2) + 4;
@@ -311,7 +315,12 @@ pub(super) fn check_settings(
     }
     settings.validate()?;
     if settings.vpl.count > 0 {
-        crate::passes::ism::check_atlas(device, settings.vpl.count as u32, settings.ism_tile)?;
+        crate::passes::ism::check_atlas(
+            device,
+            settings.vpl.count as u32,
+            settings.ism_tile,
+            settings.ism_back_face_maps(),
+        )?;
     }
     check_memory(device, settings, lights, uses)
 }

@@ -54,6 +54,9 @@ pub struct IsmReadback {
     /// Per texel, the normal (up to sign) of the surface it stores, where
     /// known (a splatted point's).
     pub normal: Vec<Option<glam::Vec3>>,
+    /// Per texel, ISM_BACK_FLAG (front texels whose back-face map texel
+    /// holds a surface that the back-face test may need).
+    pub back_flag: Vec<bool>,
     /// World radius of one splatted point.
     pub point_radius: f32,
 }
@@ -65,6 +68,52 @@ impl IsmReadback {
     /// turns the shading normal), `test` how its BRDF is tested
     /// ([`ism_test_for`](crate::passes::indirect_bounded::ism_test_for)).
     pub fn visible(
+        &self,
+        index: usize,
+        vpl: &Vpl,
+        x: glam::Vec3,
+        normal: glam::Vec3,
+        test: IsmTest,
+    ) -> bool {
+        self.front_visible(index, vpl, x, normal, test)
+            && !(self.back_flag[self.lookup(index, vpl, x).0] && self.behind_back_face(index, vpl, x))
+    }
+
+    /// Whether `x` lies beyond a surface VPL `index`'s back-face map holds
+    /// (ism_behind_back_face() in shaders/include/vpl_gather.glsl).
+    pub fn behind_back_face(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
+        let (front, dist, w) = self.lookup(index, vpl, x);
+        let texel = front + (self.height / 2) as usize * self.width as usize;
+        let depth = self.depth[texel] * self.far;
+        CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if let Some(k) = std::env::var("BBAND").ok().and_then(|v| v.parse::<f32>().ok()) {
+            let fd = self.depth[front] * self.far;
+            let fp = (fd * 4.0 / self.tile as f32).max(self.point_radius);
+            if !(depth < fd + 0.05 * fd + k * fp) {
+                return false;
+            }
+            FLAGGED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+        if dist <= depth {
+            return false;
+        }
+        let Some(m) = self.normal[texel] else {
+            return false;
+        };
+        let (wm, cm) = (w.dot(m), self.centre_ray(vpl, texel).dot(m));
+        let env = |k: &str, d: f32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+        let (min_cos, rel, abs_) = (env("BMC", ISM_BACK_MIN_COS), env("BREL", ISM_BACK_RELATIVE), env("BABS", 1e-3));
+        if std::env::var("BNOFOLLOW").is_ok() {
+            return dist > depth + rel * dist + abs_;
+        }
+        if wm.abs() < min_cos || cm * wm <= 0.0 {
+            return std::env::var("BGRAZE").is_ok() && dist > depth + rel * dist + abs_;
+        }
+        dist > depth * cm / wm + rel * dist / wm.abs() + abs_
+    }
+
+    /// The front map's test alone (ism_front_visible()).
+    fn front_visible(
         &self,
         index: usize,
         vpl: &Vpl,
@@ -158,7 +207,7 @@ impl IsmReadback {
 
     /// The atlas texel where `x` lands in VPL `index`'s map, its distance
     /// from the VPL and the unit direction to it (ism_texel()).
-    fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
+    pub fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
         let d = x - vpl.position;
         let dist = d.length();
         let w = d / dist;
@@ -190,10 +239,16 @@ const ISM_PLANE_CURVE: f32 = 0.5;
 const ISM_PLANE_MIN_COS: f32 = 0.05;
 const ISM_PLANE_MAX_COS: f32 = 0.3;
 
+pub static FLAGGED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+/// ISM_BACK_MIN_COS and ISM_BACK_RELATIVE in shaders/include/vpl_gather.glsl.
+const ISM_BACK_MIN_COS: f32 = 0.2;
+const ISM_BACK_RELATIVE: f32 = 0.002;
+
 /// An atlas texel's distance (divided by `far`), facing (-1: not known) and
 /// normal, as `ism_pack` in shaders/include/ism.glsl packs them.
 fn ism_unpack(texel: u32) -> (f32, f32, Option<glam::Vec3>) {
-    let depth = (texel >> 12) as f32 * (4.0 / 1_048_575.0);
+    let depth = (texel >> 13) as f32 * (4.0 / 524_287.0);
     let code = texel & 4095;
     match code {
         0 => (depth, -1.0, None),
@@ -560,6 +615,7 @@ impl IsmReadback {
     /// facing, `ism_unpack`).
     fn new(ism: &Ism, texels: Vec<u32>) -> Self {
         let (mut depth, mut facing, mut normal) = (vec![], vec![], vec![]);
+        let back_flag = texels.iter().map(|t| t & 0x1000 != 0).collect();
         for (d, f, n) in texels.into_iter().map(ism_unpack) {
             depth.push(d);
             facing.push(f);
@@ -574,6 +630,7 @@ impl IsmReadback {
             depth,
             facing,
             normal,
+            back_flag,
             point_radius: ism.point_radius,
         }
     }
