@@ -56,7 +56,6 @@ struct Replay {
     leaked_hole: f64,
     leaked_tolerance: f64,
     pairs: usize,
-    bwhy: [f64; 5],
 }
 
 /// What the replay asks for.
@@ -123,14 +122,6 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
             } else {
                 r.occluded += weight;
                 if approx {
-                    if std::env::var("BWHY").is_ok() {
-                        let (front, dist, w) = ism.lookup(k, vpl, x);
-                        let bt = front + (ism.height / 2) as usize * ism.width as usize;
-                        let bd = ism.depth[bt] * ism.far;
-                        let cat = if bd >= 3.9 * ism.far { 0 } else if dist <= bd { 1 } else {
-                            match ism.normal[bt] { None => 2, Some(m) => if w.dot(m).abs() < 0.2 { 3 } else { 4 } } };
-                        r.bwhy[cat] += weight;
-                    }
                     r.leaked += weight;
                     r.leaked_beyond += weight * ism.stored_beyond(k, vpl, x) as u8 as f64;
                 }
@@ -160,15 +151,6 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
                 }
             }
         }
-    }
-    {
-        use std::sync::atomic::Ordering::Relaxed;
-        let (f, c) = (ssbc::renderer::readback::FLAGGED.swap(0, Relaxed), ssbc::renderer::readback::CALLS.swap(0, Relaxed));
-        eprintln!("flagged {f} of {c} back tests ({:.3})", f as f64 / c.max(1) as f64);
-    }
-    if std::env::var("BWHY").is_ok() {
-        let t: f64 = r.bwhy.iter().sum();
-        eprintln!("back why (empty, beyond, no normal, grazing, tolerance): {:?}", r.bwhy.map(|v| (v / t * 100.0).round()));
     }
     r
 }

@@ -18,7 +18,7 @@ mod frame_passes;
 mod guard_band;
 mod history;
 mod limits;
-pub mod readback;
+mod readback;
 mod sink;
 
 use std::sync::Arc;

@@ -81,19 +81,10 @@ impl IsmReadback {
 
     /// Whether `x` lies beyond a surface VPL `index`'s back-face map holds
     /// (ism_behind_back_face() in shaders/include/vpl_gather.glsl).
-    pub fn behind_back_face(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
+    fn behind_back_face(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
         let (front, dist, w) = self.lookup(index, vpl, x);
         let texel = front + (self.height / 2) as usize * self.width as usize;
         let depth = self.depth[texel] * self.far;
-        CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        if let Some(k) = std::env::var("BBAND").ok().and_then(|v| v.parse::<f32>().ok()) {
-            let fd = self.depth[front] * self.far;
-            let fp = (fd * 4.0 / self.tile as f32).max(self.point_radius);
-            if !(depth < fd + 0.05 * fd + k * fp) {
-                return false;
-            }
-            FLAGGED.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        }
         if dist <= depth {
             return false;
         }
@@ -101,15 +92,10 @@ impl IsmReadback {
             return false;
         };
         let (wm, cm) = (w.dot(m), self.centre_ray(vpl, texel).dot(m));
-        let env = |k: &str, d: f32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
-        let (min_cos, rel, abs_) = (env("BMC", ISM_BACK_MIN_COS), env("BREL", ISM_BACK_RELATIVE), env("BABS", 1e-3));
-        if std::env::var("BNOFOLLOW").is_ok() {
-            return dist > depth + rel * dist + abs_;
+        if wm.abs() < ISM_BACK_MIN_COS || cm * wm <= 0.0 {
+            return false;
         }
-        if wm.abs() < min_cos || cm * wm <= 0.0 {
-            return std::env::var("BGRAZE").is_ok() && dist > depth + rel * dist + abs_;
-        }
-        dist > depth * cm / wm + rel * dist / wm.abs() + abs_
+        dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / wm.abs() + 1e-3
     }
 
     /// The front map's test alone (ism_front_visible()).
@@ -207,7 +193,7 @@ impl IsmReadback {
 
     /// The atlas texel where `x` lands in VPL `index`'s map, its distance
     /// from the VPL and the unit direction to it (ism_texel()).
-    pub fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
+    fn lookup(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> (usize, f32, glam::Vec3) {
         let d = x - vpl.position;
         let dist = d.length();
         let w = d / dist;
@@ -239,8 +225,6 @@ const ISM_PLANE_CURVE: f32 = 0.5;
 const ISM_PLANE_MIN_COS: f32 = 0.05;
 const ISM_PLANE_MAX_COS: f32 = 0.3;
 
-pub static FLAGGED: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-pub static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 /// ISM_BACK_MIN_COS and ISM_BACK_RELATIVE in shaders/include/vpl_gather.glsl.
 const ISM_BACK_MIN_COS: f32 = 0.2;
 const ISM_BACK_RELATIVE: f32 = 0.002;
