@@ -21,7 +21,8 @@ use crate::gpu_scene::SlotScene;
 use crate::gpu_types::GpuVpl;
 use crate::settings::Visibility;
 use crate::shaders::{
-    ism_base_comp, ism_fill_comp, ism_points_comp, ism_splat_comp, ism_traced_comp,
+    ism_base_comp, ism_fill_back_comp, ism_fill_comp, ism_points_comp, ism_splat_back_comp,
+    ism_splat_comp, ism_traced_comp,
 };
 use crate::vk::{
     Buffer, BufferView, ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image,
@@ -40,6 +41,9 @@ pub struct IsmPass {
     base: ComputeKernel<ism_base_comp::Interface>,
     splat: ComputeKernel<ism_splat_comp::Interface>,
     fill: ComputeKernel<ism_fill_comp::Interface>,
+    /// The same, with back-face maps.
+    splat_back: ComputeKernel<ism_splat_back_comp::Interface>,
+    fill_back: ComputeKernel<ism_fill_back_comp::Interface>,
     /// Every texel traced, where the device has ray queries.
     traced: Option<ComputeKernel<ism_traced_comp::Interface>>,
 }
@@ -149,6 +153,8 @@ impl IsmPass {
             base: ComputeKernel::new(device)?,
             splat: ComputeKernel::new(device)?,
             fill: ComputeKernel::new(device)?,
+            splat_back: ComputeKernel::new(device)?,
+            fill_back: ComputeKernel::new(device)?,
             traced: match device.ray_queries() {
                 Some(_) => Some(ComputeKernel::new(device)?),
                 None => None,
@@ -325,15 +331,20 @@ impl Pass for IsmPass {
         Ok(true)
     }
 
-    /// A placing, a base and a splat set, a fill set per parity, and a
+    /// A placing, a base and a splat set, a fill set per parity (those of
+    /// the builds with back-face maps where the atlas has them), and a
     /// traced set where the device has ray queries.
-    fn set_layouts(&self, _: &Ism) -> Vec<&DescriptorSetLayout> {
+    fn set_layouts(&self, ism: &Ism) -> Vec<&DescriptorSetLayout> {
+        let (splat, fill) = match ism.back_faces {
+            true => (self.splat_back.set_layout(), self.fill_back.set_layout()),
+            false => (self.splat.set_layout(), self.fill.set_layout()),
+        };
         let mut layouts = vec![
             self.place.set_layout(),
             self.base.set_layout(),
-            self.splat.set_layout(),
-            self.fill.set_layout(),
-            self.fill.set_layout(),
+            splat,
+            fill,
+            fill,
         ];
         layouts.extend(self.traced.as_ref().map(|k| k.set_layout()));
         layouts
@@ -403,49 +414,58 @@ impl Pass for IsmPass {
         let part = profiler.begin(rec.cmd, "ism_splat/layer");
         self.base.dispatch(rec, pool, &bindings, &push, texels)?;
         profiler.end(rec.cmd, part);
-        let push = ism_splat_comp::Push {
-            vpl_count: ism.vpl_count,
-            points_per_vpl: ism.points_per_vpl,
-            tile: ism.tile,
-            tiles_per_row: ism.tiles_per_row,
-            depth_scale: 1.0 / ism.far,
-            point_radius: ism.point_radius,
-            disc_reach: crate::cpu::point_discs::MAX_DISC_SCALE * ism.point_radius,
-            back_faces: ism.back_faces.into(),
-        };
-        let bindings = ism_splat_comp::Bindings {
-            ism_depth: &ism.atlas,
-            vpls: &ism.vpls.buffer,
-            points: &ism.world_points,
-            discs: &ism.world_discs,
-        };
-        // One invocation per (point, VPL).
-        let points = Work::Threads([ism.points_per_vpl, ism.vpl_count, 1]);
-        let part = profiler.begin(rec.cmd, "ism_splat/points");
-        self.splat.dispatch(rec, pool, &bindings, &push, points)?;
-        profiler.end(rec.cmd, part);
-        // Fill one-texel holes, one checkerboard parity after the other.
-        let part = profiler.begin(rec.cmd, "ism_splat/fill");
-        let bindings = ism_fill_comp::Bindings {
-            ism_depth: &ism.atlas,
-            vpls: &ism.vpls.buffer,
-        };
-        for parity in 0..2 {
-            let run = ism.tile.min(FILL_RUN);
-            let push = ism_fill_comp::Push {
-                vpl_count: ism.vpl_count,
-                tile: ism.tile,
-                parity,
-                run,
-                far: ism.far,
-                point_radius: ism.point_radius,
-                back_faces: ism.back_faces.into(),
-            };
-            // One invocation per (run of a row, VPL).
-            let texels = Work::Threads([ism.tile * ism.tile / run, ism.vpl_count, 1]);
-            self.fill.dispatch(rec, pool, &bindings, &push, texels)?;
+        // The splat and the fill, with or without back-face maps (two
+        // builds of one shader each: the front map alone pays nothing).
+        macro_rules! splat_and_fill {
+            ($splat:expr, $splat_mod:ident, $fill:expr, $fill_mod:ident) => {{
+                let push = $splat_mod::Push {
+                    vpl_count: ism.vpl_count,
+                    points_per_vpl: ism.points_per_vpl,
+                    tile: ism.tile,
+                    tiles_per_row: ism.tiles_per_row,
+                    depth_scale: 1.0 / ism.far,
+                    point_radius: ism.point_radius,
+                    disc_reach: crate::cpu::point_discs::MAX_DISC_SCALE * ism.point_radius,
+                };
+                let bindings = $splat_mod::Bindings {
+                    ism_depth: &ism.atlas,
+                    vpls: &ism.vpls.buffer,
+                    points: &ism.world_points,
+                    discs: &ism.world_discs,
+                };
+                // One invocation per (point, VPL).
+                let points = Work::Threads([ism.points_per_vpl, ism.vpl_count, 1]);
+                let part = profiler.begin(rec.cmd, "ism_splat/points");
+                $splat.dispatch(rec, pool, &bindings, &push, points)?;
+                profiler.end(rec.cmd, part);
+                // Fill one-texel holes, one checkerboard parity after the other.
+                let part = profiler.begin(rec.cmd, "ism_splat/fill");
+                let bindings = $fill_mod::Bindings {
+                    ism_depth: &ism.atlas,
+                    vpls: &ism.vpls.buffer,
+                };
+                for parity in 0..2 {
+                    let run = ism.tile.min(FILL_RUN);
+                    let push = $fill_mod::Push {
+                        vpl_count: ism.vpl_count,
+                        tile: ism.tile,
+                        parity,
+                        run,
+                        far: ism.far,
+                        point_radius: ism.point_radius,
+                    };
+                    // One invocation per (run of a row, VPL).
+                    let texels = Work::Threads([ism.tile * ism.tile / run, ism.vpl_count, 1]);
+                    $fill.dispatch(rec, pool, &bindings, &push, texels)?;
+                }
+                profiler.end(rec.cmd, part);
+            }};
         }
-        profiler.end(rec.cmd, part);
+        if ism.back_faces {
+            splat_and_fill!(self.splat_back, ism_splat_back_comp, self.fill_back, ism_fill_back_comp);
+        } else {
+            splat_and_fill!(self.splat, ism_splat_comp, self.fill, ism_fill_comp);
+        }
         profiler.end(rec.cmd, scope);
         Ok(())
     }
