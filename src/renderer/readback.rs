@@ -76,7 +76,8 @@ impl IsmReadback {
         test: IsmTest,
     ) -> bool {
         self.front_visible(index, vpl, x, normal, test)
-            && !(self.back_flag[self.lookup(index, vpl, x).0] && self.behind_back_face(index, vpl, x))
+            && !(self.back_flag[self.lookup(index, vpl, x).0]
+                && self.behind_back_face(index, vpl, x))
     }
 
     /// Whether `x` lies beyond a surface VPL `index`'s back-face map holds
