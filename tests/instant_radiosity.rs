@@ -419,10 +419,37 @@ fn a_normal_map_turned_to_the_vpls_does_not_shadow_its_own_surface() {
 #[test]
 fn a_mirror_like_floor_does_not_reflect_light_an_occluder_hides() {
     for roughness in [0.12, 0.3] {
-        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Ism);
+        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Ism, false);
         eprintln!(
             "metal floor of roughness {roughness} before a plinth: GPU / exact visibility {ratio:.3}, \
              the nearest half metre {near:.2} (by distance from the plinth: {by_band:.2?})"
+        );
+        for (i, &r) in by_band.iter().enumerate() {
+            assert!(
+                r < 1.5,
+                "roughness {roughness}: quarter metre {i} from the plinth reflects {r:.2}x its VPL light (the plinth leaks)"
+            );
+        }
+        assert!(
+            (0.5..1.5).contains(&ratio),
+            "roughness {roughness}: the floor reflects {ratio:.2}x its VPL light"
+        );
+    }
+}
+
+/// ISMs with back-face maps (`RenderSettings::ism_back_faces`): the floor
+/// before the plinth, as above. Measured 2026-11-29 (roughness 0.12; 0.3),
+/// by quarter metre: 0.86, 0.59, 1.10, 0.87; 1.19, 0.72, 1.10, 0.88
+/// (without them 0.87, 0.59, 1.10, 0.87; 1.24, 0.72, 1.12, 0.91: the
+/// plinth is a closed box, whose far side now hides a little more).
+/// Issue 61's limit: 1.5x in every band.
+#[test]
+fn back_face_maps_keep_the_mirror_like_floor_dark_before_the_plinth() {
+    for roughness in [0.12, 0.3] {
+        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Ism, true);
+        eprintln!(
+            "back-face maps, metal floor of roughness {roughness} before a plinth: GPU / exact VPL sum {ratio:.3}, \
+             the nearest half metre {near:.3} (by distance from the plinth: {by_band:.3?})"
         );
         for (i, &r) in by_band.iter().enumerate() {
             assert!(
@@ -455,7 +482,7 @@ fn with_traced_isms_a_mirror_like_floor_does_not_reflect_light_an_occluder_hides
     }
     drop(renderer);
     for roughness in [0.12, 0.3] {
-        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Traced);
+        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Traced, false);
         eprintln!(
             "traced ISMs, metal floor of roughness {roughness} before a plinth: GPU / exact VPL sum {ratio:.3}, \
              the nearest half metre {near:.3} (by distance from the plinth: {by_band:.3?})"
@@ -479,7 +506,7 @@ fn with_exact_visibility_a_mirror_like_floor_has_no_contact_leak() {
     }
     drop(renderer);
     for roughness in [0.12, 0.3] {
-        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Exact);
+        let (near, ratio, by_band) = floor_before_a_plinth(roughness, Visibility::Exact, false);
         eprintln!(
             "exact visibility, metal floor of roughness {roughness} before a plinth: GPU / exact VPL sum {ratio:.3}, \
              the nearest half metre {near:.3} (by distance from the plinth: {by_band:.3?})"
@@ -499,7 +526,11 @@ fn with_exact_visibility_a_mirror_like_floor_has_no_contact_leak() {
 /// The metre of a metal floor (`roughness`) in front of a plinth lit from
 /// behind, GPU over the exact-visibility VPL sum: over its nearest half
 /// metre, over all of it, and by quarter metre; the GPU with `visibility`.
-fn floor_before_a_plinth(roughness: f32, visibility: Visibility) -> (f64, f64, Vec<f64>) {
+fn floor_before_a_plinth(
+    roughness: f32,
+    visibility: Visibility,
+    back_faces: bool,
+) -> (f64, f64, Vec<f64>) {
     use ssbc::scene::{Camera, Material, Scene};
     let mut scene = Scene::new("mirror-floor-before-a-plinth");
     scene.materials.push(Material::metallic_roughness(
@@ -527,6 +558,7 @@ fn floor_before_a_plinth(roughness: f32, visibility: Visibility) -> (f64, f64, V
     let mut settings = settings(Bound::Auto);
     settings.vpl.count = 256;
     settings.visibility = visibility;
+    settings.ism_back_faces = back_faces;
     let f = common::render_validated(&scene, &settings);
     // The metre of floor in front of the plinth, as wide as it is, in
     // quarter-metre bands by distance from it.

@@ -1,7 +1,7 @@
 //! The extent of each ISM point's disc: how wide, and where it ends.
 //!
 //! A splatted point stands for a disc of its tangent plane
-//! (shaders/ism_splat.comp). Discs of `point_radius` (all the discs' area
+//! (shaders/include/ism_splat.glsl). Discs of `point_radius` (all the discs' area
 //! is the scene's) leave holes between them, where occluders leak; wider
 //! ones close them, but a wider disc strays from a curved surface, and
 //! near the edge of a box, a plinth or a wall's end it reaches past the

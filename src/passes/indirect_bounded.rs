@@ -100,7 +100,7 @@ pub(crate) fn memory_bytes(
 
 /// Relative depth tolerance of the ISM visibility test: trades false
 /// shadows against leaks. Since every ISM texel holds its surface along
-/// its centre ray (shaders/ism_splat.comp), 0.08 passed more of the
+/// its centre ray (shaders/include/ism_splat.glsl), 0.08 passed more of the
 /// visible light and let through less of the occluded than 0.16 did
 /// before, at the same mean; with tiles by projected solid angle, whose
 /// texels are finer where a VPL sends most light, 0.05 lets a sixth less
