@@ -29,8 +29,9 @@ use crate::error::Result;
 use crate::layer::Layer;
 use crate::settings::{Gather, Visibility};
 use crate::shaders::{
-    indirect_bounded_comp, indirect_bounded_exact_comp, indirect_creases_comp,
-    indirect_creases_exact_comp, indirect_filter_comp, indirect_filter_exact_comp,
+    indirect_bounded_back_comp, indirect_bounded_comp, indirect_bounded_exact_comp,
+    indirect_creases_back_comp, indirect_creases_comp, indirect_creases_exact_comp,
+    indirect_filter_comp, indirect_filter_exact_comp, indirect_interleaved_back_comp,
     indirect_interleaved_comp, indirect_interleaved_exact_comp,
 };
 use crate::shaders::blocks::{FilterPush, GatherPush};
@@ -186,11 +187,18 @@ pub const GLOSSY_FILTER_TURN: f32 = 4.0;
 
 /// Dispatches with a kernel's ISM or exact twin: the same bindings but for
 /// what visibility reads (the twins' `ism` atlas, or `scene_tlas`); the
-/// exact kernel is looked up only when used.
+/// exact kernel is looked up only when used. Kernels that read the atlas
+/// have a third twin for atlases with back-face maps (`back`: whether it
+/// has them, the kernel, made on first use).
 macro_rules! with_visibility {
-    ($visibility:expr, (ism: $atlas:expr, $ism:expr, $ism_mod:ident), ($exact:expr, $exact_mod:ident),
+    ($visibility:expr, (ism: $atlas:expr, $ism:expr, $ism_mod:ident),
+     (back: $back_on:expr, $back:expr, $back_mod:ident), ($exact:expr, $exact_mod:ident),
      { $($field:ident $(: $value:expr)?),* $(,)? }, |$kernel:ident, $bindings:ident| $dispatch:expr) => {
         match $visibility {
+            VplVisibility::Ism if $back_on => {
+                let ($kernel, $bindings) = ($back, $back_mod::Bindings { ism: $atlas, $($field $(: $value)?),* });
+                $dispatch
+            }
             VplVisibility::Ism => {
                 let ($kernel, $bindings) = (&$ism, $ism_mod::Bindings { ism: $atlas, $($field $(: $value)?),* });
                 $dispatch
@@ -302,7 +310,20 @@ pub struct IndirectBoundedPass {
     creases: ComputeKernel<indirect_creases_comp::Interface>,
     /// The gathers with exact visibility, where the device has ray queries.
     exact: Option<ExactGathers>,
+    /// The gathers for ISMs with back-face maps, made on first use (most
+    /// renderers never ask for them).
+    back: std::sync::OnceLock<BackFaceGathers>,
     layer: u32,
+}
+
+/// The gathers' twins that also test an atlas's back-face maps
+/// ([`RenderSettings::ism_back_faces`](crate::RenderSettings::ism_back_faces));
+/// the filter is the ISM one. Their bindings are the ISM twins', whose
+/// layouts size the frame's descriptor pool.
+struct BackFaceGathers {
+    full: ComputeKernel<indirect_bounded_back_comp::Interface>,
+    interleaved: ComputeKernel<indirect_interleaved_back_comp::Interface>,
+    creases: ComputeKernel<indirect_creases_back_comp::Interface>,
 }
 
 /// The gathers' twins that test visibility with ray queries.
@@ -362,8 +383,23 @@ impl IndirectBoundedPass {
                 }),
                 None => None,
             },
+            back: std::sync::OnceLock::new(),
             layer,
         })
+    }
+
+    /// The gathers for atlases with back-face maps, made the first time a
+    /// frame asks for them.
+    fn back(&self, device: &Arc<Device>) -> Result<&BackFaceGathers> {
+        if let Some(back) = self.back.get() {
+            return Ok(back);
+        }
+        let made = BackFaceGathers {
+            full: ComputeKernel::new(device)?,
+            interleaved: ComputeKernel::new(device)?,
+            creases: ComputeKernel::new(device)?,
+        };
+        Ok(self.back.get_or_init(|| made))
     }
 
     /// The exact gathers, or an error naming why there are none.
@@ -389,6 +425,7 @@ impl IndirectBoundedPass {
         with_visibility!(
             visibility,
             (ism: &ism.atlas, self.full, indirect_bounded_comp),
+            (back: ism.back_faces, &self.back(rec.device)?.full, indirect_bounded_back_comp),
             (&self.exact()?.full, indirect_bounded_exact_comp),
             {
                 g_position: &gbuffer.position,
@@ -422,6 +459,7 @@ impl IndirectBoundedPass {
         with_visibility!(
             visibility,
             (ism: &ism.atlas, self.interleaved, indirect_interleaved_comp),
+            (back: ism.back_faces, &self.back(rec.device)?.interleaved, indirect_interleaved_back_comp),
             (&self.exact()?.interleaved, indirect_interleaved_exact_comp),
             {
                 g_position: &gbuffer.position,
@@ -494,6 +532,7 @@ impl IndirectBoundedPass {
         with_visibility!(
             visibility,
             (ism: &ism.atlas, self.creases, indirect_creases_comp),
+            (back: ism.back_faces, &self.back(rec.device)?.creases, indirect_creases_back_comp),
             (&self.exact()?.creases, indirect_creases_exact_comp),
             {
                 g_position: &gbuffer.position,
