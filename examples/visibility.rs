@@ -8,7 +8,10 @@
 //! - leaked: the weighted share of the exactly occluded light they let
 //!   through (0 is right; above is light through walls);
 //! - of the leaked weight, the part where the stored depth lies beyond the
-//!   receiver (a hole or a coarse block) rather than within the tolerance.
+//!   receiver (a hole or a coarse block) rather than within the tolerance;
+//! - with `--back-faces`, of the pairs the front map passes, the share
+//!   whose texel is flagged: where the gather reads its back-face map (a
+//!   count of the option's cost; 0 without).
 //!
 //! With `--why`, each texel's centre ray (the one its distance is measured
 //! along) is cast exactly too, and the wrong answers are split by what it
@@ -45,6 +48,10 @@ struct Replay {
     occluded: f64,
     leaked: f64,
     leaked_beyond: f64,
+    /// Pairs the front map passes whose texel carries the back-face flag
+    /// (the gather reads its back face), and pairs it passes.
+    flagged: usize,
+    front_passed: usize,
     /// `--why`: rejected visible light where the centre ray meets an
     /// occluder, and where the texel stores a surface the centre ray does
     /// not meet; leaked light where the centre ray passes the occluder,
@@ -116,6 +123,10 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
             let mut test = ism_test_for(&brdf, options.bias);
             test.lifted |= options.lift_all;
             let approx = ism.visible(k, vpl, x, n, test);
+            if ism.front_visible(k, vpl, x, n, test) {
+                r.front_passed += 1;
+                r.flagged += ism.back_face_flagged(k, vpl, x) as usize;
+            }
             if exact {
                 r.visible += weight;
                 r.passed += weight * approx as u8 as f64;
@@ -210,13 +221,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }),
     };
     let mut renderer = Renderer::new(&RendererConfig::default())?;
-    print!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs |");
+    print!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs | back faces read (of pairs the front map passes) |");
     if options.why {
         print!(" rejected: edge / overhang | leaked: edge / hole / tolerance |");
     }
     println!();
     println!(
-        "|---|---|---|---|---|---|{}",
+        "|---|---|---|---|---|---|---|{}",
         if options.why { "---|---|" } else { "" }
     );
     for name in &scenes {
@@ -239,13 +250,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let frame = renderer.render(&scene, &settings)?;
         let r = replay(&scene, &frame, &options);
         print!(
-            "| {} | {:.4} | {:.4} | {:.4} | {:.0}% | {} |",
+            "| {} | {:.4} | {:.4} | {:.4} | {:.0}% | {} | {:.1}% |",
             scene.name,
             r.passed / r.visible.max(1e-30),
             r.leaked / r.occluded.max(1e-30),
             (r.passed + r.leaked) / r.visible.max(1e-30),
             100.0 * r.leaked_beyond / r.leaked.max(1e-30),
             r.pairs,
+            100.0 * r.flagged as f64 / r.front_passed.max(1) as f64,
         );
         if options.why {
             let rejected = (r.visible - r.passed).max(1e-30);

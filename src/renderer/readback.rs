@@ -99,8 +99,9 @@ impl IsmReadback {
         dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / wm.abs() + 1e-3
     }
 
-    /// The front map's test alone (ism_front_visible()).
-    fn front_visible(
+    /// The front map's test alone (ism_front_visible()): without back-face
+    /// maps, the whole test.
+    pub fn front_visible(
         &self,
         index: usize,
         vpl: &Vpl,
@@ -160,6 +161,13 @@ impl IsmReadback {
             return false;
         }
         !test.lifted || lifted_visible()
+    }
+
+    /// Whether the texel where `x` lands in VPL `index`'s map carries
+    /// ISM_BACK_FLAG: a gather with back-face maps reads its back face
+    /// there (where the front test passes).
+    pub fn back_face_flagged(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
+        self.back_flag[self.lookup(index, vpl, x).0]
     }
 
     /// Whether the distance VPL `index`'s map stores where `x` lands lies
