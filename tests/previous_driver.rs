@@ -45,7 +45,7 @@ fn the_previous_driver_renders_the_same_images() {
     let scenes = format!("{}/tests/scenes", env!("CARGO_MANIFEST_DIR"));
     let slabs = format!("{scenes}/slabs-room.gltf");
     let grid = format!("{scenes}/sphere-grid.gltf");
-    let cases: [&[&str]; 5] = [
+    let cases: [&[&str]; 6] = [
         &["cornell", "--size", "128x96", "--vpls", "64"],
         &["spheres", "--size", "128x96", "--vpls", "64"],
         &[
@@ -60,6 +60,8 @@ fn the_previous_driver_renders_the_same_images() {
             "2",
         ],
         &[&slabs, "--size", "96x72", "--vpls", "128"],
+        // ISMs with back-face maps: their own splat, fill and gathers.
+        &[&slabs, "--size", "96x72", "--vpls", "128", "--ism-back-faces"],
         &[&grid, "--size", "96x72", "--vpls", "64", "--gather", "full"],
     ];
     let dir = tempfile::tempdir().unwrap();
