@@ -61,7 +61,14 @@ fn the_previous_driver_renders_the_same_images() {
         ],
         &[&slabs, "--size", "96x72", "--vpls", "128"],
         // ISMs with back-face maps: their own splat, fill and gathers.
-        &[&slabs, "--size", "96x72", "--vpls", "128", "--ism-back-faces"],
+        &[
+            &slabs,
+            "--size",
+            "96x72",
+            "--vpls",
+            "128",
+            "--ism-back-faces",
+        ],
         &[&grid, "--size", "96x72", "--vpls", "64", "--gather", "full"],
     ];
     let dir = tempfile::tempdir().unwrap();
