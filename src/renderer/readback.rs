@@ -75,15 +75,17 @@ impl IsmReadback {
         normal: glam::Vec3,
         test: IsmTest,
     ) -> bool {
-        self.front_visible(index, vpl, x, normal, test)
-            && !(self.back_flag[self.lookup(index, vpl, x).0]
-                && self.behind_back_face(index, vpl, x))
+        self.front_visible(index, vpl, x, normal, test) && !self.behind_back_face(index, vpl, x)
     }
 
-    /// Whether `x` lies beyond a surface VPL `index`'s back-face map holds
+    /// Whether `x` lands in a flagged texel (ISM_BACK_FLAG) and lies beyond
+    /// the surface VPL `index`'s back-face map holds there
     /// (ism_behind_back_face() in shaders/include/vpl_gather.glsl).
     fn behind_back_face(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> bool {
         let (front, dist, w) = self.lookup(index, vpl, x);
+        if !self.back_flag[front] {
+            return false;
+        }
         let texel = front + (self.height / 2) as usize * self.width as usize;
         let depth = self.depth[texel] * self.far;
         if dist <= depth {
