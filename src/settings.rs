@@ -383,10 +383,12 @@ pub enum Gather {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Visibility {
-    /// Imperfect shadow maps for a frame on its own; exact for the frames
-    /// of an accumulation ([`Renderer::render_accumulated`](crate::Renderer::render_accumulated)),
-    /// which converge to the truth only with it, where the device has ray
-    /// queries and the scene no alpha-masked materials (ISMs otherwise).
+    /// Imperfect shadow maps for a frame on its own; for the frames that
+    /// converge (those of an accumulation,
+    /// [`Renderer::render_accumulated`](crate::Renderer::render_accumulated),
+    /// and a still view's history frames after its first), exact where the
+    /// device has ray queries and the scene no alpha-masked materials,
+    /// else ISMs with back-face maps.
     #[default]
     Auto,
     /// Imperfect shadow maps (every device).
@@ -418,6 +420,20 @@ impl RenderSettings {
     /// its ISMs splatted.
     pub fn ism_back_face_maps(&self) -> bool {
         self.ism_back_faces && self.visibility.splats_points()
+    }
+
+    /// [`Visibility::Auto`] for frames that converge (an accumulation, a
+    /// still view's history): independent VPL sets average their noise
+    /// away but not ISM visibility's bias, so exact visibility where the
+    /// device and the scene allow it (`exact`), else ISMs with back-face
+    /// maps (their leaks through thin walls halved).
+    pub(crate) fn resolve_auto_for_convergence(&mut self, exact: bool) {
+        if exact {
+            self.visibility = Visibility::Exact;
+        } else {
+            self.visibility = Visibility::Ism;
+            self.ism_back_faces = true;
+        }
     }
 }
 
@@ -663,5 +679,21 @@ mod tests {
             ..Default::default()
         };
         assert!(s.validate().is_ok());
+    }
+
+    #[test]
+    fn converging_frames_without_ray_queries_keep_back_face_maps() {
+        let mut settings = RenderSettings::new(64, 48);
+        assert!(!settings.ism_back_face_maps(), "a single frame's default");
+        settings.resolve_auto_for_convergence(false);
+        assert_eq!(settings.visibility, Visibility::Ism);
+        assert!(settings.ism_back_face_maps());
+        let mut settings = RenderSettings::new(64, 48);
+        settings.resolve_auto_for_convergence(true);
+        assert_eq!(settings.visibility, Visibility::Exact);
+        assert!(
+            !settings.ism_back_face_maps(),
+            "exact visibility draws no atlas"
+        );
     }
 }

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use crate::settings::Integration;
+use crate::settings::{Integration, Visibility};
 use crate::vk::PassTiming;
 
 /// Nanoseconds on CLOCK_MONOTONIC (on other systems: since the first call).
@@ -272,6 +272,12 @@ pub struct Timings {
     /// allocated, and measured from the allocator over the slots that hold
     /// resources.
     pub memory: crate::memory::MemoryReport,
+    /// How the frame tested VPL visibility ([`Visibility::Auto`] resolved:
+    /// a still view's history frames take an accumulation's).
+    pub visibility: Visibility,
+    /// Whether its ISM atlas held back-face maps
+    /// ([`RenderSettings::ism_back_face_maps`](crate::RenderSettings::ism_back_face_maps)).
+    pub ism_back_faces: bool,
     /// ISM tile side.
     pub ism_tile: u32,
     /// Points per VPL.

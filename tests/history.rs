@@ -465,15 +465,53 @@ fn a_still_view_turns_to_exact_visibility() {
             .iter()
             .any(|p| p.name == "ism_splat")
     };
-    let drew: Vec<bool> = (0..4)
-        .map(|_| splats(&renderer.render_resident(&resident, &s).unwrap()))
+    let frames: Vec<_> = (0..4)
+        .map(|_| renderer.render_resident(&resident, &s).unwrap())
         .collect();
+    let drew: Vec<bool> = frames.iter().map(splats).collect();
     assert_eq!(drew, [true, false, false, false], "ISMs drawn per frame");
+    let used: Vec<_> = frames.iter().map(|f| f.timings.visibility).collect();
+    use ssbc::settings::Visibility::{Exact, Ism};
+    assert_eq!(used, [Ism, Exact, Exact, Exact], "visibility per frame");
     let mut camera = resident.scene().camera(None).unwrap();
     camera.position += glam::Vec3::new(0.01, 0.0, 0.0);
     resident.set_camera(camera);
     let moved = renderer.render_resident(&resident, &s).unwrap();
     assert!(splats(&moved), "a moved camera's frame drew no ISMs");
+    drop(renderer);
+    assert_eq!(log.total(), 0, "validation messages");
+}
+
+/// Where exact visibility is not possible (no ray queries, or, as here, an
+/// alpha-masked material), a still view's frames after the first take the
+/// ISMs an accumulation takes there, with back-face maps, and a moved
+/// camera's frame the host's ISMs again: the viewer's still view converges
+/// where `render_accumulated` does.
+#[test]
+fn a_still_view_without_exact_visibility_takes_back_face_maps() {
+    let mut scene = open_box();
+    scene.materials[0].alpha = ssbc::scene::AlphaMode::Mask(0.5);
+    let mut s = settings();
+    s.visibility = ssbc::settings::Visibility::Auto;
+    let mut renderer = common::validated_renderer();
+    let log = renderer.validation_log();
+    let mut resident = ResidentScene::new(scene).unwrap();
+    let back_faces = |f: &Frame| {
+        assert_eq!(f.timings.visibility, ssbc::settings::Visibility::Ism);
+        f.timings.ism_back_faces
+    };
+    let used: Vec<bool> = (0..4)
+        .map(|_| back_faces(&renderer.render_resident(&resident, &s).unwrap()))
+        .collect();
+    assert_eq!(used, [false, true, true, true], "back-face maps per frame");
+    let mut camera = resident.scene().camera(None).unwrap();
+    camera.position += glam::Vec3::new(0.01, 0.0, 0.0);
+    resident.set_camera(camera);
+    let moved = renderer.render_resident(&resident, &s).unwrap();
+    assert!(
+        !back_faces(&moved),
+        "a moved camera's frame kept back-face maps"
+    );
     drop(renderer);
     assert_eq!(log.total(), 0, "validation messages");
 }

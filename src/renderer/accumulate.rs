@@ -52,7 +52,7 @@ impl Renderer {
         settings.history.enabled = false;
         if settings.visibility == Visibility::Auto {
             let exact = crate::ray_scene::exact_visibility_possible(self.device(), scene);
-            resolve_auto_visibility(&mut settings, exact);
+            settings.resolve_auto_for_convergence(exact);
         }
         let mut sum: Option<Frame> = None;
         for k in 0..frames {
@@ -112,38 +112,4 @@ fn add_frame(sum: &mut Frame, frame: Frame) {
     sum.timings = frame.timings;
     sum.ism = frame.ism;
     sum.accumulated += 1;
-}
-
-/// [`Visibility::Auto`] for accumulated frames: independent VPL sets
-/// average their noise away but not ISM visibility's bias, so exact
-/// visibility where the device and the scene allow it (`exact`), else ISMs
-/// with back-face maps (their leaks through thin walls halved).
-fn resolve_auto_visibility(settings: &mut RenderSettings, exact: bool) {
-    if exact {
-        settings.visibility = Visibility::Exact;
-    } else {
-        settings.visibility = Visibility::Ism;
-        settings.ism_back_faces = true;
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn accumulated_frames_without_ray_queries_keep_back_face_maps() {
-        let mut settings = RenderSettings::new(64, 48);
-        assert!(!settings.ism_back_face_maps(), "a single frame's default");
-        resolve_auto_visibility(&mut settings, false);
-        assert_eq!(settings.visibility, Visibility::Ism);
-        assert!(settings.ism_back_face_maps());
-        let mut settings = RenderSettings::new(64, 48);
-        resolve_auto_visibility(&mut settings, true);
-        assert_eq!(settings.visibility, Visibility::Exact);
-        assert!(
-            !settings.ism_back_face_maps(),
-            "exact visibility draws no atlas"
-        );
-    }
 }

@@ -234,8 +234,10 @@ impl Renderer {
 
     /// The settings of a frame that uses temporal history, where they
     /// differ from the host's: a still view's frame continues the light
-    /// paths after its history's (an independent VPL set), and it converges
-    /// to the truth only with exact visibility (where possible, by default).
+    /// paths after its history's (an independent VPL set), and by default
+    /// it takes the visibility of an accumulation (exact where possible,
+    /// else ISMs with back-face maps), to converge where
+    /// [`Renderer::render_accumulated`] does.
     fn history_settings(
         &self,
         scene: &Scene,
@@ -243,16 +245,15 @@ impl Renderer {
         history: Option<HistoryPlan>,
     ) -> Option<RenderSettings> {
         let plan = history?;
-        let exact_when_still = plan.motion == Motion::Still
-            && settings.visibility == Visibility::Auto
-            && crate::ray_scene::exact_visibility_possible(&self.device, scene);
-        if plan.path_offset == 0 && !exact_when_still {
+        let still_auto = plan.motion == Motion::Still && settings.visibility == Visibility::Auto;
+        if plan.path_offset == 0 && !still_auto {
             return None;
         }
         let mut s = settings.clone();
         s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
-        if exact_when_still {
-            s.visibility = Visibility::Exact;
+        if still_auto {
+            let exact = crate::ray_scene::exact_visibility_possible(&self.device, scene);
+            s.resolve_auto_for_convergence(exact);
         }
         Some(s)
     }

@@ -14,7 +14,7 @@ use crate::passes::ism::Ism;
 use crate::passes::ssbc::{Integration, SsbcFrame, SsbcPass, CUT_SHORT};
 use crate::passes::FrameView;
 use crate::scene_cache::SceneCache;
-use crate::settings::RenderSettings;
+use crate::settings::{RenderSettings, Visibility};
 use crate::timings::{CpuSpan, CpuTimings, SsbcStepTiming, Timings};
 use crate::vk::HostImage;
 use crate::vk::{Access, Buffer, CommandPool, Device, GpuFrameTimes, Image, Recorder};
@@ -580,6 +580,11 @@ pub(crate) fn read_frame(read: Vec<(Readback, Vec<u8>)>, record: FrameRecord<'_>
             measured: FrameMemory::measured(device),
             slots: memory.1,
         },
+        visibility: match settings.visibility {
+            Visibility::Auto => Visibility::Ism,
+            v => v,
+        },
+        ism_back_faces: settings.ism_back_face_maps(),
         ism_tile: settings.ism_tile,
         points_per_vpl: settings.points_per_vpl,
         bound: if bound.is_finite() {
