@@ -29,9 +29,12 @@
 //! (`IsmTest::lifted`) for every receiver, `--back-faces` ISMs with
 //! back-face maps (`RenderSettings::ism_back_faces`), `--visibility traced` the
 //! ISMs whose texels are ray-traced (devices with ray queries), `--region`
-//! only the pixels of one box of the image.
+//! only the pixels of one box of the image. `--map DIR` writes
+//! `DIR/SCENE.png`, per pixel the rejected visible light in red, the leaked
+//! light in green and the visible light in blue (square roots, full at a
+//! quarter of a lit pixel's mean visible light; blue at a twentieth).
 //!
-//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--region X0,Y0,X1,Y1] [--visibility ism|traced] [--back-faces] [--why]`
+//! `cargo run --release --example visibility -- [SCENE ...] [--size WxH] [--vpls N] [--stride N] [--ism-res N] [--points N] [--bias B] [--lift-all] [--region X0,Y0,X1,Y1] [--visibility ism|traced] [--back-faces] [--why] [--map DIR]`
 //! (default: spheres, the slab rooms and the open box at 160x120, the
 //! defaults' VPLs for that size, every 3rd geometry pixel).
 
@@ -63,6 +66,8 @@ struct Replay {
     leaked_hole: f64,
     leaked_tolerance: f64,
     pairs: usize,
+    /// Per pixel: rejected visible, leaked and visible weight.
+    map: Vec<[f64; 3]>,
 }
 
 /// What the replay asks for.
@@ -93,8 +98,11 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
         layer("gbuffer_albedo"),
     );
     let v = |img: &[f32], i: usize| glam::Vec3::new(img[i * 4], img[i * 4 + 1], img[i * 4 + 2]);
-    let mut r = Replay::default();
     let width = frame.width as usize;
+    let mut r = Replay {
+        map: vec![[0.0; 3]; width * frame.height as usize],
+        ..Default::default()
+    };
     let in_region = |i: usize| {
         options.region.is_none_or(|[x0, y0, x1, y1]| {
             (x0..x1).contains(&(i % width)) && (y0..y1).contains(&(i / width))
@@ -126,6 +134,13 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
             if ism.front_visible(k, vpl, x, n, test) {
                 r.front_passed += 1;
                 r.flagged += ism.back_face_flagged(k, vpl, x) as usize;
+            }
+            let pixel = &mut r.map[i];
+            match (exact, approx) {
+                (true, true) => pixel[2] += weight,
+                (true, false) => (pixel[0], pixel[2]) = (pixel[0] + weight, pixel[2] + weight),
+                (false, true) => pixel[1] += weight,
+                (false, false) => {}
             }
             if exact {
                 r.visible += weight;
@@ -181,6 +196,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "--bias",
         "--region",
         "--visibility",
+        "--map",
     ];
     let flag_values: Vec<String> = flags.iter().filter_map(|f| value(f)).collect();
     let mut scenes: Vec<String> = args
@@ -249,6 +265,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         settings.ism_back_faces = args.iter().any(|a| a == "--back-faces");
         let frame = renderer.render(&scene, &settings)?;
         let r = replay(&scene, &frame, &options);
+        if let Some(dir) = value("--map") {
+            let file = std::path::Path::new(&dir).join(format!("{}.png", scene.name));
+            write_map(&r, frame.width, frame.height, &file)?;
+        }
         print!(
             "| {} | {:.4} | {:.4} | {:.4} | {:.0}% | {} | {:.1}% |",
             scene.name,
@@ -272,5 +292,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         println!();
     }
+    Ok(())
+}
+
+/// `--map`: where the replay's errors lie in the image.
+fn write_map(
+    r: &Replay,
+    width: u32,
+    height: u32,
+    file: &std::path::Path,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let lit = r.map.iter().filter(|m| m[2] > 0.0).count().max(1);
+    let mean = r.visible / lit as f64;
+    let level = |x: f64| (255.0 * (4.0 * x / mean).sqrt().min(1.0)) as u8;
+    let rgb: Vec<u8> = r
+        .map
+        .iter()
+        .flat_map(|m| [level(m[0]), level(m[1]), level(m[2] / 20.0)])
+        .collect();
+    image::RgbImage::from_raw(width, height, rgb)
+        .ok_or("map size")?
+        .save(file)?;
     Ok(())
 }
