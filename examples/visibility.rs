@@ -30,7 +30,7 @@
 //! back-face maps (`RenderSettings::ism_back_faces`), `--visibility traced` the
 //! ISMs whose texels are ray-traced (devices with ray queries), `--region`
 //! only the pixels of one box of the image. `--map DIR` writes
-//! `DIR/SCENE.png`, per pixel the rejected visible light in red, the leaked
+//! `DIR/SCENE.png` (4x4 screen pixels a pixel), per pixel the rejected visible light in red, the leaked
 //! light in green and the visible light in blue (square roots, full at a
 //! quarter of a lit pixel's mean visible light; blue at a twentieth).
 //!
@@ -310,8 +310,9 @@ fn write_map(
         .iter()
         .flat_map(|m| [level(m[0]), level(m[1]), level(m[2] / 20.0)])
         .collect();
-    image::RgbImage::from_raw(width, height, rgb)
-        .ok_or("map size")?
-        .save(file)?;
+    let map = image::RgbImage::from_raw(width, height, rgb).ok_or("map size")?;
+    // Four screen pixels a pixel: small frames stay readable.
+    let filter = image::imageops::FilterType::Nearest;
+    image::imageops::resize(&map, width * 4, height * 4, filter).save(file)?;
     Ok(())
 }

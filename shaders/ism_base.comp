@@ -3,7 +3,9 @@
 // distance of its block (src/cpu/ism_rays.rs) instead of "no point", so that
 // occluders near the VPL, which get few points, still shadow; the splat then
 // adds the points' finer detail with atomicMin. A block carries how
-// squarely its surface faces the VPL (ism_pack).
+// squarely its surface faces the VPL (ism_pack). In tiles whose blocks
+// span more texels (ism_rays::layer_slack), the tile starts empty and the
+// fill combines the splat with the blocks (with_layer in ism_fill.glsl).
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
@@ -18,6 +20,7 @@ layout(push_constant) uniform Push {
     uint grid;          // blocks per tile side
     float depth_scale;  // 1 / far, as the splat stores distances
     uint back_faces;    // 1: the atlas holds back-face maps (ism_back_texel)
+    uint deferred;      // 1: start empty, the fill combines the layer
 } pc;
 
 void main() {
@@ -35,7 +38,8 @@ void main() {
     vec2 corner = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
     uint cell = floatBitsToUint(vpls[v].normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile) + ivec2(first);
-    uvec4 texel = uvec4(ism_pack(corner.x * pc.depth_scale, ism_facing_code(corner.y)));
+    uvec4 texel = pc.deferred != 0u ? uvec4(ISM_EMPTY)
+                                    : uvec4(ism_pack(corner.x * pc.depth_scale, ism_facing_code(corner.y)));
     // A back-face map starts empty: the layer's rays stop at front faces.
     int height = imageSize(ism_depth).y;
     for (uint k = 0u; k < span; k++) {

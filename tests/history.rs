@@ -484,11 +484,11 @@ fn a_still_view_turns_to_exact_visibility() {
 
 /// Where exact visibility is not possible (no ray queries, or, as here, an
 /// alpha-masked material), a still view's frames after the first take the
-/// ISMs an accumulation takes there, with back-face maps, and a moved
-/// camera's frame the host's ISMs again: the viewer's still view converges
-/// where `render_accumulated` does.
+/// ISMs an accumulation takes there, finer and with back-face maps, and a
+/// moved camera's frame the host's ISMs again: the viewer's still view
+/// converges where `render_accumulated` does.
 #[test]
-fn a_still_view_without_exact_visibility_takes_back_face_maps() {
+fn a_still_view_without_exact_visibility_takes_finer_back_face_maps() {
     let mut scene = open_box();
     scene.materials[0].alpha = ssbc::scene::AlphaMode::Mask(0.5);
     let mut s = settings();
@@ -498,6 +498,12 @@ fn a_still_view_without_exact_visibility_takes_back_face_maps() {
     let mut resident = ResidentScene::new(scene).unwrap();
     let back_faces = |f: &Frame| {
         assert_eq!(f.timings.visibility, ssbc::settings::Visibility::Ism);
+        let finer = f.timings.ism_tile == ssbc::settings::CONVERGING_ISM_TILE
+            && f.timings.points_per_vpl == ssbc::settings::CONVERGING_POINTS_PER_VPL;
+        assert_eq!(
+            finer, f.timings.ism_back_faces,
+            "finer ISMs go with back faces"
+        );
         f.timings.ism_back_faces
     };
     let used: Vec<bool> = (0..4)

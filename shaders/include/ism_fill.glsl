@@ -9,7 +9,8 @@
 // ISM_FILL_AGREE footprints, it takes that plane. One checkerboard parity
 // per dispatch, in place: a texel reads only the other parity's, so the
 // result does not depend on the order invocations run in (the second
-// dispatch reads what the first filled).
+// dispatch reads what the first filled). In tiles that start empty, it
+// first combines every texel it reads with the ray-cast layer (with_layer).
 #include "ism.glsl"
 
 layout(local_size_x = 64) in;
@@ -19,6 +20,7 @@ const float ISM_FILL_AGREE = 0.5;
 
 layout(set = 0, binding = 0, r32ui) uniform uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
+layout(set = 0, binding = 2) readonly buffer Layer { vec2 layer[]; }; // (m, facing), grid^2 per VPL
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -27,7 +29,28 @@ layout(push_constant) uniform Push {
     uint run;            // texels of a row per invocation (tile or less)
     float far;           // distances are stored divided by this
     float point_radius;  // world radius each point stands for
+    uint grid;           // ray-cast layer blocks per tile side
+    float layer_slack;   // ism_rays::layer_slack; 0: the layer is in the atlas
 } pc;
+
+// Texel `stored` of VPL v's tile at `local` combined with its ray-cast
+// block, in tiles that start empty (layer_slack > 0): what the splat
+// stored, unless the block lies nearer by more than layer_slack x its
+// distance (or the splat stored nothing). Such a block stopped at an
+// occluder near the VPL whose few points missed this texel, which is what
+// the layer is for. A splat less far behind is the block's own surface,
+// beyond all four of its corners: a concave crease or a curve within the
+// block, where the farthest corner, which atomicMin would keep, lies in
+// front of it and shadows it (docs/accuracy.md, "The ray-cast layer in
+// finer tiles"). Idempotent: a combined texel combines to itself.
+uint with_layer(uint stored, uint v, ivec2 local) {
+    if (pc.layer_slack <= 0.0) return stored;
+    uvec2 block = uvec2(local) * pc.grid / pc.tile;
+    vec2 corner = layer[(v * pc.grid + block.y) * pc.grid + block.x];
+    float splat = ism_texel_depth(stored) * pc.far;
+    if ((stored & 4095u) != 0u && splat <= corner.x * (1.0 + pc.layer_slack)) return stored;
+    return ism_pack(corner.x / pc.far, ism_facing_code(corner.y)) | (stored & ISM_BACK_FLAG);
+}
 
 // The distance along centre ray c0 to the plane of normal m that texel
 // `stored` holds along its own centre ray c (0 where that is ill-posed).
@@ -92,7 +115,7 @@ void main() {
     vec3 n = normal_cell.xyz;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    uint left = x0 > 0 ? imageLoad(ism_depth, origin + ivec2(x0 - 1, y)).r : 0u;
+    uint left = x0 > 0 ? with_layer(imageLoad(ism_depth, origin + ivec2(x0 - 1, y)).r, v, ivec2(x0 - 1, y)) : 0u;
 #ifdef ISM_BACK_FACES
     // The second dispatch, whose texels and their neighbours are final,
     // also flags every texel of the run whose back-face map holds a
@@ -106,12 +129,13 @@ void main() {
 #endif
     for (int x = x0; x < x0 + int(run); x += 2) {
         ivec2 local = ivec2(x, y);
-        uint stored = imageLoad(ism_depth, origin + local).r;
+        uint raw = imageLoad(ism_depth, origin + local).r;
+        uint stored = with_layer(raw, v, local);
         bool across = x > 0 && x + 1 < tile;
         bool along = y > 0 && y + 1 < tile;
-        uint right = x + 1 < tile ? imageLoad(ism_depth, origin + local + ivec2(1, 0)).r : 0u;
-        uint up = along ? imageLoad(ism_depth, origin + local - ivec2(0, 1)).r : 0u;
-        uint down = along ? imageLoad(ism_depth, origin + local + ivec2(0, 1)).r : 0u;
+        uint right = x + 1 < tile ? with_layer(imageLoad(ism_depth, origin + local + ivec2(1, 0)).r, v, local + ivec2(1, 0)) : 0u;
+        uint up = along ? with_layer(imageLoad(ism_depth, origin + local - ivec2(0, 1)).r, v, local - ivec2(0, 1)) : 0u;
+        uint down = along ? with_layer(imageLoad(ism_depth, origin + local + ivec2(0, 1)).r, v, local + ivec2(0, 1)) : 0u;
         float held = ism_texel_depth(stored) * pc.far;
         float footprint = ism_footprint(held, pc.tile, pc.point_radius);
         bool fill_across = across && may_fill(left, right, held, footprint);
@@ -136,7 +160,7 @@ void main() {
             if (x + 1 < start + int(run)) flag_back(right, origin + local + ivec2(1, 0), height);
         }
 #endif
-        if (final_texel != stored) imageStore(ism_depth, origin + local, uvec4(final_texel));
+        if (final_texel != raw) imageStore(ism_depth, origin + local, uvec4(final_texel));
         // (The next texel of this parity is two along: this one's right
         // neighbour is its left.)
         left = next_left;

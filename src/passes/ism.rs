@@ -6,7 +6,9 @@
 //! is no pull-push (it filled the holes between points with the farthest of
 //! their neighbours, which is where occluders near a VPL leaked); a texel
 //! between two nearer texels of one plane, which no disc of that surface
-//! reached, takes their plane (`ism_fill`). With `Visibility::Traced`
+//! reached, takes their plane (`ism_fill`). In tiles finer than 32 texels
+//! the tile starts empty and the fill combines the splat with the layer
+//! ([`ism_rays::layer_slack`]). With `Visibility::Traced`
 //! (ray queries) every texel instead holds what its own centre ray meets
 //! (`ism_traced`): no points, no layer, no fill.
 
@@ -402,6 +404,7 @@ impl Pass for IsmPass {
             grid: ism_rays::BASE_GRID,
             depth_scale: 1.0 / ism.far,
             back_faces: ism.back_faces.into(),
+            deferred: (ism_rays::layer_slack(ism.tile) > 0.0).into(),
         };
         let bindings = ism_base_comp::Bindings {
             ism_depth: &ism.atlas,
@@ -443,6 +446,7 @@ impl Pass for IsmPass {
                 let bindings = $fill_mod::Bindings {
                     ism_depth: &ism.atlas,
                     vpls: &ism.vpls.buffer,
+                    layer: &ism.base_depths,
                 };
                 for parity in 0..2 {
                     let run = ism.tile.min(FILL_RUN);
@@ -453,6 +457,8 @@ impl Pass for IsmPass {
                         run,
                         far: ism.far,
                         point_radius: ism.point_radius,
+                        grid: ism_rays::BASE_GRID,
+                        layer_slack: ism_rays::layer_slack(ism.tile),
                     };
                     // One invocation per (run of a row, VPL).
                     let texels = Work::Threads([ism.tile * ism.tile / run, ism.vpl_count, 1]);

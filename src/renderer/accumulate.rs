@@ -9,7 +9,10 @@ use crate::error::{Error, Result};
 use crate::resident::ResidentScene;
 use crate::scene::Scene;
 use crate::settings::{RenderSettings, Visibility};
+use crate::vk::Device;
 
+use super::limits::{self, FrameUse};
+use super::sink::ReadBack;
 use super::{Frame, Renderer};
 
 impl Renderer {
@@ -51,8 +54,8 @@ impl Renderer {
         // The mean is taken here, of frames that stand alone.
         settings.history.enabled = false;
         if settings.visibility == Visibility::Auto {
-            let exact = crate::ray_scene::exact_visibility_possible(self.device(), scene);
-            settings.resolve_auto_for_convergence(exact);
+            let uses = FrameUse::of::<ReadBack>(false, true, scene);
+            resolve_converging(self.device(), scene, &mut settings, uses);
         }
         let mut sum: Option<Frame> = None;
         for k in 0..frames {
@@ -112,4 +115,23 @@ fn add_frame(sum: &mut Frame, frame: Frame) {
     sum.timings = frame.timings;
     sum.ism = frame.ism;
     sum.accumulated += 1;
+}
+
+/// [`Visibility::Auto`] for frames that converge (an accumulation's, a
+/// still view's history frames) of `scene` on `device`, used as `uses`
+/// says ([`RenderSettings::resolve_auto_for_convergence`]: the finer ISMs
+/// where the device takes them, its limits and its memory).
+pub(super) fn resolve_converging(
+    device: &Device,
+    scene: &Scene,
+    settings: &mut RenderSettings,
+    uses: FrameUse,
+) {
+    let exact = crate::ray_scene::exact_visibility_possible(device, scene);
+    let fits = !exact && {
+        let mut finer = settings.clone();
+        finer.resolve_auto_for_convergence(false, true);
+        limits::check_settings(device, &finer, scene.lights.len(), uses).is_ok()
+    };
+    settings.resolve_auto_for_convergence(exact, fits);
 }

@@ -243,6 +243,7 @@ impl Renderer {
         scene: &Scene,
         settings: &RenderSettings,
         history: Option<HistoryPlan>,
+        uses: FrameUse,
     ) -> Option<RenderSettings> {
         let plan = history?;
         let still_auto = plan.motion == Motion::Still && settings.visibility == Visibility::Auto;
@@ -252,8 +253,7 @@ impl Renderer {
         let mut s = settings.clone();
         s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
         if still_auto {
-            let exact = crate::ray_scene::exact_visibility_possible(&self.device, scene);
-            s.resolve_auto_for_convergence(exact);
+            super::accumulate::resolve_converging(&self.device, scene, &mut s, uses);
         }
         Some(s)
     }
@@ -275,7 +275,7 @@ impl Renderer {
         } = request;
         let uses = FrameUse::of::<S>(history.is_some(), resident, scene);
         let host_settings = settings;
-        let shifted = self.history_settings(scene, settings, history);
+        let shifted = self.history_settings(scene, settings, history, uses);
         let settings = shifted.as_ref().unwrap_or(settings);
         let device = self.device.clone();
         let mut spans = Vec::new();
