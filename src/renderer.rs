@@ -52,7 +52,9 @@ use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 /// before anything is allocated. Frames in flight at once
 /// ([`Renderer::render_to_gpu`], [`FRAME_SLOTS`]) each take a slot. With
 /// `history.enabled` it counts the temporal history's images, which only
-/// resident frames allocate; the read-back part is that of
+/// resident frames allocate, and with `history.converging_isms` the larger
+/// ISMs a still view's frames may take (without a device, as if visibility
+/// could not be exact); the read-back part is that of
 /// [`Renderer::render`]'s frames.
 ///
 /// ```
@@ -66,7 +68,7 @@ use sink::{FrameOutput, IntoHost, KeepOnGpu, ReadBack};
 /// ```
 pub fn frame_memory(scene: &Scene, settings: &RenderSettings) -> FrameMemory {
     let uses = limits::FrameUse::ALL.with_scene(scene);
-    limits::frame_memory(None, settings, scene.lights.len(), uses)
+    limits::slot_memory(None, settings, scene.lights.len(), uses)
 }
 
 /// How a frame slot is used, for [`frame_memory_of`].
@@ -102,7 +104,7 @@ pub fn frame_memory_of(scene: &Scene, settings: &RenderSettings, slot: SlotUse) 
         ..limits::FrameUse::ALL
     }
     .with_scene(scene);
-    limits::frame_memory(None, settings, scene.lights.len(), uses)
+    limits::slot_memory(None, settings, scene.lights.len(), uses)
 }
 
 /// The renderer: a device, its passes, and a command pool per frame slot.
@@ -271,7 +273,12 @@ impl Renderer {
     /// (an image beyond its limits is counted by its texels).
     pub fn frame_memory(&self, scene: &Scene, settings: &RenderSettings) -> FrameMemory {
         let uses = limits::FrameUse::ALL.with_scene(scene);
-        limits::frame_memory(Some(&self.device), settings, scene.lights.len(), uses)
+        let lights = scene.lights.len();
+        if crate::ray_scene::exact_visibility_possible(&self.device, scene) {
+            // (A still view's frames test visibility exactly: no finer ISMs.)
+            return limits::frame_memory(Some(&self.device), settings, lights, uses);
+        }
+        limits::slot_memory(Some(&self.device), settings, lights, uses)
     }
 
     /// Validation messages so far (stays readable after the renderer is dropped).

@@ -126,6 +126,11 @@ pub struct SceneCache {
     /// cross to be kept).
     moved_since_vpls: Vec<Bounds>,
     points: Option<PointsCache>,
+    /// The set before `points`, kept while its key may come back: a still
+    /// view's frames splat more points than a moving view's
+    /// (`settings::CONVERGING_POINTS_PER_VPL`), and the viewer alternates
+    /// them each time the view stops and moves.
+    previous_points: Option<PointsCache>,
 }
 
 impl SceneCache {
@@ -167,6 +172,7 @@ impl SceneCache {
                 vpls: None,
                 moved_since_vpls: Vec::new(),
                 points: None,
+                previous_points: None,
             };
             built.update_bounds(scene);
             *cache = Some(built);
@@ -204,7 +210,11 @@ impl SceneCache {
         } else {
             (0, 0, 0, 0)
         };
-        if cache.points.as_ref().is_none_or(|p| p.key != points_key) {
+        let current = |p: &Option<PointsCache>| p.as_ref().is_some_and(|p| p.key == points_key);
+        if !current(&cache.points) && current(&cache.previous_points) {
+            std::mem::swap(&mut cache.points, &mut cache.previous_points);
+        }
+        if !current(&cache.points) {
             let points = if splats {
                 CpuSpan::time(spans, "point_sampling", || {
                     sample_points(
@@ -217,7 +227,7 @@ impl SceneCache {
             } else {
                 IsmPoints::none()
             };
-            cache.points = Some(PointsCache {
+            cache.previous_points = cache.points.replace(PointsCache {
                 points,
                 key: points_key,
                 version: next_version(),

@@ -238,6 +238,20 @@ pub struct HistorySettings {
     /// history drifts towards that one set's noise (measured in
     /// docs/performance.md).
     pub new_vpls_while_moving: bool,
+    /// Where visibility cannot be exact ([`Visibility::Auto`] without ray
+    /// queries, or with alpha-masked materials), a still view's frames
+    /// after its first take the ISMs an accumulation takes there
+    /// ([`RenderSettings::resolve_auto_for_convergence`]: back-face maps,
+    /// at least [`CONVERGING_ISM_TILE`] texels and
+    /// [`CONVERGING_POINTS_PER_VPL`] points), so that the view converges
+    /// where [`Renderer::render_accumulated`](crate::Renderer::render_accumulated)
+    /// does, for 2.1-2.3x the frame and a larger atlas and point set when
+    /// the view stops (counted by
+    /// [`frame_memory_of`](crate::renderer::frame_memory_of)). Off (the
+    /// library's default: a host's resident slot keeps the memory it
+    /// budgeted), they keep the host's ISMs and converge to their bias.
+    /// The viewer turns it on.
+    pub converging_isms: bool,
     /// Most frames of history kept when the lights changed.
     pub light_frames: u32,
     /// Relative change of a 4x4 block's mean indirect light at which the
@@ -253,6 +267,7 @@ impl Default for HistorySettings {
             max_frames: 1024,
             moving_frames: 32,
             new_vpls_while_moving: false,
+            converging_isms: false,
             light_frames: 4,
             light_change: 0.25,
         }
@@ -388,7 +403,8 @@ pub enum Visibility {
     /// [`Renderer::render_accumulated`](crate::Renderer::render_accumulated),
     /// and a still view's history frames after its first), exact where the
     /// device has ray queries and the scene no alpha-masked materials,
-    /// else finer ISMs with back-face maps ([`CONVERGING_ISM_TILE`]).
+    /// else finer ISMs with back-face maps ([`CONVERGING_ISM_TILE`]; for a
+    /// still view's frames, with [`HistorySettings::converging_isms`]).
     #[default]
     Auto,
     /// Imperfect shadow maps (every device).
@@ -436,7 +452,7 @@ impl RenderSettings {
     }
 
     /// [`Visibility::Auto`] for frames that converge (an accumulation, a
-    /// still view's history): independent VPL sets average their noise
+    /// still view's history frames): independent VPL sets average their noise
     /// away but not ISM visibility's bias, so exact visibility where the
     /// device and the scene allow it (`exact`), else ISMs with back-face
     /// maps (their leaks through thin walls halved) and, where the device

@@ -483,16 +483,19 @@ fn a_still_view_turns_to_exact_visibility() {
 }
 
 /// Where exact visibility is not possible (no ray queries, or, as here, an
-/// alpha-masked material), a still view's frames after the first take the
-/// ISMs an accumulation takes there, finer and with back-face maps, and a
-/// moved camera's frame the host's ISMs again: the viewer's still view
-/// converges where `render_accumulated` does.
+/// alpha-masked material), with `history.converging_isms` (the viewer's) a
+/// still view's frames after the first take the ISMs an accumulation takes
+/// there, finer and with back-face maps, and a moved camera's frame the
+/// host's ISMs again: the viewer's still view converges where
+/// `render_accumulated` does. Without it (the library's default) they keep
+/// the host's ISMs, and the memory it budgeted.
 #[test]
 fn a_still_view_without_exact_visibility_takes_finer_back_face_maps() {
     let mut scene = open_box();
     scene.materials[0].alpha = ssbc::scene::AlphaMode::Mask(0.5);
     let mut s = settings();
     s.visibility = ssbc::settings::Visibility::Auto;
+    s.history.converging_isms = true;
     let mut renderer = common::validated_renderer();
     let log = renderer.validation_log();
     let mut resident = ResidentScene::new(scene).unwrap();
@@ -506,10 +509,25 @@ fn a_still_view_without_exact_visibility_takes_finer_back_face_maps() {
         );
         f.timings.ism_back_faces
     };
-    let used: Vec<bool> = (0..4)
-        .map(|_| back_faces(&renderer.render_resident(&resident, &s).unwrap()))
+    // Each point set is sampled once: the viewer alternates them as the
+    // view stops and moves.
+    let sampled = |f: &Frame| {
+        f.timings
+            .cpu_spans
+            .iter()
+            .any(|span| span.name == "point_sampling")
+    };
+    let frames: Vec<Frame> = (0..4)
+        .map(|_| renderer.render_resident(&resident, &s).unwrap())
         .collect();
+    let used: Vec<bool> = frames.iter().map(back_faces).collect();
     assert_eq!(used, [false, true, true, true], "back-face maps per frame");
+    let sampling: Vec<bool> = frames.iter().map(sampled).collect();
+    assert_eq!(
+        sampling,
+        [true, true, false, false],
+        "points sampled per frame"
+    );
     let mut camera = resident.scene().camera(None).unwrap();
     camera.position += glam::Vec3::new(0.01, 0.0, 0.0);
     resident.set_camera(camera);
@@ -518,6 +536,24 @@ fn a_still_view_without_exact_visibility_takes_finer_back_face_maps() {
         !back_faces(&moved),
         "a moved camera's frame kept back-face maps"
     );
+    let stopped = renderer.render_resident(&resident, &s).unwrap();
+    assert!(back_faces(&stopped), "the stopped view's frame");
+    assert!(
+        !sampled(&moved) && !sampled(&stopped),
+        "points sampled again after the view moved or stopped"
+    );
+    // The estimate a host budgets with counts the still view's ISMs.
+    let slot = ssbc::renderer::SlotUse::Resident;
+    let budget = |s: &RenderSettings| ssbc::renderer::frame_memory_of(resident.scene(), s, slot);
+    let converging = budget(&s).total();
+    // Off: the host's ISMs throughout.
+    s.history.converging_isms = false;
+    assert!(converging > budget(&s).total());
+    let resident = ResidentScene::new(resident.scene().clone()).unwrap();
+    let used: Vec<bool> = (0..3)
+        .map(|_| back_faces(&renderer.render_resident(&resident, &s).unwrap()))
+        .collect();
+    assert_eq!(used, [false, false, false], "without converging ISMs");
     drop(renderer);
     assert_eq!(log.total(), 0, "validation messages");
 }

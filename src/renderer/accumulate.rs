@@ -55,7 +55,7 @@ impl Renderer {
         settings.history.enabled = false;
         if settings.visibility == Visibility::Auto {
             let uses = FrameUse::of::<ReadBack>(false, true, scene);
-            resolve_converging(self.device(), scene, &mut settings, uses);
+            resolve_converging(self.device(), scene, &mut settings, uses, true);
         }
         let mut sum: Option<Frame> = None;
         for k in 0..frames {
@@ -119,15 +119,20 @@ fn add_frame(sum: &mut Frame, frame: Frame) {
 
 /// [`Visibility::Auto`] for frames that converge (an accumulation's, a
 /// still view's history frames) of `scene` on `device`, used as `uses`
-/// says ([`RenderSettings::resolve_auto_for_convergence`]: the finer ISMs
-/// where the device takes them, its limits and its memory).
+/// says: exact visibility where possible, else, with `isms`, the ISMs of
+/// [`RenderSettings::resolve_auto_for_convergence`] (finer where the
+/// device's limits and memory take them); else unchanged.
 pub(super) fn resolve_converging(
     device: &Device,
     scene: &Scene,
     settings: &mut RenderSettings,
     uses: FrameUse,
+    isms: bool,
 ) {
     let exact = crate::ray_scene::exact_visibility_possible(device, scene);
+    if !exact && !isms {
+        return;
+    }
     let fits = !exact && {
         let mut finer = settings.clone();
         finer.resolve_auto_for_convergence(false, true);

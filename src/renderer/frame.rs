@@ -235,9 +235,9 @@ impl Renderer {
     /// The settings of a frame that uses temporal history, where they
     /// differ from the host's: a still view's frame continues the light
     /// paths after its history's (an independent VPL set), and by default
-    /// it takes the visibility of an accumulation (exact where possible,
-    /// else ISMs with back-face maps), to converge where
-    /// [`Renderer::render_accumulated`] does.
+    /// it takes the visibility of an accumulation (exact where possible;
+    /// else, with `history.converging_isms`, finer ISMs with back-face
+    /// maps), to converge where [`Renderer::render_accumulated`] does.
     fn history_settings(
         &self,
         scene: &Scene,
@@ -253,7 +253,8 @@ impl Renderer {
         let mut s = settings.clone();
         s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
         if still_auto {
-            super::accumulate::resolve_converging(&self.device, scene, &mut s, uses);
+            let isms = settings.history.converging_isms;
+            super::accumulate::resolve_converging(&self.device, scene, &mut s, uses, isms);
         }
         Some(s)
     }

@@ -87,6 +87,43 @@ impl FrameUse {
     };
 }
 
+/// The settings a still view's history frames take where visibility
+/// cannot be exact and the host asked for converging ISMs
+/// (`HistorySettings::converging_isms`), if its frames keep history.
+pub(super) fn still_view_isms(settings: &RenderSettings, uses: FrameUse) -> Option<RenderSettings> {
+    let converging = uses.history
+        && settings.history.enabled
+        && settings.history.converging_isms
+        && settings.visibility == crate::settings::Visibility::Auto;
+    converging.then(|| {
+        let mut s = settings.clone();
+        s.resolve_auto_for_convergence(false, true);
+        s
+    })
+}
+
+/// [`frame_memory`] of the larger of the host's frames and its still
+/// view's ([`still_view_isms`]).
+pub(super) fn slot_memory(
+    device: Option<&Device>,
+    settings: &RenderSettings,
+    lights: usize,
+    uses: FrameUse,
+) -> FrameMemory {
+    let host = frame_memory(device, settings, lights, uses);
+    match still_view_isms(settings, uses) {
+        Some(still) => {
+            let still = frame_memory(device, &still, lights, uses);
+            if still.total() > host.total() {
+                still
+            } else {
+                host
+            }
+        }
+        None => host,
+    }
+}
+
 /// Device memory one frame slot takes at `settings` with `lights` punctual
 /// lights, by part, as the passes allocate it (without a device: the bytes
 /// asked for; with one, SSBC's resources as its memory requirements say),

@@ -402,6 +402,8 @@ impl SceneOptions {
             reuse_unchanged: true,
             history: HistorySettings {
                 enabled: !self.no_history,
+                // The viewer's still view converges where `--accumulate` does.
+                converging_isms: true,
                 ..Default::default()
             },
         }
