@@ -240,9 +240,8 @@ pub struct HistorySettings {
     pub new_vpls_while_moving: bool,
     /// Where visibility cannot be exact ([`Visibility::Auto`] without ray
     /// queries, or with alpha-masked materials), a still view's frames
-    /// after its first take the ISMs an accumulation takes there
-    /// ([`RenderSettings::resolve_auto_for_convergence`]: back-face maps,
-    /// at least [`CONVERGING_ISM_TILE`] texels and
+    /// after its first take the ISMs an accumulation takes there (back-face
+    /// maps, at least [`CONVERGING_ISM_TILE`] texels and
     /// [`CONVERGING_POINTS_PER_VPL`] points), so that the view converges
     /// where [`Renderer::render_accumulated`](crate::Renderer::render_accumulated)
     /// does, for 2.1-2.3x the frame and a larger atlas and point set when
