@@ -132,7 +132,22 @@ pub enum Bound {
     Auto,
     /// A fixed value (`f32::INFINITY`: no clamping).
     Value(f32),
+    /// [`Bound::Auto`] in a view that converges (an accumulation's, a still
+    /// view's history frames) once it has averaged n sets of
+    /// [`BOUND_VPLS`] VPLs: Auto's b x sqrt(n). The clamped light, which
+    /// SSBC returns only in part (0.3% of the open box's mean), falls as
+    /// the clamping radius 1/sqrt(b) shrinks, while the noise of the
+    /// unclamped VPLs near a receiver, which grows with b, averages over the
+    /// frames (docs/accuracy.md, "A clamping bound that grows as frames
+    /// accumulate"). What `render_accumulated` and a still view take where
+    /// the bound is `Auto`.
+    Converging(u32),
 }
+
+/// The VPLs a frame needs for [`Bound::Auto`]'s clamping radius (the fewest
+/// [`auto_vpl_count`] gives): a converging view clamps less once it has
+/// averaged more of them ([`Bound::Converging`]).
+pub const BOUND_VPLS: usize = 2048;
 
 impl Bound {
     /// The value for a scene whose bounding-box diagonal is `diagonal`.
@@ -140,6 +155,31 @@ impl Bound {
         match self {
             Bound::Auto => (10.0 / diagonal.max(1e-6)).powi(2),
             Bound::Value(b) => b,
+            Bound::Converging(n) => Bound::Auto.resolve(diagonal) * (n.max(1) as f32).sqrt(),
+        }
+    }
+
+    /// The bound of the k-th frame (1-based) of a view that converges with
+    /// `vpls` VPLs a frame: [`Bound::Converging`] where this is `Auto` and
+    /// the view has averaged more than [`BOUND_VPLS`] VPLs after its first
+    /// frame (which stays a single frame's), else this.
+    pub fn converging(self, k: u32, vpls: usize) -> Bound {
+        let sets = (k as u64).saturating_mul(vpls as u64) / BOUND_VPLS as u64;
+        match self {
+            Bound::Auto | Bound::Converging(_) if k > 1 && sets > 1 => {
+                Bound::Converging(sets.min(u32::MAX as u64) as u32)
+            }
+            Bound::Converging(_) => Bound::Auto,
+            b => b,
+        }
+    }
+
+    /// The widest clamping radius a converging view takes with this bound
+    /// (its first frame's): `Auto` for [`Bound::Converging`].
+    pub fn widest(self) -> Bound {
+        match self {
+            Bound::Converging(_) => Bound::Auto,
+            b => b,
         }
     }
 }
@@ -740,6 +780,28 @@ mod tests {
         assert!(
             !settings.ism_back_face_maps(),
             "exact visibility draws no atlas"
+        );
+    }
+
+    #[test]
+    fn a_converging_view_clamps_less_as_it_averages_vpls() {
+        let auto = Bound::Auto.resolve(2.0);
+        let at = |b: Bound, k, vpls| b.converging(k, vpls).resolve(2.0) / auto;
+        // The first frame is a single frame's; 2048-VPL frames grow as sqrt(k).
+        assert_eq!(at(Bound::Auto, 1, 8192), 1.0);
+        assert_eq!(at(Bound::Auto, 4, BOUND_VPLS), 2.0);
+        assert_eq!(at(Bound::Auto, 2, 8192), 8f32.sqrt());
+        // Few VPLs a frame: not before the view has averaged 2048 of them.
+        assert_eq!(at(Bound::Auto, 32, 64), 1.0);
+        assert_eq!(at(Bound::Auto, 128, 64), 2.0);
+        // A bound the host chose stays.
+        assert_eq!(Bound::Value(3.0).converging(64, 4096), Bound::Value(3.0));
+        // A converging bound, reset by the first frame; its widest is Auto's.
+        assert_eq!(Bound::Converging(9).converging(1, 2048), Bound::Auto);
+        assert_eq!(Bound::Converging(9).widest(), Bound::Auto);
+        assert_eq!(
+            Bound::Auto.converging(u32::MAX, usize::MAX),
+            Bound::Converging(u32::MAX)
         );
     }
 }

@@ -20,7 +20,9 @@ impl Renderer {
     /// follow the previous frame's ([`VplSettings::first_path`](crate::settings::VplSettings::first_path)),
     /// and returns their mean: every layer averaged (G-buffer
     /// layers are the same in each), the VPLs of all frames with their flux
-    /// divided by `frames`, the last frame's timings and ISM atlas.
+    /// divided by `frames`, the last frame's timings, ISM atlas and bound.
+    /// Where the bound is [`Bound::Auto`](crate::settings::Bound::Auto),
+    /// later frames clamp less ([`Bound::converging`](crate::settings::Bound::converging)).
     /// `progress(k)` is called after frame k (1-based); `cancel` stops after
     /// the frame in flight and returns the mean so far.
     ///
@@ -58,7 +60,9 @@ impl Renderer {
             resolve_converging(self.device(), scene, &mut settings, uses, true);
         }
         let mut sum: Option<Frame> = None;
+        let bound = settings.bound;
         for k in 0..frames {
+            settings.bound = bound.converging(k + 1, settings.vpl.count);
             let frame = self.render_resident(&resident, &settings)?;
             settings.vpl.first_path = settings
                 .vpl
@@ -97,7 +101,7 @@ impl Renderer {
 }
 
 /// Adds `frame`'s layers, samples and VPLs to `sum` (the last frame's
-/// timings and atlas replace the earlier ones).
+/// timings, atlas and bound replace the earlier ones).
 fn add_frame(sum: &mut Frame, frame: Frame) {
     let layers = std::iter::once(&mut sum.image).chain(&mut sum.layers);
     for (a, b) in layers.zip(std::iter::once(&frame.image).chain(&frame.layers)) {
@@ -114,6 +118,7 @@ fn add_frame(sum: &mut Frame, frame: Frame) {
     sum.vpls.extend(frame.vpls);
     sum.timings = frame.timings;
     sum.ism = frame.ism;
+    sum.bound = frame.bound;
     sum.accumulated += 1;
 }
 

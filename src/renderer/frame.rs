@@ -246,12 +246,19 @@ impl Renderer {
         uses: FrameUse,
     ) -> Option<RenderSettings> {
         let plan = history?;
-        let still_auto = plan.motion == Motion::Still && settings.visibility == Visibility::Auto;
+        let still = plan.motion == Motion::Still;
+        let still_auto = still && settings.visibility == Visibility::Auto;
         if plan.path_offset == 0 && !still_auto {
             return None;
         }
         let mut s = settings.clone();
         s.vpl.first_path = s.vpl.first_path.saturating_add(plan.path_offset);
+        if still {
+            // Beyond `max_frames` the running mean is exponential, of about
+            // that many frames.
+            let k = plan.accumulated.min(settings.history.max_frames);
+            s.bound = settings.bound.converging(k, settings.vpl.count);
+        }
         if still_auto {
             let isms = settings.history.converging_isms;
             super::accumulate::resolve_converging(&self.device, scene, &mut s, uses, isms);

@@ -40,7 +40,10 @@ impl GuardBand {
         if !settings.ssbc.guard_band || settings.ssbc.steps == 0 {
             return Ok(None);
         }
-        let reach = settings.bound.resolve(cache.diagonal()).sqrt().recip();
+        // The widest band a converging view takes, so that its frames keep
+        // one size.
+        let b = settings.bound.widest().resolve(cache.diagonal());
+        let reach = b.sqrt().recip();
         if reach.is_nan() || reach <= 0.0 {
             return Ok(None); // b = inf: nothing is clamped
         }

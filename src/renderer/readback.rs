@@ -277,7 +277,7 @@ pub struct Frame {
     pub timings: Timings,
     /// The VPLs used.
     pub vpls: Vec<Vpl>,
-    /// The bound b used.
+    /// The bound b used (the last frame's, for an accumulation).
     pub bound: f32,
     /// The ISM atlas (with debug readback).
     pub ism: Option<IsmReadback>,
