@@ -111,7 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     size.0,
                     size.1,
                     match bound {
-                        Bound::Auto => format!("auto ({:.2})", f.bound),
+                        Bound::Auto | Bound::Converging(_) => format!("auto ({:.2})", f.bound),
                         Bound::Value(b) => format!("{b}"),
                     },
                     c.relative_rmse * 100.0,
