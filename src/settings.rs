@@ -161,8 +161,8 @@ impl Bound {
 
     /// The bound of the k-th frame (1-based) of a view that converges with
     /// `vpls` VPLs a frame: [`Bound::Converging`] where this is `Auto` and
-    /// the view has averaged more than [`BOUND_VPLS`] VPLs after its first
-    /// frame (which stays a single frame's), else this.
+    /// the view has averaged at least two sets of [`BOUND_VPLS`] VPLs
+    /// after its first frame (which stays a single frame's), else this.
     pub fn converging(self, k: u32, vpls: usize) -> Bound {
         let sets = (k as u64).saturating_mul(vpls as u64) / BOUND_VPLS as u64;
         match self {
