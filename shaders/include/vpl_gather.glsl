@@ -20,8 +20,11 @@
 // stores and that surface turns across the receiver's (|cos| under
 // ISM_PLANE_MAX_COS: it cannot be the receiver's own), its plane is
 // followed from the centre ray to the receiver's ray instead, and the
-// receiver passes within the relative tolerance plus ISM_PLANE_CURVE
-// footprints. (Followed everywhere, the plane shadowed curved surfaces
+// receiver passes within ISM_PLANE_RELATIVE of the relative tolerance:
+// what the plane's quantised normal needs over the texel, not room for a
+// curve (half a footprint more let the floor of the next room through a
+// 1 mm wall: docs/accuracy.md, "The stored plane's own tolerance").
+// (Followed everywhere, the plane shadowed curved surfaces
 // from themselves: docs/accuracy.md, "The ISM test follows the stored
 // plane".) Neither tells a receiver from what stands on its own surface
 // between the centre ray and it: the texels at the foot of a plinth on a
@@ -41,7 +44,7 @@
 // (docs/accuracy.md, "The lifted ISM test"). Mirrored in
 // renderer/readback.rs.
 const float ISM_LIFT = 0.75;
-const float ISM_PLANE_CURVE = 0.5;
+const float ISM_PLANE_RELATIVE = 0.5;
 const float ISM_PLANE_MAX_COS = 0.3;
 // Below this |cos| between the receiver's ray and the stored plane, the
 // plane is not followed (its distance along the ray is ill-conditioned).
@@ -80,7 +83,7 @@ float ism_front_visible(uint stored, uint cell, vec2 uv, vec3 z, vec3 n, vec3 x,
         float cm = dot(ism_centre_ray(local, pc.tile, t, b, n), m);
         float wm = dot(w, m);
         followed = abs(wm) > ISM_PLANE_MIN_COS && cm * wm > 0.0;
-        within = dist <= depth * cm / wm + relative + ISM_PLANE_CURVE * footprint;
+        within = dist <= depth * cm / wm + ISM_PLANE_RELATIVE * relative;
     }
     if (!followed) {
         float facing = has_normal ? abs(dot(m, w)) : ism_texel_facing(stored);

@@ -148,7 +148,7 @@ impl IsmReadback {
                 .then(|| depth * cm / wm)
         });
         let within = match along {
-            Some(along) => dist <= along + relative + ISM_PLANE_CURVE * footprint,
+            Some(along) => dist <= along + ISM_PLANE_RELATIVE * relative,
             None => {
                 // ism_tolerance() in shaders/include/ism.glsl.
                 let mut slope = own_slope;
@@ -230,9 +230,9 @@ const ISM_CURVE: f32 = 0.5;
 const ISM_SLOPE_MARGIN: f32 = 1.5;
 const ISM_LIFT: f32 = 0.75;
 
-/// ISM_PLANE_CURVE, ISM_PLANE_MIN_COS and ISM_PLANE_MAX_COS in
+/// ISM_PLANE_RELATIVE, ISM_PLANE_MIN_COS and ISM_PLANE_MAX_COS in
 /// shaders/include/vpl_gather.glsl.
-const ISM_PLANE_CURVE: f32 = 0.5;
+const ISM_PLANE_RELATIVE: f32 = 0.5;
 const ISM_PLANE_MIN_COS: f32 = 0.05;
 const ISM_PLANE_MAX_COS: f32 = 0.3;
 
