@@ -205,8 +205,8 @@ pub struct RenderSettings {
     /// Splatted ISMs also keep a back-face map per VPL: the nearest surface
     /// seen from behind, where a ray leaves a closed solid. A receiver
     /// beyond one is hidden whatever the front map's tolerance lets
-    /// through, which halves the light leaked through thin walls (two
-    /// rooms sharing a 1 mm wall: 0.127 -> 0.060 of the occluded light),
+    /// through, which cuts the light leaked through thin walls by 40% (two
+    /// rooms sharing a 1 mm wall: 0.087 -> 0.052 of the occluded light),
     /// for twice the atlas's memory and about 1.1x the frame at 320x240
     /// (docs/accuracy.md, "A back-face map"). Off by default: a frame on
     /// its own stays within 1.3x the cost issue 61 allows;

@@ -182,10 +182,11 @@ float ism_slope(float c) {
 // How much slope a texel's stored surface allows (see ism_tolerance):
 // ISM_SLOPE_MARGIN x its own, because the nearest point of the receiver's
 // own surface in a texel faces the VPL a little more squarely than the
-// receiver does, plus ISM_CURVE for a surface that curves within a
-// footprint (measured: docs/accuracy.md, "Tuned constants").
+// receiver does (measured: docs/accuracy.md, "Tuned constants"). (Half a
+// footprint more for a surface that curves within one let a wall that
+// faces the VPL squarely hide nothing for 15-25 cm behind it: "The
+// stored plane's own tolerance".)
 const float ISM_SLOPE_MARGIN = 1.5;
-const float ISM_CURVE = 0.5;
 
 // One splat footprint at distance `dist`: a texel or a point, whichever is
 // larger [m]. 4 / tile radians: two of the map's texels at the pole (the
@@ -219,7 +220,7 @@ float ism_back_band(float depth, uint tile, float point_radius) {
 float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
     float footprint = ism_footprint(dist, tile, point_radius);
     float slope = ism_slope(cos_x);
-    if (facing >= 0.0) slope = min(slope, ISM_SLOPE_MARGIN * ism_slope(facing) + ISM_CURVE);
+    if (facing >= 0.0) slope = min(slope, ISM_SLOPE_MARGIN * ism_slope(facing));
     return relative_bias * dist + footprint * slope + 1e-3;
 }
 

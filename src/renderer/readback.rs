@@ -154,7 +154,7 @@ impl IsmReadback {
                 let mut slope = own_slope;
                 let facing = self.normal[texel].map_or(self.facing[texel], |m| m.dot(w).abs());
                 if facing >= 0.0 {
-                    slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing) + ISM_CURVE);
+                    slope = slope.min(ISM_SLOPE_MARGIN * slope_of(facing));
                 }
                 dist <= depth + relative + footprint * slope
             }
@@ -224,9 +224,8 @@ impl IsmReadback {
     }
 }
 
-/// ISM_CURVE and ISM_SLOPE_MARGIN in shaders/include/ism.glsl, ISM_LIFT in
+/// ISM_SLOPE_MARGIN in shaders/include/ism.glsl, ISM_LIFT in
 /// shaders/include/vpl_gather.glsl.
-const ISM_CURVE: f32 = 0.5;
 const ISM_SLOPE_MARGIN: f32 = 1.5;
 const ISM_LIFT: f32 = 0.75;
 
