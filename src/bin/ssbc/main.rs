@@ -237,7 +237,9 @@ struct SceneOptions {
     /// (VK_KHR_ray_query) and a scene without alpha masks.
     #[arg(long, value_parser = choice::<Visibility>(), default_value_t = RenderSettings::default().visibility)]
     visibility: Visibility,
-    /// Side N of the interleaved pattern (N x N subsets of the VPLs).
+    /// Side N of the interleaved pattern (N x N subsets of the VPLs). With
+    /// --visibility auto, --accumulate's and the viewer's still frames take
+    /// at most 2: what the filter blurs is a bias that frames keep.
     #[arg(long, default_value_t = RenderSettings::default().interleave)]
     interleave: u32,
     /// Clamping bound b of the geometry term in 1/m^2: a number, `inf` (no
