@@ -207,8 +207,8 @@ fn back_face_maps_leak_less_through_a_shared_wall() {
 /// and 0.04% before the stored plane's test left no room for a curve;
 /// the thin boxes seen from outside 0.00-0.01%), against 0.95% and 0.14%
 /// with back-face maps at 32 texels and 1.22% and 0.26% with a single
-/// frame's ISMs. Pinned
-/// below 1.5 times that, and below the back-face maps' measure.
+/// frame's ISMs. Pinned below 1.5 times that, and below the back-face
+/// maps' measure.
 #[test]
 fn a_converging_accumulation_with_isms_leaks_less() {
     let mut renderer = common::validated_renderer();
