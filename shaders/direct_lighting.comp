@@ -16,6 +16,8 @@ layout(set = 0, binding = 5) readonly buffer ShadowViews { ShadowView shadow_vie
 layout(set = 0, binding = 6) uniform sampler2DArray shadow_maps;
 layout(set = 0, binding = 7, rgba32f) uniform readonly image2D g_emission;
 layout(set = 0, binding = 8, rgba32f) uniform writeonly image2D direct_sources;
+// Bit i mod 32: light i reaches the pixel (the interleaved filter's).
+layout(set = 0, binding = 9, r32ui) uniform writeonly uimage2D direct_lights;
 
 layout(push_constant) uniform Push {
     uvec2 size;
@@ -74,6 +76,7 @@ void main() {
     if (position.w == 0.0) {
         imageStore(direct, pixel, vec4(0.0));
         imageStore(direct_sources, pixel, vec4(0.0));
+        imageStore(direct_lights, pixel, uvec4(0u));
         return;
     }
     vec4 normal = unpack_gbuffer_normal(imageLoad(g_normal, pixel));
@@ -98,10 +101,12 @@ void main() {
     vec3 surface = geometric_normal(emission.w, normal.xyz);
     vec3 radiance = emission.rgb;
     vec3 source = radiance;
+    uint reached = 0u;
     for (uint i = 0u; i < pc.light_count; i++) {
         vec3 wi;
         vec3 irradiance = light_irradiance(lights[i], position.xyz, normal.xyz, surface, wi);
         if (max(irradiance.r, max(irradiance.g, irradiance.b)) <= 0.0) continue;
+        reached |= 1u << (i & 31u);
         // What the lobe sees change across the pixel is the normal relative
         // to the half vector: the half vector turns too, as the eye and the
         // light are seen from another point (on a convex mirror it adds to
@@ -145,4 +150,5 @@ void main() {
     // w: the geometric normal's code (geometric_normal.glsl), which SSBC
     // reads here after the G-buffer's emission image is gone.
     imageStore(direct_sources, pixel, vec4(source, emission.w));
+    imageStore(direct_lights, pixel, uvec4(reached));
 }

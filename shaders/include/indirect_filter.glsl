@@ -6,9 +6,9 @@
 // with most pixels on its own surface (shading normals within
 // acos(min_normal_cos), within max_plane_slope x their distance of its
 // tangent plane, the geometric normal's: a normal map turns the shading
-// normal, not the surface the neighbours lie on; ties go to
-// the most central box), and averages those pixels: across depth and
-// normal discontinuities nothing is mixed, and beside an edge the box
+// normal, not the surface the neighbours lie on; reached by the same
+// punctual lights; ties go to the most central box), and averages those
+// pixels: across depth and normal discontinuities nothing is mixed, and beside an edge the box
 // turns away from it, so the pixel still sees every subset. Only where no
 // box lies on its surface (corners, features thinner than N pixels) do
 // some subsets go missing. Where the whole (2N - 1)^2 window is on the
@@ -51,6 +51,8 @@ layout(set = 0, binding = 8, rgba32f) uniform readonly image2D direct_sources;
 layout(set = 0, binding = 9, rgba32f) uniform writeonly image2D s0_sources;
 layout(set = 0, binding = 10, rg32ui) uniform readonly uimage2D g_normal;
 layout(set = 0, binding = 11, rgba32f) uniform readonly image2D g_emission; // w: geometric normal
+// Which punctual lights reach each pixel (direct_lighting.comp).
+layout(set = 0, binding = 12, r32ui) uniform readonly uimage2D direct_lights;
 
 // What the filter's surface tests read of a pixel: the G-buffer's
 // position and shading normal. (A guide image of both in one texel, one
@@ -210,6 +212,7 @@ void main() {
     vec3 n = own.normal;
     vec3 surface = geometric_normal(imageLoad(g_emission, pixel).w, n);
     int reach = pc.side - 1;
+    uint lights = imageLoad(direct_lights, pixel).x;
 #ifdef EXACT_VISIBILITY
     uint reached[MAX_WINDOW];
     window_reached(reach, reached);
@@ -261,6 +264,14 @@ void main() {
                 continue;
             }
 #endif
+            // Reached by other lights: beyond a shadow's edge, or beyond a
+            // wall the surface tests do not see (two rooms' coplanar
+            // floors either side of it), whose VPLs the pixel's do not
+            // share. Not a crease: the box turns away from it.
+            if (imageLoad(direct_lights, q).x != lights) {
+                edge = true;
+                continue;
+            }
             if (adjacent) footprint = min(footprint, per_pixel);
             if (glossy_receiver) turn = max(turn, length(mirror(g.position, g.normal) - own_mirror));
             row |= 1u << uint(dx);

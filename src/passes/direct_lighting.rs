@@ -13,7 +13,10 @@ use super::{Pass, Recording, SlotSetup};
 use crate::error::Result;
 use crate::layer::Layer;
 use crate::shaders::direct_lighting_comp;
-use crate::vk::{ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, Sampler, Work};
+use crate::vk::{
+    ComputeKernel, DescriptorPool, DescriptorSetLayout, Device, Image, ImageDesc, Planned, Sampler,
+    Tenant, Work,
+};
 
 /// What the pass writes.
 pub struct DirectLight {
@@ -30,6 +33,24 @@ pub struct DirectLight {
     /// Lambertian surfaces. The bounded lighting adds its own in place:
     /// then S0's sources, the `sources` layer.
     pub sources: Image,
+    /// Which punctual lights reach each pixel (bit i mod 32 for light i):
+    /// the interleaved filter averages no neighbours of another set, since
+    /// a wall thinner than its surface tests resolve still parts the
+    /// pixels each light reaches (docs/accuracy.md, "The filter parts
+    /// what different lights reach").
+    pub lights: Image,
+}
+
+/// [`DirectLight::lights`] at `extent`.
+pub(crate) fn lights_desc(extent: (u32, u32)) -> ImageDesc {
+    super::storage_desc(vk::Format::R32_UINT, extent, vk::ImageUsageFlags::empty())
+}
+
+/// What the direct light places in a frame slot's transient memory
+/// (`passes::transient`): [`DirectLight::lights`], which the interleaved
+/// filter reads last.
+pub(crate) fn transient_resources(extent: (u32, u32)) -> Tenant {
+    vec![Planned::Image(lights_desc(extent))]
 }
 
 /// The direct-lighting compute kernel, for one G-buffer layer.
@@ -76,10 +97,15 @@ impl Pass for DirectLightingPass {
         let traits = setup.traits();
         let is_s0 = super::transient::s0_in_direct(setup.settings, traits);
         let direct = name(if is_s0 { "ssbc.s0" } else { "lighting.direct" });
+        let lights = name("lighting.direct_lights");
         Ok(DirectLight {
             radiance: super::radiance_image(device, &direct, extent)?,
             is_s0,
             sources: super::radiance_image(device, &name("lighting.direct_sources"), extent)?,
+            lights: match setup.region(super::transient::Tenancy::Direct(self.layer)) {
+                Some(mut region) => Image::new_aliased(device, &lights, lights_desc(extent), &mut region)?,
+                None => Image::new(device, &lights, lights_desc(extent))?,
+            },
         })
     }
 
@@ -122,6 +148,7 @@ impl Pass for DirectLightingPass {
             g_albedo: &gbuffer.albedo,
             direct: &direct.radiance,
             direct_sources: &direct.sources,
+            direct_lights: &direct.lights,
             lights: &shadows.lights,
             shadow_views: &shadows.views,
             shadow_maps: (&shadows.depth, &self.shadow_sampler),

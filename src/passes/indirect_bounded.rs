@@ -506,6 +506,7 @@ impl IndirectBoundedPass {
                 g_albedo: &gbuffer.albedo,
                 direct: &direct.radiance,
                 direct_sources: &direct.sources,
+                direct_lights: &direct.lights,
                 interleaved: &interleaved.sums,
                 s0: out.s0(direct),
                 s0_sources: &direct.sources,

@@ -32,6 +32,9 @@ pub enum Tenancy {
     GBuffer(u32),
     /// The bounded lighting of G-buffer layer `0` or `1`.
     Gather(u32),
+    /// The direct light's intermediates on G-buffer layer `0` or `1`:
+    /// which lights reach each pixel, until the filter has read it.
+    Direct(u32),
     /// SSBC.
     Ssbc,
     /// The temporal history.
@@ -113,7 +116,7 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
         true => vec![Planned::Image(desc)],
         false => Vec::new(),
     });
-    // Two tenants, then two a layer, in `SlotTransient::region`'s order.
+    // Two tenants, then three a layer, in `SlotTransient::region`'s order.
     let gather: Vec<Tenant> = visibility
         .into_iter()
         .chain(layers
@@ -121,6 +124,7 @@ pub fn plan(settings: &RenderSettings, traits: SlotTraits) -> AliasPlan {
             [
                 super::gbuffer::GBuffer::transient_resources(e, emission_is_transient),
                 super::indirect_bounded::transient_resources(e, settings.gather),
+                super::direct_lighting::transient_resources(e),
             ]
         }))
         .collect();
@@ -189,8 +193,9 @@ impl SlotTransient {
         let (phase, index) = match tenant {
             Tenancy::ShadowMaps => (GATHER_PHASE, 0),
             Tenancy::Ism => (GATHER_PHASE, 1),
-            Tenancy::GBuffer(layer) => (GATHER_PHASE, 2 + 2 * layer as usize),
-            Tenancy::Gather(layer) => (GATHER_PHASE, 3 + 2 * layer as usize),
+            Tenancy::GBuffer(layer) => (GATHER_PHASE, 2 + 3 * layer as usize),
+            Tenancy::Gather(layer) => (GATHER_PHASE, 3 + 3 * layer as usize),
+            Tenancy::Direct(layer) => (GATHER_PHASE, 4 + 3 * layer as usize),
             Tenancy::Ssbc => (SSBC_PHASE, 0),
             Tenancy::Temporal => (TEMPORAL_PHASE, 0),
         };

@@ -4,7 +4,7 @@ use crate::error::{Error, Result};
 use crate::memory::FrameMemory;
 use crate::passes::gbuffer::GBuffer;
 use crate::passes::transient::{self, SlotTraits};
-use crate::passes::{indirect_bounded, radiance_desc};
+use crate::passes::{direct_lighting, indirect_bounded, radiance_desc};
 use crate::settings::{Bound, RenderSettings, SsbcSettings};
 use crate::vk::Device;
 
@@ -255,10 +255,12 @@ fn layer_memory(
             .filter(|(_, kept)| *kept)
             .map(|(d, _)| d.bytes(device))
             .sum::<u64>();
-        // Direct light and what it sends; the bounded lighting (S0 in the
+        // Direct light, what it sends and (unless transient) the lights it
+        // comes from; the bounded lighting (S0 in the
         // direct light's image, where nothing reads that later).
         let s0_in_direct = transient::s0_in_direct(settings, uses.traits(0));
         lighting += 2 * radiance_desc(layer).bytes(device)
+            + if shared { 0 } else { direct_lighting::lights_desc(layer).bytes(device) }
             + indirect_bounded::memory_bytes(device, layer, settings.gather, shared)
             - if s0_in_direct {
                 radiance_desc(layer).bytes(device)
