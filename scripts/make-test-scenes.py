@@ -311,10 +311,11 @@ def thin_box(name, slab_t, double, view, doc):
     camera = {"translation": eye, "rotation": look_at(eye, target), "yfov": math.radians(45)}
     write(name, meshes, mats, camera=camera, doc=doc)
 
-def two_rooms(name, wall_t, double, doc):
+def two_rooms(name, wall_t, double, doc, right_light=None):
     """Two open-top rooms (2 x 1.5 x 2 m each) of closed 10 cm slabs, side by
     side, sharing one slab wall_t thick; a 2 W/sr point light in the left
-    room, seen from above: the right room is unlit in truth."""
+    room, seen from above: the right room is unlit in truth, or lit only by
+    a point light of right_light W/sr of its own."""
     mats = {k: dict(v, doubleSided=double) for k, v in THIN_WALLS.items()}
     t, h = 0.10, 1.5
     half = wall_t / 2
@@ -329,7 +330,10 @@ def two_rooms(name, wall_t, double, doc):
     light = ({"type": "point", "color": [1, 1, 1], "intensity": 2.0}, [-1.0, 1.0, 0.3])
     eye, target = [0.0, 5.5, 3.2], [0.0, 0.4, 0.0]
     camera = {"translation": eye, "rotation": look_at(eye, target), "yfov": math.radians(45)}
-    write(name, meshes, mats, lights=[light], camera=camera, doc=doc)
+    lights = [light]
+    if right_light is not None:
+        lights.append(({"type": "point", "color": [1, 1, 1], "intensity": right_light}, [1.0, 1.0, 0.3]))
+    write(name, meshes, mats, lights=lights, camera=camera, doc=doc)
 
 if len(sys.argv) == 3 and sys.argv[1] == "--sweep":
     # The whole grid of proportions, for examples/fixture_sweep.rs (not committed).
@@ -613,3 +617,5 @@ two_rooms("thin-two-rooms-1mm", 0.001, True,
           doc="Two open-top rooms sharing a 1 mm doubleSided wall, a point light in the left one, seen from above")
 two_rooms("thin-two-rooms-20cm", 0.20, False,
           doc="Two open-top rooms sharing a 20 cm one-sided wall, a point light in the left one, seen from above")
+two_rooms("thin-two-rooms-1mm-two-lights", 0.001, True, right_light=0.2,
+          doc="Two open-top rooms sharing a 1 mm doubleSided wall, a 2 W/sr point light in the left one and a 0.2 W/sr one in the right, seen from above")

@@ -7,8 +7,9 @@
 // acos(min_normal_cos), within max_plane_slope x their distance of its
 // tangent plane, the geometric normal's: a normal map turns the shading
 // normal, not the surface the neighbours lie on; reached by the same
-// punctual lights; ties go to the most central box), and averages those
-// pixels: across depth and normal discontinuities nothing is mixed, and beside an edge the box
+// punctual lights, unless their light differs little: lights_part; ties
+// go to the most central box), and averages those pixels: across depth
+// and normal discontinuities nothing is mixed, and beside an edge the box
 // turns away from it, so the pixel still sees every subset. Only where no
 // box lies on its surface (corners, features thinner than N pixels) do
 // some subsets go missing. Where the whole (2N - 1)^2 window is on the
@@ -38,6 +39,12 @@ const int MAX_SIDE = 4;
 // 1-3 pixels (measured: docs/accuracy.md, "Tuned constants").
 const float RIM_TURN = 0.5;
 const int MAX_WINDOW = 2 * MAX_SIDE - 1;
+// Neighbours that other punctual lights reach stay apart where their mean
+// bounded light and that of the pixel's side differ by more than this
+// factor (lights_part). 4 parted the 1 mm rooms at 96x72 but not at
+// 384x288, where the ISMs' own leak brightens the unlit side beside the
+// wall (docs/accuracy.md, "The filter parts what different lights reach").
+const float LIGHTS_APART = 2.0;
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0, rgba32f) uniform readonly image2D g_position;
@@ -195,6 +202,41 @@ void window_reached(int reach, out uint reached[MAX_WINDOW]) {
 }
 #endif
 
+// Whether the window's pixels on the pixel's surface that other punctual
+// lights reach (bits of `others`; those its own lights reach: `rows`) stay
+// apart from it. They lie beyond a shadow's edge, or beyond a wall the
+// surface tests do not see (two rooms' coplanar floors either side of
+// it). Beside a shadow's edge the indirect light is smooth, and they join
+// the pixel's. Beyond a wall each side has VPLs of its own: where the two
+// sides' mean sums differ by more than LIGHTS_APART they stay apart, and
+// the box turns away from them as from any edge (not a crease). Each side
+// must hold a row of the window's pixels, so that its mean averages
+// enough subsets that noise alone seldom parts them.
+bool lights_part(ivec2 pixel, int reach, uint rows[MAX_WINDOW], uint others[MAX_WINDOW]) {
+    float own_sum = 0.0, apart_sum = 0.0;
+    int own_count = 0, apart_count = 0;
+    for (int dy = 0; dy <= 2 * reach; dy++) {
+        for (int dx = 0; dx <= 2 * reach; dx++) {
+            bool own_side = ((rows[dy] >> uint(dx)) & 1u) != 0u;
+            bool other_side = ((others[dy] >> uint(dx)) & 1u) != 0u;
+            if (!own_side && !other_side) continue;
+            uvec4 sums = imageLoad(interleaved, pixel + ivec2(dx, dy) - reach);
+            float l = dot(sums_diffuse(sums) + sums_glossy(sums), vec3(1.0));
+            if (own_side) {
+                own_sum += l;
+                own_count++;
+            } else {
+                apart_sum += l;
+                apart_count++;
+            }
+        }
+    }
+    if (min(own_count, apart_count) < 2 * reach + 1) return false;
+    float own_mean = own_sum / float(own_count);
+    float apart_mean = apart_sum / float(apart_count);
+    return apart_mean > LIGHTS_APART * own_mean || own_mean > LIGHTS_APART * apart_mean;
+}
+
 void main() {
 #ifdef EXACT_VISIBILITY
     cast_links();
@@ -231,8 +273,11 @@ void main() {
     vec3 own_mirror = glossy_receiver ? mirror(x, n) : vec3(0.0);
     float turn = 0.0;
     bool edge = false;
+    uint others[MAX_WINDOW];
+    bool any_apart = false;
     for (int dy = 0; dy <= 2 * reach; dy++) {
         uint row = 0u;
+        uint apart = 0u;
         for (int dx = 0; dx <= 2 * reach; dx++) {
             ivec2 offset = ivec2(dx, dy) - reach;
             ivec2 q = pixel + offset;
@@ -264,19 +309,27 @@ void main() {
                 continue;
             }
 #endif
-            // Reached by other lights: beyond a shadow's edge, or beyond a
-            // wall the surface tests do not see (two rooms' coplanar
-            // floors either side of it), whose VPLs the pixel's do not
-            // share. Not a crease: the box turns away from it.
-            if (imageLoad(direct_lights, q).x != lights) {
-                edge = true;
-                continue;
-            }
             if (adjacent) footprint = min(footprint, per_pixel);
             if (glossy_receiver) turn = max(turn, length(mirror(g.position, g.normal) - own_mirror));
+            // Reached by other lights: apart until lights_part decides.
+            if (imageLoad(direct_lights, q).x != lights) {
+                apart |= 1u << uint(dx);
+                continue;
+            }
             row |= 1u << uint(dx);
         }
         rows[dy] = row;
+        others[dy] = apart;
+        any_apart = any_apart || apart != 0u;
+    }
+    // Neighbours that other lights reach join the pixel's surface unless
+    // the light parts them (lights_part).
+    if (any_apart) {
+        if (lights_part(pixel, reach, rows, others)) {
+            edge = true;
+        } else {
+            for (int dy = 0; dy <= 2 * reach; dy++) rows[dy] |= others[dy];
+        }
     }
     // A glossy lobe that turns across the window by a good part of its
     // width (GGX alpha: its half-vector's spread; curved surfaces, normal

@@ -260,7 +260,11 @@ fn layer_memory(
         // direct light's image, where nothing reads that later).
         let s0_in_direct = transient::s0_in_direct(settings, uses.traits(0));
         lighting += 2 * radiance_desc(layer).bytes(device)
-            + if shared { 0 } else { direct_lighting::lights_desc(layer).bytes(device) }
+            + if shared {
+                0
+            } else {
+                direct_lighting::lights_desc(layer).bytes(device)
+            }
             + indirect_bounded::memory_bytes(device, layer, settings.gather, shared)
             - if s0_in_direct {
                 radiance_desc(layer).bytes(device)
