@@ -28,7 +28,8 @@ alpha-masked leaves under a sun, a spot light, a textured studio; scripts/mitsub
                       saturated red and green, one- or double-sided) lit by a
                       thin closed fixture under the ceiling, seen from outside
                       and from inside; two open-top rooms sharing one slab
-                      wall, a point light in one of them, seen from above.
+                      wall, a point light in one of them (or a dimmer one in
+                      the other too), seen from above.
 """
 import base64, json, math, os, struct, sys, zlib
 
