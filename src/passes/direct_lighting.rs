@@ -33,11 +33,13 @@ pub struct DirectLight {
     /// Lambertian surfaces. The bounded lighting adds its own in place:
     /// then S0's sources, the `sources` layer.
     pub sources: Image,
-    /// Which punctual lights reach each pixel (bit i mod 32 for light i):
-    /// the interleaved filter averages no neighbours of another set, since
-    /// a wall thinner than its surface tests resolve still parts the
-    /// pixels each light reaches (docs/accuracy.md, "The filter parts
-    /// what different lights reach").
+    /// Which punctual lights reach each pixel (bit i mod 32 for light i).
+    /// The interleaved filter keeps neighbours of another set apart where
+    /// their bounded light differs from the pixel's side's by 2x: a wall
+    /// thinner than its surface tests resolve still parts the pixels each
+    /// light reaches (docs/accuracy.md, "The filter parts what different
+    /// lights reach"). Written with the full gather too, where nothing
+    /// reads it (a store a pixel, in transient memory).
     pub lights: Image,
 }
 
