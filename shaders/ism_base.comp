@@ -3,7 +3,8 @@
 // distance of its block (src/cpu/ism_rays.rs) instead of "no point", so that
 // occluders near the VPL, which get few points, still shadow; the splat then
 // adds the points' finer detail with atomicMin. A block carries how
-// squarely its surface faces the VPL (ism_pack). In tiles whose blocks
+// squarely its surface faces the VPL (ism_pack), or the plane all its
+// corners met (ism_layer_texel). In tiles whose blocks
 // span more texels (ism_rays::layer_slack), the tile starts empty and the
 // fill combines the splat with the blocks (with_layer in ism_fill.glsl).
 #include "ism.glsl"
@@ -12,7 +13,7 @@ layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 0, r32ui) uniform writeonly uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
-layout(set = 0, binding = 2) readonly buffer Base { vec2 base[]; }; // (m, facing), grid^2 per VPL
+layout(set = 0, binding = 2) readonly buffer Base { LayerBlock base[]; }; // grid^2 per VPL
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -35,15 +36,22 @@ void main() {
     if (i >= per_row * pc.tile || v >= pc.vpl_count) return;
     uvec2 first = uvec2(i % per_row * span, i / per_row);
     uvec2 block = first * pc.grid / pc.tile;
-    vec2 corner = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
+    LayerBlock b = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
     uint cell = floatBitsToUint(vpls[v].normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile) + ivec2(first);
-    uvec4 texel = pc.deferred != 0u ? uvec4(ISM_EMPTY)
-                                    : uvec4(ism_pack(corner.x * pc.depth_scale, ism_facing_code(corner.y)));
+    // The block's plane in the VPL's frame, once for the row.
+    vec3 n = vpls[v].normal.xyz, t, bt;
+    orthonormal_basis(n, t, bt);
+    vec3 m = ism_layer_normal(b);
+    vec3 m_local = vec3(dot(m, t), dot(m, bt), dot(m, n));
+    uint code = ism_normal_code(m);
     // A back-face map starts empty: the layer's rays stop at front faces.
     int height = imageSize(ism_depth).y;
     for (uint k = 0u; k < span; k++) {
-        imageStore(ism_depth, origin + ivec2(k, 0), texel);
+        ivec2 local = ivec2(first) + ivec2(k, 0);
+        uint texel = pc.deferred != 0u ? ISM_EMPTY
+                                       : ism_layer_texel(b, local, pc.tile, m_local, code, 1.0 / pc.depth_scale);
+        imageStore(ism_depth, origin + ivec2(k, 0), uvec4(texel));
         if (pc.back_faces != 0u)
             imageStore(ism_depth, ism_back_texel(origin + ivec2(k, 0), height), uvec4(ISM_EMPTY));
     }

@@ -36,7 +36,7 @@ pub struct VplCache {
     pub subsets: Vec<u32>,
     /// Each VPL's coarse ray-cast ISM layer, in the same order
     /// ([`ism_rays::coarse_depths`]); empty until a frame splats ISMs.
-    pub ism_base: Vec<ism_rays::Corner>,
+    pub ism_base: Vec<ism_rays::LayerBlock>,
     /// Where each VPL's corner rays stopped, what `ism_base` was made of
     /// ([`ism_rays::corner_depths`]); None until a frame splats ISMs.
     ism_corners: Option<Vec<ism_rays::Corner>>,

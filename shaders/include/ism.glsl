@@ -207,6 +207,38 @@ float ism_back_band(float depth, uint tile, float point_radius) {
     return ISM_BACK_BAND_RELATIVE * depth + ISM_BACK_BAND_FOOTPRINTS * ism_footprint(depth, tile, point_radius);
 }
 
+// One block of a VPL's ray-cast layer (LayerBlock in src/cpu/ism_rays.rs):
+// its farthest corner's distance [m] and facing, and where its four corners
+// met one plane, that plane's distance from the VPL [m] (else -1) and its
+// normal towards the VPL (an octahedral map, 16 bits a coordinate).
+struct LayerBlock {
+    float t;
+    float facing;
+    float plane;
+    uint normal;
+};
+
+// A layer block's plane's normal (meaningful where b.plane > 0).
+vec3 ism_layer_normal(LayerBlock b) {
+    return from_octahedral(unpackUnorm2x16(b.normal) * 2.0 - 1.0);
+}
+
+// What texel `local` of a tile starts from (distances over `far`): where
+// its layer block's corners met one plane, that plane along the texel's
+// centre ray and its normal code `code` (ism_normal_code of the block's
+// normal, whose components in the VPL's frame are `m_local`), up to the
+// farthest corner's distance; else the farthest corner. A texel of a wall
+// that faces the VPL then holds the wall itself, which the ISM test
+// follows to the receiver's ray, not a corner up to a block beyond it
+// (docs/accuracy.md, "The ray-cast layer's planes").
+uint ism_layer_texel(LayerBlock b, ivec2 local, uint tile, vec3 m_local, uint code, float far) {
+    vec3 l = ism_projected_local(local, tile);
+    float mr = -dot(m_local, l);
+    if (b.plane > 0.0 && l.z > 0.0 && b.plane < b.t * mr)
+        return ism_pack(b.plane / (mr * far), code);
+    return ism_pack(b.t / far, ism_facing_code(b.facing));
+}
+
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change
 // of a surface across one splat footprint (a texel or a point, whichever is
 // larger) at its slope to the VPL's ray. The receiver's own surface lands

@@ -20,7 +20,7 @@ const float ISM_FILL_AGREE = 0.5;
 
 layout(set = 0, binding = 0, r32ui) uniform uimage2D ism_depth;
 layout(set = 0, binding = 1) readonly buffer Vpls { GpuVpl vpls[]; };
-layout(set = 0, binding = 2) readonly buffer Layer { vec2 layer[]; }; // (m, facing), grid^2 per VPL
+layout(set = 0, binding = 2) readonly buffer Layer { LayerBlock layer[]; }; // grid^2 per VPL
 
 layout(push_constant) uniform Push {
     uint vpl_count;
@@ -46,10 +46,10 @@ layout(push_constant) uniform Push {
 uint with_layer(uint stored, uint v, ivec2 local) {
     if (pc.layer_slack <= 0.0) return stored;
     uvec2 block = uvec2(local) * pc.grid / pc.tile;
-    vec2 corner = layer[(v * pc.grid + block.y) * pc.grid + block.x];
+    LayerBlock b = layer[(v * pc.grid + block.y) * pc.grid + block.x];
     float splat = ism_texel_depth(stored) * pc.far;
-    if ((stored & 4095u) != 0u && splat <= corner.x * (1.0 + pc.layer_slack)) return stored;
-    return ism_pack(corner.x / pc.far, ism_facing_code(corner.y)) | (stored & ISM_BACK_FLAG);
+    if ((stored & 4095u) != 0u && splat <= b.t * (1.0 + pc.layer_slack)) return stored;
+    return ism_pack(b.t / pc.far, ism_facing_code(b.facing)) | (stored & ISM_BACK_FLAG);
 }
 
 // The distance along centre ray c0 to the plane of normal m that texel

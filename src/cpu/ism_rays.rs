@@ -11,7 +11,11 @@
 //! towards visibility, as pull-push does), and the splatted points add the
 //! detail finer than a block (atomicMin keeps the nearest). A block also
 //! says how squarely the surface it holds faces the VPL (the ISM test's
-//! tolerance, `ism_tolerance` in shaders/include/ism.glsl).
+//! tolerance, `ism_tolerance` in shaders/include/ism.glsl), and where its
+//! four corners met one plane (a wall, a floor), that plane: each texel
+//! then starts from the plane's own distance along its centre ray and
+//! the plane's normal, which the ISM test follows, instead of the
+//! farthest corner.
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -63,14 +67,66 @@ pub const CORNER_MAX_RADIUS: f32 = 1.0 - 1.0 / (4 * BASE_GRID) as f32;
 /// Where one corner ray of a VPL's layer stops: its distance, and |cos|
 /// between the ray and the normal of the surface it met (-1: it met
 /// nothing, or that is not known).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Corner {
     /// Distance (m).
     pub t: f32,
     /// |cos| between the ray and the surface's normal, or -1.
     pub facing: f32,
+    /// The surface's unit geometric normal turned towards the VPL (zero
+    /// where the ray met nothing).
+    pub normal: Vec3,
 }
+
+impl Corner {
+    /// A ray that met nothing within `miss` (m).
+    fn missed(miss: f32) -> Corner {
+        Corner {
+            t: miss,
+            facing: -1.0,
+            normal: Vec3::ZERO,
+        }
+    }
+}
+
+/// One block of a VPL's layer as `ism_base.comp` reads it (`LayerBlock` in
+/// shaders/include/ism.glsl): its farthest corner and, where all four
+/// corners met one plane, that plane.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LayerBlock {
+    /// The farthest corner's distance (m).
+    pub t: f32,
+    /// |cos| between that corner's ray and its surface, or -1.
+    pub facing: f32,
+    /// The distance (m) from the VPL to the plane all four corners met, or
+    /// -1 where they met no one plane.
+    pub plane: f32,
+    /// That plane's unit normal, turned towards the VPL: its octahedral
+    /// map as GLSL's `packUnorm2x16(octahedral(m) * 0.5 + 0.5)`.
+    pub normal: u32,
+}
+
+impl LayerBlock {
+    /// A block that holds nothing nearer than the atlas's far distance
+    /// (a layer of no VPLs is one of these: a buffer is never empty).
+    pub const NONE: LayerBlock = LayerBlock {
+        t: 0.0,
+        facing: -1.0,
+        plane: -1.0,
+        normal: 0,
+    };
+}
+
+/// How close four corners' planes must lie to be one: the same normal
+/// within 0.8 degrees (|cos| 0.9999) and the same distance from the VPL
+/// within this share of the farthest corner's. A sphere's facets that pass
+/// sag by under 1e-4 of its radius between the corners, far within the ISM
+/// test's relative tolerance.
+pub const COPLANAR: f32 = 1e-4;
+
+/// See [`COPLANAR`].
+const SAME_NORMAL_COS: f32 = 0.9999;
 
 /// Tile coordinates in `[-1, 1]²` of the unit direction `l` given in its
 /// VPL's frame (x, y along [`basis`]'s tangents, z along the normal;
@@ -95,7 +151,7 @@ pub fn projected_local(a: Vec2) -> Vec3 {
 /// The layer of every VPL, in their order: [`BASE_GRID`]² blocks per VPL,
 /// row by row along the tile's v then u ([`blocks`]); distance
 /// `miss` where every corner ray of a block leaves the scene.
-pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<Corner> {
+pub fn coarse_depths(bvh: &SceneBvh, vpls: &[Vpl], miss: f32) -> Vec<LayerBlock> {
     blocks(&corner_depths(bvh, vpls, miss, None))
 }
 
@@ -132,7 +188,7 @@ pub fn corner_depths(
                 .collect()
         })
         .unwrap_or_default();
-    let mut out = vec![Corner { t: 0.0, facing: -1.0 }; vpls.len() * n];
+    let mut out = vec![Corner::missed(0.0); vpls.len() * n];
     out.par_chunks_mut(n)
         .zip(vpls.par_iter())
         .for_each(|(corners, v)| {
@@ -181,9 +237,14 @@ pub fn corner_depths(
                 let hit = bvh
                     .intersect(origin, dir, 0.0, f32::INFINITY)
                     .filter(|hit| hit.t < miss);
-                *c = hit.map_or(Corner { t: miss, facing: -1.0 }, |hit| Corner {
-                    t: hit.t,
-                    facing: bvh.triangle_normal(hit.triangle).dot(dir).abs(),
+                *c = hit.map_or(Corner::missed(miss), |hit| {
+                    let m = bvh.triangle_normal(hit.triangle);
+                    let cos = m.dot(dir);
+                    Corner {
+                        t: hit.t,
+                        facing: cos.abs(),
+                        normal: if cos > 0.0 { -m } else { m },
+                    }
                 });
             }
         });
@@ -191,8 +252,9 @@ pub fn corner_depths(
 }
 
 /// Each VPL's [`BASE_GRID`]² blocks from its corners: a block holds the
-/// farthest of its four corners (and how that one's surface faces the ray).
-pub fn blocks(corners: &[Corner]) -> Vec<Corner> {
+/// farthest of its four corners (and how that one's surface faces the
+/// ray), and the plane all four met, if they met one ([`COPLANAR`]).
+pub fn blocks(corners: &[Corner]) -> Vec<LayerBlock> {
     let g = BASE_GRID as usize;
     corners
         .chunks_exact(RAYS_PER_VPL as usize)
@@ -200,12 +262,42 @@ pub fn blocks(corners: &[Corner]) -> Vec<Corner> {
             (0..g * g).map(move |k| {
                 let (x, y) = (k % g, k / g);
                 let corner = |dx: usize, dy: usize| c[(y + dy) * (g + 1) + x + dx];
-                [corner(1, 0), corner(0, 1), corner(1, 1)]
-                    .into_iter()
-                    .fold(corner(0, 0), |far, c| if c.t > far.t { c } else { far })
+                let four = [corner(0, 0), corner(1, 0), corner(0, 1), corner(1, 1)];
+                let far = four[1..]
+                    .iter()
+                    .fold(four[0], |far, &c| if c.t > far.t { c } else { far });
+                let plane = one_plane(&four, far.t);
+                LayerBlock {
+                    t: far.t,
+                    facing: far.facing,
+                    plane: plane.map_or(-1.0, |(d, _)| d),
+                    normal: plane.map_or(0, |(_, m)| pack_unorm_octahedral(m)),
+                }
             })
         })
         .collect()
+}
+
+/// The plane (distance from the VPL, unit normal towards it) that all of
+/// `four` corner rays met, if they met one.
+fn one_plane(four: &[Corner; 4], far: f32) -> Option<(f32, Vec3)> {
+    // A corner's plane lies t x facing from the VPL along its normal.
+    let (m, d) = (four[0].normal, four[0].t * four[0].facing);
+    let within = COPLANAR * far;
+    four.iter()
+        .all(|c| {
+            c.facing > 0.0
+                && c.normal.dot(m) > SAME_NORMAL_COS
+                && (c.t * c.facing - d).abs() <= within
+        })
+        .then_some((d, m))
+}
+
+/// GLSL's `packUnorm2x16(octahedral(m) * 0.5 + 0.5)` (x in the low half).
+fn pack_unorm_octahedral(m: Vec3) -> u32 {
+    let e = super::points::octahedral(m).unwrap_or(Vec2::ZERO);
+    let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 65535.0).round();
+    q.x as u32 | (q.y as u32) << 16
 }
 
 #[cfg(test)]
@@ -282,6 +374,71 @@ mod tests {
         assert!((total / std::f32::consts::PI - 1.0).abs() < 0.01, "{total}");
     }
 
+    /// A VPL at `position` facing `normal` (a Lambertian one of no flux).
+    fn vpl_at(position: Vec3, normal: Vec3) -> Vpl {
+        Vpl {
+            position,
+            normal,
+            brdf: crate::cpu::brdf::Brdf::lambertian(Vec3::ONE),
+            incident: -normal,
+            shading_normal: Vec3::ZERO,
+            flux: Vec3::ONE,
+            radius: 0.0,
+            bounce: 1,
+            path: 0,
+        }
+    }
+
+    #[test]
+    fn a_block_whose_corners_meet_one_plane_holds_it() {
+        // A VPL 1 m before a wall of two triangles, 2 m each way (it fills
+        // the map out to 63 degrees), and a floor across the wall's foot 0.5
+        // m below the VPL. The blocks that see only the wall hold its plane,
+        // 1 m along its normal, whatever their corners' distances; those
+        // that see only the floor, the floor's, 0.5 m along its normal; those
+        // across the crease, and those that see past the wall's edges, hold
+        // none (they keep their farthest corner).
+        let mut scene = crate::scene::Scene::new("wall");
+        let m = scene.add_material(Vec3::ONE, None);
+        let wall = [
+            Vec3::new(-2.0, -0.5, -1.0),
+            Vec3::new(2.0, -0.5, -1.0),
+            Vec3::new(2.0, 2.0, -1.0),
+            Vec3::new(-2.0, 2.0, -1.0),
+        ];
+        let floor = [
+            Vec3::new(-2.0, -0.5, -1.0),
+            Vec3::new(-2.0, -0.5, 1.0),
+            Vec3::new(2.0, -0.5, 1.0),
+            Vec3::new(2.0, -0.5, -1.0),
+        ];
+        for quad in [wall, floor] {
+            scene
+                .add_mesh(&quad, &[], &[], &[0, 1, 2, 0, 2, 3], glam::Mat4::IDENTITY, m)
+                .unwrap();
+        }
+        let bvh = SceneBvh::new(&scene);
+        let blocks = coarse_depths(&bvh, &[vpl_at(Vec3::ZERO, -Vec3::Z)], 100.0);
+        let planes: Vec<_> = blocks.iter().filter(|b| b.plane > 0.0).collect();
+        let g = BASE_GRID as usize;
+        assert!(planes.len() >= g * g / 4, "{} of {} blocks", planes.len(), g * g);
+        for b in &planes {
+            let e = Vec2::new((b.normal & 0xFFFF) as f32, (b.normal >> 16) as f32) / 65535.0;
+            let n = crate::cpu::points::from_octahedral(e * 2.0 - Vec2::ONE);
+            let (d, m) = if b.plane > 0.75 { (1.0, Vec3::Z) } else { (0.5, Vec3::Y) };
+            assert!((b.plane - d).abs() < 1e-3, "{b:?}");
+            assert!(n.dot(m) > 0.99999, "{n}");
+            assert!(b.t >= d && b.t < 100.0, "{b:?}");
+        }
+        assert!(planes.iter().any(|b| b.plane < 0.75), "no block holds the floor");
+        // The centre blocks see the wall; along the floor's crease and past
+        // the wall's edges (misses) no block holds a plane.
+        assert!(blocks[(g / 2) * g + g / 2].plane > 0.0);
+        let crossing = blocks.iter().filter(|b| b.plane < 0.0 && b.t < 100.0).count();
+        assert!(crossing > 0, "no block straddles the crease");
+        assert!(blocks.iter().all(|b| b.plane < 0.0 || b.facing > 0.0));
+    }
+
     #[test]
     fn a_vpl_under_a_slab_sees_it_out_to_the_rim() {
         // A VPL on the ceiling of the Cornell box looking down at a quad 1 cm
@@ -301,17 +458,7 @@ mod tests {
             .add_mesh(&p, &[], &[], &[0, 1, 2, 0, 2, 3], glam::Mat4::IDENTITY, m)
             .unwrap();
         let bvh = SceneBvh::new(&scene);
-        let vpl = Vpl {
-            position: Vec3::new(0.01, 2.0, 0.02),
-            normal: -Vec3::Y,
-            brdf: crate::cpu::brdf::Brdf::lambertian(Vec3::ONE),
-            incident: -Vec3::Y,
-            shading_normal: Vec3::ZERO,
-            flux: Vec3::ONE,
-            radius: 0.0,
-            bounce: 1,
-            path: 0,
-        };
+        let vpl = vpl_at(Vec3::new(0.01, 2.0, 0.02), -Vec3::Y);
         let d = coarse_depths(&bvh, &[vpl], 100.0);
         let g = BASE_GRID as usize;
         let centre = d[(g / 2) * g + g / 2];

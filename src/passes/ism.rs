@@ -80,8 +80,8 @@ pub struct Ism {
     /// The (points, objects) versions `world_points` holds, once a frame
     /// ssbc submits placed them (placing is skipped while they hold).
     placed: std::cell::Cell<Option<(u64, u64)>>,
-    /// Each VPL's coarse ray-cast layer (`BASE_GRID`² [`ism_rays::Corner`]s
-    /// per VPL: distance in m, facing).
+    /// Each VPL's coarse ray-cast layer (`BASE_GRID`²
+    /// [`ism_rays::LayerBlock`]s per VPL).
     pub base_depths: Buffer,
     /// The (VPL, points) versions the buffers hold.
     versions: (u64, u64),
@@ -520,8 +520,8 @@ impl IsmPass {
 
 /// The VPLs' ray-cast layers, or one block when there are no VPLs (a buffer
 /// is never empty).
-fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::Corner] {
-    const NONE: [ism_rays::Corner; 1] = [ism_rays::Corner { t: 0.0, facing: -1.0 }];
+fn base_layer<'a>(setup: &'a SlotSetup<'_>) -> &'a [ism_rays::LayerBlock] {
+    const NONE: [ism_rays::LayerBlock; 1] = [ism_rays::LayerBlock::NONE];
     let base = &setup.cache.vpls().ism_base;
     if base.is_empty() {
         &NONE
