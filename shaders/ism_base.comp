@@ -42,7 +42,7 @@ void main() {
     // The block's plane in the VPL's frame, once for the row.
     vec3 n = vpls[v].normal.xyz, t, bt;
     orthonormal_basis(n, t, bt);
-    vec3 m = ism_layer_normal(b);
+    vec3 m = b.d < 0.0 ? ism_layer_normal(b) : n;
     vec3 m_local = vec3(dot(m, t), dot(m, bt), dot(m, n));
     uint code = ism_normal_code(m);
     // A back-face map starts empty: the layer's rays stop at front faces.

@@ -208,35 +208,42 @@ float ism_back_band(float depth, uint tile, float point_radius) {
 }
 
 // One block of a VPL's ray-cast layer (LayerBlock in src/cpu/ism_rays.rs):
-// its farthest corner's distance [m] and facing, and where its four corners
-// met one plane, that plane's distance from the VPL [m] (else -1) and its
-// normal towards the VPL (an octahedral map, 16 bits a coordinate).
+// d >= 0: its farthest corner's distance [m], that corner's facing code in
+// the top 8 bits of `bits`; d < 0: its four corners met one plane, -d
+// from the VPL [m], whose normal towards the VPL is an octahedral map in
+// the low 24 bits (12 a coordinate), and the farthest corner lies
+// 2^(top 8 bits / 32) times as far.
 struct LayerBlock {
-    float t;
-    float facing;
-    float plane;
-    uint normal;
+    float d;
+    uint bits;
 };
 
-// A layer block's plane's normal (meaningful where b.plane > 0).
-vec3 ism_layer_normal(LayerBlock b) {
-    return from_octahedral(unpackUnorm2x16(b.normal) * 2.0 - 1.0);
+// The block's farthest corner's distance [m].
+float ism_layer_far(LayerBlock b) {
+    return b.d >= 0.0 ? b.d : -b.d * exp2(float(b.bits >> 24) * (1.0 / 32.0));
 }
 
-// What texel `local` of a tile starts from (distances over `far`): where
+// The block's plane's unit normal (where b.d < 0).
+vec3 ism_layer_normal(LayerBlock b) {
+    vec2 q = vec2(b.bits & 0xFFFu, (b.bits >> 12) & 0xFFFu) * (2.0 / 4095.0) - 1.0;
+    return from_octahedral(q);
+}
+
+// What texel `local` of a tile starts from (distances over `far`). Where
 // its layer block's corners met one plane, that plane along the texel's
-// centre ray and its normal code `code` (ism_normal_code of the block's
-// normal, whose components in the VPL's frame are `m_local`), up to the
-// farthest corner's distance; else the farthest corner. A texel of a wall
-// that faces the VPL then holds the wall itself, which the ISM test
-// follows to the receiver's ray, not a corner up to a block beyond it
-// (docs/accuracy.md, "The ray-cast layer's planes").
+// centre ray with its normal code `code` (the block's normal's
+// ism_normal_code; `m_local` its components in the VPL's frame), at most
+// as far as the farthest corner: a texel of a wall that faces the VPL
+// holds the wall itself, which the ISM test follows to the receiver's ray,
+// not the farthest corner up to a block behind it (docs/accuracy.md, "The
+// ray-cast layer's planes"). Else the farthest corner and its facing.
 uint ism_layer_texel(LayerBlock b, ivec2 local, uint tile, vec3 m_local, uint code, float far) {
+    if (b.d >= 0.0) return ism_pack(b.d / far, b.bits >> 24);
+    float beyond = ism_layer_far(b);
     vec3 l = ism_projected_local(local, tile);
     float mr = -dot(m_local, l);
-    if (b.plane > 0.0 && l.z > 0.0 && b.plane < b.t * mr)
-        return ism_pack(b.plane / (mr * far), code);
-    return ism_pack(b.t / far, ism_facing_code(b.facing));
+    return l.z > 0.0 && -b.d < beyond * mr ? ism_pack(-b.d / (mr * far), code)
+                                            : ism_pack(beyond / far, ism_facing_code(mr));
 }
 
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change

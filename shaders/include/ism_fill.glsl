@@ -36,20 +36,25 @@ layout(push_constant) uniform Push {
 // Texel `stored` of VPL v's tile at `local` combined with its ray-cast
 // block, in tiles that start empty (layer_slack > 0): what the splat
 // stored, unless the block lies nearer by more than layer_slack x its
-// distance (or the splat stored nothing). Such a block stopped at an
+// distance (or the splat stored nothing): then the block's texel
+// (ism_layer_texel; t, bt, n the VPL's basis). Such a block stopped at an
 // occluder near the VPL whose few points missed this texel, which is what
 // the layer is for. A splat less far behind is the block's own surface,
 // beyond all four of its corners: a concave crease or a curve within the
 // block, where the farthest corner, which atomicMin would keep, lies in
 // front of it and shadows it (docs/accuracy.md, "The ray-cast layer in
 // finer tiles"). Idempotent: a combined texel combines to itself.
-uint with_layer(uint stored, uint v, ivec2 local) {
+uint with_layer(uint stored, uint v, ivec2 local, vec3 t, vec3 bt, vec3 n) {
     if (pc.layer_slack <= 0.0) return stored;
     uvec2 block = uvec2(local) * pc.grid / pc.tile;
     LayerBlock b = layer[(v * pc.grid + block.y) * pc.grid + block.x];
     float splat = ism_texel_depth(stored) * pc.far;
-    if ((stored & 4095u) != 0u && splat <= b.t * (1.0 + pc.layer_slack)) return stored;
-    return ism_pack(b.t / pc.far, ism_facing_code(b.facing)) | (stored & ISM_BACK_FLAG);
+    float beyond = ism_layer_far(b);
+    if ((stored & 4095u) != 0u && splat <= beyond * (1.0 + pc.layer_slack)) return stored;
+    vec3 m = ism_layer_normal(b);
+    vec3 m_local = vec3(dot(m, t), dot(m, bt), dot(m, n));
+    uint layer = ism_layer_texel(b, local, pc.tile, m_local, ism_normal_code(m), pc.far);
+    return layer | (stored & ISM_BACK_FLAG);
 }
 
 // The distance along centre ray c0 to the plane of normal m that texel
@@ -115,7 +120,7 @@ void main() {
     vec3 n = normal_cell.xyz;
     vec3 t, b;
     orthonormal_basis(n, t, b);
-    uint left = x0 > 0 ? with_layer(imageLoad(ism_depth, origin + ivec2(x0 - 1, y)).r, v, ivec2(x0 - 1, y)) : 0u;
+    uint left = x0 > 0 ? with_layer(imageLoad(ism_depth, origin + ivec2(x0 - 1, y)).r, v, ivec2(x0 - 1, y), t, b, n) : 0u;
 #ifdef ISM_BACK_FACES
     // The second dispatch, whose texels and their neighbours are final,
     // also flags every texel of the run whose back-face map holds a
@@ -130,12 +135,12 @@ void main() {
     for (int x = x0; x < x0 + int(run); x += 2) {
         ivec2 local = ivec2(x, y);
         uint raw = imageLoad(ism_depth, origin + local).r;
-        uint stored = with_layer(raw, v, local);
+        uint stored = with_layer(raw, v, local, t, b, n);
         bool across = x > 0 && x + 1 < tile;
         bool along = y > 0 && y + 1 < tile;
-        uint right = x + 1 < tile ? with_layer(imageLoad(ism_depth, origin + local + ivec2(1, 0)).r, v, local + ivec2(1, 0)) : 0u;
-        uint up = along ? with_layer(imageLoad(ism_depth, origin + local - ivec2(0, 1)).r, v, local - ivec2(0, 1)) : 0u;
-        uint down = along ? with_layer(imageLoad(ism_depth, origin + local + ivec2(0, 1)).r, v, local + ivec2(0, 1)) : 0u;
+        uint right = x + 1 < tile ? with_layer(imageLoad(ism_depth, origin + local + ivec2(1, 0)).r, v, local + ivec2(1, 0), t, b, n) : 0u;
+        uint up = along ? with_layer(imageLoad(ism_depth, origin + local - ivec2(0, 1)).r, v, local - ivec2(0, 1), t, b, n) : 0u;
+        uint down = along ? with_layer(imageLoad(ism_depth, origin + local + ivec2(0, 1)).r, v, local + ivec2(0, 1), t, b, n) : 0u;
         float held = ism_texel_depth(stored) * pc.far;
         float footprint = ism_footprint(held, pc.tile, pc.point_radius);
         bool fill_across = across && may_fill(left, right, held, footprint);

@@ -90,32 +90,79 @@ impl Corner {
 }
 
 /// One block of a VPL's layer as `ism_base.comp` reads it (`LayerBlock` in
-/// shaders/include/ism.glsl): its farthest corner and, where all four
+/// shaders/include/ism.glsl), in 8 bytes (a slot holds one per block and
+/// VPL: 4 MiB at 8192 VPLs): its farthest corner and, where all four
 /// corners met one plane, that plane.
+///
+/// - No plane: `d` is the farthest corner's distance (m), `bits` holds
+///   that corner's facing code (`ism_facing_code`) in its top 8 bits.
+/// - A plane: `d` is minus its distance from the VPL (m), `bits` its unit
+///   normal turned towards the VPL (its octahedral map, 12 bits a
+///   coordinate, x in the low bits) and, in the top 8 bits, the farthest
+///   corner's distance over the plane's, `ceil(32 log2)` of it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LayerBlock {
-    /// The farthest corner's distance (m).
-    pub t: f32,
-    /// |cos| between that corner's ray and its surface, or -1.
-    pub facing: f32,
-    /// The distance (m) from the VPL to the plane all four corners met, or
-    /// -1 where they met no one plane.
-    pub plane: f32,
-    /// That plane's unit normal, turned towards the VPL: its octahedral
-    /// map as GLSL's `packUnorm2x16(octahedral(m) * 0.5 + 0.5)`.
-    pub normal: u32,
+    /// The farthest corner's distance, or minus the plane's (m).
+    pub d: f32,
+    /// A facing code, or a normal and a distance ratio.
+    pub bits: u32,
 }
 
 impl LayerBlock {
     /// A block that holds nothing nearer than the atlas's far distance
     /// (a layer of no VPLs is one of these: a buffer is never empty).
-    pub const NONE: LayerBlock = LayerBlock {
-        t: 0.0,
-        facing: -1.0,
-        plane: -1.0,
-        normal: 0,
-    };
+    pub const NONE: LayerBlock = LayerBlock { d: 0.0, bits: 0 };
+
+    /// The block of farthest corner `far` and `plane` (distance from the
+    /// VPL, unit normal towards it), if the corners met one.
+    fn new(far: Corner, plane: Option<(f32, Vec3)>) -> LayerBlock {
+        let ratio = plane.map(|(d, _)| (32.0 * (far.t / d).log2()).ceil().max(0.0));
+        match (plane, ratio) {
+            (Some((d, m)), Some(ratio)) if d > 0.0 && ratio <= 255.0 => {
+                let e = super::points::octahedral(m).unwrap_or(Vec2::ZERO);
+                let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 4095.0).round();
+                LayerBlock {
+                    d: -d,
+                    bits: q.x as u32 | (q.y as u32) << 12 | (ratio as u32) << 24,
+                }
+            }
+            _ => LayerBlock {
+                d: far.t,
+                bits: facing_code(far.facing) << 24,
+            },
+        }
+    }
+
+    /// The farthest corner's distance (m): for a plane, as the GPU decodes
+    /// it (at most 2.2% beyond).
+    pub fn far(&self) -> f32 {
+        if self.d >= 0.0 {
+            self.d
+        } else {
+            -self.d * ((self.bits >> 24) as f32 / 32.0).exp2()
+        }
+    }
+
+    /// The plane's distance from the VPL (m) and unit normal towards it,
+    /// as the GPU decodes them, if the block holds one.
+    pub fn plane(&self) -> Option<(f32, Vec3)> {
+        (self.d < 0.0).then(|| {
+            let q = Vec2::new((self.bits & 0xFFF) as f32, (self.bits >> 12 & 0xFFF) as f32);
+            let m = super::points::from_octahedral(q / 4095.0 * 2.0 - Vec2::ONE);
+            (-self.d, m)
+        })
+    }
+}
+
+/// `ism_facing_code` in shaders/include/ism.glsl: 0 where `facing` is not
+/// known (negative), else 1-255.
+fn facing_code(facing: f32) -> u32 {
+    if facing >= 0.0 {
+        1 + (facing.min(1.0) * 254.0).round() as u32
+    } else {
+        0
+    }
 }
 
 /// How close four corners' planes must lie to be one: the same normal
@@ -266,13 +313,7 @@ pub fn blocks(corners: &[Corner]) -> Vec<LayerBlock> {
                 let far = four[1..]
                     .iter()
                     .fold(four[0], |far, &c| if c.t > far.t { c } else { far });
-                let plane = one_plane(&four, far.t);
-                LayerBlock {
-                    t: far.t,
-                    facing: far.facing,
-                    plane: plane.map_or(-1.0, |(d, _)| d),
-                    normal: plane.map_or(0, |(_, m)| pack_unorm_octahedral(m)),
-                }
+                LayerBlock::new(far, one_plane(&four, far.t))
             })
         })
         .collect()
@@ -291,13 +332,6 @@ fn one_plane(four: &[Corner; 4], far: f32) -> Option<(f32, Vec3)> {
                 && (c.t * c.facing - d).abs() <= within
         })
         .then_some((d, m))
-}
-
-/// GLSL's `packUnorm2x16(octahedral(m) * 0.5 + 0.5)` (x in the low half).
-fn pack_unorm_octahedral(m: Vec3) -> u32 {
-    let e = super::points::octahedral(m).unwrap_or(Vec2::ZERO);
-    let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 65535.0).round();
-    q.x as u32 | (q.y as u32) << 16
 }
 
 #[cfg(test)]
@@ -419,24 +453,32 @@ mod tests {
         }
         let bvh = SceneBvh::new(&scene);
         let blocks = coarse_depths(&bvh, &[vpl_at(Vec3::ZERO, -Vec3::Z)], 100.0);
-        let planes: Vec<_> = blocks.iter().filter(|b| b.plane > 0.0).collect();
+        let corners = corner_depths(&bvh, &[vpl_at(Vec3::ZERO, -Vec3::Z)], 100.0, None);
         let g = BASE_GRID as usize;
+        let planes: Vec<_> = blocks.iter().filter_map(|b| Some((b.plane()?, b.far()))).collect();
         assert!(planes.len() >= g * g / 4, "{} of {} blocks", planes.len(), g * g);
-        for b in &planes {
-            let e = Vec2::new((b.normal & 0xFFFF) as f32, (b.normal >> 16) as f32) / 65535.0;
-            let n = crate::cpu::points::from_octahedral(e * 2.0 - Vec2::ONE);
-            let (d, m) = if b.plane > 0.75 { (1.0, Vec3::Z) } else { (0.5, Vec3::Y) };
-            assert!((b.plane - d).abs() < 1e-3, "{b:?}");
+        for &((plane, n), far) in &planes {
+            let (d, m) = if plane > 0.75 { (1.0, Vec3::Z) } else { (0.5, Vec3::Y) };
+            assert!((plane - d).abs() < 1e-3, "{plane} {n}");
             assert!(n.dot(m) > 0.99999, "{n}");
-            assert!(b.t >= d && b.t < 100.0, "{b:?}");
+            assert!(far >= d && far < 100.0, "{far}");
         }
-        assert!(planes.iter().any(|b| b.plane < 0.75), "no block holds the floor");
+        assert!(planes.iter().any(|p| p.0 .0 < 0.75), "no block holds the floor");
+        // Each block's farthest corner as decoded: at most 2.2% beyond its
+        // own, never nearer.
+        for (k, b) in blocks.iter().enumerate() {
+            let (x, y) = (k % g, k / g);
+            let far = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                .map(|(dx, dy)| corners[(y + dy) * (g + 1) + x + dx].t)
+                .into_iter()
+                .fold(0.0, f32::max);
+            assert!(b.far() >= far * 0.99999 && b.far() <= far * 1.022, "{b:?}: {far}");
+        }
         // The centre blocks see the wall; along the floor's crease and past
         // the wall's edges (misses) no block holds a plane.
-        assert!(blocks[(g / 2) * g + g / 2].plane > 0.0);
-        let crossing = blocks.iter().filter(|b| b.plane < 0.0 && b.t < 100.0).count();
-        assert!(crossing > 0, "no block straddles the crease");
-        assert!(blocks.iter().all(|b| b.plane < 0.0 || b.facing > 0.0));
+        assert!(blocks[(g / 2) * g + g / 2].plane().is_some());
+        let crossing = blocks.iter().filter(|b| b.plane().is_none() && b.far() < 100.0);
+        assert!(crossing.count() > 0, "no block straddles the crease");
     }
 
     #[test]
@@ -462,15 +504,13 @@ mod tests {
         let d = coarse_depths(&bvh, &[vpl], 100.0);
         let g = BASE_GRID as usize;
         let centre = d[(g / 2) * g + g / 2];
-        assert!((0.01..0.015).contains(&centre.t), "centre block {centre:?}");
-        // How squarely the quad meets the block's farthest corner ray: the
-        // height of the ray's origin above it over the distance.
+        assert!((0.01..0.015).contains(&centre.far()), "centre block {centre:?}");
+        // All four corners met the quad: the block holds its plane, the
+        // height of the rays' origin above it away, facing up.
         let height = 2.0 - RAY_EPSILON * 3.0 - 1.99;
-        assert!(
-            (centre.facing - height / centre.t).abs() < 1e-3,
-            "centre block {centre:?}"
-        );
-        let rim = d[(g / 2) * g].t;
+        let (plane, m) = centre.plane().expect("the quad's plane");
+        assert!((plane - height).abs() < 1e-5 && m.dot(Vec3::Y) > 0.99999, "{centre:?}");
+        let rim = d[(g / 2) * g].far();
         assert!((0.03..0.05).contains(&rim), "rim block {rim}");
     }
 }

@@ -155,7 +155,7 @@ pub(super) fn frame_memory(
     );
     let vpls = settings.vpl.count as u64;
     // The atlas (whole rows of tiles), the VPLs, their interleaving subsets
-    // and ray-cast layers (a distance and a facing per block); the point
+    // and ray-cast layers (a LayerBlock per block); the point
     // blocks they share, in object space with their normals and discs and
     // placed in the world (a position and normal, a disc).
     let atlas_desc = crate::passes::ism::atlas_desc(
@@ -167,11 +167,13 @@ pub(super) fn frame_memory(
     let blocks = vpls.min(crate::scene_cache::MAX_POINT_BLOCKS as u64);
     let subsets = 4 * (settings.pattern_side() as u64).pow(2) + 4;
     let gpu_vpl = std::mem::size_of::<crate::gpu_types::GpuVpl>() as u64;
+    let layer = std::mem::size_of::<crate::cpu::ism_rays::LayerBlock>() as u64
+        * (crate::cpu::ism_rays::BASE_GRID as u64).pow(2);
     // (The atlas and the shadow maps of a frame whose passes cannot keep
     // them lie in the slot's transient memory.)
     let visibility_shared = shared && transient::visibility_is_transient(settings, traits);
     let ism = if visibility_shared { 0 } else { atlas }
-        + vpls * (gpu_vpl + 512)
+        + vpls * (gpu_vpl + layer)
         + subsets
         + blocks * settings.points_per_vpl as u64 * (16 + 4 + 4 + 16 + 4);
     // A cube (six views) per light.
