@@ -25,34 +25,38 @@ layout(push_constant) uniform Push {
 } pc;
 
 void main() {
-    // One invocation writes a row of a block's texels (`span` of them: the
+    // One invocation writes a block's texels (`span` x `span` of them: the
     // block's side, or 1 in tiles finer than the grid), reading the block
     // and the VPL's tile once for them (cornell 320x240: 13.5 -> 6.0 ms
-    // against one a texel; docs/performance.md).
+    // with a row of a block against one a texel; docs/performance.md).
     uint span = max(pc.tile / pc.grid, 1u);
-    uint per_row = pc.tile / span;
+    uint side = pc.tile / span;
     uint i = gl_GlobalInvocationID.x;
     uint v = gl_GlobalInvocationID.y;
-    if (i >= per_row * pc.tile || v >= pc.vpl_count) return;
-    uvec2 first = uvec2(i % per_row * span, i / per_row);
+    if (i >= side * side || v >= pc.vpl_count) return;
+    uvec2 first = uvec2(i % side, i / side) * span;
     uvec2 block = first * pc.grid / pc.tile;
     LayerBlock b = base[v * pc.grid * pc.grid + block.y * pc.grid + block.x];
     uint cell = floatBitsToUint(vpls[v].normal.w);
     ivec2 origin = ivec2(cell & 0xFFFFu, cell >> 16) * int(pc.tile) + ivec2(first);
-    // The block's plane in the VPL's frame, once for the row.
+    // The block's plane in the VPL's frame, once for the block.
     vec3 n = vpls[v].normal.xyz, t, bt;
     orthonormal_basis(n, t, bt);
-    vec3 m = b.d < 0.0 ? ism_layer_normal(b) : n;
+    vec3 m = ism_layer_normal(b);
     vec3 m_local = vec3(dot(m, t), dot(m, bt), dot(m, n));
     uint code = ism_normal_code(m);
+    float beyond = ism_layer_far(b);
     // A back-face map starts empty: the layer's rays stop at front faces.
     int height = imageSize(ism_depth).y;
-    for (uint k = 0u; k < span; k++) {
-        ivec2 local = ivec2(first) + ivec2(k, 0);
-        uint texel = pc.deferred != 0u ? ISM_EMPTY
-                                       : ism_layer_texel(b, local, pc.tile, m_local, code, 1.0 / pc.depth_scale);
-        imageStore(ism_depth, origin + ivec2(k, 0), uvec4(texel));
-        if (pc.back_faces != 0u)
-            imageStore(ism_depth, ism_back_texel(origin + ivec2(k, 0), height), uvec4(ISM_EMPTY));
+    for (uint y = 0u; y < span; y++) {
+        for (uint x = 0u; x < span; x++) {
+            ivec2 at = ivec2(x, y);
+            uint texel = pc.deferred != 0u
+                ? ISM_EMPTY
+                : ism_layer_texel(b, beyond, ivec2(first) + at, pc.tile, m_local, code, 1.0 / pc.depth_scale);
+            imageStore(ism_depth, origin + at, uvec4(texel));
+            if (pc.back_faces != 0u)
+                imageStore(ism_depth, ism_back_texel(origin + at, height), uvec4(ISM_EMPTY));
+        }
     }
 }

@@ -229,7 +229,8 @@ vec3 ism_layer_normal(LayerBlock b) {
     return from_octahedral(q);
 }
 
-// What texel `local` of a tile starts from (distances over `far`). Where
+// What texel `local` of a tile starts from (distances over `far`; `beyond`
+// the block's ism_layer_far). Where
 // its layer block's corners met one plane, that plane along the texel's
 // centre ray with its normal code `code` (the block's normal's
 // ism_normal_code; `m_local` its components in the VPL's frame), at most
@@ -237,13 +238,13 @@ vec3 ism_layer_normal(LayerBlock b) {
 // holds the wall itself, which the ISM test follows to the receiver's ray,
 // not the farthest corner up to a block behind it (docs/accuracy.md, "The
 // ray-cast layer's planes"). Else the farthest corner and its facing.
-uint ism_layer_texel(LayerBlock b, ivec2 local, uint tile, vec3 m_local, uint code, float far) {
-    if (b.d >= 0.0) return ism_pack(b.d / far, b.bits >> 24);
-    float beyond = ism_layer_far(b);
+uint ism_layer_texel(LayerBlock b, float beyond, ivec2 local, uint tile, vec3 m_local, uint code, float far) {
     vec3 l = ism_projected_local(local, tile);
     float mr = -dot(m_local, l);
-    return l.z > 0.0 && -b.d < beyond * mr ? ism_pack(-b.d / (mr * far), code)
-                                            : ism_pack(beyond / far, ism_facing_code(mr));
+    bool on_plane = b.d < 0.0 && l.z > 0.0 && -b.d < beyond * mr;
+    float d = on_plane ? -b.d / mr : beyond;
+    uint c = on_plane ? code : (b.d >= 0.0 ? b.bits >> 24 : ism_facing_code(mr));
+    return ism_pack(d / far, c);
 }
 
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change

@@ -53,7 +53,7 @@ uint with_layer(uint stored, uint v, ivec2 local, vec3 t, vec3 bt, vec3 n) {
     if ((stored & 4095u) != 0u && splat <= beyond * (1.0 + pc.layer_slack)) return stored;
     vec3 m = ism_layer_normal(b);
     vec3 m_local = vec3(dot(m, t), dot(m, bt), dot(m, n));
-    uint layer = ism_layer_texel(b, local, pc.tile, m_local, ism_normal_code(m), pc.far);
+    uint layer = ism_layer_texel(b, beyond, local, pc.tile, m_local, ism_normal_code(m), pc.far);
     return layer | (stored & ISM_BACK_FLAG);
 }
 

@@ -411,9 +411,9 @@ impl Pass for IsmPass {
             vpls: &ism.vpls.buffer,
             base: &ism.base_depths,
         };
-        // One invocation per (row of a block's texels, VPL).
-        let span = (ism.tile / ism_rays::BASE_GRID).max(1);
-        let texels = Work::Threads([ism.tile * ism.tile / span, ism.vpl_count, 1]);
+        // One invocation per (block, VPL).
+        let side = ism.tile / (ism.tile / ism_rays::BASE_GRID).max(1);
+        let texels = Work::Threads([side * side, ism.vpl_count, 1]);
         let part = profiler.begin(rec.cmd, "ism_splat/layer");
         self.base.dispatch(rec, pool, &bindings, &push, texels)?;
         profiler.end(rec.cmd, part);
