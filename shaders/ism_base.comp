@@ -27,8 +27,10 @@ layout(push_constant) uniform Push {
 void main() {
     // One invocation writes a block's texels (`span` x `span` of them: the
     // block's side, or 1 in tiles finer than the grid), reading the block
-    // and the VPL's tile once for them (cornell 320x240: 13.5 -> 6.0 ms
-    // with a row of a block against one a texel; docs/performance.md).
+    // and the VPL's tile and setting up the block's plane once for them
+    // (cornell 320x240: 13.5 -> 6.0 ms with a row of a block against one a
+    // texel; with the planes 15 ms a row, 9.7 ms a block;
+    // docs/performance.md).
     uint span = max(pc.tile / pc.grid, 1u);
     uint side = pc.tile / span;
     uint i = gl_GlobalInvocationID.x;

@@ -64,9 +64,10 @@ pub fn layer_slack(tile: u32) -> f32 {
 /// tracer's mean, relMSE on 4x4 blocks 0.115).
 pub const CORNER_MAX_RADIUS: f32 = 1.0 - 1.0 / (4 * BASE_GRID) as f32;
 
-/// Where one corner ray of a VPL's layer stops: its distance, and |cos|
+/// Where one corner ray of a VPL's layer stops: its distance, |cos|
 /// between the ray and the normal of the surface it met (-1: it met
-/// nothing, or that is not known).
+/// nothing, or that is not known), and that normal (for the block's plane,
+/// [`LayerBlock`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Corner {
     /// Distance (m).
