@@ -118,20 +118,20 @@ impl LayerBlock {
     /// The block of farthest corner `far` and `plane` (distance from the
     /// VPL, unit normal towards it), if the corners met one.
     fn new(far: Corner, plane: Option<(f32, Vec3)>) -> LayerBlock {
-        let ratio = plane.map(|(d, _)| (32.0 * (far.t / d).log2()).ceil().max(0.0));
-        match (plane, ratio) {
-            (Some((d, m)), Some(ratio)) if d > 0.0 && ratio <= 255.0 => {
+        if let Some((d, m)) = plane.filter(|&(d, _)| d > 0.0) {
+            let ratio = (32.0 * (far.t / d).log2()).ceil().max(0.0);
+            if ratio <= 255.0 {
                 let e = super::points::octahedral(m).unwrap_or(Vec2::ZERO);
                 let q = ((e * 0.5 + 0.5).clamp(Vec2::ZERO, Vec2::ONE) * 4095.0).round();
-                LayerBlock {
+                return LayerBlock {
                     d: -d,
                     bits: q.x as u32 | (q.y as u32) << 12 | (ratio as u32) << 24,
-                }
+                };
             }
-            _ => LayerBlock {
-                d: far.t,
-                bits: facing_code(far.facing) << 24,
-            },
+        }
+        LayerBlock {
+            d: far.t,
+            bits: facing_code(far.facing) << 24,
         }
     }
 
