@@ -23,7 +23,12 @@
 //! ray passes the occluder (its edge crosses the texel), where it meets it
 //! but the texel stores something more than a footprint beyond (a hole in
 //! the occluder's splats), and where the texel holds the occluder but the
-//! test's tolerance reaches past it. `--bias B` replays another
+//! test's tolerance reaches past it. It also splits the leaked light by
+//! what the texel holds: the ray-cast layer's block (no normal), a
+//! surface of the receiver's own orientation (|cos| > 0.9: a floor that
+//! runs on beyond a wall's foot), or one that turns across it; each
+//! within the relative tolerance or beyond it (passed by the slope term
+//! or by following the stored plane). `--bias B` replays another
 //! relative tolerance than `ism_bias`'s (Lambertian receivers; narrow glossy
 //! lobes scale it as the gathers do), `--lift-all` the lifted test
 //! (`IsmTest::lifted`) for every receiver, `--back-faces` ISMs with
@@ -65,6 +70,10 @@ struct Replay {
     leaked_edge: f64,
     leaked_hole: f64,
     leaked_tolerance: f64,
+    /// `--why`: leaked light by what its texel holds (the ray-cast layer, a
+    /// surface of the receiver's orientation, one across it), each within
+    /// and beyond the relative tolerance.
+    leaked_by_texel: [f64; 6],
     pairs: usize,
     /// Per pixel: rejected visible, leaked and visible weight.
     map: Vec<[f64; 3]>,
@@ -174,6 +183,14 @@ fn replay(scene: &ssbc::Scene, frame: &Frame, options: &Options) -> Replay {
                     } else {
                         r.leaked_tolerance += weight;
                     }
+                    let holds = match ism.stored_normal(k, vpl, x) {
+                        None => 0,
+                        Some(m) if m.dot(n).abs() > 0.9 => 1,
+                        Some(_) => 2,
+                    };
+                    let relative = test.relative_bias * d2.sqrt() + 1e-3;
+                    let beyond = d2.sqrt() > stored + relative;
+                    r.leaked_by_texel[holds * 2 + beyond as usize] += weight;
                 }
             }
         }
@@ -239,12 +256,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut renderer = Renderer::new(&RendererConfig::default())?;
     print!("| scene | passed (of visible) | leaked (of occluded) | net (ISM light / exact) | leaked beyond the stored depth | pairs | back faces read (of pairs the front map passes) |");
     if options.why {
-        print!(" rejected: edge / overhang | leaked: edge / hole / tolerance |");
+        print!(" rejected: edge / overhang | leaked: edge / hole / tolerance | leaked, within / beyond the relative tolerance: layer; own orientation; across |");
     }
     println!();
     println!(
         "|---|---|---|---|---|---|---|{}",
-        if options.why { "---|---|" } else { "" }
+        if options.why { "---|---|---|" } else { "" }
     );
     for name in &scenes {
         let mut scene = ssbc::scene::load(name)?;
@@ -288,6 +305,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 100.0 * r.leaked_edge / r.leaked.max(1e-30),
                 100.0 * r.leaked_hole / r.leaked.max(1e-30),
                 100.0 * r.leaked_tolerance / r.leaked.max(1e-30),
+            );
+            let share = r.leaked_by_texel.map(|w| 100.0 * w / r.leaked.max(1e-30));
+            print!(
+                " {:.0}% / {:.0}%; {:.0}% / {:.0}%; {:.0}% / {:.0}% |",
+                share[0], share[1], share[2], share[3], share[4], share[5]
             );
         }
         println!();

@@ -180,6 +180,13 @@ impl IsmReadback {
         self.depth[texel] * self.far >= dist
     }
 
+    /// The normal (up to sign) of the surface the texel where `x` lands in
+    /// VPL `index`'s map stores, where known (a splatted point's; `None`
+    /// for the ray-cast layer's blocks and empty texels).
+    pub fn stored_normal(&self, index: usize, vpl: &Vpl, x: glam::Vec3) -> Option<glam::Vec3> {
+        self.normal[self.lookup(index, vpl, x).0]
+    }
+
     /// Where `x` lands in VPL `index`'s map: the unit ray through its
     /// texel's centre (the one the texel's distance is measured along),
     /// and the distance (m) the texel stores.
