@@ -142,12 +142,16 @@ impl MeshEdges {
     pub fn near_triangle(&self, corners: [Vec3; 3], n: Vec3, reach: f32) -> Vec<u32> {
         let lo = corners[0].min(corners[1]).min(corners[2]) - Vec3::splat(reach);
         let hi = corners[0].max(corners[1]).max(corners[2]) + Vec3::splat(reach);
-        let (lo, hi) = ((lo / self.cell).floor().as_ivec3(), (hi / self.cell).floor().as_ivec3());
+        let (lo, hi) = ((lo / self.cell).floor(), (hi / self.cell).floor());
         // A triangle far larger than the cells: its points' discs keep
-        // their whole extent rather than search that many cells.
-        if (hi - lo).as_vec3().element_product() > 4096.0 {
+        // their whole extent rather than search that many cells. (Counted
+        // in floats: cell indices of a huge or non-finite extent saturate
+        // in integers, whose difference wraps.)
+        let cells = hi - lo + Vec3::ONE;
+        if !cells.is_finite() || cells.element_product() > 4096.0 {
             return Vec::new();
         }
+        let (lo, hi) = (lo.as_ivec3(), hi.as_ivec3());
         let p = corners[0];
         let in_plane = 1e-3 * reach + 1e-6 * p.abs().max_element();
         let mut near = Vec::new();
@@ -240,6 +244,19 @@ mod tests {
             }
         }
         Mesh { vertices, indices }
+    }
+
+    #[test]
+    fn a_huge_or_non_finite_triangle_searches_no_cells() {
+        // Cell indices of a 1e30 m triangle saturate in integers, and their
+        // difference wrapped to a small box: the search then ran over 2^32
+        // cells a side (a hostile scene hung the loader's point sampling).
+        let edges = MeshEdges::new(&split_box(Vec3::ONE), 0.2);
+        let huge = [Vec3::new(-1e30, -1e30, 0.0), Vec3::new(1e30, -1e30, 0.0), Vec3::new(0.0, 1e30, 0.0)];
+        assert!(edges.near_triangle(huge, Vec3::Z, 1.0).is_empty());
+        let top = [Vec3::new(-0.5, 0.5, -0.5), Vec3::new(0.5, 0.5, -0.5), Vec3::new(0.5, 0.5, 0.5)];
+        assert!(edges.near_triangle(top, Vec3::Y, f32::INFINITY).is_empty());
+        assert!(edges.near_triangle(top, Vec3::Y, f32::NAN).is_empty());
     }
 
     #[test]
