@@ -171,7 +171,9 @@ impl MeshBvh {
                 }
             })
             .collect();
-        let boxes: Vec<Aabb> = triangles.iter().map(|t| padded(t.aabb())).collect();
+        let boxes: Vec<Aabb> = (triangles.iter().enumerate())
+            .map(|(i, t)| padded(t.aabb(), i))
+            .collect();
         let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut Duration::default());
         let material = mesh
             .indices
@@ -292,11 +294,10 @@ impl SceneBvh {
                 identity: i.placement.transform == Mat4::IDENTITY,
             })
             .collect();
-        let boxes: Vec<Aabb> = instances
-            .iter()
-            .map(|i| {
+        let boxes: Vec<Aabb> = (instances.iter().enumerate())
+            .map(|(k, i)| {
                 let b = meshes[i.mesh as usize].bounds.transformed(i.to_world);
-                padded(Aabb::new(b.min.into(), b.max.into()))
+                padded(Aabb::new(b.min.into(), b.max.into()), k)
             })
             .collect();
         let top = build_cwbvh(
@@ -699,13 +700,24 @@ fn robust_direction(d: Vec3) -> Vec3A {
     Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
-/// `b` widened by a few ulps of its coordinates: a flat triangle's or
-/// object's box (a wall's) has no thickness, and a ray through its edge or
-/// corner failed the slab test by a rounding error (rays slipped through
-/// a room's corners).
-fn padded(b: Aabb) -> Aabb {
+/// Box `b` of primitive `i` widened by a few ulps of its coordinates: a
+/// flat triangle's or object's box (a wall's) has no thickness, and a ray
+/// through its edge or corner failed the slab test by a rounding error
+/// (rays slipped through a room's corners). Each face moves by 1-2 such
+/// pads, as `i` picks: obvhs's PLOC merges mutual nearest neighbours, and
+/// boxes that tie in every merge cost (copies of one triangle or object
+/// stacked in one place, nested boxes) merged one pair a pass, quadratic
+/// in their number (40 000 such boxes took 35 s to build, 0.04-0.13 s
+/// with the pads told apart; `stacked_copies_build_in_linear_time`).
+fn padded(b: Aabb, i: usize) -> Aabb {
     let pad = 1e-5 * b.min.abs().max(b.max.abs()).max_element() + 1e-12;
-    Aabb::new(b.min - pad, b.max + pad)
+    let hash = super::sampling::hash64(i as u64);
+    // Six factors in [1, 2), 10 bits each.
+    let f = |k: u32| 1.0 + ((hash >> (10 * k)) & 1023) as f32 / 1024.0;
+    Aabb::new(
+        b.min - Vec3A::new(f(0), f(1), f(2)) * pad,
+        b.max + Vec3A::new(f(3), f(4), f(5)) * pad,
+    )
 }
 
 /// The distance along `r` to `tri` within the ray's (tmin, tmax), or
@@ -778,6 +790,7 @@ fn barycentric(t: &Triangle, p: Vec3) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Object;
 
     #[test]
     fn hits_the_cornell_floor_and_sees_the_blocks_shadow() {
@@ -799,6 +812,38 @@ mod tests {
         assert!(bvh.occluded(Vec3::new(-0.6, 0.001, -0.7), Vec3::new(0.0, 1.9, 0.0)));
         assert!(!bvh.occluded(Vec3::new(0.9, 0.01, 0.9), Vec3::new(0.0, 1.9, 0.0)));
         assert!(bvh.occluded(Vec3::new(-0.35, -0.5, -0.3), Vec3::new(-0.35, 1.9, -0.3)));
+    }
+
+    /// Copies of one triangle stacked in one place, and objects stacked on
+    /// one another, build their BVHs: their boxes tied in every merge cost
+    /// and PLOC merged one pair a pass (200 000 would take about 15
+    /// minutes each; a hostile scene hung). The deadline, 120 s, is 150
+    /// times what both builds take on 2 cores (0.8 s); with equal pads the
+    /// test fails. It finds hangs, it times nothing.
+    #[test]
+    fn stacked_copies_build_in_linear_time() {
+        let build = || {
+            let mut scene = Scene::new("stacked");
+            let white = scene.add_material(Vec3::splat(0.7), None);
+            let corners = [Vec3::ZERO, Vec3::X, Vec3::Y];
+            let indices: Vec<u32> = (0..200_000).flat_map(|_| [0, 1, 2]).collect();
+            let normals = [Vec3::Z; 3];
+            let stack = |scene: &mut Scene, indices: &[u32]| {
+                scene.add_mesh(&corners, &normals, &[], indices, Mat4::IDENTITY, white)
+            };
+            stack(&mut scene, &indices).unwrap();
+            let one = stack(&mut scene, &[0, 1, 2]).unwrap();
+            let mesh = scene.objects()[one].mesh;
+            for _ in 0..200_000 {
+                scene.add_object(Object::new(mesh, Mat4::IDENTITY)).unwrap();
+            }
+            let bvh = SceneBvh::new(&scene);
+            bvh.intersect(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.0, 10.0).map(|h| h.t)
+        };
+        let (done, result) = std::sync::mpsc::channel();
+        std::thread::spawn(move || done.send(build()));
+        let hit = result.recv_timeout(Duration::from_secs(120)).expect("the BVHs build");
+        assert!(hit.is_some_and(|t| (t - 1.0).abs() < 1e-5), "{hit:?}");
     }
 
     /// Rays aimed exactly at the seams of an empty Cornell room (its
