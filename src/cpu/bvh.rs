@@ -171,10 +171,19 @@ impl MeshBvh {
                 }
             })
             .collect();
-        let boxes: Vec<Aabb> = (triangles.iter().enumerate())
-            .map(|(i, t)| padded(t.aabb(), i))
+        // Exact copies of an earlier triangle stay out of the BVH: no box
+        // separates a stack, so a ray tested all of it (a file of a million
+        // copies of one triangle took 400 s to trace 2048 VPLs).
+        let firsts = first_copies(mesh);
+        let boxes: Vec<Aabb> = firsts
+            .iter()
+            .map(|&i| padded(triangles[i as usize].aabb(), i as usize))
             .collect();
-        let bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut Duration::default());
+        let mut bvh = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut Duration::default());
+        // Its primitives numbered as the mesh's triangles.
+        for p in &mut bvh.primitive_indices {
+            *p = firsts[*p as usize];
+        }
         let material = mesh
             .indices
             .chunks_exact(3)
@@ -700,6 +709,45 @@ fn robust_direction(d: Vec3) -> Vec3A {
     Vec3A::new(fix(d.x), fix(d.y), fix(d.z))
 }
 
+/// The triangles of `mesh` that are not exact copies of an earlier one:
+/// the same corners in the same winding (from any corner), with the same
+/// UVs and alphas (the alpha test's inputs) and material. A copy changes
+/// no ray's hit, only which of two equal triangles it names.
+fn first_copies(mesh: &Mesh) -> Vec<u32> {
+    use std::collections::hash_map::{DefaultHasher, Entry, HashMap};
+    use std::hash::{Hash, Hasher};
+    // A corner as bits, and a triangle from its least corner on.
+    let corner = |i: u32| {
+        let v = &mesh.vertices[i as usize];
+        let [x, y, z] = v.position.map(f32::to_bits);
+        let [u, w] = v.uv.map(f32::to_bits);
+        [x, y, z, u, w, v.color[3] as u32, v.material]
+    };
+    let key = |t: usize| {
+        let c = [0, 1, 2].map(|k| corner(mesh.indices[3 * t + k]));
+        let first = (0..3).min_by_key(|&k| c[k]).unwrap_or(0);
+        [0, 1, 2].map(|k| c[(first + k) % 3])
+    };
+    let count = mesh.indices.len() / 3;
+    let mut seen: HashMap<u64, u32> = HashMap::with_capacity(count);
+    let mut firsts = Vec::with_capacity(count);
+    for t in 0..count {
+        let k = key(t);
+        let mut h = DefaultHasher::new();
+        k.hash(&mut h);
+        match seen.entry(h.finish()) {
+            Entry::Vacant(e) => {
+                e.insert(t as u32);
+                firsts.push(t as u32);
+            }
+            // (Another triangle with the same hash is kept.)
+            Entry::Occupied(e) if key(*e.get() as usize) != k => firsts.push(t as u32),
+            Entry::Occupied(_) => {}
+        }
+    }
+    firsts
+}
+
 /// Box `b` of primitive `i` widened by a few ulps of its coordinates: a
 /// flat triangle's or object's box (a wall's) has no thickness, and a ray
 /// through its edge or corner failed the slab test by a rounding error
@@ -814,8 +862,8 @@ mod tests {
         assert!(bvh.occluded(Vec3::new(-0.35, -0.5, -0.3), Vec3::new(-0.35, 1.9, -0.3)));
     }
 
-    /// Copies of one triangle stacked in one place, and objects stacked on
-    /// one another, build their BVHs: their boxes tied in every merge cost
+    /// Triangles that share one box, and objects stacked on one another,
+    /// build their BVHs: their boxes tied in every merge cost
     /// and PLOC merged one pair a pass (200 000 would take about 15
     /// minutes each; a hostile scene hung). The deadline, 120 s, is 150
     /// times what both builds take on 2 cores (0.8 s); with equal pads the
@@ -825,15 +873,20 @@ mod tests {
         let build = || {
             let mut scene = Scene::new("stacked");
             let white = scene.add_material(Vec3::splat(0.7), None);
-            let corners = [Vec3::ZERO, Vec3::X, Vec3::Y];
-            let indices: Vec<u32> = (0..200_000).flat_map(|_| [0, 1, 2]).collect();
-            let normals = [Vec3::Z; 3];
-            let stack = |scene: &mut Scene, indices: &[u32]| {
-                scene.add_mesh(&corners, &normals, &[], indices, Mat4::IDENTITY, white)
-            };
-            stack(&mut scene, &indices).unwrap();
-            let one = stack(&mut scene, &[0, 1, 2]).unwrap();
-            let mesh = scene.objects()[one].mesh;
+            // 200 000 different triangles with one box: (0, 0), (1, 1) and
+            // a third corner within.
+            let n = 200_000;
+            let mut corners = vec![Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0)];
+            corners.extend((0..n).map(|i| {
+                let f = (i as f32 + 0.5) / n as f32;
+                Vec3::new(f, 1.0 - f * f, 0.0)
+            }));
+            let indices: Vec<u32> = (0..n as u32).flat_map(|i| [0, 1, i + 2]).collect();
+            let normals = vec![Vec3::Z; corners.len()];
+            scene.add_mesh(&corners, &normals, &[], &indices, Mat4::IDENTITY, white).unwrap();
+            let one = [Vec3::ZERO, Vec3::X, Vec3::Y];
+            let one = scene.add_mesh(&one, &[Vec3::Z; 3], &[], &[0, 1, 2], Mat4::IDENTITY, white);
+            let mesh = scene.objects()[one.unwrap()].mesh;
             for _ in 0..200_000 {
                 scene.add_object(Object::new(mesh, Mat4::IDENTITY)).unwrap();
             }
@@ -844,6 +897,32 @@ mod tests {
         std::thread::spawn(move || done.send(build()));
         let hit = result.recv_timeout(Duration::from_secs(120)).expect("the BVHs build");
         assert!(hit.is_some_and(|t| (t - 1.0).abs() < 1e-5), "{hit:?}");
+    }
+
+    /// Exact copies of a triangle stay out of the BVH (a ray through a
+    /// stack tested every copy); one wound the other way, or with another
+    /// UV, stays in, and rays still hit the stack.
+    #[test]
+    fn exact_copies_stay_out_of_the_bvh() {
+        let mut scene = Scene::new("copies");
+        let white = scene.add_material(Vec3::splat(0.7), None);
+        let corners = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ZERO];
+        let uvs = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.5]];
+        let mut indices: Vec<u32> = Vec::new();
+        for k in 0..1000 {
+            // The same triangle from each of its corners in turn.
+            indices.extend([[0, 1, 2], [1, 2, 0], [2, 0, 1]][k % 3]);
+        }
+        indices.extend([0, 2, 1]); // wound the other way
+        indices.extend([3, 1, 2]); // another UV at one corner
+        let normals = [Vec3::Z; 4];
+        let o = scene.add_mesh(&corners, &normals, &uvs, &indices, Mat4::IDENTITY, white);
+        let mesh = &scene.meshes()[scene.objects()[o.unwrap()].mesh];
+        assert_eq!(first_copies(mesh), vec![0, 1000, 1001]);
+        let bvh = SceneBvh::new(&scene);
+        let hit = bvh.intersect(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.0, 10.0);
+        assert!(hit.is_some_and(|h| (h.t - 1.0).abs() < 1e-5), "{:?}", hit.map(|h| h.t));
+        assert!(bvh.occluded(Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.2, 0.2, -1.0)));
     }
 
     /// Rays aimed exactly at the seams of an empty Cornell room (its
