@@ -303,17 +303,29 @@ impl SceneBvh {
                 identity: i.placement.transform == Mat4::IDENTITY,
             })
             .collect();
-        let boxes: Vec<Aabb> = (instances.iter().enumerate())
-            .map(|(k, i)| {
+        // Objects that repeat an earlier one exactly (its mesh, transform
+        // and material) stay out of the top level, as a mesh's copies do.
+        let firsts = first_of_each(instances.len(), |k| {
+            let i = &instances[k];
+            let transform = i.to_world.to_cols_array().map(f32::to_bits);
+            (i.mesh, transform, i.material)
+        });
+        let boxes: Vec<Aabb> = firsts
+            .iter()
+            .map(|&k| {
+                let i = &instances[k as usize];
                 let b = meshes[i.mesh as usize].bounds.transformed(i.to_world);
-                padded(Aabb::new(b.min.into(), b.max.into()), k)
+                padded(Aabb::new(b.min.into(), b.max.into()), k as usize)
             })
             .collect();
-        let top = build_cwbvh(
+        let mut top = build_cwbvh(
             &boxes,
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
+        for p in &mut top.primitive_indices {
+            *p = firsts[*p as usize];
+        }
         Self {
             meshes,
             masks,
@@ -714,8 +726,6 @@ fn robust_direction(d: Vec3) -> Vec3A {
 /// UVs and alphas (the alpha test's inputs) and material. A copy changes
 /// no ray's hit, only which of two equal triangles it names.
 fn first_copies(mesh: &Mesh) -> Vec<u32> {
-    use std::collections::hash_map::{DefaultHasher, Entry, HashMap};
-    use std::hash::{Hash, Hasher};
     // A corner as bits, and a triangle from its least corner on.
     let corner = |i: u32| {
         let v = &mesh.vertices[i as usize];
@@ -723,12 +733,17 @@ fn first_copies(mesh: &Mesh) -> Vec<u32> {
         let [u, w] = v.uv.map(f32::to_bits);
         [x, y, z, u, w, v.color[3] as u32, v.material]
     };
-    let key = |t: usize| {
+    first_of_each(mesh.indices.len() / 3, |t| {
         let c = [0, 1, 2].map(|k| corner(mesh.indices[3 * t + k]));
         let first = (0..3).min_by_key(|&k| c[k]).unwrap_or(0);
         [0, 1, 2].map(|k| c[(first + k) % 3])
-    };
-    let count = mesh.indices.len() / 3;
+    })
+}
+
+/// Of `count` items, those whose `key` no earlier item has, in order.
+fn first_of_each<K: std::hash::Hash + PartialEq>(count: usize, key: impl Fn(usize) -> K) -> Vec<u32> {
+    use std::collections::hash_map::{DefaultHasher, Entry, HashMap};
+    use std::hash::Hasher;
     let mut seen: HashMap<u64, u32> = HashMap::with_capacity(count);
     let mut firsts = Vec::with_capacity(count);
     for t in 0..count {
@@ -740,7 +755,7 @@ fn first_copies(mesh: &Mesh) -> Vec<u32> {
                 e.insert(t as u32);
                 firsts.push(t as u32);
             }
-            // (Another triangle with the same hash is kept.)
+            // (Another item with the same hash is kept.)
             Entry::Occupied(e) if key(*e.get() as usize) != k => firsts.push(t as u32),
             Entry::Occupied(_) => {}
         }
@@ -887,8 +902,11 @@ mod tests {
             let one = [Vec3::ZERO, Vec3::X, Vec3::Y];
             let one = scene.add_mesh(&one, &[Vec3::Z; 3], &[], &[0, 1, 2], Mat4::IDENTITY, white);
             let mesh = scene.objects()[one.unwrap()].mesh;
-            for _ in 0..200_000 {
-                scene.add_object(Object::new(mesh, Mat4::IDENTITY)).unwrap();
+            // Objects of one box, the flat triangle's: each scaled along z
+            // its own way (exact copies would stay out of the top level).
+            for k in 0..200_000 {
+                let scale = Mat4::from_scale(Vec3::new(1.0, 1.0, 1.0 + k as f32 * 1e-3));
+                scene.add_object(Object::new(mesh, scale)).unwrap();
             }
             let bvh = SceneBvh::new(&scene);
             bvh.intersect(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.0, 10.0).map(|h| h.t)
@@ -899,9 +917,10 @@ mod tests {
         assert!(hit.is_some_and(|t| (t - 1.0).abs() < 1e-5), "{hit:?}");
     }
 
-    /// Exact copies of a triangle stay out of the BVH (a ray through a
-    /// stack tested every copy); one wound the other way, or with another
-    /// UV, stays in, and rays still hit the stack.
+    /// Exact copies of a triangle, and of an object, stay out of the BVH
+    /// (a ray through a stack tested every copy); one wound the other way,
+    /// or with another UV, or moved, stays in, and rays still hit the
+    /// stack.
     #[test]
     fn exact_copies_stay_out_of_the_bvh() {
         let mut scene = Scene::new("copies");
@@ -917,9 +936,16 @@ mod tests {
         indices.extend([3, 1, 2]); // another UV at one corner
         let normals = [Vec3::Z; 4];
         let o = scene.add_mesh(&corners, &normals, &uvs, &indices, Mat4::IDENTITY, white);
-        let mesh = &scene.meshes()[scene.objects()[o.unwrap()].mesh];
-        assert_eq!(first_copies(mesh), vec![0, 1000, 1001]);
+        let mesh = scene.objects()[o.unwrap()].mesh;
+        assert_eq!(first_copies(&scene.meshes()[mesh]), vec![0, 1000, 1001]);
+        // Objects too: 100 copies of the first and one moved stay 2.
+        for _ in 0..100 {
+            scene.add_object(Object::new(mesh, Mat4::IDENTITY)).unwrap();
+        }
+        let moved = Mat4::from_translation(Vec3::new(0.0, 0.0, -1e-3));
+        scene.add_object(Object::new(mesh, moved)).unwrap();
         let bvh = SceneBvh::new(&scene);
+        assert_eq!(bvh.top.primitive_indices.len(), 2);
         let hit = bvh.intersect(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.0, 10.0);
         assert!(hit.is_some_and(|h| (h.t - 1.0).abs() < 1e-5), "{:?}", hit.map(|h| h.t));
         assert!(bvh.occluded(Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.2, 0.2, -1.0)));
