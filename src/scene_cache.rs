@@ -182,11 +182,12 @@ impl SceneCache {
             // Objects moved, appeared or vanished: the meshes' BVHs and GPU
             // copies stay; the top level, bounds and draws follow them.
             CpuSpan::time(spans, "objects_moved", || {
-                cache.bvh = cache.bvh.moved(scene);
+                cache.bvh = cache.bvh.try_moved(scene)?;
                 let moved = cache.update_bounds(scene);
                 cache.moved_since_vpls.extend(moved);
                 cache.gpu_scene.set_objects(scene);
-            });
+                Ok::<_, crate::Error>(())
+            })?;
             cache.versions.objects = versions.objects;
         }
         cache.versions.lights = versions.lights;

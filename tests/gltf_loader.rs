@@ -1165,7 +1165,7 @@ fn bad_skins_and_morph_targets_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let mut bad_joint = SKIN_JOINTS;
     bad_joint[8] = 2;
-    let cases: [(&str, Vec<u8>, &str); 4] = [
+    let cases: [(&str, Vec<u8>, &str); 6] = [
         (
             "joint index past the skin's joints",
             deformed_quads(bad_joint, |j| j),
@@ -1194,6 +1194,22 @@ fn bad_skins_and_morph_targets_are_clear_errors() {
                 )
             }),
             "morph target 0 has 3 vertices, not 4",
+        ),
+        // Finite, but 10^20 m made the BVH builder's costs infinite and it
+        // panicked (an index out of bounds in obvhs).
+        (
+            "a morph weight moving the mesh 10^20 m",
+            deformed_quads(SKIN_JOINTS, |j| {
+                j.replace(r#""weights":[1.0]"#, r#""weights":[1e20]"#)
+            }),
+            "its geometry reaches 1e20 m from the origin, beyond the 1e9 m ssbc takes",
+        ),
+        (
+            "a node 10^10 m away",
+            deformed_quads(SKIN_JOINTS, |j| {
+                j.replace(r#""translation":[10,0,0]"#, r#""translation":[1e10,0,0]"#)
+            }),
+            "object 1: its geometry reaches 1e10 m",
         ),
     ];
     for (what, bytes, message) in cases {

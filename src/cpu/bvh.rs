@@ -19,7 +19,8 @@ use super::brdf::Brdf;
 use super::shading;
 use rayon::prelude::*;
 
-use crate::scene::{AlphaMode, Bounds, Mesh, Scene, Texture, TextureSampler};
+use crate::scene::{AlphaMode, Bounds, Mesh, Scene, Texture, TextureSampler, MAX_COORDINATE};
+use crate::{Error, Result};
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug)]
@@ -287,6 +288,19 @@ impl SceneBvh {
     /// this BVH was built for).
     pub fn moved(&self, scene: &Scene) -> Self {
         Self::with(self.meshes.clone(), self.masks.clone(), scene)
+    }
+
+    /// [`SceneBvh::moved`], or an error naming the first visible object
+    /// whose mesh's box, moved, reaches beyond [`MAX_COORDINATE`] (the
+    /// rule [`Scene::validate`] applies, checked in O(1) an object).
+    pub fn try_moved(&self, scene: &Scene) -> Result<Self> {
+        for i in &scene.instances().list {
+            let world = self.meshes[i.mesh as usize].bounds.transformed(i.placement.transform);
+            if let Some(why) = crate::scene::out_of_reach(&world) {
+                return Err(Error::scene(&scene.name, format!("object {}: {why}", i.object)));
+            }
+        }
+        Ok(self.moved(scene))
     }
 
     fn with(meshes: Arc<Vec<MeshBvh>>, masks: Arc<Masks>, scene: &Scene) -> Self {
@@ -789,14 +803,24 @@ fn first_of_each<const N: usize>(count: usize, key: impl Fn(usize) -> [u32; N] +
 /// stacked in one place, nested boxes) merged one pair a pass, quadratic
 /// in their number (40 000 such boxes took 35 s to build, 0.04-0.13 s
 /// with the pads told apart; `stacked_copies_build_in_linear_time`).
+///
+/// Boxes are also held within twice [`MAX_COORDINATE`] (a coordinate that
+/// is not a number goes to that limit): scenes beyond it are refused
+/// ([`Scene::validate`]), but a BVH may be built before that check (a
+/// default light is placed by ray casts), and obvhs's builder overflowed
+/// its stack on boxes whose area is infinite in `f32`.
 fn padded(b: Aabb, i: usize) -> Aabb {
-    let pad = 1e-5 * b.min.abs().max(b.max.abs()).max_element() + 1e-12;
+    let reach = Vec3A::splat(2.0 * MAX_COORDINATE);
+    // `select` rather than `clamp`: a NaN compares false and takes the limit.
+    let held = |v: Vec3A, limit: Vec3A| Vec3A::select(v.abs().cmple(reach), v, limit);
+    let (min, max) = (held(b.min, -reach), held(b.max, reach));
+    let pad = 1e-5 * min.abs().max(max.abs()).max_element() + 1e-12;
     let hash = super::sampling::hash64(i as u64);
     // Six factors in [1, 2), 10 bits each.
     let f = |k: u32| 1.0 + ((hash >> (10 * k)) & 1023) as f32 / 1024.0;
     Aabb::new(
-        b.min - Vec3A::new(f(0), f(1), f(2)) * pad,
-        b.max + Vec3A::new(f(3), f(4), f(5)) * pad,
+        min - Vec3A::new(f(0), f(1), f(2)) * pad,
+        max + Vec3A::new(f(3), f(4), f(5)) * pad,
     )
 }
 
@@ -1034,5 +1058,57 @@ mod tests {
             }
         }
         assert!(missed.is_empty(), "{} of {} rays: {missed:?}", missed.len(), origins.len() * targets.len());
+    }
+
+    /// Geometry beyond MAX_COORDINATE is refused (`Scene::validate`,
+    /// `SceneBvh::try_moved`), and a BVH built or moved there before the
+    /// check (a default light is placed by ray casts) still builds: boxes
+    /// 10^20 m wide made obvhs's area costs infinite, and its conversion
+    /// overflowed the stack (10^22) or indexed out of bounds (10^20).
+    #[test]
+    fn geometry_out_of_reach_is_refused_and_builds_no_broken_bvh() {
+        let mut scene = Scene::new("far");
+        let white = scene.add_material(Vec3::splat(0.7), None);
+        // A bumpy 150 x 150 grid, as a height field's triangles are.
+        let n = 150;
+        let corners: Vec<Vec3> = (0..(n + 1) * (n + 1))
+            .map(|k| {
+                let (i, j) = (k % (n + 1), k / (n + 1));
+                let bump = ((i * 7 + j * 13) % 5) as f32 / (5 * n) as f32;
+                Vec3::new(i as f32 / n as f32 - 0.5, bump, j as f32 / n as f32 - 0.5)
+            })
+            .collect();
+        let indices: Vec<u32> = (0..n * n)
+            .flat_map(|k| {
+                let a = (k / n * (n + 1) + k % n) as u32;
+                let c = a + n as u32 + 1;
+                [a, c, a + 1, a + 1, c, c + 1]
+            })
+            .collect();
+        let normals = vec![Vec3::Y; corners.len()];
+        let grid = scene.add_mesh(&corners, &normals, &[], &indices, Mat4::IDENTITY, white).unwrap();
+        assert!(scene.validate().is_ok());
+        let bvh = SceneBvh::new(&scene);
+        // Moved 10^20 m away: refused, naming the object.
+        scene.set_transform(grid, Mat4::from_scale(Vec3::splat(1e10)) * Mat4::from_translation(Vec3::splat(1e10))).unwrap();
+        let e = bvh.try_moved(&scene).map(|_| ()).unwrap_err().to_string();
+        assert!(e.contains("object 0") && e.contains("beyond the 1e9 m"), "{e}");
+        assert!(scene.validate().is_err());
+        let _ = bvh.moved(&scene);
+        // Its mesh itself that far, or not a number: refused, and no panic.
+        scene.set_transform(grid, Mat4::IDENTITY).unwrap();
+        for far in [1e20, 1e22, f32::NAN] {
+            let mut far_scene = scene.clone();
+            for v in &mut far_scene.mesh_mut(0).unwrap().vertices {
+                v.position = (Vec3::from(v.position) * far).into();
+            }
+            let e = far_scene.validate().expect_err("refused").to_string();
+            assert!(e.contains("mesh 0"), "{far}: {e}");
+            let _ = SceneBvh::new(&far_scene);
+        }
+        // Within the limit it stays a scene.
+        scene.set_transform(grid, Mat4::from_translation(Vec3::splat(9e8))).unwrap();
+        assert!(scene.validate().is_ok());
+        assert!(bvh.try_moved(&scene).is_ok());
     }
 }

@@ -340,6 +340,9 @@ impl Loader<'_> {
         if scene.triangle_count() == 0 {
             return Err(self.err("the scene has no triangles"));
         }
+        // What the file made must render (geometry within MAX_COORDINATE,
+        // ...): a default light is placed by ray casts before any frame.
+        scene.validate()?;
         Ok(scene)
     }
 

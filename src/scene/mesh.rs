@@ -124,6 +124,17 @@ impl Scene {
         {
             return bad("attribute counts differ from the position count");
         }
+        if data.positions.iter().any(|p| !p.is_finite()) {
+            return bad("a vertex position is not finite");
+        }
+        let bounds = data
+            .positions
+            .iter()
+            .map(|&p| Bounds { min: p, max: p })
+            .reduce(Bounds::union);
+        if let Some(why) = bounds.as_ref().and_then(super::out_of_reach) {
+            return bad(&why);
+        }
         if data
             .colors
             .iter()

@@ -118,6 +118,28 @@ pub struct Scene {
 /// object counted (keeps hostile files bounded).
 pub const MAX_TRIANGLES: usize = 1 << 24;
 
+/// Largest coordinate a scene's geometry may reach, in object space and in
+/// world space, in metres (2.6 times the Moon's distance). Beyond it `f32`
+/// geometry breaks: a triangle's normal and area come from the cross
+/// product of its edges, whose squared length is infinite for edges over
+/// about 4e9 m (VPLs got NaN positions, and each ISM ray visited every
+/// triangle: 64 s a frame), and boxes 1e20 m wide made the BVH builder's
+/// area costs infinite (its build overflowed the stack or indexed out of
+/// bounds). Images are the same at every scale only in a narrower range
+/// (docs/development.md, "Scale").
+pub const MAX_COORDINATE: f32 = 1e9;
+
+/// Why bounds `b` are not a place for geometry, if they are not: a
+/// coordinate beyond [`MAX_COORDINATE`] or not a number.
+pub(crate) fn out_of_reach(b: &Bounds) -> Option<String> {
+    let reach = b.min.abs().max(b.max.abs()).max_element();
+    // A NaN reach is out too.
+    let within = reach <= MAX_COORDINATE;
+    (!within).then(|| {
+        format!("its geometry reaches {reach:e} m from the origin, beyond the {MAX_COORDINATE:e} m ssbc takes")
+    })
+}
+
 impl Scene {
     /// Whether any material is glossy (not Lambertian): SSBC's receivers
     /// may then need their BRDF.
@@ -281,6 +303,7 @@ impl Scene {
 
     /// Checks the scene is renderable.
     pub fn validate(&self) -> Result<()> {
+        let mut mesh_bounds = Vec::with_capacity(self.meshes.len());
         for (i, mesh) in self.meshes.iter().enumerate() {
             let bad = |what: &str| Err(Error::scene(&self.name, format!("mesh {i}: {what}")));
             if mesh.indices.len() % 3 != 0 {
@@ -300,6 +323,11 @@ impl Scene {
             {
                 return bad("a vertex position is not finite");
             }
+            let bounds = mesh.bounds();
+            if let Some(why) = bounds.as_ref().and_then(out_of_reach) {
+                return bad(&why);
+            }
+            mesh_bounds.push(bounds);
             if mesh
                 .vertices
                 .iter()
@@ -311,6 +339,12 @@ impl Scene {
         for (i, o) in self.objects.iter().enumerate() {
             self.check_object(o)
                 .map_err(|e| Error::scene(&self.name, format!("object {i}: {e}")))?;
+            // Its mesh's box moved (a little larger than the object's own
+            // bounds where it turns, and O(1) an object).
+            let world = mesh_bounds[o.mesh].map(|b| b.transformed(o.transform));
+            if let Some(why) = world.as_ref().filter(|_| o.visible).and_then(out_of_reach) {
+                return Err(Error::scene(&self.name, format!("object {i}: {why}")));
+            }
         }
         let world: usize = self
             .objects
