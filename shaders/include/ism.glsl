@@ -247,6 +247,13 @@ uint ism_layer_texel(LayerBlock b, float beyond, ivec2 local, uint tile, vec3 m_
     return ism_pack(d / far, c);
 }
 
+// The ISM test's absolute tolerance [m]: 1 mm, or a thousandth of the
+// scene's diagonal (`far`) in scenes under a metre across (a 2 mm box of
+// 0.13 mm slabs was lit through them). Mirrored in renderer/readback.rs.
+float ism_floor(float far) {
+    return 1e-3 * min(1.0, far);
+}
+
 // Depth tolerance of the ISM test [m]: a relative bias, plus the depth change
 // of a surface across one splat footprint (a texel or a point, whichever is
 // larger) at its slope to the VPL's ray. The receiver's own surface lands
@@ -257,11 +264,11 @@ uint ism_layer_texel(LayerBlock b, float beyond, ivec2 local, uint tile, vec3 m_
 // 0), the slope is at most that surface's (with a margin, above): the
 // receiver's own surface still gets what it needs, and an occluder facing
 // the VPL shadows (measured: docs/accuracy.md, "Tuned constants"). Mirrored in renderer/readback.rs.
-float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias) {
+float ism_tolerance(float dist, float cos_x, float facing, uint tile, float point_radius, float relative_bias, float far) {
     float footprint = ism_footprint(dist, tile, point_radius);
     float slope = ism_slope(cos_x);
     if (facing >= 0.0) slope = min(slope, ISM_SLOPE_MARGIN * ism_slope(facing));
-    return relative_bias * dist + footprint * slope + 1e-3;
+    return relative_bias * dist + footprint * slope + ism_floor(far);
 }
 
 #endif

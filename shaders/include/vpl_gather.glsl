@@ -57,12 +57,12 @@ float ism_lifted_visible(uint cell, vec3 z, vec3 n, vec3 x, vec3 ng, float footp
     // (Lifted behind the VPL's plane: no texel holds it, nothing stands there.)
     if (dot(up_w, n) <= 0.0) return 1.0;
     uint up_stored = imageLoad(ism, ism_texel(cell, ism_map(up_w, n), pc.tile)).r;
-    return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + 1e-3 ? 1.0 : 0.0;
+    return up_dist <= ism_texel_depth(up_stored) * pc.far + bias * up_dist + ism_floor(pc.far) ? 1.0 : 0.0;
 }
 
 float ism_front_visible(uint stored, uint cell, vec2 uv, vec3 z, vec3 n, vec3 x, vec3 ng, vec3 w, float dist, float bias, bool lifted) {
     float depth = ism_texel_depth(stored) * pc.far;
-    float relative = bias * dist + 1e-3;
+    float relative = bias * dist + ism_floor(pc.far);
     float footprint = ism_footprint(dist, pc.tile, pc.point_radius);
     if (dist <= depth + relative) {
         if (!lifted) return 1.0;
@@ -87,7 +87,7 @@ float ism_front_visible(uint stored, uint cell, vec2 uv, vec3 z, vec3 n, vec3 x,
     }
     if (!followed) {
         float facing = has_normal ? abs(dot(m, w)) : ism_texel_facing(stored);
-        within = dist <= depth + ism_tolerance(dist, cos_x, facing, pc.tile, pc.point_radius, bias);
+        within = dist <= depth + ism_tolerance(dist, cos_x, facing, pc.tile, pc.point_radius, bias, pc.far);
     }
     if (!within) return 0.0;
     if (!lifted) return 1.0;
@@ -119,7 +119,7 @@ bool ism_behind_back_face(ivec2 texel, vec2 uv, vec3 n, vec3 w, float dist) {
     ivec2 local = clamp(ivec2(uv * float(pc.tile)), ivec2(0), ivec2(int(pc.tile) - 1));
     float cm = dot(ism_centre_ray(local, pc.tile, t, b, n), m);
     if (cm * wm <= 0.0) return false;
-    return dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / abs(wm) + 1e-3;
+    return dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / abs(wm) + ism_floor(pc.far);
 }
 #endif
 

@@ -239,6 +239,8 @@ pub struct SceneBvh {
     instances: Vec<TopInstance>,
     /// Per triangle, its connected surface ([`SceneBvh::connected_surfaces`]).
     surfaces: std::sync::OnceLock<Vec<u32>>,
+    /// [`length_floor`] of the visible objects' bounds.
+    floor: f32,
 }
 
 /// The 14 directions of [`SceneBvh::enclosed_fraction`] and the winding
@@ -266,14 +268,22 @@ pub static ENCLOSURE_DIRECTIONS: std::sync::LazyLock<[Vec3; 14]> = std::sync::La
     axes.map(|d| turn * Vec3::from(d).normalize())
 });
 
-/// Relative offset used to leave surfaces without self-intersection.
+/// Relative offset used to leave surfaces without self-intersection (see
+/// [`SceneBvh::surface_offset`]).
 pub const RAY_EPSILON: f32 = 1e-4;
 
-/// How far a ray that leaves a known triangle (which it skips) starts off
-/// it: a few ulps of the coordinates, far below any modelled thickness.
-pub fn lift(p: Vec3) -> f32 {
-    8.0 * f32::EPSILON * (1.0 + p.abs().max_element())
+/// The length below which offsets scale with the scene rather than stop at
+/// a fixed floor: a scene's diagonal, at most a metre (scenes larger than
+/// that keep the floor of `RAY_EPSILON` m they were tuned with; a 2 mm box
+/// of 0.13 mm slabs was lit through them by a 0.1 mm floor).
+pub fn length_floor(diagonal: f32) -> f32 {
+    if diagonal.is_finite() && diagonal > 0.0 {
+        diagonal.min(1.0)
+    } else {
+        1.0
+    }
 }
+
 
 impl SceneBvh {
     /// Builds a BVH per mesh (medium-quality PLOC builds, in parallel) and
@@ -345,13 +355,35 @@ impl SceneBvh {
         for p in &mut top.primitive_indices {
             *p = firsts[*p as usize];
         }
-        Self {
+        let mut bvh = Self {
             meshes,
             masks,
             top,
             instances,
             surfaces: std::sync::OnceLock::new(),
-        }
+            floor: 1.0,
+        };
+        bvh.floor = length_floor(bvh.bounds().map_or(1.0, |b| (b.max - b.min).length()));
+        bvh
+    }
+
+    /// How far a ray leaving a surface at `p` starts off it: `RAY_EPSILON`
+    /// of its coordinates' size, plus of the scene's up to a metre
+    /// ([`length_floor`]).
+    pub fn surface_offset(&self, p: Vec3) -> f32 {
+        RAY_EPSILON * (self.floor + p.abs().max_element())
+    }
+
+    /// How far a ray that leaves a known triangle (which it skips) starts
+    /// off it: a few ulps of the coordinates (and of the scene's size up to
+    /// a metre), far below any modelled thickness.
+    pub fn lift(&self, p: Vec3) -> f32 {
+        8.0 * f32::EPSILON * (self.floor + p.abs().max_element())
+    }
+
+    /// [`length_floor`] of this scene.
+    pub fn length_floor(&self) -> f32 {
+        self.floor
     }
 
     /// The world bounds of the visible objects (their meshes' bounds
@@ -486,9 +518,9 @@ impl SceneBvh {
     /// The closest hit of a ray that leaves triangle `leaving` at `origin`
     /// (on it): that triangle is skipped instead of offsetting the origin by
     /// a distance that could jump through a fixture thinner than it; hits
-    /// count from a few ulps ([`lift`]) along the ray.
+    /// count from a few ulps ([`SceneBvh::lift`]) along the ray.
     pub fn intersect_leaving(&self, origin: Vec3, dir: Vec3, leaving: u32) -> Option<Hit> {
-        self.closest(origin, dir, lift(origin), f32::INFINITY, Some(leaving))
+        self.closest(origin, dir, self.lift(origin), f32::INFINITY, Some(leaving))
     }
 
     fn closest(
@@ -545,14 +577,14 @@ impl SceneBvh {
             if s.front || s.double_sided {
                 return Some(hit);
             }
-            tmin = hit.t + RAY_EPSILON * (1.0 + hit.t);
+            tmin = hit.t + RAY_EPSILON * (self.floor + hit.t);
         }
         None
     }
 
     /// Whether the segment from `a` to `b` is blocked. Both ends must be
     /// off any surface already (offset points, lights, the camera): only a
-    /// few ulps ([`lift`]) at each end are left out, so that the segment
+    /// few ulps ([`SceneBvh::lift`]) at each end are left out, so that the segment
     /// cannot slip past the edge of a thin wall beside its start.
     pub fn occluded(&self, a: Vec3, b: Vec3) -> bool {
         self.segment_blocked(a, b, None)
@@ -568,7 +600,7 @@ impl SceneBvh {
     fn segment_blocked(&self, a: Vec3, b: Vec3, skip: Option<u32>) -> bool {
         let d = b - a;
         let len = d.length();
-        let (tmin, tmax) = (lift(a), len - lift(b));
+        let (tmin, tmax) = (self.lift(a), len - self.lift(b));
         // (A zero or non-finite length leaves nothing to block.)
         if tmax.is_nan() || tmax <= tmin {
             return false;

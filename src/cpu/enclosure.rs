@@ -22,16 +22,17 @@
 
 use glam::Vec3;
 
-use super::bvh::{lift, SceneBvh, ENCLOSURE_DIRECTIONS};
+use super::bvh::{SceneBvh, ENCLOSURE_DIRECTIONS};
 use super::emitters::EmitterSample;
 use crate::scene::Scene;
 
 /// How far off an emitter the point whose enclosure decides its light lies:
-/// 1e-5 of the coordinates (30 µm at 2 m), far below any modelled
-/// thickness, far above float rounding, so that a surface the emitter
-/// touches is behind it.
-pub fn emission_offset(p: Vec3) -> f32 {
-    1e-5 * (1.0 + p.abs().max_element())
+/// 1e-5 of the coordinates (30 µm at 2 m), plus of the scene's size up to
+/// a metre (`floor`: [`length_floor`](super::bvh::length_floor)), far
+/// below any modelled thickness, far above float rounding, so that a
+/// surface the emitter touches is behind it.
+pub fn emission_offset(p: Vec3, floor: f32) -> f32 {
+    1e-5 * (floor + p.abs().max_element())
 }
 
 /// The enclosure test for one scene and camera.
@@ -67,7 +68,7 @@ impl<'a> Enclosure<'a> {
     /// Whether the light of the emitter sample `e` goes into a solid, the
     /// point [`emission_offset`] off it on its emitting side being inside one.
     pub fn emits_into_solid(&self, e: &EmitterSample) -> bool {
-        self.inside_solid(e.position + e.normal * emission_offset(e.position))
+        self.inside_solid(e.position + e.normal * emission_offset(e.position, self.bvh.length_floor()))
     }
 
     /// The connected surfaces whose winding number at `p` is at least 1
@@ -80,7 +81,7 @@ impl<'a> Enclosure<'a> {
             crossings.clear();
             // Coplanar faces of overlapping solids (slabs overlapping at
             // the corners) are crossed one after the other, each counted.
-            self.bvh.crossings(p, dir, lift(p), |t, _| {
+            self.bvh.crossings(p, dir, self.bvh.lift(p), |t, _| {
                 let left = SceneBvh::meets_back(self.scene, t, dir);
                 crossings.push((surface_of[t as usize], left));
             });

@@ -20,7 +20,7 @@
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::bvh::{SceneBvh, RAY_EPSILON};
+use super::bvh::SceneBvh;
 use super::sampling::basis;
 use super::vpl::Vpl;
 use crate::scene::Bounds;
@@ -240,8 +240,7 @@ pub fn corner_depths(
     out.par_chunks_mut(n)
         .zip(vpls.par_iter())
         .for_each(|(corners, v)| {
-            let origin =
-                v.position + v.normal * RAY_EPSILON * (1.0 + v.position.abs().max_element());
+            let origin = v.position + v.normal * bvh.surface_offset(v.position);
             // Only the moved boxes in front of the VPL can meet its rays.
             let in_front = |b: &&Bounds| {
                 (0..8).any(|i| {
@@ -338,6 +337,7 @@ fn one_plane(four: &[Corner; 4], far: f32) -> Option<(f32, Vec3)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::bvh::RAY_EPSILON;
 
     #[test]
     fn inverts_the_map() {

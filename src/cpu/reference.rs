@@ -13,7 +13,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::brdf::BrdfSample;
-use super::bvh::{SceneBvh, Surface, RAY_EPSILON};
+use super::bvh::{SceneBvh, Surface};
 use super::emitters::{luminance, EmitterSample, Emitters};
 use super::sampling::{cosine_hemisphere, hash64};
 use super::vpl::{self, bounded_radiance, Vpl, VplSettings};
@@ -142,8 +142,8 @@ fn power_heuristic(p: f32, q: f32) -> f32 {
 }
 
 /// Offset from a surface along its geometric normal, scaled to the scene.
-fn offset(s: &Surface) -> Vec3 {
-    s.position + s.geometric_normal * RAY_EPSILON * (1.0 + s.position.abs().max_element())
+fn offset(bvh: &SceneBvh, s: &Surface) -> Vec3 {
+    s.position + s.geometric_normal * bvh.surface_offset(s.position)
 }
 
 impl<'a> Reference<'a> {
@@ -208,7 +208,7 @@ impl<'a> Reference<'a> {
     /// Direct light (next-event estimation to every light) leaving `s`.
     pub fn direct(&self, s: &Surface) -> Vec3 {
         let mut e = Vec3::ZERO;
-        let origin = offset(s);
+        let origin = offset(&self.bvh, s);
         for light in &self.scene.lights {
             let (to_light, irradiance, target) = match light.kind {
                 LightKind::Directional => {
@@ -263,7 +263,7 @@ impl<'a> Reference<'a> {
         if cos_x <= 0.0 || cos_e <= 0.0 || s.geometric_normal.dot(dir) <= 0.0 {
             return Vec3::ZERO;
         }
-        if self.bvh.occluded_except(offset(s), e.position, e.triangle) {
+        if self.bvh.occluded_except(offset(&self.bvh, s), e.position, e.triangle) {
             return Vec3::ZERO;
         }
         let weight = if mis {
@@ -283,7 +283,7 @@ impl<'a> Reference<'a> {
 
     /// The clamped VPL sum at `s` with exact visibility.
     fn vpl_sum(&self, s: &Surface) -> Vec3 {
-        let origin = offset(s);
+        let origin = offset(&self.bvh, s);
         bounded_radiance(
             s.position,
             s.normal,
@@ -293,7 +293,7 @@ impl<'a> Reference<'a> {
             self.settings.bound,
             |_, v| {
                 !self.bvh.occluded(
-                    v.position + v.normal * RAY_EPSILON * (1.0 + v.position.abs().max_element()),
+                    v.position + v.normal * self.bvh.surface_offset(v.position),
                     origin,
                 )
             },
@@ -344,7 +344,7 @@ impl<'a> Reference<'a> {
             }
             let Some(hit) = self
                 .bvh
-                .intersect(offset(&surface), dir, 0.0, f32::INFINITY)
+                .intersect(offset(&self.bvh, &surface), dir, 0.0, f32::INFINITY)
             else {
                 break;
             };
@@ -392,7 +392,7 @@ impl<'a> Reference<'a> {
                 // any offset along the normal crosses a thin enough box.
                 let p = self
                     .bvh
-                    .inset(&h, super::enclosure::emission_offset(s.position));
+                    .inset(&h, super::enclosure::emission_offset(s.position, self.bvh.length_floor()));
                 let to_camera = self.camera.position - p;
                 // A camera in the surface's own plane sees it edge-on: no
                 // light leaves that way (cos 0), and the segment would run
@@ -458,7 +458,7 @@ impl<'a> Reference<'a> {
         if dir.dot(s.geometric_normal) <= 0.0 {
             return l;
         }
-        let Some(hit) = self.bvh.intersect(offset(s), dir, 0.0, f32::INFINITY) else {
+        let Some(hit) = self.bvh.intersect(offset(&self.bvh, s), dir, 0.0, f32::INFINITY) else {
             return l;
         };
         let y = self.bvh.surface(self.scene, &hit, -dir);

@@ -591,7 +591,7 @@ fn trace_path(
     for bounce in 1..=settings.bounces {
         let hit = match leaving.filter(|_| bounce == 1) {
             Some(t) => bvh.intersect_leaving(origin, dir, t),
-            None => bvh.intersect(origin, dir, RAY_EPSILON, f32::INFINITY),
+            None => bvh.intersect(origin, dir, RAY_EPSILON * bvh.length_floor(), f32::INFINITY),
         };
         segments.push(Segment {
             origin,
@@ -654,8 +654,7 @@ fn trace_path(
         }
         flux *= weight / survive;
         dir = sample.wi;
-        origin = surf.position
-            + surf.geometric_normal * RAY_EPSILON * (1.0 + surf.position.abs().max_element());
+        origin = surf.position + surf.geometric_normal * bvh.surface_offset(surf.position);
     }
 }
 

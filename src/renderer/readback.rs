@@ -98,7 +98,13 @@ impl IsmReadback {
         if wm.abs() < ISM_BACK_MIN_COS || cm * wm <= 0.0 {
             return false;
         }
-        dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / wm.abs() + 1e-3
+        dist > depth * cm / wm + ISM_BACK_RELATIVE * dist / wm.abs() + self.floor()
+    }
+
+    /// The test's absolute tolerance: 1 mm, or a thousandth of the scene's
+    /// diagonal (`far`) under a metre (ism_floor() in shaders/include/ism.glsl).
+    fn floor(&self) -> f32 {
+        1e-3 * self.far.min(1.0)
     }
 
     /// The front map's test alone (ism_front_visible()): without back-face
@@ -123,12 +129,12 @@ impl IsmReadback {
                 return true;
             }
             let (texel, dist, _) = self.lookup(index, vpl, lifted);
-            dist <= self.depth[texel] * self.far + relative_bias * dist + 1e-3
+            dist <= self.depth[texel] * self.far + relative_bias * dist + self.floor()
         };
-        if dist <= depth + relative_bias * dist + 1e-3 {
+        if dist <= depth + relative_bias * dist + self.floor() {
             return !test.lifted || lifted_visible();
         }
-        let relative = relative_bias * dist + 1e-3;
+        let relative = relative_bias * dist + self.floor();
         let slope_of = |c: f32| {
             let c = c.clamp(0.1, 1.0);
             (1.0 - c * c).sqrt() / c
