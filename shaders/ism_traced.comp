@@ -54,10 +54,11 @@ void main() {
         return;
     }
     vec3 ray = normalize(t * l.x + b * l.y + n * l.z);
-    // Off the VPL's surface by 1e-4 of its coordinates' size, as the
-    // exact gathers leave a surface (exact_lift in exact_visibility.glsl).
+    // Off the VPL's surface as the exact gathers leave one (exact_lift in
+    // exact_visibility.glsl; the scene's diagonal is `far`).
     vec3 p = vpl.position.xyz;
-    vec3 from = p + n * (1e-4 * (1.0 + max(max(abs(p.x), abs(p.y)), abs(p.z))));
+    float floor_length = min(1.0, 1.0 / pc.depth_scale);
+    vec3 from = p + n * (1e-4 * (floor_length + max(max(abs(p.x), abs(p.y)), abs(p.z))));
     float range = ISM_DEPTH_RANGE / pc.depth_scale;
     rayQueryEXT query;
     rayQueryInitializeEXT(query, scene_tlas, gl_RayFlagsOpaqueEXT, 0xFFu, from, 0.0, ray, range);

@@ -9,5 +9,6 @@ layout(push_constant) uniform GatherPush {
     float bound;          // b [1/m^2]; +inf disables clamping
     float ism_bias;       // relative depth tolerance of the ISM test
     float point_radius;   // world radius of one splatted point
-    vec4 camera_position; // xyz: the eye (glossy receivers reflect towards it)
+    vec4 camera_position; // xyz: the eye (glossy receivers reflect towards it); w: the
+                          // scene's diagonal, at most 1 m (exact_lift)
 } pc;

@@ -100,7 +100,7 @@ layout(push_constant) uniform FilterPush {
     float max_plane_slope;
     float crease_footprints;
     float lobe_turn;        // a lobe turning more (/ alpha) evaluates every VPL
-    vec4 camera_position;   // xyz: the eye
+    vec4 camera_position;   // xyz: the eye; w: the scene's diagonal, at most 1 m (exact_lift)
 } pc;
 
 // The mirror direction of the view at x (normal n).
@@ -151,7 +151,7 @@ void cast_links() {
                 // (Links out of the tile are never read.)
                 if (any(greaterThanEqual(t + step, ivec2(TILE))) || any(greaterThanEqual(uvec2(q), pc.size))) continue;
                 Guide b = guide_at(q);
-                if (same_surface(a, b) && segment_free(a.position, a.normal, b.position, b.normal)) {
+                if (same_surface(a, b) && segment_free(a.position, a.normal, b.position, b.normal, pc.camera_position.w)) {
                     bits |= 1u << uint(k);
                 }
             }
@@ -302,7 +302,7 @@ void main() {
             // in front, at a corner of the surface) asks a ray of its own:
             // only it decides whether the pixel lies beside a crease.
             bool linked = ((reached[dy] >> uint(dx)) & 1u) != 0u;
-            if (!linked && adjacent) linked = segment_free(x, surface, g.position, g.normal);
+            if (!linked && adjacent) linked = segment_free(x, surface, g.position, g.normal, pc.camera_position.w);
             if (!linked) {
                 if (adjacent) other = min(other, per_pixel);
                 edge = true;

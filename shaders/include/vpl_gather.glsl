@@ -179,7 +179,7 @@ VplLight vpl_sum(vec3 x, vec3 n, vec3 ng, Brdf bx, vec3 wo, uint first, uint las
         float g = min(cos_x * cos_z / d2, pc.bound);
 #ifdef EXACT_VISIBILITY
         // The VPL leaves its surface along its normal (it lies on it).
-        float v = segment_free(z, n_z.xyz, x, ng) ? 1.0 : 0.0;
+        float v = segment_free(z, n_z.xyz, x, ng, pc.camera_position.w) ? 1.0 : 0.0;
 #else
         float v = ism_visible(floatBitsToUint(n_z.w), z, n_z.xyz, x, ng, w, dist, bias, lifted);
 #endif

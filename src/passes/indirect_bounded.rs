@@ -25,6 +25,7 @@ use super::gbuffer::GBuffer;
 use super::ssbc::{SsbcGBuffer, SsbcLayer};
 use super::ism::Ism;
 use super::{FrameView, Pass, Recording, SlotSetup};
+use crate::cpu::bvh::length_floor;
 use crate::error::Result;
 use crate::layer::Layer;
 use crate::settings::{Gather, Visibility};
@@ -360,7 +361,7 @@ fn gather_push(gbuffer: &GBuffer, ism: &Ism, view: &FrameView, count: u32) -> Ga
             bound: view.bound,
             ism_bias: ism.relative_bias,
             point_radius: ism.point_radius,
-            camera_position: view.camera.position.extend(1.0).into(),
+            camera_position: view.camera.position.extend(length_floor(view.diagonal)).into(),
             ..Default::default()
         }
 }
@@ -494,7 +495,7 @@ impl IndirectBoundedPass {
             max_plane_slope: FILTER_PLANE_SLOPE,
             crease_footprints: CREASE_FOOTPRINTS,
             lobe_turn: GLOSSY_FILTER_TURN,
-            camera_position: cx.view.camera.position.extend(1.0).into(),
+            camera_position: cx.view.camera.position.extend(length_floor(cx.view.diagonal)).into(),
             ..Default::default()
         };
         with_visibility!(
