@@ -7,8 +7,8 @@
 //! exact visibility at 0.001 (RMSE 0.05-2.3%: exact visibility's ray
 //! offsets at contacts follow the diagonal only below a metre). Before ray offsets and the ISM test's floor
 //! followed scenes under a metre, the 2 mm box was 1.6x too bright (traced
-//! texels 0.46x at 0.0001); 10^6 is still 1.4% dark for the Cornell box
-//! (docs/development.md, "Scale").
+//! texels 0.46x at 0.0001); 10^6 is still 2-3% dark (docs/development.md,
+//! "Scale").
 //! Geometry beyond `MAX_COORDINATE` is refused.
 
 mod common;
