@@ -5,11 +5,11 @@
 //! (2-3 m across) scaled by 0.001 to 10^5: measured means within 0.2%,
 //! RMSE at most 1.1% of the mean at 96x72; also with traced ISM texels and
 //! exact visibility at 0.001 (RMSE 0.05-2.3%: exact visibility's ray
-//! offsets at contacts follow the diagonal only below a metre). Before ray offsets and the ISM test's floor
-//! followed scenes under a metre, the 2 mm box was 1.6x too bright (traced
-//! texels 0.46x at 0.0001); 10^6 is still 2-3% dark (docs/development.md,
-//! "Scale").
-//! Geometry beyond `MAX_COORDINATE` is refused.
+//! offsets at contacts follow the diagonal only below a metre). Before ray
+//! offsets and the ISM test's floor followed scenes under a metre, the 2 mm
+//! box was 1.6x too bright (traced texels 0.46x at 0.0001); 10^6 is still
+//! 2-3% dark (docs/development.md, "Scale"). Geometry beyond
+//! `MAX_COORDINATE` is refused.
 
 mod common;
 
