@@ -31,51 +31,48 @@ const bool GLOSSY_KERNEL = true;
 const bool GLOSSY_KERNEL = false;
 #endif
 
-// A receiver that is not glossy.
-void fallback(ivec2 p) {
+// One pixel of the fallback list. A receiver that is not glossy takes
+// its BRDF at the sources' mean direction if nearly Lambertian, as where
+// it interpolates points (ssbc_resolve.comp).
+// A glossy one (only in the glossy kernel) walks with its BRDF, refined by
+// its lobe (ssbc_walk.glsl), finely only within 3 alpha of its mirror
+// direction (at the whole angular scale beyond). `rest_only`: its
+// evaluation points stood for its Lambertian part but not for its glossy
+// rest, and the resolve kernel wrote what they give; the walk adds the
+// glossy rest, at a quarter of the lobe's scale near the mirror and with
+// the geometric refinement 5x coarser (REST_ONLY_COARSER). Other glossy
+// pixels are alone for their geometry (silhouettes, contacts): their lobe
+// at 0.75 of its scale near the mirror (measured: docs/accuracy.md, "Tuned
+// constants").
+// Both kinds share one call of residual_integral: it is most of the
+// kernel, and LLVM's compile time grows faster than the code (Mesa 22.3,
+// while the brute force was in every kernel: 619 s for the glossy kernel
+// with two calls, 197 s with one; docs/development.md).
+void fallback(ivec2 p, bool glossy, bool rest_only) {
     vec3 x = imageLoad(g_position, p).xyz;
     vec3 nx = unpack_gbuffer_normal(imageLoad(g_normal, p)).xyz;
+    Brdf b = pixel_brdf(p);
+    if (glossy) {
+        begin_glossy(b, x, nx);
+        glossy_refine = 1.0;
+        glossy_refine_near = rest_only ? 0.25 : 0.75;
+        glossy_near = 3.0 * glossy_alpha;
+        glossy_rest_only = rest_only;
+    }
     uint count = 0u;
     float variation;
     Residual residual = residual_integral(x, nx, vec2(p), count, variation);
     vec3 integral = residual_at(residual, nx);
-    // A nearly Lambertian receiver takes its BRDF at the sources' mean
-    // direction, as where it interpolates points (ssbc_resolve.comp).
-    Brdf b = pixel_brdf(p);
-    vec3 wo = normalize(pc.frame.camera_position.xyz - x);
-    vec3 rest = brdf_is_lambertian(b) ? vec3(0.0) : nearly_lambertian_rest(b, nx, wo, residual, integral);
-    write_residual(p, b, integral, rest, float(count));
-}
-
-#ifdef SSBC_GLOSSY_FALLBACK
-// A glossy receiver: the walk with its BRDF, refined by its lobe
-// (ssbc_walk.glsl), finely only within 3 alpha of its mirror direction (at
-// the whole angular scale beyond). `rest_only`: its evaluation
-// points stood for its Lambertian part but not for its glossy rest, and the
-// resolve kernel wrote what they give; the walk adds the glossy rest, at a
-// quarter of the lobe's scale near the mirror and with the geometric
-// refinement 5x coarser (REST_ONLY_COARSER). Other glossy pixels are alone
-// for their geometry (silhouettes, contacts): their lobe at 0.75 of its
-// scale near the mirror (measured: docs/accuracy.md, "Tuned constants").
-void fallback_glossy(ivec2 p, bool rest_only) {
-    vec3 x = imageLoad(g_position, p).xyz;
-    vec3 nx = unpack_gbuffer_normal(imageLoad(g_normal, p)).xyz;
-    Brdf b = pixel_brdf(p);
-    begin_glossy(b, x, nx);
-    glossy_refine = 1.0;
-    glossy_refine_near = rest_only ? 0.25 : 0.75;
-    glossy_near = 3.0 * glossy_alpha;
-    glossy_rest_only = rest_only;
-    uint count = 0u;
-    float variation;
-    Residual residual = residual_integral(x, nx, vec2(p), count, variation);
-    if (rest_only) {
+    if (glossy && rest_only) {
         add_glossy_rest(p, glossy_rest, float(count));
+    } else if (glossy) {
+        write_residual(p, b, integral, glossy_rest, float(count));
     } else {
-        write_residual(p, b, residual_at(residual, nx), glossy_rest, float(count));
+        vec3 wo = normalize(pc.frame.camera_position.xyz - x);
+        vec3 rest = brdf_is_lambertian(b) ? vec3(0.0) : nearly_lambertian_rest(b, nx, wo, residual, integral);
+        write_residual(p, b, integral, rest, float(count));
     }
 }
-#endif
 
 void main() {
     uint slot;
@@ -84,15 +81,7 @@ void main() {
     LIST_SLOT(pending_in, slot, glossy, both);
     if (slot == ~0u) return;
     uint item = pending_in.items[slot];
-    ivec2 p = unpack_item(item);
-#ifdef SSBC_GLOSSY_FALLBACK
-    if (glossy) {
-        fallback_glossy(p, (item & REST_ONLY) != 0u);
-    } else {
-        fallback(p);
-    }
-#else
-    fallback(p);
-#endif
+    // (glossy stays false in the Lambertian kernel: its glossy code folds away.)
+    fallback(unpack_item(item), GLOSSY_KERNEL && glossy, (item & REST_ONLY) != 0u);
 }
 #endif

@@ -130,6 +130,14 @@ void add_pixel_cluster(inout Residual acc, uint i, uint c, vec3 x, vec3 nx, floa
     }
 }
 
+// Whether the residual integral is the brute-force reference
+// (`Integration::Brute`) instead of the walk: a specialization constant
+// (its own pipelines, `SsbcPass`), so that the walk's kernels carry none of
+// the brute force's unrolled rows. With them, Mesa 22.3's LLVM 15 compiled
+// the fallback kernels for 810 s from an empty cache; without, 4 s
+// (docs/development.md, "Shader compile time on Mesa 22.3").
+layout(constant_id = 0) const bool BRUTE_FORCE = false;
+
 // The brute-force loop takes BRUTE_SPAN pixels of a row per iteration,
 // unrolled: one per iteration ran into lavapipe's loop limit (CUT_SHORT)
 // from a radius of about 128 pixels, 90 with two layers; 16 fit a 1024x768
@@ -186,7 +194,7 @@ Residual residual_integral(vec3 x, vec3 nx, vec2 center, inout uint count, out f
     // Every layer's surfaces are sources (the separation between layers
     // keeps one surface from being counted twice); at half resolution
     // layer 1's window is half as many pixels across.
-    if (pc.residual.integration == INTEGRATION_BRUTE) {
+    if (BRUTE_FORCE) {
         for (uint layer = 0u; layer < layer_count(); layer++) {
             Pyramid p = pyramid_of(layer);
             float to_layer = 1.0 / float(1 << p.shift);

@@ -41,16 +41,13 @@ const uint ONE_DISPATCH = 512u;
 const uint LAST_STEP = 1024u;
 const uint NO_RESIDUAL = 2048u;
 
-const uint INTEGRATION_HIERARCHICAL = 0u;
-const uint INTEGRATION_BRUTE = 1u;
-
 // How the residual integral refines and integrates (`pc.residual`; mirrored
 // by `ResidualParams` in src/passes/ssbc/push.rs).
 struct ResidualParams {
     float refine_ratio;       // refine a texel whose sphere radius exceeds this x its distance
     float refine_excess;      // ...only if G may exceed (1 + this) b somewhere in it
-    uint integration;         // INTEGRATION_*
-    uint pad;
+    uint pad0;
+    uint pad1;
 };
 
 // A cluster's radiance sum (`radiance` pyramid) in two words: three signed

@@ -216,6 +216,19 @@ impl Pipeline {
         set_layouts: &[&DescriptorSetLayout],
         push_size: u32,
     ) -> Result<Self> {
+        Self::compute_specialized(device, spirv, set_layouts, push_size, &[])
+    }
+
+    /// [`Pipeline::compute`] with the shader's specialization constants
+    /// (`layout(constant_id = id)`, 32-bit scalars; a `bool` is 0 or 1)
+    /// set to `constants` as `(id, value)`.
+    pub fn compute_specialized(
+        device: &Arc<Device>,
+        spirv: &[u8],
+        set_layouts: &[&DescriptorSetLayout],
+        push_size: u32,
+        constants: &[(u32, u32)],
+    ) -> Result<Self> {
         let stages = vk::ShaderStageFlags::COMPUTE;
         let layout = pipeline_layout(device, set_layouts, push_size, stages)?;
         let module = match shader_module(device, spirv) {
@@ -225,10 +238,22 @@ impl Pipeline {
                 return Err(e);
             }
         };
+        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
+            .map(|i| vk::SpecializationMapEntry {
+                constant_id: constants[i as usize].0,
+                offset: 4 * i,
+                size: 4,
+            })
+            .collect();
+        let data: Vec<u8> = constants.iter().flat_map(|c| c.1.to_ne_bytes()).collect();
+        let specialization = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(&data);
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
-            .name(c"main");
+            .name(c"main")
+            .specialization_info(&specialization);
         let info = vk::ComputePipelineCreateInfo::default()
             .stage(stage)
             .layout(layout);
@@ -448,10 +473,17 @@ impl Work<'_> {
 impl<I: ShaderInterface> ComputeKernel<I> {
     /// Creates the layout (from the shader's bindings) and the pipeline.
     pub fn new(device: &Arc<Device>) -> Result<Self> {
+        Self::specialized(device, &[])
+    }
+
+    /// [`ComputeKernel::new`] with the shader's specialization constants
+    /// set to `constants` (see [`Pipeline::compute_specialized`]): the
+    /// driver compiles only the code they select.
+    pub fn specialized(device: &Arc<Device>, constants: &[(u32, u32)]) -> Result<Self> {
         let shader = I::SHADER;
         let push_size = push_size::<I::Push>(&[&shader])?;
         let layout = DescriptorSetLayout::for_shaders(device, &[&shader])?;
-        let pipeline = Pipeline::compute(device, shader.spirv, &[&layout], push_size)?;
+        let pipeline = Pipeline::compute_specialized(device, shader.spirv, &[&layout], push_size, constants)?;
         let name = shader.name.trim_end_matches(".comp").to_string();
         let kernel = Self {
             layout,

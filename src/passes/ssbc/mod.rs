@@ -63,14 +63,43 @@ pub struct SsbcPass {
     /// The evaluation points at glossy receivers (with `one_dispatch`, all).
     eval_glossy: ComputeKernel<ssbc_eval_glossy_comp::Interface>,
     resolve: ComputeKernel<ssbc_resolve_comp::Interface>,
-    fallback: ComputeKernel<ssbc_fallback_comp::Interface>,
-    /// The fallback pixels at glossy receivers (with `one_dispatch`, all).
-    fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface>,
+    /// The kernels that sum the residual pixel by pixel, with the walk.
+    walk: PixelIntegrals,
+    /// The same with the brute-force reference ([`Integration::Brute`]).
+    brute: PixelIntegrals,
     samples: ComputeKernel<ssbc_samples_comp::Interface>,
-    layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface>,
     /// Whether [`ReceiverDispatch::Auto`] means one dispatch: on GPUs, not
     /// on CPU devices.
     one_dispatch_by_default: bool,
+}
+
+/// The kernels that sum the residual at pixels evaluated alone, built for
+/// one [`Integration`]: the specialization constant `BRUTE_FORCE`
+/// (shaders/include/ssbc_residual.glsl) leaves the other's code out.
+/// (The evaluation points only ever walk: brute force evaluates every
+/// pixel alone, [`SsbcPass::eval_level`].)
+pub(crate) struct PixelIntegrals {
+    pub(crate) fallback: ComputeKernel<ssbc_fallback_comp::Interface>,
+    /// The fallback pixels at glossy receivers (with `one_dispatch`, all).
+    pub(crate) fallback_glossy: ComputeKernel<ssbc_fallback_glossy_comp::Interface>,
+    pub(crate) layer_residual: ComputeKernel<ssbc_layer_residual_comp::Interface>,
+}
+
+impl PixelIntegrals {
+    fn new(device: &Arc<Device>, integration: Integration) -> Result<Self> {
+        let brute = (0, (integration == Integration::Brute) as u32);
+        let named = |name: &str| match integration {
+            Integration::Hierarchical => name.to_string(),
+            Integration::Brute => format!("{name}_brute"),
+        };
+        Ok(Self {
+            fallback: ComputeKernel::specialized(device, &[brute])?.named(&named("ssbc_fallback")),
+            fallback_glossy: ComputeKernel::specialized(device, &[brute])?
+                .named(&named("ssbc_fallback_glossy")),
+            layer_residual: ComputeKernel::specialized(device, &[brute])?
+                .named(&named("ssbc_layer_residual")),
+        })
+    }
 }
 
 /// A texels-read count at least this (`CUT_SHORT` in ssbc.glsl) marks a
@@ -106,10 +135,9 @@ impl SsbcPass {
             eval: ComputeKernel::new(device)?,
             eval_glossy: ComputeKernel::new(device)?,
             resolve: ComputeKernel::new(device)?,
-            fallback: ComputeKernel::new(device)?,
-            fallback_glossy: ComputeKernel::new(device)?,
+            walk: PixelIntegrals::new(device, Integration::Hierarchical)?,
+            brute: PixelIntegrals::new(device, Integration::Brute)?,
             samples: ComputeKernel::new(device)?,
-            layer_residual: ComputeKernel::new(device)?,
             one_dispatch_by_default: device.properties.device_type
                 != ash::vk::PhysicalDeviceType::CPU,
         })
@@ -124,7 +152,16 @@ impl SsbcPass {
         }
     }
 
-    /// Layouts of every set one frame of `frame` allocates.
+    /// The pixel-by-pixel kernels of `integration`.
+    pub(crate) fn pixel_integrals(&self, integration: Integration) -> &PixelIntegrals {
+        match integration {
+            Integration::Hierarchical => &self.walk,
+            Integration::Brute => &self.brute,
+        }
+    }
+
+    /// Layouts of every set one frame of `frame` allocates (the brute
+    /// force's kernels have the walk's layouts).
     pub fn frame_layouts(&self, frame: &SsbcFrame) -> Vec<&DescriptorSetLayout> {
         let levels = frame.levels as usize;
         // Layer 0's pyramid levels, then layer 1's (one fewer at half resolution).
@@ -143,15 +180,15 @@ impl SsbcPass {
         for step in 0..frame.steps() {
             v.extend(std::iter::repeat_n(self.radiance.set_layout(), built));
             if frame.layer1.is_some() && step + 1 < frame.steps() {
-                v.push(self.layer_residual.set_layout());
+                v.push(self.walk.layer_residual.set_layout());
             }
             for _ in 0..=frame.max_eval_level {
                 v.push(self.eval.set_layout());
                 v.push(self.eval_glossy.set_layout());
                 v.push(self.resolve.set_layout());
             }
-            v.push(self.fallback.set_layout());
-            v.push(self.fallback_glossy.set_layout());
+            v.push(self.walk.fallback.set_layout());
+            v.push(self.walk.fallback_glossy.set_layout());
             v.push(self.samples.set_layout());
         }
         v

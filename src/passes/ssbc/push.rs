@@ -4,7 +4,6 @@
 //! kernels that integrate add [`ResidualParams`].
 
 use super::{SsbcCamera, SsbcFrame, SsbcInputs};
-use crate::settings::Integration;
 
 /// `SsbcFrame.layers` bit: the receivers' BRDF is in the G-buffer's w
 /// channels (albedo.w metallic, normal.w roughness, < 0 Lambertian), as
@@ -109,7 +108,6 @@ impl ResidualParams {
         Self {
             refine_ratio: s.refine_ratio,
             refine_excess: s.refine_excess,
-            integration: (s.integration == Integration::Brute) as u32,
             ..Default::default()
         }
     }

@@ -8,7 +8,7 @@ use super::push::{
     ResolvePush, SamplesPush,
 };
 use super::layout::LIST_HEADER_BYTES;
-use super::{SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass};
+use super::{Integration, SsbcFrame, SsbcGBuffer, SsbcInputs, SsbcLayer, SsbcPass};
 use crate::error::Result;
 use crate::shaders::{
     ssbc_eval_comp, ssbc_eval_glossy_comp, ssbc_fallback_comp, ssbc_fallback_glossy_comp, ssbc_layer_residual_comp,
@@ -70,6 +70,9 @@ struct StepPush {
     eval_level: u32,
     texels_per_radius: f32,
     scale_fraction: f32,
+    /// Which pixel-by-pixel kernels sum the residual (not a push constant:
+    /// a specialization of their pipelines).
+    integration: Integration,
 }
 
 impl StepPush {
@@ -172,6 +175,7 @@ impl SsbcPass {
                 eval_level: inputs.eval_level,
                 texels_per_radius: inputs.settings.texels_per_radius,
                 scale_fraction: inputs.settings.scale_fraction,
+                integration: inputs.settings.integration,
             };
             let name = format!("ssbc_step_{}", step + 1);
             let scope = profiler.begin(rec.cmd, &name);
@@ -261,8 +265,8 @@ impl SsbcPass {
             residual: out,
         };
         let pixels = Work::pixels(gbuffer.extent());
-        self.layer_residual
-            .dispatch(rec, pool, &bindings, &push.integral(), pixels)
+        let kernel = &self.pixel_integrals(push.integration).layer_residual;
+        kernel.dispatch(rec, pool, &bindings, &push.integral(), pixels)
     }
 
     /// One step's residual, coarse to fine: the evaluation points of the
@@ -330,6 +334,7 @@ impl SsbcPass {
         // of the list: the kernel without the glossy code takes the front,
         // the glossy kernel the back (with one dispatch, both).
         let sub = profiler.begin(rec.cmd, &format!("{step_name}/fallback"));
+        let kernels = self.pixel_integrals(push.integration);
         let one = push.frame.one_dispatch();
         if !one {
             let bindings = with_output_images!(ssbc_fallback_comp, out, {
@@ -338,7 +343,7 @@ impl SsbcPass {
                 pending_in: fallback,
             });
             let front = Work::Indirect(fallback, FRONT);
-            self.fallback.dispatch(rec, pool, &bindings, &push.integral(), front)?;
+            kernels.fallback.dispatch(rec, pool, &bindings, &push.integral(), front)?;
         }
         if push.frame.glossy_receivers() {
             // Timed on its own only where it follows the other kernel.
@@ -349,7 +354,7 @@ impl SsbcPass {
                 pending_in: fallback,
             });
             let ends = Work::Indirect(fallback, if one { BOTH_ENDS } else { BACK });
-            self.fallback_glossy.dispatch(rec, pool, &bindings, &push.integral(), ends)?;
+            kernels.fallback_glossy.dispatch(rec, pool, &bindings, &push.integral(), ends)?;
             if let Some(sub) = sub {
                 profiler.end(rec.cmd, sub);
             }
