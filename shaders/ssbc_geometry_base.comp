@@ -233,7 +233,7 @@ void footprint(ivec2 p, vec3 cp, vec3 np, float ap, out float own_area, out GeoC
         vec3 middle;
         if (lift(clip(square, -line), cq, nq, area, middle, extent) && extent <= 20.0 * sqrt(aq)
             && area > 1.001 * back_area) {
-            back = make_cluster(middle, 0.0, 0.0, nq, 1.0);
+            back = make_cluster(middle, 0.0, 0.0, nq, 1.0, 1.0);
             back_area = area;
             code = uint(k) + 1u;
         }

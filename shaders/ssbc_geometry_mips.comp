@@ -67,14 +67,15 @@ Merged merge(uint mask) {
             vec3 nc = members[j].normal_cone.xyz;
             float nc_len = length(nc);
             float a = nc_len > 0.0 ? clamp(dot(axis, nc) / nc_len, -1.0, 1.0) : 0.0;
-            vec2 extent = cluster_extent(members[j]);
+            vec2 extent = cluster_extent_m(members[j], pc.frame.camera_position.xyz, pc.frame.camera_forward.xyz);
             radius = max(radius, length(offset) + extent.x);
             thickness = max(thickness, abs(dot(axis, offset)) + abs(a) * extent.y + sqrt(1.0 - a * a) * extent.x);
             cone = max(cone, acos(a) + acos(clamp(members[j].normal_cone.w, -1.0, 1.0)));
         }
     }
     // Rounding: widen the cone by 1e-3 rad.
-    GeoCluster cluster = make_cluster(position, radius, thickness, normal, cos(min(cone + 1e-3, PI)));
+    float unit = cluster_unit(position, pc.frame.camera_position.xyz, pc.frame.camera_forward.xyz);
+    GeoCluster cluster = make_cluster(position, radius, thickness, normal, cos(min(cone + 1e-3, PI)), unit);
     return Merged(cluster, area, normal_len, radius, thickness);
 }
 

@@ -154,21 +154,39 @@ uvec4 pack_normals(GeoTexel t) {
     return uvec4(pack_normal_cone(t.front.normal_cone, bits & 15u), pack_normal_cone(t.back.normal_cone, bits >> 4));
 }
 
-// (radius, thickness) of a cluster.
+// A cluster's (radius, thickness) are stored as halves in units of its
+// depth: its distance in front of the eye along the view axis (clusters
+// are made of the camera's pixels, so they lie in front of it). In metres
+// they overflowed 65504 (a scene scaled 10^6 kept 8% of its residual) and
+// lost bits under 6e-5; in units of depth they keep 11 bits at any scale.
+float cluster_unit(vec3 position, vec3 eye, vec3 forward) {
+    return max(dot(position - eye, forward), 1e-30);
+}
+
+// (radius, thickness) of a cluster in units of cluster_unit; the thickness
+// is negative for no cluster.
 vec2 cluster_extent(GeoCluster g) {
     return unpackHalf2x16(floatBitsToUint(g.position_extent.w));
 }
 
-GeoCluster make_cluster(vec3 position, float radius, float thickness, vec3 normal, float cone_cos) {
-    // Halves keep 11 bits: scale up by 2^-10 (and 1e-7 absolute for
+// (radius, thickness) of a cluster in metres (eye and view axis as
+// cluster_unit's).
+vec2 cluster_extent_m(GeoCluster g, vec3 eye, vec3 forward) {
+    return cluster_extent(g) * cluster_unit(g.position_extent.xyz, eye, forward);
+}
+
+// A cluster whose radius and thickness are given in units of `unit`
+// (cluster_unit at `position`; 1 for extents of 0).
+GeoCluster make_cluster(vec3 position, float radius, float thickness, vec3 normal, float cone_cos, float unit) {
+    // Halves keep 11 bits: scale up by 2^-10 (and 1e-7 units for
     // subnormals) so that the stored bounds still hold.
-    vec2 extent = vec2(radius, thickness);
+    vec2 extent = vec2(radius, thickness) / unit;
     if (thickness >= 0.0) extent = extent * (1.0 + 1.0 / 1024.0) + 1e-7;
     return GeoCluster(vec4(position, uintBitsToFloat(packHalf2x16(extent))), vec4(normal, cone_cos));
 }
 
 GeoCluster empty_cluster() {
-    return make_cluster(vec3(0.0), 0.0, -1.0, vec3(0.0), 1.0);
+    return make_cluster(vec3(0.0), 0.0, -1.0, vec3(0.0), 1.0, 1.0);
 }
 
 // GeoAux.flags at level 0 of layer 0: the pixel is a glossy receiver that
@@ -290,7 +308,7 @@ uvec4 pack_level0(vec3 own, vec3 n, float area, uint flags, vec3 back_position, 
 // position x.
 GeoCluster level0_front(vec3 x, uvec4 w) {
     GeoCluster g = (level0_flags(w) & 1u) != 0u
-        ? make_cluster(x, 0.0, 0.0, level0_normal(w), 1.0)
+        ? make_cluster(x, 0.0, 0.0, level0_normal(w), 1.0, 1.0)
         : empty_cluster();
     return with_children_bits(g, 0u);
 }
@@ -311,7 +329,7 @@ GeoCluster level0_back(vec3 x, uvec4 w, vec3 qx, uvec4 qw) {
     float u = unpack_f21(w.z & 0x1FFFFFu);
     float v = unpack_f21((w.z >> 21) | ((w.w >> 22) << 11));
     vec3 origin = back_origin(x, qx, nq);
-    return make_cluster(origin + u * t1 + v * t2, 0.0, 0.0, nq, 1.0);
+    return make_cluster(origin + u * t1 + v * t2, 0.0, 0.0, nq, 1.0, 1.0);
 }
 
 // The pixel's areas, pixels with geometry (0 or 1) and flags.

@@ -87,7 +87,7 @@ const float REST_ONLY_FAR = 15.0;
 // vector: lavapipe runs every branch of a divergent SIMD group anyway, and
 // square roots and divisions are most of a texel's cost there.
 Visit visit(GeoCluster g, vec3 x, vec3 nx, float r_world, int level) {
-    vec2 extent = cluster_extent(g);  // radius, thickness
+    vec2 extent = cluster_extent_m(g, pc.frame.camera_position.xyz, pc.frame.camera_forward.xyz);  // radius, thickness
     vec3 d = g.position_extent.xyz - x;
     float d2 = dot(d, d);
     float inv_dist = inversesqrt(max(d2, 1e-30));
