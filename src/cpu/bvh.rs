@@ -460,19 +460,44 @@ impl SceneBvh {
     }
 
     /// The world ray `r` in the space of the object that is top-level
-    /// primitive `id`, with that object and its mesh: the same parameter t
-    /// as in the world (the direction is not renormalised).
-    fn object_ray(&self, r: &Ray, id: usize) -> (Ray, &TopInstance, &MeshBvh) {
+    /// primitive `id`, with its t per world t (`per_world`), that object
+    /// and its mesh.
+    fn object_ray(&self, r: &Ray, id: usize) -> (Ray, f32, &TopInstance, &MeshBvh) {
         let instance = &self.instances[self.top.primitive_indices[id] as usize];
         let mesh = &self.meshes[instance.mesh as usize];
         if instance.identity {
-            return (*r, instance, mesh);
+            return (*r, 1.0, instance, mesh);
         }
         let to_object = instance.to_object;
         let origin = to_object.transform_point3(Vec3::from(r.origin));
         let direction = to_object.transform_vector3(Vec3::from(r.direction));
-        let local = Ray::new(origin.into(), robust_direction(direction), r.tmin, r.tmax);
-        (local, instance, mesh)
+        // Unit again: obvhs takes the inverse of a direction component
+        // under f32::EPSILON as 1 / EPSILON, so a direction an object's
+        // scale shrank (a component of 0.1 in an object scaled 10^7)
+        // missed boxes it crosses. Its t are then in the object's lengths,
+        // so it starts BACKUP of those further back too (obvhs's node test,
+        // see BACKUP); `world_t` turns them back into the world ray's.
+        let per_world = direction.length();
+        let per_world = if per_world.is_finite() && per_world > 0.0 { per_world } else { 1.0 };
+        let unit = direction / per_world;
+        let local = Ray::new(
+            (origin - unit * BACKUP).into(),
+            robust_direction(unit),
+            r.tmin * per_world + BACKUP,
+            r.tmax * per_world + BACKUP,
+        );
+        (local, per_world, instance, mesh)
+    }
+
+    /// The world ray's t of a hit at `t` along an [`SceneBvh::object_ray`]
+    /// with `per_world` (1 for objects without a transform: their rays are
+    /// the world's).
+    fn world_t(t: f32, per_world: f32, identity: bool) -> f32 {
+        if identity {
+            t
+        } else {
+            (t - BACKUP) / per_world
+        }
     }
 
     /// Distance to a candidate hit of the mesh's triangle `id` (a BVH
@@ -536,7 +561,7 @@ impl SceneBvh {
         // The nearest triangle so far: (instance index, local triangle, t).
         let mut nearest: Option<(usize, usize)> = None;
         let found = self.top.ray_traverse(ray, &mut hit, |r, id| {
-            let (local_ray, instance, mesh) = self.object_ray(r, id);
+            let (local_ray, per_world, instance, mesh) = self.object_ray(r, id);
             let mut local_hit = RayHit::none();
             let mut triangle = 0;
             let found = mesh.bvh.ray_traverse(local_ray, &mut local_hit, |lr, lid| {
@@ -548,7 +573,7 @@ impl SceneBvh {
             });
             if found {
                 nearest = Some((self.top.primitive_indices[id] as usize, triangle));
-                local_hit.t
+                Self::world_t(local_hit.t, per_world, instance.identity)
             } else {
                 f32::INFINITY
             }
@@ -607,7 +632,7 @@ impl SceneBvh {
         }
         let ray = backed_up_ray(a, d / len, tmin, tmax);
         !self.top.ray_traverse_miss(ray, |r, id| {
-            let (local_ray, instance, mesh) = self.object_ray(r, id);
+            let (local_ray, _, instance, mesh) = self.object_ray(r, id);
             let blocked = !mesh.bvh.ray_traverse_miss(local_ray, |lr, lid| {
                 self.candidate(lr, instance, mesh, lid, skip).0
             });
@@ -646,10 +671,11 @@ impl SceneBvh {
     pub fn crossings(&self, p: Vec3, dir: Vec3, tmin: f32, mut crossing: impl FnMut(u32, f32)) {
         let ray = backed_up_ray(p, dir, tmin, f32::INFINITY);
         self.top.ray_traverse_anyhit(ray, |r, id| {
-            let (local_ray, instance, mesh) = self.object_ray(r, id);
+            let (local_ray, per_world, instance, mesh) = self.object_ray(r, id);
             mesh.bvh.ray_traverse_anyhit(local_ray, |lr, lid| {
                 let (t, local) = self.candidate(lr, instance, mesh, lid, None);
                 if t.is_finite() {
+                    let t = Self::world_t(t, per_world, instance.identity);
                     crossing(instance.first_triangle + local as u32, t - BACKUP);
                 }
             });
@@ -1090,6 +1116,49 @@ mod tests {
             }
         }
         assert!(missed.is_empty(), "{} of {} rays: {missed:?}", missed.len(), origins.len() * targets.len());
+    }
+
+    /// A ray into a scaled object meets what it crosses, near and far. Its
+    /// direction in object space was the world's shrunk by the scale, and
+    /// obvhs takes the inverse of components under f32::EPSILON as 1 /
+    /// EPSILON, which narrows a box's slab: a quad scaled 2^20 or 10^7 was
+    /// missed from 10 of its half-widths away, and the thin box scene
+    /// scaled 2^20 had 3.8% of its emitter samples' enclosure rays miss a
+    /// ceiling 1.2 m (scaled) away.
+    #[test]
+    fn rays_meet_scaled_objects() {
+        for s in [1e-3f32, 1.0, 1e3, 1048576.0, 1e7] {
+            let mut scene = Scene::new("scaled quad");
+            let white = scene.add_material(Vec3::splat(0.7), None);
+            let corners = [
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(-1.0, 1.0, 0.0),
+            ];
+            scene
+                .add_mesh(&corners, &[Vec3::Z; 4], &[], &[0, 1, 2, 0, 2, 3], Mat4::from_scale(Vec3::splat(s)), white)
+                .unwrap();
+            let bvh = SceneBvh::new(&scene);
+            // From (0, 0, 10) towards (0.5, 0, 0) and (0.05, 0.01, 0) (object space).
+            for target in [Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.05, 0.01, 0.0)] {
+                let origin = Vec3::Z * 10.0 * s;
+                let dir = (target * s - origin).normalize();
+                let expected = (target * s - origin).length();
+                let hit = bvh.intersect(origin, dir, 0.0, f32::INFINITY);
+                let t = hit.map(|h| h.t);
+                assert!(t.is_some_and(|t| (t / expected - 1.0).abs() < 1e-4), "scale {s}, to {target}: {t:?} for {expected}");
+                let mut crossed = Vec::new();
+                bvh.crossings(origin, dir, 0.0, |_, t| crossed.push(t / expected));
+                assert!(crossed.len() == 1 && (crossed[0] - 1.0).abs() < 1e-4, "scale {s}, to {target}: {crossed:?}");
+                assert!(bvh.occluded(origin, origin + dir * 2.0 * expected), "scale {s}, to {target}");
+                // A hit a ten-thousandth of the way (obvhs skips boxes
+                // nearer than 1e-4 of its rays' t).
+                let near = Vec3::Z * 10.0 * s * 1e-4;
+                let t = bvh.intersect(near, dir, 0.0, f32::INFINITY).map(|h| h.t / (1e-4 * expected));
+                assert!(t.is_some_and(|t| (t - 1.0).abs() < 1e-3), "scale {s}, near, to {target}: {t:?}");
+            }
+        }
     }
 
     /// Geometry beyond MAX_COORDINATE is refused (`Scene::validate`,
