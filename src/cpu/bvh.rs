@@ -460,13 +460,13 @@ impl SceneBvh {
     }
 
     /// The world ray `r` in the space of the object that is top-level
-    /// primitive `id`, with its t per world t (`per_world`), that object
-    /// and its mesh.
-    fn object_ray(&self, r: &Ray, id: usize) -> (Ray, f32, &TopInstance, &MeshBvh) {
+    /// primitive `id`, with how its t map to the world ray's
+    /// ([`ObjectT::world`]), that object and its mesh.
+    fn object_ray(&self, r: &Ray, id: usize) -> (Ray, ObjectT, &TopInstance, &MeshBvh) {
         let instance = &self.instances[self.top.primitive_indices[id] as usize];
         let mesh = &self.meshes[instance.mesh as usize];
         if instance.identity {
-            return (*r, 1.0, instance, mesh);
+            return (*r, ObjectT { per_world: 1.0, backup: 0.0 }, instance, mesh);
         }
         let to_object = instance.to_object;
         let origin = to_object.transform_point3(Vec3::from(r.origin));
@@ -476,7 +476,7 @@ impl SceneBvh {
         // scale shrank (a component of 0.1 in an object scaled 10^7)
         // missed boxes it crosses. Its t are then in the object's lengths,
         // so it starts BACKUP of those further back too (obvhs's node test,
-        // see BACKUP); `world_t` turns them back into the world ray's.
+        // see BACKUP); `ObjectT::world` turns them back into the world ray's.
         let per_world = direction.length();
         let per_world = if per_world.is_finite() && per_world > 0.0 { per_world } else { 1.0 };
         let unit = direction / per_world;
@@ -486,18 +486,8 @@ impl SceneBvh {
             r.tmin * per_world + BACKUP,
             r.tmax * per_world + BACKUP,
         );
-        (local, per_world, instance, mesh)
-    }
-
-    /// The world ray's t of a hit at `t` along an [`SceneBvh::object_ray`]
-    /// with `per_world` (1 for objects without a transform: their rays are
-    /// the world's).
-    fn world_t(t: f32, per_world: f32, identity: bool) -> f32 {
-        if identity {
-            t
-        } else {
-            (t - BACKUP) / per_world
-        }
+        let object_t = ObjectT { per_world, backup: BACKUP };
+        (local, object_t, instance, mesh)
     }
 
     /// Distance to a candidate hit of the mesh's triangle `id` (a BVH
@@ -561,7 +551,7 @@ impl SceneBvh {
         // The nearest triangle so far: (instance index, local triangle, t).
         let mut nearest: Option<(usize, usize)> = None;
         let found = self.top.ray_traverse(ray, &mut hit, |r, id| {
-            let (local_ray, per_world, instance, mesh) = self.object_ray(r, id);
+            let (local_ray, object_t, instance, mesh) = self.object_ray(r, id);
             let mut local_hit = RayHit::none();
             let mut triangle = 0;
             let found = mesh.bvh.ray_traverse(local_ray, &mut local_hit, |lr, lid| {
@@ -573,7 +563,7 @@ impl SceneBvh {
             });
             if found {
                 nearest = Some((self.top.primitive_indices[id] as usize, triangle));
-                Self::world_t(local_hit.t, per_world, instance.identity)
+                object_t.world(local_hit.t)
             } else {
                 f32::INFINITY
             }
@@ -671,12 +661,11 @@ impl SceneBvh {
     pub fn crossings(&self, p: Vec3, dir: Vec3, tmin: f32, mut crossing: impl FnMut(u32, f32)) {
         let ray = backed_up_ray(p, dir, tmin, f32::INFINITY);
         self.top.ray_traverse_anyhit(ray, |r, id| {
-            let (local_ray, per_world, instance, mesh) = self.object_ray(r, id);
+            let (local_ray, object_t, instance, mesh) = self.object_ray(r, id);
             mesh.bvh.ray_traverse_anyhit(local_ray, |lr, lid| {
                 let (t, local) = self.candidate(lr, instance, mesh, lid, None);
                 if t.is_finite() {
-                    let t = Self::world_t(t, per_world, instance.identity);
-                    crossing(instance.first_triangle + local as u32, t - BACKUP);
+                    crossing(instance.first_triangle + local as u32, object_t.world(t) - BACKUP);
                 }
             });
         });
@@ -772,6 +761,23 @@ impl SceneBvh {
             front,
             double_sided: material.double_sided,
         }
+    }
+}
+
+/// How an object ray's t ([`SceneBvh::object_ray`]) map to its world
+/// ray's: it runs `per_world` object lengths per world length and starts
+/// `backup` of them further back (none for objects without a transform,
+/// whose rays are the world's).
+#[derive(Clone, Copy)]
+struct ObjectT {
+    per_world: f32,
+    backup: f32,
+}
+
+impl ObjectT {
+    /// The world ray's t of the object ray's `t`.
+    fn world(self, t: f32) -> f32 {
+        (t - self.backup) / self.per_world
     }
 }
 

@@ -238,9 +238,9 @@ impl Pipeline {
                 return Err(e);
             }
         };
-        let entries: Vec<vk::SpecializationMapEntry> = (0..constants.len() as u32)
-            .map(|i| vk::SpecializationMapEntry {
-                constant_id: constants[i as usize].0,
+        let entries: Vec<vk::SpecializationMapEntry> = (constants.iter().zip(0u32..))
+            .map(|(&(constant_id, _), i)| vk::SpecializationMapEntry {
+                constant_id,
                 offset: 4 * i,
                 size: 4,
             })
